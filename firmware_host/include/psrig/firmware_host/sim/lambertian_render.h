@@ -1,0 +1,25 @@
+#pragma once
+// Image formation for the simulated world: a Lambertian swatch under one
+// distant light, with cast shadows from the height field.
+
+#include <opencv2/core.hpp>
+
+#include "psrig/firmware_host/sim/swatch_model.h"
+
+namespace psrig::firmware_host::sim {
+
+struct DistantLight {
+  cv::Vec3d direction{0, 0, 1};     // from the swatch toward the light, camera axes; need not be unit
+  cv::Vec3f intensity_bgr{1, 1, 1};  // irradiance at normal incidence, per channel (BGR)
+};
+
+// Linear radiance, CV_32FC3 (BGR): albedo * intensity * max(0, n . l), and 0
+// where the height field blocks the light (when cast_shadows is set).
+[[nodiscard]] cv::Mat render_lambertian(const Swatch& swatch, const DistantLight& light,
+                                        bool cast_shadows = true);
+
+// CV_8U, 255 where the height field blocks the light from that pixel.
+[[nodiscard]] cv::Mat cast_shadow_mask(const cv::Mat& height_mm, double pixel_size_mm,
+                                       const cv::Vec3d& direction);
+
+}  // namespace psrig::firmware_host::sim

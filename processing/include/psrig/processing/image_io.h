@@ -1,0 +1,29 @@
+#pragma once
+// Image files in and out, with errors that name the file. Colour Mats are
+// in OpenCV's BGR channel order, as cv::imread gives them.
+
+#include <opencv2/core.hpp>
+
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include "psrig/processing/error.h"
+
+namespace psrig::processing {
+
+// Reads an image as stored (bit depth and channels unchanged). `key` is the
+// scan.json key that named the file, for the error message.
+[[nodiscard]] Result<cv::Mat> read_image(const std::filesystem::path& file, const std::string& key);
+
+// Writes with cv::imwrite; the format follows the extension.
+[[nodiscard]] Status write_image(const std::filesystem::path& file, const cv::Mat& image,
+                                 const std::vector<int>& params = {});
+
+// A three-vector image (x, y, z) such as normals, written so that the file's
+// R, G, B channels hold x, y, z (cv::imwrite takes BGR).
+[[nodiscard]] Status write_vector_exr(const std::filesystem::path& file, const cv::Mat& xyz);
+// Reads an image written by write_vector_exr back as (x, y, z).
+[[nodiscard]] Result<cv::Mat> read_vector_exr(const std::filesystem::path& file, const std::string& key);
+
+}  // namespace psrig::processing

@@ -1,0 +1,61 @@
+#pragma once
+// A scan directory in the psrig-scan/1 layout (DESIGN.md "Scan directory"):
+// what scan.json says, and the frames it names.
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace psrig::processing {
+
+inline constexpr const char* kScanFormat = "psrig-scan/1";
+
+enum class Encoding { linear, srgb };
+
+struct ScanLight {
+  std::string image;                 // file name inside the scan directory
+  cv::Vec3d direction{0, 0, 1};      // unit vector from the swatch toward the light, camera axes
+  cv::Vec3d intensity_bgr{1, 1, 1};  // relative irradiance per channel, OpenCV's BGR order
+  bool intensity_is_rgb = false;     // scan.json gave [r, g, b] rather than one number
+};
+
+// scan.json, validated. Holds no pixels.
+struct ScanDescription {
+  std::filesystem::path directory;
+  nlohmann::json document;  // the whole file, unknown keys included, for reports and rewriting
+  std::string sample_id;
+  std::string sample_description;
+  Encoding encoding = Encoding::linear;
+  double black_level = 0;
+  std::optional<double> white_level;  // absent: the frames' full scale
+  std::optional<std::string> dark;
+  std::optional<std::string> mask;
+  std::vector<std::string> flats;  // empty, or one white-target frame per light
+  std::vector<ScanLight> lights;
+  std::optional<double> pixel_size_mm;
+  std::optional<std::string> ground_truth_normal;  // written by the simulator and `psrig synth`
+  std::optional<std::string> ground_truth_height;
+};
+
+// A scan with its images loaded as stored: CV_8U, CV_16U or CV_32F, one
+// channel (grey) or three (BGR), all the same size, channels and depth.
+struct Scan {
+  ScanDescription description;
+  double white_level = 0;           // description.white_level or the frames' full scale
+  std::vector<cv::Mat> frames;      // one per light, in the order of description.lights
+  cv::Mat dark;                     // empty when the scan has none
+  cv::Mat mask;                     // CV_8U, nonzero = pixel to solve; empty = all
+  std::vector<cv::Mat> flats;       // empty, or one per light
+  cv::Mat ground_truth_normal;      // CV_32FC3 (nx, ny, nz) in camera axes, or empty
+  cv::Mat ground_truth_height;      // CV_32F, millimetres (or pixels without pixel_size_mm), or empty
+
+  [[nodiscard]] cv::Size size() const { return frames.empty() ? cv::Size() : frames.front().size(); }
+  [[nodiscard]] int channels() const { return frames.empty() ? 0 : frames.front().channels(); }
+  [[nodiscard]] int depth() const { return frames.empty() ? -1 : frames.front().depth(); }
+};
+
+}  // namespace psrig::processing

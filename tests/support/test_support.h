@@ -1,0 +1,33 @@
+#pragma once
+// Helpers shared by the tests: scratch directories, the real datasets, and
+// the paths of the built programs.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+namespace psrig::test {
+
+// A fresh directory under the system temp dir, removed with its contents
+// when the object goes away.
+class TempDir {
+ public:
+  explicit TempDir(const std::string& prefix = "psrig-test");
+  ~TempDir();
+  TempDir(const TempDir&) = delete;
+  TempDir& operator=(const TempDir&) = delete;
+  [[nodiscard]] const std::filesystem::path& path() const { return path_; }
+  [[nodiscard]] std::filesystem::path operator/(const std::string& name) const { return path_ / name; }
+
+ private:
+  std::filesystem::path path_;
+};
+
+// A folder of ../shared/data (or $PSRIG_DATA_DIR), or nothing when absent:
+// tests on real data skip, never fail, without it.
+[[nodiscard]] std::optional<std::filesystem::path> real_dataset(const std::string& name);
+
+// A program built into build/bin, e.g. "psrig".
+[[nodiscard]] std::filesystem::path program(const std::string& name);
+
+}  // namespace psrig::test
