@@ -1,0 +1,120 @@
+#include "psrig/capture/scan_writer.h"
+
+#include <fstream>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "psrig/processing/atomic_directory.h"
+#include "psrig/processing/image_io.h"
+#include "psrig/processing/parallel.h"
+
+namespace psrig::capture {
+namespace {
+
+using processing::Scan;
+namespace fs = std::filesystem;
+
+std::string image_name(const std::string& stem, const cv::Mat& image) {
+  return stem + (image.depth() == CV_32F ? ".exr" : ".png");
+}
+
+nlohmann::json intensity_json(const processing::ScanLight& light) {
+  const cv::Vec3d& bgr = light.intensity_bgr;
+  if (!light.intensity_is_rgb && bgr[0] == bgr[1] && bgr[1] == bgr[2]) return bgr[0];
+  return nlohmann::json::array({bgr[2], bgr[1], bgr[0]});
+}
+
+// One image to write, and the name scan.json gives it.
+struct ImageFile {
+  std::string name;
+  const cv::Mat* image;
+  bool vector_exr = false;  // (x, y, z) stored as R, G, B
+};
+
+std::vector<ImageFile> image_files(const Scan& scan) {
+  std::vector<ImageFile> files;
+  for (std::size_t k = 0; k < scan.frames.size(); ++k)
+    files.push_back({image_name("led" + std::to_string(k), scan.frames[k]), &scan.frames[k]});
+  if (!scan.dark.empty()) files.push_back({image_name("dark", scan.dark), &scan.dark});
+  if (!scan.mask.empty()) files.push_back({"mask.png", &scan.mask});
+  for (std::size_t k = 0; k < scan.flats.size(); ++k)
+    files.push_back({image_name("flat" + std::to_string(k), scan.flats[k]), &scan.flats[k]});
+  if (!scan.ground_truth_normal.empty()) files.push_back({"gt_normal.exr", &scan.ground_truth_normal, true});
+  if (!scan.ground_truth_height.empty()) files.push_back({"gt_height.exr", &scan.ground_truth_height});
+  return files;
+}
+
+}  // namespace
+
+nlohmann::json scan_json(const Scan& scan) {
+  const auto& d = scan.description;
+  nlohmann::json doc = d.document.is_object() ? d.document : nlohmann::json::object();
+  doc["format"] = processing::kScanFormat;
+  nlohmann::json sample = doc.contains("sample") && doc["sample"].is_object() ? doc["sample"] : nlohmann::json::object();
+  sample["id"] = d.sample_id;
+  sample["description"] = d.sample_description;
+  doc["sample"] = sample;
+  doc["encoding"] = d.encoding == processing::Encoding::srgb ? "srgb" : "linear";
+  doc["black_level"] = d.black_level;
+  doc["white_level"] = scan.white_level > 0 ? scan.white_level : d.white_level.value_or(0);
+  doc["dark"] = scan.dark.empty() ? nlohmann::json() : nlohmann::json(image_name("dark", scan.dark));
+  doc["mask"] = scan.mask.empty() ? nlohmann::json() : nlohmann::json("mask.png");
+  if (scan.flats.empty()) {
+    doc.erase("flats");
+  } else {
+    nlohmann::json flats = nlohmann::json::array();
+    for (std::size_t k = 0; k < scan.flats.size(); ++k) flats.push_back(image_name("flat" + std::to_string(k), scan.flats[k]));
+    doc["flats"] = flats;
+  }
+  nlohmann::json lights = nlohmann::json::array();
+  for (std::size_t k = 0; k < d.lights.size(); ++k) {
+    const auto& light = d.lights[k];
+    lights.push_back({{"image", image_name("led" + std::to_string(k), scan.frames[k])},
+                      {"direction", {light.direction[0], light.direction[1], light.direction[2]}},
+                      {"intensity", intensity_json(light)}});
+  }
+  doc["lights"] = lights;
+  doc["pixel_size_mm"] = d.pixel_size_mm ? nlohmann::json(*d.pixel_size_mm) : nlohmann::json();
+  if (!scan.ground_truth_normal.empty() || !scan.ground_truth_height.empty()) {
+    nlohmann::json truth = nlohmann::json::object();
+    if (!scan.ground_truth_normal.empty()) truth["normal"] = "gt_normal.exr";
+    if (!scan.ground_truth_height.empty()) truth["height"] = "gt_height.exr";
+    doc["ground_truth"] = truth;
+  } else {
+    doc.erase("ground_truth");
+  }
+  return doc;
+}
+
+processing::Status write_scan(const Scan& scan, const fs::path& directory) {
+  if (scan.frames.size() != scan.description.lights.size() || scan.frames.size() < 3)
+    return std::unexpected(processing::internal_error("write_scan: need one frame per light, at least three"));
+  std::error_code ec;
+  if (fs::exists(directory, ec))
+    return std::unexpected(processing::bad_input(directory, "", "already exists; a scan is never overwritten"));
+  auto staging = processing::AtomicDirectory::create(directory);
+  if (!staging) return std::unexpected(staging.error());
+
+  const auto files = image_files(scan);
+  std::vector<std::optional<processing::Error>> errors(files.size());
+  processing::parallel_chunks(static_cast<int>(files.size()), 1, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      const fs::path path = staging->path() / files[i].name;
+      auto written = files[i].vector_exr ? processing::write_vector_exr(path, *files[i].image)
+                                         : processing::write_image(path, *files[i].image);
+      if (!written) errors[i] = written.error();
+    }
+  });
+  for (const auto& error : errors)
+    if (error) return std::unexpected(*error);
+
+  const fs::path json_path = staging->path() / "scan.json";
+  std::ofstream json(json_path);
+  json << scan_json(scan).dump(2) << '\n';
+  json.close();
+  if (!json) return std::unexpected(processing::io_error(json_path, "cannot write"));
+  return staging->commit(processing::AtomicDirectory::Existing::refuse, true);
+}
+
+}  // namespace psrig::capture

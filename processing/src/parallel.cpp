@@ -8,8 +8,10 @@
 namespace psrig::processing {
 
 void set_thread_count(int threads) {
-  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  cv::setNumThreads(threads);
+  // More threads than hardware threads only adds switching (and TBB refuses
+  // them with a warning), so requests are capped.
+  const int hardware = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  cv::setNumThreads(threads <= 0 ? hardware : std::min(threads, hardware));
 }
 
 int thread_count() { return std::max(1, cv::getNumThreads()); }

@@ -279,6 +279,8 @@ Result<ScanDescription> read_scan_description(const fs::path& directory) {
     Error error = bad_input(file, "", std::string("malformed JSON: ") + e.what());
     std::tie(error.line, error.column) = line_and_column(text, e.byte);
     return std::unexpected(error);
+  } catch (const nlohmann::json::exception& e) {  // e.g. a number too large for a double
+    return std::unexpected(bad_input(file, "", std::string("malformed JSON: ") + e.what()));
   }
   return DescriptionParser(file).parse(doc, directory);
 }

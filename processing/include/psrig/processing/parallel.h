@@ -7,7 +7,7 @@
 
 namespace psrig::processing {
 
-// 0 means one thread per hardware thread.
+// 0 means one thread per hardware thread; more than that is capped to it.
 void set_thread_count(int threads);
 [[nodiscard]] int thread_count();
 

@@ -1,0 +1,24 @@
+#pragma once
+// Writes scan directories in the psrig-scan/1 layout (DESIGN.md): the rig's
+// scans, `psrig synth`'s synthetic ones, and test fixtures.
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+
+#include "psrig/processing/error.h"
+#include "psrig/processing/scan.h"
+
+namespace psrig::capture {
+
+// scan.json for `scan`: the description's document (unknown keys kept) with
+// every key psrig knows rewritten from the description. Images are named
+// led<k>, dark, mask, flat<k>, gt_normal, gt_height, with .png for 8- and
+// 16-bit images and .exr for float ones.
+[[nodiscard]] nlohmann::json scan_json(const processing::Scan& scan);
+
+// Writes the images and scan.json into `directory`, which must not exist
+// yet: the directory appears whole, flushed to disk, or not at all.
+[[nodiscard]] processing::Status write_scan(const processing::Scan& scan, const std::filesystem::path& directory);
+
+}  // namespace psrig::capture

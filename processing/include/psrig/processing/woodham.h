@@ -1,0 +1,68 @@
+#pragma once
+// Woodham's photometric stereo (Woodham 1980, as used by Robb et al. 2003):
+// per pixel, i = rho L n for the lights' measurements i. The scaled normal is
+// t = L^-1 i (three lights) or the least-squares (L^T L)^-1 L^T i (more),
+// rho = |t|, p = -t1/t3, q = -t2/t3. Colour scans get one normal per pixel,
+// from the mean of the channels, and an albedo per channel: the least-squares
+// rho_c with that normal fixed.
+
+#include <opencv2/core.hpp>
+
+#include <cstdint>
+
+#include "psrig/processing/error.h"
+#include "psrig/processing/light_matrix.h"
+#include "psrig/processing/linearise.h"
+#include "psrig/processing/scan.h"
+
+namespace psrig::processing {
+
+// Why a pixel's result is doubtful, as bits of SolveResult::flags.
+enum PixelFlag : std::uint8_t {
+  kOutsideMask = 1 << 0,  // the scan's mask excludes it: not solved
+  kSaturated = 1 << 1,    // some measurement at or above the white level
+  kShadowed = 1 << 2,     // some measurement below shadow_ratio * albedo (attached or cast shadow)
+  kLowSignal = 1 << 3,    // even the brightest measurement is below low_signal: not solved
+  kNoSolution = 1 << 4,   // the scaled normal points into the swatch or vanishes: not solved
+  kRecovered = 1 << 5,    // rejection dropped shadowed or saturated measurements and solved from the rest
+};
+
+// A pixel is valid (mask.png) when nothing doubtful is left about it.
+[[nodiscard]] inline bool is_valid(std::uint8_t flags) {
+  constexpr std::uint8_t kUnsolved = kOutsideMask | kLowSignal | kNoSolution;
+  if (flags & kUnsolved) return false;
+  return (flags & kRecovered) || !(flags & (kSaturated | kShadowed));
+}
+
+struct SolveOptions {
+  // Four or more lights: drop each pixel's saturated and shadowed
+  // measurements before solving, when at least three well-spread remain.
+  bool reject_outliers = false;
+  // A measurement below this fraction of the pixel's albedo is shadowed:
+  // l.n below 0.05 means the light grazes past 87 degrees or is blocked.
+  float shadow_ratio = 0.05f;
+  // Pixels whose brightest measurement is below this fraction of full scale
+  // carry too little signal to solve.
+  float low_signal = 0.01f;
+  // Solve three lights by per-pixel least squares instead of the exact
+  // inverse (the two must agree; tests compare them).
+  bool force_least_squares = false;
+};
+
+struct SolveResult {
+  cv::Mat p;         // CV_32F, dz/dx; 0 where not solved
+  cv::Mat q;         // CV_32F, dz/dy (y up); 0 where not solved
+  cv::Mat albedo;    // CV_32FC(channels), BGR for colour; 0 where not solved
+  cv::Mat residual;  // CV_32F, RMS misfit of the Lambertian model, fraction of full scale
+  cv::Mat flags;     // CV_8U, PixelFlag bits
+};
+
+// Linearises and solves a whole scan, a row at a time on the thread pool.
+[[nodiscard]] Result<SolveResult> solve(const Scan& scan, const SolveOptions& options = {});
+// The same into `result`, reusing its buffers when they have the right size.
+[[nodiscard]] Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& result);
+
+// Unit normals (nx, ny, nz) from gradients, CV_32FC3.
+[[nodiscard]] cv::Mat normals_from_gradients(const cv::Mat& p, const cv::Mat& q);
+
+}  // namespace psrig::processing

@@ -1,0 +1,97 @@
+#include "psrig/processing/atomic_directory.h"
+
+#include <fcntl.h>
+#include <stdio.h>
+#include <sys/stat.h>
+#include <unistd.h>
+
+#include <cerrno>
+#include <cstring>
+#include <random>
+#include <string>
+#include <system_error>
+
+namespace psrig::processing {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string errno_text(int error) { return std::strerror(error); }
+
+bool sync_path(const fs::path& path) {
+  const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return false;
+  const bool ok = ::fsync(fd) == 0;
+  ::close(fd);
+  return ok;
+}
+
+}  // namespace
+
+Result<AtomicDirectory> AtomicDirectory::create(const fs::path& target) {
+  const fs::path absolute = fs::absolute(target).lexically_normal();
+  const fs::path parent = absolute.parent_path();
+  const std::string name = absolute.filename().string();
+  if (name.empty() || name == "." || name == "..")
+    return std::unexpected(bad_input(target, "", "not a usable directory name"));
+  std::error_code ec;
+  if (!fs::is_directory(parent, ec))
+    return std::unexpected(bad_input(target, "", "parent directory " + parent.string() + " does not exist"));
+
+  std::random_device random;
+  for (int attempt = 0; attempt < 100; ++attempt) {
+    fs::path staging = parent / ("." + name + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(random()));
+    if (::mkdir(staging.c_str(), 0755) == 0) return AtomicDirectory(absolute, staging);
+    if (errno != EEXIST)
+      return std::unexpected(errno == EACCES || errno == EROFS || errno == EPERM
+                                 ? bad_input(parent, "", "cannot write here: " + errno_text(errno))
+                                 : io_error(parent, "cannot create a directory: " + errno_text(errno)));
+  }
+  return std::unexpected(io_error(parent, "cannot create a unique staging directory"));
+}
+
+AtomicDirectory::AtomicDirectory(fs::path target, fs::path staging)
+    : target_(std::move(target)), staging_(std::move(staging)) {}
+
+AtomicDirectory::AtomicDirectory(AtomicDirectory&& other) noexcept
+    : target_(std::move(other.target_)), staging_(std::move(other.staging_)), committed_(other.committed_) {
+  other.committed_ = true;  // the moved-from object owns nothing
+}
+
+AtomicDirectory::~AtomicDirectory() {
+  if (committed_ || staging_.empty()) return;
+  std::error_code ignored;
+  fs::remove_all(staging_, ignored);
+}
+
+Status AtomicDirectory::commit(Existing existing, bool durable) {
+  if (durable) {
+    for (const auto& entry : fs::directory_iterator(staging_))
+      if (!sync_path(entry.path())) return std::unexpected(io_error(entry.path(), "cannot flush to disk: " + errno_text(errno)));
+    if (!sync_path(staging_)) return std::unexpected(io_error(staging_, "cannot flush to disk: " + errno_text(errno)));
+  }
+
+  std::error_code ec;
+  const bool exists = fs::exists(fs::symlink_status(target_, ec));
+  if (exists && existing == Existing::replace) {
+    // Swap old and new in one step so a reader sees one or the other.
+    if (::renameat2(AT_FDCWD, staging_.c_str(), AT_FDCWD, target_.c_str(), RENAME_EXCHANGE) != 0)
+      return std::unexpected(io_error(target_, "cannot replace: " + errno_text(errno)));
+    committed_ = true;
+    fs::remove_all(staging_, ec);  // now holds the old contents
+    if (ec) return std::unexpected(io_error(staging_, "replaced, but cannot remove the old contents: " + ec.message()));
+  } else {
+    if (::rename(staging_.c_str(), target_.c_str()) != 0) {
+      const int error = errno;
+      if (error == ENOTEMPTY || error == EEXIST || error == ENOTDIR)
+        return std::unexpected(bad_input(target_, "", "already exists; choose another name or remove it first"));
+      return std::unexpected(io_error(target_, "cannot rename into place: " + errno_text(error)));
+    }
+    committed_ = true;
+  }
+  if (durable && !sync_path(target_.parent_path()))
+    return std::unexpected(io_error(target_.parent_path(), "cannot flush to disk: " + errno_text(errno)));
+  return {};
+}
+
+}  // namespace psrig::processing

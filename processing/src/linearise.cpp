@@ -1,0 +1,256 @@
+#include "psrig/processing/linearise.h"
+
+#include "vector_clones.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+namespace psrig::processing {
+namespace {
+
+// IEC 61966-2-1 sRGB decoding of a value in [0, 1].
+double srgb_to_linear(double encoded) {
+  encoded = std::clamp(encoded, 0.0, 1.0);
+  return encoded <= 0.04045 ? encoded / 12.92 : std::pow((encoded + 0.055) / 1.055, 2.4);
+}
+
+double full_scale(int depth) { return depth == CV_8U ? 255.0 : depth == CV_16U ? 65535.0 : 1.0; }
+
+// Blur applied to flat-field frames: the LED pattern is smooth, the noise of
+// a single white-target frame is not, and dividing by noise adds noise.
+constexpr double kFlatBlurSigma = 2.0;
+// Flat-field values below this fraction of the flat's mean are treated as
+// this: an unlit corner must not turn into an enormous gain.
+constexpr double kFlatFloor = 0.01;
+
+// Stored values to linear: x * scale + offset, for each integer depth.
+PSRIG_VECTOR_CLONES
+void scale_u8(const std::uint8_t* __restrict src, int n, float scale, float offset, float* __restrict out) {
+  for (int i = 0; i < n; ++i) out[i] = static_cast<float>(src[i]) * scale + offset;
+}
+PSRIG_VECTOR_CLONES
+void scale_u16(const std::uint16_t* __restrict src, int n, float scale, float offset, float* __restrict out) {
+  for (int i = 0; i < n; ++i) out[i] = static_cast<float>(src[i]) * scale + offset;
+}
+// Interleaved BGR stored values to three planes, x * scale[c] + offset[c].
+struct ChannelAffine {
+  float scale[3];
+  float offset[3];
+};
+template <class T>
+void deinterleave_affine(const T* __restrict src, int n, ChannelAffine a, float* __restrict b, float* __restrict g,
+                         float* __restrict r) {
+  for (int i = 0; i < n; ++i) {
+    b[i] = static_cast<float>(src[3 * i]) * a.scale[0] + a.offset[0];
+    g[i] = static_cast<float>(src[3 * i + 1]) * a.scale[1] + a.offset[1];
+    r[i] = static_cast<float>(src[3 * i + 2]) * a.scale[2] + a.offset[2];
+  }
+}
+PSRIG_VECTOR_CLONES
+void deinterleave_u8(const std::uint8_t* src, int n, ChannelAffine a, float* b, float* g, float* r) {
+  deinterleave_affine(src, n, a, b, g, r);
+}
+PSRIG_VECTOR_CLONES
+void deinterleave_u16(const std::uint16_t* src, int n, ChannelAffine a, float* b, float* g, float* r) {
+  deinterleave_affine(src, n, a, b, g, r);
+}
+
+// saturated[i] = 1 where any of pixel i's `channels` values reaches white.
+template <class T, int C>
+void saturation(const T* __restrict src, int n, T white, std::uint8_t* __restrict saturated) {
+  for (int i = 0; i < n; ++i) {
+    bool any = false;
+    for (int c = 0; c < C; ++c) any |= src[C * i + c] >= white;
+    saturated[i] = any;
+  }
+}
+PSRIG_VECTOR_CLONES
+void saturation_u8(const std::uint8_t* src, int n, int channels, std::uint8_t white, std::uint8_t* saturated) {
+  if (channels == 1) saturation<std::uint8_t, 1>(src, n, white, saturated);
+  else saturation<std::uint8_t, 3>(src, n, white, saturated);
+}
+PSRIG_VECTOR_CLONES
+void saturation_u16(const std::uint16_t* src, int n, int channels, std::uint16_t white, std::uint8_t* saturated) {
+  if (channels == 1) saturation<std::uint16_t, 1>(src, n, white, saturated);
+  else saturation<std::uint16_t, 3>(src, n, white, saturated);
+}
+void saturation_f32(const float* src, int n, int channels, float white, std::uint8_t* saturated) {
+  if (channels == 1) saturation<float, 1>(src, n, white, saturated);
+  else saturation<float, 3>(src, n, white, saturated);
+}
+
+template <class T>
+void lookup(const T* __restrict src, int n, const float* __restrict table, float* __restrict out) {
+  for (int i = 0; i < n; ++i) out[i] = table[src[i]];
+}
+
+PSRIG_VECTOR_CLONES
+void subtract(float* __restrict values, const float* __restrict dark, int n) {
+  for (int i = 0; i < n; ++i) values[i] -= dark[i];
+}
+PSRIG_VECTOR_CLONES
+void multiply(float* __restrict values, const float* __restrict gain, float factor, int n) {
+  for (int i = 0; i < n; ++i) values[i] *= gain[i] * factor;
+}
+PSRIG_VECTOR_CLONES
+void scale_in_place(float* __restrict values, float factor, int n) {
+  for (int i = 0; i < n; ++i) values[i] *= factor;
+}
+
+}  // namespace
+
+CodeLineariser::CodeLineariser(Encoding encoding, double black_level, double white_level, int depth)
+    : encoding_(encoding), black_(black_level), white_(white_level), depth_(depth) {
+  const double full = full_scale(depth);
+  const auto decode = [&](double code) {
+    return encoding == Encoding::srgb ? srgb_to_linear(code / full) * full : code;
+  };
+  const double black_linear = decode(black_level);
+  const double range = decode(white_level) - black_linear;
+  scale_ = static_cast<float>(1.0 / range);
+  offset_ = static_cast<float>(-black_linear / range);
+  if (encoding == Encoding::srgb && depth != CV_32F) {
+    table_.resize(static_cast<std::size_t>(full) + 1);
+    for (std::size_t code = 0; code < table_.size(); ++code)
+      table_[code] = static_cast<float>((decode(static_cast<double>(code)) - black_linear) / range);
+  }
+}
+
+float CodeLineariser::operator()(double stored) const {
+  if (encoding_ == Encoding::linear) return static_cast<float>(stored) * scale_ + offset_;
+  const double full = full_scale(depth_);
+  return static_cast<float>(srgb_to_linear(stored / full) * full) * scale_ + offset_;
+}
+
+void CodeLineariser::convert(const void* stored, int count, float* linear, float factor) const {
+  switch (depth_) {
+    case CV_8U:
+      if (table_.empty()) scale_u8(static_cast<const std::uint8_t*>(stored), count, scale_ * factor, offset_ * factor, linear);
+      else lookup(static_cast<const std::uint8_t*>(stored), count, table_.data(), linear);
+      break;
+    case CV_16U:
+      if (table_.empty()) scale_u16(static_cast<const std::uint16_t*>(stored), count, scale_ * factor, offset_ * factor, linear);
+      else lookup(static_cast<const std::uint16_t*>(stored), count, table_.data(), linear);
+      break;
+    default: {
+      const auto* values = static_cast<const float*>(stored);
+      for (int i = 0; i < count; ++i) linear[i] = (*this)(values[i]);
+    }
+  }
+  if (factor != 1.0f && (!table_.empty() || depth_ == CV_32F)) scale_in_place(linear, factor, count);
+}
+
+Result<ScanLineariser> ScanLineariser::create(const Scan& scan) {
+  if (scan.frames.empty()) return std::unexpected(internal_error("ScanLineariser: scan has no frames"));
+  ScanLineariser result(scan, CodeLineariser(scan.description.encoding, scan.description.black_level,
+                                             scan.white_level, scan.depth()));
+  const int channels = result.channels_;
+
+  for (const auto& light : scan.description.lights)
+    result.inverse_intensity_.emplace_back(static_cast<float>(1.0 / light.intensity_bgr[0]),
+                                           static_cast<float>(1.0 / light.intensity_bgr[1]),
+                                           static_cast<float>(1.0 / light.intensity_bgr[2]));
+
+  const auto linear_planes = [&](const cv::Mat& stored) {
+    cv::Mat linear(stored.size(), CV_32FC(channels));
+    for (int r = 0; r < stored.rows; ++r)
+      result.codes_.convert(stored.ptr(r), stored.cols * channels, linear.ptr<float>(r));
+    std::vector<cv::Mat> planes;
+    cv::split(linear, planes);
+    return planes;
+  };
+
+  if (!scan.dark.empty()) result.dark_planes_ = linear_planes(scan.dark);
+
+  for (std::size_t k = 0; k < scan.flats.size(); ++k) {
+    auto planes = linear_planes(scan.flats[k]);
+    std::vector<cv::Mat> gains;
+    for (int c = 0; c < channels; ++c) {
+      cv::Mat flat = planes[c];
+      if (!result.dark_planes_.empty()) flat -= result.dark_planes_[c];
+      cv::GaussianBlur(flat, flat, cv::Size(), kFlatBlurSigma);
+      const double mean = cv::mean(flat)[0];
+      if (!(mean > 0))
+        return std::unexpected(bad_input(scan.description.directory / scan.description.flats[k],
+                                         "flats[" + std::to_string(k) + "]",
+                                         "is black (after dark subtraction): a flat is a white target under the LED"));
+      cv::max(flat, kFlatFloor * mean, flat);
+      cv::Mat gain;
+      cv::divide(mean, flat, gain, 1.0, CV_32F);
+      gains.push_back(gain);
+    }
+    result.gains_.push_back(std::move(gains));
+  }
+  return result;
+}
+
+ScanLineariser::ScanLineariser(const Scan& scan, CodeLineariser codes)
+    : scan_(&scan), codes_(codes), channels_(scan.channels()), cols_(scan.size().width), rows_(scan.size().height) {
+  if (scan.depth() != CV_32F) white_code_ = static_cast<std::uint64_t>(std::ceil(scan.white_level));
+}
+
+void ScanLineariser::row(int light, int row, float* const* planes, std::uint8_t* saturated) const {
+  const cv::Mat& frame = scan_->frames[light];
+  const void* src = frame.ptr(row);
+  const int n = cols_;
+  // Without dark or flat the light's intensity folds into the conversion.
+  const bool corrected = !dark_planes_.empty() || !gains_.empty();
+  const cv::Vec3f& inverse_intensity = inverse_intensity_[light];
+
+  switch (frame.depth()) {
+    case CV_8U:
+      saturation_u8(static_cast<const std::uint8_t*>(src), n, channels_,
+                    static_cast<std::uint8_t>(std::min<std::uint64_t>(white_code_, 255)), saturated);
+      break;
+    case CV_16U:
+      saturation_u16(static_cast<const std::uint16_t*>(src), n, channels_,
+                     static_cast<std::uint16_t>(std::min<std::uint64_t>(white_code_, 65535)), saturated);
+      break;
+    default:
+      saturation_f32(static_cast<const float*>(src), n, channels_, static_cast<float>(scan_->white_level), saturated);
+  }
+
+  if (channels_ == 1) {
+    codes_.convert(src, n, planes[0], corrected ? 1.0f : inverse_intensity[0]);
+  } else if (codes_.is_affine() && frame.depth() != CV_32F) {
+    ChannelAffine affine{};
+    for (int c = 0; c < 3; ++c) {
+      const float factor = corrected ? 1.0f : inverse_intensity[c];
+      affine.scale[c] = codes_.scale() * factor;
+      affine.offset[c] = codes_.offset() * factor;
+    }
+    if (frame.depth() == CV_8U) deinterleave_u8(static_cast<const std::uint8_t*>(src), n, affine, planes[0], planes[1], planes[2]);
+    else deinterleave_u16(static_cast<const std::uint16_t*>(src), n, affine, planes[0], planes[1], planes[2]);
+  } else {
+    // sRGB tables and float frames: split first, then convert each plane.
+    thread_local cv::Mat split[3];
+    cv::split(frame.row(row), split);
+    for (int c = 0; c < 3; ++c) codes_.convert(split[c].data, n, planes[c], corrected ? 1.0f : inverse_intensity[c]);
+  }
+  if (!corrected) return;
+
+  for (int c = 0; c < channels_; ++c) {
+    if (!dark_planes_.empty()) subtract(planes[c], dark_planes_[c].ptr<float>(row), n);
+    if (!gains_.empty()) multiply(planes[c], gains_[light][c].ptr<float>(row), inverse_intensity[c], n);
+    else scale_in_place(planes[c], inverse_intensity[c], n);
+  }
+}
+
+cv::Mat ScanLineariser::frame(int light) const {
+  std::vector<cv::Mat> planes(channels_);
+  for (auto& plane : planes) plane.create(rows_, cols_, CV_32F);
+  std::vector<std::uint8_t> saturated(cols_);
+  std::vector<float*> pointers(channels_);
+  for (int r = 0; r < rows_; ++r) {
+    for (int c = 0; c < channels_; ++c) pointers[c] = planes[c].ptr<float>(r);
+    row(light, r, pointers.data(), saturated.data());
+  }
+  cv::Mat merged;
+  cv::merge(planes, merged);
+  return merged;
+}
+
+}  // namespace psrig::processing

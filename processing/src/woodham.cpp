@@ -1,0 +1,399 @@
+#include "psrig/processing/woodham.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <vector>
+
+#include "psrig/processing/parallel.h"
+#include "vector_clones.h"
+
+namespace psrig::processing {
+namespace {
+
+// Rows handed to the pool at a time: small enough to balance, large enough
+// that scheduling costs nothing next to the work.
+constexpr int kRowsPerChunk = 8;
+// The scaled normal must point out of the swatch by more than this fraction
+// of its length (normal within ~89.9 degrees of the view axis).
+constexpr float kMinNormalZ = 1e-3f;
+
+// Pointers to one row of everything a kernel reads and writes.
+struct RowData {
+  int cols = 0;
+  int lights = 0;
+  int channels = 1;
+  // Planes of `cols` values each, back to back: measurement plane
+  // light * channels + channel, saturation plane light.
+  const float* measurement = nullptr;
+  const std::uint8_t* saturated = nullptr;
+  const std::uint8_t* mask = nullptr;               // 0 = outside the scan's mask
+  float* p = nullptr;
+  float* q = nullptr;
+  float* albedo = nullptr;  // interleaved channels
+  float* residual = nullptr;
+  std::uint8_t* flags = nullptr;
+};
+
+// The unit light directions, rows of L, as the kernels read them.
+struct Coefficients {
+  std::vector<std::array<float, 3>> direction;
+};
+
+// --- Three lights: Woodham's exact inverse, the rig's case and the hot path.
+// Simple loops over one row, each left to the vectoriser. With g_k the
+// grey measurements and t = L^-1 g, L t = g exactly, so the shading of
+// light k is s_k = l_k.n = g_k/|t| and the per-channel least-squares albedo
+// rho_c = sum s_k m_kc / sum s_k^2 becomes |t| sum g_k m_kc / sum g_k^2.
+
+struct ThreeLightInverse {
+  float a[3][3];  // a[row][light]: t = a g
+};
+
+PSRIG_VECTOR_CLONES
+void mean_of_channels(const float* __restrict b, const float* __restrict g, const float* __restrict r,
+                      float* __restrict grey, int n) {
+  for (int i = 0; i < n; ++i) grey[i] = (b[i] + g[i] + r[i]) * (1.0f / 3.0f);
+}
+
+PSRIG_VECTOR_CLONES
+void mask_to_float(const std::uint8_t* __restrict mask, float* __restrict inside, int n) {
+  for (int i = 0; i < n; ++i) inside[i] = mask[i] ? 1.0f : 0.0f;
+}
+
+// Scaled normal, gradients and what the albedo loop needs, per pixel.
+// code gets the kLowSignal, kNoSolution and kShadowed bits.
+PSRIG_VECTOR_CLONES
+void three_light_normals(const float* __restrict g0, const float* __restrict g1, const float* __restrict g2,
+                         const float* __restrict inside, ThreeLightInverse l, float shadow_ratio,
+                         float low_signal, float* __restrict p, float* __restrict q, float* __restrict length,
+                         float* __restrict inverse_energy, std::int32_t* __restrict code, int n) {
+  for (int i = 0; i < n; ++i) {
+    const float x0 = g0[i] * inside[i], x1 = g1[i] * inside[i], x2 = g2[i] * inside[i];
+    const float tx = l.a[0][0] * x0 + l.a[0][1] * x1 + l.a[0][2] * x2;
+    const float ty = l.a[1][0] * x0 + l.a[1][1] * x1 + l.a[1][2] * x2;
+    const float tz = l.a[2][0] * x0 + l.a[2][1] * x1 + l.a[2][2] * x2;
+    const float t = std::sqrt(tx * tx + ty * ty + tz * tz);
+    const float brightest = std::max(x0, std::max(x1, x2));
+    const float darkest = std::min(x0, std::min(x1, x2));
+    const bool low = !(brightest >= low_signal);
+    const bool no_solution = !(tz > kMinNormalZ * t);
+    const bool solved = !low && !no_solution;
+    const bool shadowed = darkest < shadow_ratio * t;
+    const float energy = x0 * x0 + x1 * x1 + x2 * x2;
+    const float inverse_tz = 1.0f / tz;
+    p[i] = solved ? -tx * inverse_tz : 0.0f;
+    q[i] = solved ? -ty * inverse_tz : 0.0f;
+    length[i] = solved ? t : 0.0f;
+    inverse_energy[i] = solved ? 1.0f / energy : 0.0f;
+    code[i] = (low ? kLowSignal : 0) | (!low && no_solution ? kNoSolution : 0) | (solved && shadowed ? kShadowed : 0);
+  }
+}
+
+// One channel's albedo, and its share of the misfit sum_k (m_k - rho s_k)^2,
+// where rho s_k = w g_k with w = sum_k g_k m_k / sum_k g_k^2 (computed
+// directly: expanding the square cancels badly in float).
+PSRIG_VECTOR_CLONES
+void three_light_albedo(const float* __restrict g0, const float* __restrict g1, const float* __restrict g2,
+                        const float* __restrict m0, const float* __restrict m1, const float* __restrict m2,
+                        const float* __restrict length, const float* __restrict inverse_energy,
+                        float* __restrict albedo, float* __restrict misfit, int n) {
+  for (int i = 0; i < n; ++i) {
+    const float w = (g0[i] * m0[i] + g1[i] * m1[i] + g2[i] * m2[i]) * inverse_energy[i];
+    const float e0 = m0[i] - w * g0[i], e1 = m1[i] - w * g1[i], e2 = m2[i] - w * g2[i];
+    albedo[i] = length[i] * w;
+    misfit[i] += e0 * e0 + e1 * e1 + e2 * e2;
+  }
+}
+
+PSRIG_VECTOR_CLONES
+void interleave(const float* __restrict b, const float* __restrict g, const float* __restrict r,
+                float* __restrict bgr, int n) {
+  for (int i = 0; i < n; ++i) {
+    bgr[3 * i] = b[i];
+    bgr[3 * i + 1] = g[i];
+    bgr[3 * i + 2] = r[i];
+  }
+}
+
+PSRIG_VECTOR_CLONES
+void finish_residual(const float* __restrict misfit, const float* __restrict length, float terms,
+                     float* __restrict residual, int n) {
+  const float inverse_terms = 1.0f / terms;
+  for (int i = 0; i < n; ++i)
+    residual[i] = length[i] > 0.0f ? std::sqrt(misfit[i] * inverse_terms) : 0.0f;
+}
+
+PSRIG_VECTOR_CLONES
+void three_light_flags(const std::int32_t* __restrict code, const std::uint8_t* __restrict mask,
+                       const std::uint8_t* __restrict s0, const std::uint8_t* __restrict s1,
+                       const std::uint8_t* __restrict s2, std::uint8_t* __restrict flags, int n) {
+  for (int i = 0; i < n; ++i) {
+    const auto bits = static_cast<std::uint8_t>(code[i] | ((s0[i] | s1[i] | s2[i]) ? kSaturated : 0));
+    flags[i] = mask[i] ? bits : static_cast<std::uint8_t>(kOutsideMask);
+  }
+}
+
+// Per-thread row buffers of the three-light path.
+struct ThreeLightScratch {
+  std::vector<float> grey, inside, length, inverse_energy, misfit, albedo;
+  std::vector<std::int32_t> code;
+  void resize(std::size_t cols, int channels) {
+    grey.resize(3 * cols);
+    inside.resize(cols);
+    length.resize(cols);
+    inverse_energy.resize(cols);
+    misfit.resize(cols);
+    albedo.resize(cols * channels);
+    code.resize(cols);
+  }
+};
+
+void solve_row_three(const RowData& row, const ThreeLightInverse& inverse, const SolveOptions& options) {
+  thread_local ThreeLightScratch scratch;
+  const int n = row.cols, channels = row.channels;
+  const std::size_t cols = static_cast<std::size_t>(n);
+  scratch.resize(cols, channels);
+  const auto plane = [&](int light, int channel) { return row.measurement + (light * channels + channel) * cols; };
+
+  const float* grey[3];
+  for (int k = 0; k < 3; ++k) {
+    if (channels == 1) {
+      grey[k] = plane(k, 0);
+    } else {
+      mean_of_channels(plane(k, 0), plane(k, 1), plane(k, 2), scratch.grey.data() + k * cols, n);
+      grey[k] = scratch.grey.data() + k * cols;
+    }
+  }
+  mask_to_float(row.mask, scratch.inside.data(), n);
+  three_light_normals(grey[0], grey[1], grey[2], scratch.inside.data(), inverse, options.shadow_ratio,
+                      options.low_signal, row.p, row.q, scratch.length.data(), scratch.inverse_energy.data(),
+                      scratch.code.data(), n);
+  std::fill(scratch.misfit.begin(), scratch.misfit.end(), 0.0f);
+  for (int c = 0; c < channels; ++c) {
+    float* albedo = channels == 1 ? row.albedo : scratch.albedo.data() + c * cols;
+    three_light_albedo(grey[0], grey[1], grey[2], plane(0, c), plane(1, c), plane(2, c), scratch.length.data(),
+                       scratch.inverse_energy.data(), albedo, scratch.misfit.data(), n);
+  }
+  if (channels == 3)
+    interleave(scratch.albedo.data(), scratch.albedo.data() + cols, scratch.albedo.data() + 2 * cols, row.albedo, n);
+  finish_residual(scratch.misfit.data(), scratch.length.data(), static_cast<float>(3 * channels), row.residual, n);
+  three_light_flags(scratch.code.data(), row.mask, row.saturated, row.saturated + cols, row.saturated + 2 * cols,
+                    row.flags, n);
+}
+
+// Solves t = A^-1 b for the symmetric 3x3 A by cofactors; false when A is
+// too close to singular for the lights it sums (fewer than three spread ones).
+bool solve_symmetric3(const double a[6], const double b[3], double t[3]) {
+  // a = {xx, xy, xz, yy, yz, zz}
+  const double c00 = a[3] * a[5] - a[4] * a[4];
+  const double c01 = a[2] * a[4] - a[1] * a[5];
+  const double c02 = a[1] * a[4] - a[2] * a[3];
+  const double c11 = a[0] * a[5] - a[2] * a[2];
+  const double c12 = a[1] * a[2] - a[0] * a[4];
+  const double c22 = a[0] * a[3] - a[1] * a[1];
+  const double det = a[0] * c00 + a[1] * c01 + a[2] * c02;
+  const double trace = a[0] + a[3] + a[5];
+  if (!(det > 1e-6 * trace * trace * trace)) return false;
+  t[0] = (c00 * b[0] + c01 * b[1] + c02 * b[2]) / det;
+  t[1] = (c01 * b[0] + c11 * b[1] + c12 * b[2]) / det;
+  t[2] = (c02 * b[0] + c12 * b[1] + c22 * b[2]) / det;
+  return true;
+}
+
+// Any number of lights, each pixel solving its own normal equations over
+// the lights it uses: all of them, or with rejection those that are neither
+// saturated nor shadowed.
+void solve_row_general(const RowData& row, const Coefficients& co, const SolveOptions& options) {
+  const int lights = row.lights, channels = row.channels;
+  std::vector<double> grey(lights);
+  std::vector<double> shade(lights);
+  std::vector<char> used(lights);
+  for (int i = 0; i < row.cols; ++i) {
+    double brightest = 0;
+    bool saturated = false;
+    for (int k = 0; k < lights; ++k) {
+      double sum = 0;
+      for (int c = 0; c < channels; ++c) sum += row.measurement[(k * channels + c) * row.cols + i];
+      grey[k] = sum / channels;
+      brightest = std::max(brightest, grey[k]);
+      const bool saturated_here = row.saturated[k * row.cols + i] != 0;
+      saturated |= saturated_here;
+      used[k] = !(options.reject_outliers && saturated_here);
+    }
+    const bool outside = row.mask[i] == 0;
+    const bool low = !(brightest >= options.low_signal);
+
+    double t[3] = {0, 0, 0};
+    const auto solve_used = [&]() {
+      double a[6] = {0, 0, 0, 0, 0, 0}, b[3] = {0, 0, 0};
+      for (int k = 0; k < lights; ++k) {
+        if (!used[k]) continue;
+        const auto& l = co.direction[k];
+        a[0] += l[0] * l[0], a[1] += l[0] * l[1], a[2] += l[0] * l[2];
+        a[3] += l[1] * l[1], a[4] += l[1] * l[2], a[5] += l[2] * l[2];
+        b[0] += l[0] * grey[k], b[1] += l[1] * grey[k], b[2] += l[2] * grey[k];
+      }
+      return solve_symmetric3(a, b, t);
+    };
+    bool ok = !outside && !low && solve_used();
+    bool recovered = false;
+    if (ok && options.reject_outliers) {
+      // Drop measurements too dark for the albedo found, then solve again
+      // without them; twice, as the first albedo is pulled down by them.
+      for (int pass = 0; pass < 2; ++pass) {
+        const double rho = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+        int kept = 0;
+        bool changed = false;
+        std::vector<char> next = used;
+        for (int k = 0; k < lights; ++k) {
+          if (next[k] && grey[k] < options.shadow_ratio * rho) next[k] = 0, changed = true;
+          kept += next[k];
+        }
+        if (!changed || kept < 3) break;
+        const std::vector<char> previous = used;
+        double previous_t[3] = {t[0], t[1], t[2]};
+        used = next;
+        if (!solve_used()) {  // the remaining lights are too close to a plane
+          used = previous;
+          std::copy(previous_t, previous_t + 3, t);
+          break;
+        }
+      }
+      for (int k = 0; k < lights; ++k) recovered |= !used[k];
+    }
+
+    const double length = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    const bool no_solution = !outside && !low && !(ok && t[2] > kMinNormalZ * length);
+    const bool solved = !outside && !low && !no_solution;
+    bool shadowed = false;
+    double shade_squared = 0;
+    for (int k = 0; k < lights; ++k) {
+      const auto& l = co.direction[k];
+      shade[k] = solved ? (l[0] * t[0] + l[1] * t[1] + l[2] * t[2]) / length : 0;
+      if (used[k]) shade_squared += shade[k] * shade[k];
+      shadowed |= grey[k] < options.shadow_ratio * length;
+    }
+    double misfit = 0;
+    int terms = 0;
+    for (int c = 0; c < channels; ++c) {
+      double dot = 0;
+      for (int k = 0; k < lights; ++k)
+        if (used[k]) dot += shade[k] * row.measurement[(k * channels + c) * row.cols + i];
+      const double rho = solved ? dot / shade_squared : 0;
+      row.albedo[channels * i + c] = static_cast<float>(rho);
+      for (int k = 0; k < lights; ++k) {
+        if (!used[k]) continue;
+        const double e = row.measurement[(k * channels + c) * row.cols + i] - rho * shade[k];
+        misfit += e * e;
+        ++terms;
+      }
+    }
+    row.p[i] = solved ? static_cast<float>(-t[0] / t[2]) : 0.0f;
+    row.q[i] = solved ? static_cast<float>(-t[1] / t[2]) : 0.0f;
+    row.residual[i] = solved && terms ? static_cast<float>(std::sqrt(misfit / terms)) : 0.0f;
+    row.flags[i] = static_cast<std::uint8_t>((outside ? kOutsideMask : 0) | (saturated ? kSaturated : 0) |
+                                             (solved && shadowed ? kShadowed : 0) |
+                                             (!outside && low ? kLowSignal : 0) | (no_solution ? kNoSolution : 0) |
+                                             (solved && recovered ? kRecovered : 0));
+  }
+}
+
+Coefficients make_coefficients(const Scan& scan) {
+  std::vector<cv::Vec3d> directions;
+  for (const auto& light : scan.description.lights) directions.push_back(light.direction);
+  Coefficients co;
+  for (const auto& d : make_light_matrix(directions).directions)
+    co.direction.push_back({static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2])});
+  return co;
+}
+
+ThreeLightInverse three_light_inverse(const Coefficients& co) {
+  cv::Matx33d l;
+  for (int k = 0; k < 3; ++k)
+    for (int j = 0; j < 3; ++j) l(k, j) = co.direction[k][j];
+  const cv::Matx33d inverse = l.inv(cv::DECOMP_LU);
+  ThreeLightInverse result;
+  for (int r = 0; r < 3; ++r)
+    for (int k = 0; k < 3; ++k) result.a[r][k] = static_cast<float>(inverse(r, k));
+  return result;
+}
+
+}  // namespace
+
+Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& result) {
+  auto lineariser = ScanLineariser::create(scan);
+  if (!lineariser) return std::unexpected(lineariser.error());
+  const int lights = static_cast<int>(scan.frames.size());
+  const int channels = scan.channels();
+  const cv::Size size = scan.size();
+  const Coefficients co = make_coefficients(scan);
+  const bool three = lights == 3 && !options.force_least_squares;
+  const ThreeLightInverse inverse = three ? three_light_inverse(co) : ThreeLightInverse{};
+
+  result.p.create(size, CV_32F);
+  result.q.create(size, CV_32F);
+  result.albedo.create(size, CV_32FC(channels));
+  result.residual.create(size, CV_32F);
+  result.flags.create(size, CV_8U);
+
+  parallel_chunks(size.height, kRowsPerChunk, [&](int begin, int end) {
+    // Per-thread scratch for one row of every light's measurements.
+    thread_local std::vector<float> measurements;
+    thread_local std::vector<std::uint8_t> saturation;
+    thread_local std::vector<std::uint8_t> everywhere;  // the mask row when the scan has none
+    const std::size_t cols = static_cast<std::size_t>(size.width);
+    measurements.resize(cols * lights * channels);
+    saturation.resize(cols * lights);
+    everywhere.assign(cols, 255);
+    std::vector<float*> planes(static_cast<std::size_t>(lights) * channels);
+    for (std::size_t j = 0; j < planes.size(); ++j) planes[j] = measurements.data() + j * cols;
+
+    RowData row;
+    row.cols = size.width;
+    row.lights = lights;
+    row.channels = channels;
+    row.measurement = measurements.data();
+    row.saturated = saturation.data();
+    for (int r = begin; r < end; ++r) {
+      for (int k = 0; k < lights; ++k)
+        lineariser->row(k, r, planes.data() + static_cast<std::size_t>(k) * channels, saturation.data() + k * cols);
+      row.mask = scan.mask.empty() ? everywhere.data() : scan.mask.ptr<std::uint8_t>(r);
+      row.p = result.p.ptr<float>(r);
+      row.q = result.q.ptr<float>(r);
+      row.albedo = result.albedo.ptr<float>(r);
+      row.residual = result.residual.ptr<float>(r);
+      row.flags = result.flags.ptr<std::uint8_t>(r);
+      if (three) solve_row_three(row, inverse, options);
+      else solve_row_general(row, co, options);
+    }
+  });
+  return {};
+}
+
+Result<SolveResult> solve(const Scan& scan, const SolveOptions& options) {
+  SolveResult result;
+  if (auto ok = solve_into(scan, options, result); !ok) return std::unexpected(ok.error());
+  return result;
+}
+
+cv::Mat normals_from_gradients(const cv::Mat& p, const cv::Mat& q) {
+  cv::Mat normals(p.size(), CV_32FC3);
+  parallel_chunks(p.rows, kRowsPerChunk, [&](int begin, int end) {
+    for (int r = begin; r < end; ++r) {
+      const float* pr = p.ptr<float>(r);
+      const float* qr = q.ptr<float>(r);
+      float* out = normals.ptr<float>(r);
+      for (int i = 0; i < p.cols; ++i) {
+        const float inverse = 1.0f / std::sqrt(pr[i] * pr[i] + qr[i] * qr[i] + 1.0f);
+        out[3 * i] = -pr[i] * inverse;
+        out[3 * i + 1] = -qr[i] * inverse;
+        out[3 * i + 2] = inverse;
+      }
+    }
+  });
+  return normals;
+}
+
+}  // namespace psrig::processing

@@ -1,0 +1,112 @@
+#include "synthetic_scene.h"
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+namespace psrig::test {
+
+std::vector<cv::Vec3d> ring_lights(int count, double slant_deg, double first_tilt_deg) {
+  std::vector<cv::Vec3d> lights;
+  const double slant = slant_deg * std::numbers::pi / 180;
+  for (int k = 0; k < count; ++k) {
+    const double tilt = (first_tilt_deg + 360.0 * k / count) * std::numbers::pi / 180;
+    lights.emplace_back(std::cos(tilt) * std::sin(slant), std::sin(tilt) * std::sin(slant), std::cos(slant));
+  }
+  return lights;
+}
+
+Surface sphere_surface(cv::Size size, double radius, int channels) {
+  Surface s{cv::Mat(size, CV_32FC3), cv::Mat(size, CV_32FC(channels))};
+  const double cx = (size.width - 1) / 2.0, cy = (size.height - 1) / 2.0;
+  for (int r = 0; r < size.height; ++r) {
+    for (int c = 0; c < size.width; ++c) {
+      const double x = (c - cx) / radius, y = (cy - r) / radius;  // y up
+      const double d2 = x * x + y * y;
+      cv::Vec3f n(0, 0, 1);
+      if (d2 < 1) n = cv::Vec3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(std::sqrt(1 - d2)));
+      s.normal.at<cv::Vec3f>(r, c) = n;
+      const double u = static_cast<double>(c) / size.width, v = static_cast<double>(r) / size.height;
+      float* a = s.albedo.ptr<float>(r) + c * channels;
+      a[0] = static_cast<float>(0.35 + 0.3 * u);
+      if (channels == 3) {
+        a[1] = static_cast<float>(0.6 - 0.25 * v);
+        a[2] = static_cast<float>(0.3 + 0.2 * u * v);
+      }
+    }
+  }
+  return s;
+}
+
+Surface dome_surface(cv::Size size, double radius, int channels) {
+  // Same geometry as the sphere: its upper half is the dome.
+  return sphere_surface(size, radius, channels);
+}
+
+cv::Mat dome_cast_shadow(cv::Size size, double radius, const cv::Vec3d& light) {
+  cv::Mat mask(size, CV_8U, cv::Scalar(0));
+  const cv::Vec3d l = light / cv::norm(light);
+  const double cx = (size.width - 1) / 2.0, cy = (size.height - 1) / 2.0;
+  for (int r = 0; r < size.height; ++r) {
+    for (int c = 0; c < size.width; ++c) {
+      const cv::Vec3d o((c - cx) / radius, (cy - r) / radius, 0);  // plane point, sphere units
+      if (o.dot(o) < 1) continue;                                    // on the dome itself
+      // o + s l hits the unit sphere for some s > 0 when b^2 >= c and b < 0.
+      const double b = o.dot(l), cterm = o.dot(o) - 1;
+      if (b < 0 && b * b >= cterm) mask.at<std::uint8_t>(r, c) = 255;
+    }
+  }
+  return mask;
+}
+
+processing::Scan render_scan(const Surface& surface, const std::vector<cv::Vec3d>& lights, int depth,
+                             double noise, std::uint64_t seed, const std::vector<cv::Mat>& shadows) {
+  processing::Scan scan;
+  const int channels = surface.albedo.channels();
+  const double full = depth == CV_8U ? 255 : depth == CV_16U ? 65535 : 1;
+  std::mt19937_64 random(seed);
+  std::normal_distribution<double> gaussian(0, noise);
+  auto& d = scan.description;
+  for (std::size_t k = 0; k < lights.size(); ++k) {
+    const cv::Vec3d l = lights[k] / cv::norm(lights[k]);
+    d.lights.push_back({"led" + std::to_string(k) + ".png", l, {1, 1, 1}, false});
+    cv::Mat linear(surface.normal.size(), CV_32FC(channels));
+    for (int r = 0; r < linear.rows; ++r) {
+      for (int c = 0; c < linear.cols; ++c) {
+        const cv::Vec3f n = surface.normal.at<cv::Vec3f>(r, c);
+        const bool blocked = k < shadows.size() && !shadows[k].empty() && shadows[k].at<std::uint8_t>(r, c);
+        const double shade = blocked ? 0.0 : std::max(0.0, n[0] * l[0] + n[1] * l[1] + n[2] * l[2]);
+        for (int ch = 0; ch < channels; ++ch) {
+          double value = surface.albedo.ptr<float>(r)[c * channels + ch] * shade;
+          if (noise > 0) value += gaussian(random);
+          linear.ptr<float>(r)[c * channels + ch] = static_cast<float>(value * full);
+        }
+      }
+    }
+    cv::Mat frame;
+    linear.convertTo(frame, CV_MAKETYPE(depth, channels));  // rounds and saturates for integers
+    scan.frames.push_back(frame);
+  }
+  d.sample_id = "synthetic";
+  d.white_level = full;
+  scan.white_level = full;
+  scan.ground_truth_normal = surface.normal.clone();
+  return scan;
+}
+
+double mean_angular_error_deg(const cv::Mat& a, const cv::Mat& b, const cv::Mat& select) {
+  double sum = 0;
+  long count = 0;
+  for (int r = 0; r < a.rows; ++r) {
+    for (int c = 0; c < a.cols; ++c) {
+      if (!select.empty() && select.at<std::uint8_t>(r, c) == 0) continue;
+      const cv::Vec3d u = a.at<cv::Vec3f>(r, c), v = b.at<cv::Vec3f>(r, c);
+      const double cosine = u.dot(v) / (cv::norm(u) * cv::norm(v));
+      sum += std::acos(std::clamp(cosine, -1.0, 1.0));
+      ++count;
+    }
+  }
+  return count ? sum / count * 180 / std::numbers::pi : 0;
+}
+
+}  // namespace psrig::test
