@@ -1,6 +1,14 @@
 #include "test_support.h"
 
+#include <fcntl.h>
+
+#include <spawn.h>
+#include <sys/wait.h>
+
+#include <algorithm>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <random>
 #include <system_error>
 
@@ -32,5 +40,45 @@ std::optional<std::filesystem::path> real_dataset(const std::string& name) {
 }
 
 std::filesystem::path program(const std::string& name) { return std::filesystem::path(PSRIG_BIN_DIR) / name; }
+
+namespace {
+std::string read_all(const std::filesystem::path& file) {
+  std::ifstream in(file);
+  std::stringstream text;
+  text << in.rdbuf();
+  return text.str();
+}
+}  // namespace
+
+ProgramRun run_program(const std::string& name, const std::vector<std::string>& args) {
+  TempDir capture("psrig-run");
+  const auto out = capture / "out", err = capture / "err";
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  posix_spawn_file_actions_addopen(&actions, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  const std::string path = program(name).string();
+  std::vector<char*> argv{const_cast<char*>(path.c_str())};
+  for (const auto& arg : args) argv.push_back(const_cast<char*>(arg.c_str()));
+  argv.push_back(nullptr);
+  pid_t pid = 0;
+  ProgramRun run;
+  if (posix_spawn(&pid, path.c_str(), &actions, nullptr, argv.data(), environ) == 0) {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+  posix_spawn_file_actions_destroy(&actions);
+  run.out = read_all(out);
+  run.err = read_all(err);
+  return run;
+}
+
+std::vector<std::string> list_directory(const std::filesystem::path& directory) {
+  std::vector<std::string> names;
+  for (const auto& entry : std::filesystem::directory_iterator(directory)) names.push_back(entry.path().filename());
+  std::sort(names.begin(), names.end());
+  return names;
+}
 
 }  // namespace psrig::test

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 namespace psrig::test {
 
@@ -29,5 +30,17 @@ class TempDir {
 
 // A program built into build/bin, e.g. "psrig".
 [[nodiscard]] std::filesystem::path program(const std::string& name);
+
+struct ProgramRun {
+  int exit_code = -1;
+  std::string out;  // standard output
+  std::string err;  // standard error
+};
+
+// Runs a built program with `args` and waits for it.
+[[nodiscard]] ProgramRun run_program(const std::string& name, const std::vector<std::string>& args);
+
+// Names in `directory`, hidden ones included, sorted.
+[[nodiscard]] std::vector<std::string> list_directory(const std::filesystem::path& directory);
 
 }  // namespace psrig::test

@@ -1,0 +1,25 @@
+#pragma once
+// A synthetic scan: the simulated world's swatch rendered under the rig's
+// three lights, with its ground truth. What `psrig synth` writes.
+
+#include <cstdint>
+
+#include "psrig/firmware_host/sim/swatch_model.h"
+#include "psrig/processing/scan.h"
+
+namespace psrig::capture {
+
+struct SyntheticScanParams {
+  firmware_host::sim::SwatchParams swatch;
+  double slant_deg = 45;            // all three lights; tilts 0, 120, 240
+  double noise = 0;                 // Gaussian, standard deviation as a fraction of full scale
+  int depth = CV_16U;               // CV_8U or CV_16U
+  double exposure = 1.0;            // scales the radiance before quantisation
+  bool cast_shadows = true;
+};
+
+// Frames, light directions and ground truth (normals, height in mm), ready
+// for capture::write_scan or processing::solve. Deterministic for a seed.
+[[nodiscard]] processing::Scan make_synthetic_scan(const SyntheticScanParams& params);
+
+}  // namespace psrig::capture

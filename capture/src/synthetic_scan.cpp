@@ -1,0 +1,53 @@
+#include "psrig/capture/synthetic_scan.h"
+
+#include <cmath>
+#include <numbers>
+#include <string>
+
+#include "psrig/firmware_host/sim/lambertian_render.h"
+
+namespace psrig::capture {
+
+processing::Scan make_synthetic_scan(const SyntheticScanParams& params) {
+  namespace sim = firmware_host::sim;
+  const sim::Swatch swatch = sim::make_swatch(params.swatch);
+  const double full = params.depth == CV_8U ? 255.0 : 65535.0;
+  const double slant = params.slant_deg * std::numbers::pi / 180;
+  cv::RNG random(params.swatch.seed * 0x9E3779B97F4A7C15ull + 1);
+
+  processing::Scan scan;
+  auto& d = scan.description;
+  const std::string pattern(sim::to_string(params.swatch.pattern));
+  d.sample_id = "synth-" + pattern + "-" + std::to_string(params.swatch.seed);
+  d.sample_description = "synthetic " + pattern + " swatch (psrig synth)";
+  d.pixel_size_mm = swatch.pixel_size_mm;
+  d.white_level = full;
+  scan.white_level = full;
+  d.document = {{"capture",
+                 {{"camera", "synth"},
+                  {"slant_deg", params.slant_deg},
+                  {"noise", params.noise},
+                  {"seed", params.swatch.seed},
+                  {"cast_shadows", params.cast_shadows}}}};
+
+  for (int k = 0; k < 3; ++k) {
+    const double tilt = 2 * std::numbers::pi * k / 3;
+    const cv::Vec3d direction(std::cos(tilt) * std::sin(slant), std::sin(tilt) * std::sin(slant), std::cos(slant));
+    d.lights.push_back({"led" + std::to_string(k) + ".png", direction, {1, 1, 1}, false});
+    cv::Mat radiance = sim::render_lambertian(swatch, {direction, {1, 1, 1}}, params.cast_shadows);
+    radiance *= params.exposure;
+    if (params.noise > 0) {
+      cv::Mat noise(radiance.size(), radiance.type());
+      random.fill(noise, cv::RNG::NORMAL, 0.0, params.noise);
+      radiance += noise;
+    }
+    cv::Mat frame;
+    radiance.convertTo(frame, CV_MAKETYPE(params.depth, 3), full);  // rounds and clips to the sensor range
+    scan.frames.push_back(frame);
+  }
+  scan.ground_truth_normal = swatch.normal;
+  scan.ground_truth_height = swatch.height_mm;
+  return scan;
+}
+
+}  // namespace psrig::capture

@@ -1,0 +1,32 @@
+#pragma once
+// Summary statistics for the report: residuals, and errors against the
+// ground truth that simulated scans carry.
+
+#include <opencv2/core.hpp>
+
+#include <cstddef>
+#include <vector>
+
+namespace psrig::processing {
+
+struct Distribution {
+  std::size_t count = 0;
+  double mean = 0;
+  double median = 0;
+  double p95 = 0;
+  double max = 0;
+  double rms = 0;
+};
+
+// Of the CV_32F values where `select` (CV_8U) is nonzero; all when empty.
+[[nodiscard]] Distribution describe(const cv::Mat& values, const cv::Mat& select = {});
+
+// Per-pixel angle in degrees between the normals of (p, q) and `truth`
+// (CV_32FC3, x y z), CV_32F.
+[[nodiscard]] cv::Mat angular_error_deg(const cv::Mat& p, const cv::Mat& q, const cv::Mat& truth);
+
+// RMS of height - truth over `select` once their mean difference there is
+// removed (integration fixes heights only up to a constant).
+[[nodiscard]] double height_rms_error(const cv::Mat& height, const cv::Mat& truth, const cv::Mat& select = {});
+
+}  // namespace psrig::processing

@@ -1,0 +1,35 @@
+#pragma once
+// The whole chain for one scan: read -> linearise -> solve -> integrate ->
+// evaluate -> maps directory, with the report of what happened.
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+
+#include "psrig/processing/error.h"
+#include "psrig/processing/integration.h"
+#include "psrig/processing/woodham.h"
+
+namespace psrig::processing {
+
+inline constexpr const char* kReportFormat = "psrig-report/1";
+
+struct ProcessOptions {
+  std::filesystem::path output;  // empty: SCAN_DIR/maps
+  IntegrationMethod integration = IntegrationMethod::frankot_chellappa;
+  SolveOptions solve;
+};
+
+struct ProcessSummary {
+  std::filesystem::path maps_directory;
+  nlohmann::json report;  // as written to report.json
+};
+
+// Processes the scan directory into a maps directory that appears whole or
+// not at all. An existing maps directory (one holding a psrig report) is
+// replaced; any other existing path is refused. Bad input is reported
+// before anything is written.
+[[nodiscard]] Result<ProcessSummary> process_scan(const std::filesystem::path& scan_directory,
+                                                  const ProcessOptions& options = {});
+
+}  // namespace psrig::processing

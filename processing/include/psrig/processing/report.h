@@ -1,0 +1,43 @@
+#pragma once
+// report.json of a maps directory (DESIGN.md "Maps directory"): inputs,
+// per-stage times, the light matrix and its condition number, mask counts,
+// residual, height range, and errors against ground truth when there is one.
+
+#include <nlohmann/json.hpp>
+
+#include <optional>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "psrig/processing/evaluation.h"
+#include "psrig/processing/pipeline.h"
+#include "psrig/processing/scan.h"
+#include "psrig/processing/woodham.h"
+
+namespace psrig::processing {
+
+struct HeightSummary {
+  double low = 0;
+  double high = 0;
+  std::string units;  // "mm" or "px"
+};
+
+struct GroundTruthSummary {
+  std::optional<Distribution> angular_error_deg;  // over valid pixels
+  std::optional<double> mean_angular_error_all_deg;  // over every solved pixel, shadowed ones included
+  std::optional<double> height_rms_error;            // in the height's units
+};
+
+struct ReportInputs {
+  const Scan* scan = nullptr;
+  const ProcessOptions* options = nullptr;
+  const SolveResult* solve = nullptr;
+  std::optional<HeightSummary> height;
+  GroundTruthSummary ground_truth;
+  std::vector<std::pair<std::string, double>> stage_ms;  // in the order they ran
+};
+
+[[nodiscard]] nlohmann::json make_report(const ReportInputs& inputs);
+
+}  // namespace psrig::processing

@@ -1,0 +1,88 @@
+#include "psrig/processing/map_encoding.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <cstdint>
+
+#include "psrig/processing/parallel.h"
+#include "psrig/processing/woodham.h"
+#include "vector_clones.h"
+
+namespace psrig::processing {
+namespace {
+
+constexpr int kRowsPerChunk = 16;
+constexpr int kSrgbSteps = 4096;  // table resolution: finer than 8-bit sRGB needs
+
+const std::array<std::uint8_t, kSrgbSteps + 1>& srgb_table() {
+  static const auto table = [] {
+    std::array<std::uint8_t, kSrgbSteps + 1> t{};
+    for (int i = 0; i <= kSrgbSteps; ++i) {
+      const double linear = static_cast<double>(i) / kSrgbSteps;
+      const double encoded = linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
+      t[i] = static_cast<std::uint8_t>(std::lround(encoded * 255));
+    }
+    return t;
+  }();
+  return table;
+}
+
+PSRIG_VECTOR_CLONES
+void normal_row(const float* __restrict p, const float* __restrict q, std::uint16_t* __restrict bgr, int n) {
+  for (int i = 0; i < n; ++i) {
+    const float inverse = 1.0f / std::sqrt(p[i] * p[i] + q[i] * q[i] + 1.0f);
+    // (n + 1) / 2 * 65535, rounded; n = (-p, -q, 1) / |(-p, -q, 1)|
+    bgr[3 * i] = static_cast<std::uint16_t>((inverse + 1.0f) * 32767.5f + 0.5f);
+    bgr[3 * i + 1] = static_cast<std::uint16_t>((1.0f - q[i] * inverse) * 32767.5f + 0.5f);
+    bgr[3 * i + 2] = static_cast<std::uint16_t>((1.0f - p[i] * inverse) * 32767.5f + 0.5f);
+  }
+}
+
+}  // namespace
+
+cv::Mat encode_albedo_srgb8(const cv::Mat& albedo) {
+  cv::Mat out(albedo.size(), CV_8UC(albedo.channels()));
+  const auto& table = srgb_table();
+  const int values = albedo.cols * albedo.channels();
+  parallel_chunks(albedo.rows, kRowsPerChunk, [&](int begin, int end) {
+    for (int r = begin; r < end; ++r) {
+      const float* in = albedo.ptr<float>(r);
+      std::uint8_t* o = out.ptr<std::uint8_t>(r);
+      for (int i = 0; i < values; ++i) {
+        const float clamped = std::clamp(in[i], 0.0f, 1.0f);  // NaN-free input: the solve zeroes unsolved pixels
+        o[i] = table[static_cast<int>(clamped * kSrgbSteps + 0.5f)];
+      }
+    }
+  });
+  return out;
+}
+
+cv::Mat encode_normal16(const cv::Mat& p, const cv::Mat& q) {
+  cv::Mat out(p.size(), CV_16UC3);
+  parallel_chunks(p.rows, kRowsPerChunk, [&](int begin, int end) {
+    for (int r = begin; r < end; ++r) normal_row(p.ptr<float>(r), q.ptr<float>(r), out.ptr<std::uint16_t>(r), p.cols);
+  });
+  return out;
+}
+
+cv::Mat encode_height16(const cv::Mat& height, double low, double high) {
+  cv::Mat out;
+  const double range = high > low ? high - low : 1.0;
+  height.convertTo(out, CV_16U, 65535.0 / range, -low * 65535.0 / range);
+  return out;
+}
+
+cv::Mat encode_valid_mask(const cv::Mat& flags) {
+  cv::Mat out(flags.size(), CV_8U);
+  parallel_chunks(flags.rows, kRowsPerChunk, [&](int begin, int end) {
+    for (int r = begin; r < end; ++r) {
+      const std::uint8_t* f = flags.ptr<std::uint8_t>(r);
+      std::uint8_t* o = out.ptr<std::uint8_t>(r);
+      for (int i = 0; i < flags.cols; ++i) o[i] = is_valid(f[i]) ? 255 : 0;
+    }
+  });
+  return out;
+}
+
+}  // namespace psrig::processing

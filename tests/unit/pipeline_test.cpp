@@ -1,0 +1,147 @@
+// The whole chain, files to files: scan directory in, maps directory out.
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+
+#include <fstream>
+
+#include "psrig/capture/scan_writer.h"
+#include "psrig/capture/synthetic_scan.h"
+#include "psrig/processing/map_encoding.h"
+#include "psrig/processing/pipeline.h"
+#include "synthetic_scene.h"
+#include "test_support.h"
+
+namespace psrig::processing {
+namespace {
+
+namespace fs = std::filesystem;
+
+const std::vector<std::string> kMapFiles = {"albedo.exr", "albedo.png", "height.exr", "height.png", "mask.png",
+                                            "normal.png", "p.exr",      "q.exr",      "report.json"};
+
+// A plane of one orientation, as a scan on disk.
+fs::path write_plane_scan(const fs::path& dir, const cv::Vec3f& normal) {
+  test::Surface plane{cv::Mat(48, 64, CV_32FC3, cv::Scalar(normal[0], normal[1], normal[2])),
+                      cv::Mat(48, 64, CV_32FC3, cv::Scalar(0.5, 0.5, 0.5))};
+  const Scan scan = test::render_scan(plane, test::ring_lights(3, 45), CV_16U);
+  EXPECT_TRUE(capture::write_scan(scan, dir));
+  return dir;
+}
+
+TEST(Pipeline, WritesEveryMapAndTheReport) {
+  test::TempDir temp;
+  auto scan = test::render_scan(test::sphere_surface({96, 80}, 30, 3), test::ring_lights(3, 45), CV_16U);
+  scan.description.pixel_size_mm = 0.05;
+  ASSERT_TRUE(capture::write_scan(scan, temp / "scan"));
+  auto summary = process_scan(temp / "scan");
+  ASSERT_TRUE(summary) << summary.error().describe();
+  EXPECT_EQ(summary->maps_directory, temp / "scan" / "maps");
+  EXPECT_EQ(test::list_directory(temp / "scan" / "maps"), kMapFiles);
+
+  const auto& r = summary->report;
+  EXPECT_EQ(r["format"], kReportFormat);
+  EXPECT_EQ(r["inputs"]["lights"], 3);
+  EXPECT_EQ(r["height"]["units"], "mm");
+  EXPECT_NEAR(r["light_matrix"]["condition_number"].get<double>(), std::sqrt(2.0), 1e-6);  // sqrt(2) cot 45
+  for (const char* stage : {"read", "solve", "evaluate", "integrate", "integrate_and_write", "total"})
+    EXPECT_TRUE(r["timings_ms"].contains(stage)) << stage;
+  EXPECT_EQ(r["pixels"]["total"], 96 * 80);
+  EXPECT_LT(r["ground_truth"]["angular_error_deg"]["mean"].get<double>(), 0.05);
+  EXPECT_GT(r["ground_truth"]["angular_error_deg"]["pixels"].get<int>(), 0.8 * 96 * 80);
+
+  // The files hold what the report says: 16-bit normals, float maps.
+  const fs::path maps = temp / "scan" / "maps";
+  EXPECT_EQ(cv::imread((maps / "normal.png").string(), cv::IMREAD_UNCHANGED).type(), CV_16UC3);
+  EXPECT_EQ(cv::imread((maps / "height.png").string(), cv::IMREAD_UNCHANGED).type(), CV_16UC1);
+  EXPECT_EQ(cv::imread((maps / "albedo.png").string(), cv::IMREAD_UNCHANGED).type(), CV_8UC3);
+  EXPECT_EQ(cv::imread((maps / "albedo.exr").string(), cv::IMREAD_UNCHANGED).type(), CV_32FC3);
+  EXPECT_EQ(cv::imread((maps / "p.exr").string(), cv::IMREAD_UNCHANGED).type(), CV_32FC1);
+  std::ifstream report_file(maps / "report.json");
+  EXPECT_EQ(nlohmann::json::parse(report_file), r);
+}
+
+TEST(Pipeline, NormalMapConventionsOnRealFiles) {
+  test::TempDir temp;
+  const float s = 0.5f, c = 0.8660254f;  // 30 degrees
+  auto toward_x = process_scan(write_plane_scan(temp / "x", {s, 0, c}));
+  auto toward_top = process_scan(write_plane_scan(temp / "top", {0, s, c}));
+  ASSERT_TRUE(toward_x && toward_top);
+  const cv::Mat x = cv::imread((temp / "x" / "maps" / "normal.png").string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat top = cv::imread((temp / "top" / "maps" / "normal.png").string(), cv::IMREAD_UNCHANGED);
+  const cv::Vec3w x_bgr = x.at<cv::Vec3w>(24, 32), top_bgr = top.at<cv::Vec3w>(24, 32);
+  EXPECT_GT(x_bgr[2], 32768 + 10000);  // red above mid-grey
+  EXPECT_NEAR(x_bgr[1], 32768, 30);
+  EXPECT_GT(top_bgr[1], 32768 + 10000);  // green above mid-grey
+  EXPECT_NEAR(top_bgr[2], 32768, 30);
+  // And p.exr holds dz/dx = -nx/nz = -tan 30.
+  const cv::Mat p = cv::imread((temp / "x" / "maps" / "p.exr").string(), cv::IMREAD_UNCHANGED);
+  EXPECT_NEAR(p.at<float>(24, 32), -0.57735f, 1e-3);
+}
+
+class SyntheticSwatch : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(SyntheticSwatch, NoiseFreeNormalsAreExact) {
+  test::TempDir temp;
+  capture::SyntheticScanParams params;
+  params.swatch.pattern = *firmware_host::sim::parse_swatch_pattern(GetParam());
+  params.swatch.size = {240, 180};
+  ASSERT_TRUE(capture::write_scan(capture::make_synthetic_scan(params), temp / "scan"));
+  auto summary = process_scan(temp / "scan");
+  ASSERT_TRUE(summary) << summary.error().describe();
+  const auto& truth = summary->report["ground_truth"];
+  EXPECT_LT(truth["angular_error_deg"]["mean"].get<double>(), 0.05);
+  EXPECT_GT(summary->report["pixels"]["valid"].get<double>(), 0.5 * 240 * 180);
+  EXPECT_TRUE(truth.contains("height_rms_error"));
+}
+
+INSTANTIATE_TEST_SUITE_P(Patterns, SyntheticSwatch, ::testing::Values("jersey", "rib", "garter", "plain", "twill"));
+
+TEST(Pipeline, ReprocessingReplacesTheMaps) {
+  test::TempDir temp;
+  write_plane_scan(temp / "scan", {0, 0, 1});
+  ProcessOptions options;
+  options.integration = IntegrationMethod::none;
+  ASSERT_TRUE(process_scan(temp / "scan", options));
+  EXPECT_FALSE(fs::exists(temp / "scan" / "maps" / "height.exr"));
+  options.integration = IntegrationMethod::poisson;
+  auto again = process_scan(temp / "scan", options);
+  ASSERT_TRUE(again) << again.error().describe();
+  EXPECT_TRUE(fs::exists(temp / "scan" / "maps" / "height.exr"));
+  EXPECT_EQ(test::list_directory(temp / "scan"),
+            (std::vector<std::string>{"led0.png", "led1.png", "led2.png", "maps", "scan.json"}));
+}
+
+TEST(Pipeline, RefusesToReplaceWhatIsNotAMapsDirectory) {
+  test::TempDir temp;
+  write_plane_scan(temp / "scan", {0, 0, 1});
+  fs::create_directory(temp / "precious");
+  std::ofstream(temp / "precious" / "thesis.tex") << "chapter 1";
+  ProcessOptions options;
+  options.output = temp / "precious";
+  auto refused = process_scan(temp / "scan", options);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().kind, ErrorKind::bad_input);
+  EXPECT_EQ(test::list_directory(temp / "precious"), std::vector<std::string>{"thesis.tex"});
+  // Nor the scan itself.
+  options.output = temp / "scan";
+  EXPECT_FALSE(process_scan(temp / "scan", options));
+  EXPECT_TRUE(fs::exists(temp / "scan" / "scan.json"));
+}
+
+TEST(Pipeline, BadInputWritesNothing) {
+  test::TempDir temp;
+  write_plane_scan(temp / "scan", {0, 0, 1});
+  fs::remove(temp / "scan" / "led2.png");
+  ProcessOptions options;
+  options.output = temp / "maps";
+  auto failed = process_scan(temp / "scan", options);
+  ASSERT_FALSE(failed);
+  EXPECT_EQ(failed.error().kind, ErrorKind::bad_input);
+  EXPECT_EQ(test::list_directory(temp.path()), std::vector<std::string>{"scan"});
+  EXPECT_FALSE(fs::exists(temp / "scan" / "maps"));
+}
+
+}  // namespace
+}  // namespace psrig::processing
