@@ -198,8 +198,9 @@ std::vector<float> neumann_eigenvalues(int n) {
 Result<cv::Mat> frankot_chellappa(const cv::Mat& p, const cv::Mat& q, int width, int height) {
   const std::size_t pixels = static_cast<std::size_t>(width) * height;
   // The result doubles as the work buffer for p, then Z, then z: one large
-  // allocation fewer and no copy out. A new cv::Mat is continuous and
-  // 64-byte aligned, as FFTW's SIMD code wants.
+  // allocation fewer and no copy out. A new cv::Mat is continuous (and
+  // 64-byte aligned; plans are made on the buffer itself, so FFTW adapts to
+  // whatever alignment it has).
   cv::Mat z(height, width, CV_32FC1);
   float* const a = z.ptr<float>();
   const FftwBuffer b(fftwf_alloc_real(pixels));  // q
