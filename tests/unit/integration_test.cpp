@@ -258,12 +258,14 @@ TEST(Integration, AcceptsNonContinuousViews) {
 // column has u = -pi); along the rows the DFT frequency is w = 2 pi l / (2H)
 // folded likewise, and since y = -row, v = -w. The Nyquist column and row are
 // kept, as an FFT-based FC would: the mirror-extended q is even in x, so Q's
-// Nyquist column is zero, and p is even in y, so P's Nyquist row is zero;
-// what remains there, -i u P / u^2 (or -i v Q / v^2), pairs with its mirror
-// frequency into a purely imaginary contribution, so the real part of the
-// result is unchanged whichever sign the Nyquist frequency is given. The r2r
-// implementation never forms those terms (the DCT-II of an even-extended z
-// has no Nyquist coefficient), so the two agree on the real part.
+// Nyquist column is zero, and p is even in y, so P's Nyquist row is zero.
+// What remains on the Nyquist column, -i u P / (u^2 + v^2), is at (l, W) the
+// negated conjugate of its value at (-l, W) (P is Hermitian there and u is
+// the same), so each pair inverts to a purely imaginary term; likewise on
+// the Nyquist row. So the real part of the result does not depend on those
+// terms, nor on the sign given to the Nyquist frequency. The r2r
+// implementation never forms them (the DCT-II of an even-extended z has no
+// Nyquist coefficient), and the two agree on the real part.
 // With mirror = false the same formula runs on the field as it is, treated
 // as periodic: the plain FFT method, kept to show the wrap-around it suffers.
 cv::Mat literal_fft_fc(const cv::Mat& p, const cv::Mat& q, bool mirror = true) {
