@@ -25,7 +25,8 @@ enum class IntegrationMethod { frankot_chellappa, poisson, none };
 // border, so p and q are odd across the borders they cross) so the periodic
 // transform sees no wrap-around jump. Implemented with FFTW r2r transforms of
 // the un-extended size, which is the same computation.
-// p, q: CV_32F, same size, finite. Returns CV_32F.
+// p, q: CV_32F, same size; non-finite values (unsolved pixels) count as 0.
+// Returns CV_32F.
 [[nodiscard]] Result<cv::Mat> integrate_frankot_chellappa(const cv::Mat& p, const cv::Mat& q);
 
 // Least-squares Poisson solve of the discrete problem with Neumann
