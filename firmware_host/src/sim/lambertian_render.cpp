@@ -1,0 +1,103 @@
+#include "psrig/firmware_host/sim/lambertian_render.h"
+
+#include <algorithm>
+#include <cmath>
+
+namespace psrig::firmware_host::sim {
+namespace {
+
+// Below this horizontal component the light counts as overhead.
+constexpr double kOverhead = 1e-9;
+
+float bilinear(const cv::Mat& height, float x, float y) {
+  const int x0 = std::min(static_cast<int>(x), height.cols - 2);
+  const int y0 = std::min(static_cast<int>(y), height.rows - 2);
+  const float fx = x - static_cast<float>(x0);
+  const float fy = y - static_cast<float>(y0);
+  const auto* a = height.ptr<float>(y0) + x0;
+  const auto* b = height.ptr<float>(y0 + 1) + x0;
+  const float top = a[0] + fx * (a[1] - a[0]);
+  const float bottom = b[0] + fx * (b[1] - b[0]);
+  return top + fy * (bottom - top);
+}
+
+}  // namespace
+
+cv::Mat cast_shadow_mask(const cv::Mat& height_mm, double pixel_size_mm,
+                         const cv::Vec3d& direction) {
+  cv::Mat mask(height_mm.size(), CV_8U, cv::Scalar(0));
+  if (height_mm.empty()) return mask;
+  CV_Assert(height_mm.type() == CV_32F);
+  const double horizontal = std::hypot(direction[0], direction[1]);
+  if (direction[2] <= 0) {
+    mask.setTo(255);  // a light at or below the swatch's plane lights nothing
+    return mask;
+  }
+  if (horizontal < kOverhead * direction[2] || height_mm.rows < 2 || height_mm.cols < 2) {
+    return mask;
+  }
+  double highest = 0;
+  cv::minMaxLoc(height_mm, nullptr, &highest);
+
+  // Half-pixel steps toward the light; y is up, so rows fall as y grows.
+  constexpr float kStep = 0.5f;
+  const auto dx = static_cast<float>(kStep * direction[0] / horizontal);
+  const auto dy = static_cast<float>(-kStep * direction[1] / horizontal);
+  const auto dz = static_cast<float>(kStep * pixel_size_mm * direction[2] / horizontal);
+  const auto top = static_cast<float>(highest);
+  const auto xmax = static_cast<float>(height_mm.cols - 1);
+  const auto ymax = static_cast<float>(height_mm.rows - 1);
+
+  cv::parallel_for_(cv::Range(0, height_mm.rows), [&](const cv::Range& range) {
+    for (int r = range.start; r < range.end; ++r) {
+      const auto* h = height_mm.ptr<float>(r);
+      auto* out = mask.ptr<std::uint8_t>(r);
+      for (int c = 0; c < height_mm.cols; ++c) {
+        float x = static_cast<float>(c);
+        float y = static_cast<float>(r);
+        float z = h[c];
+        for (int k = 1;; ++k) {
+          // Recomputed from the start, not accumulated, so long rays keep their aim.
+          x = static_cast<float>(c) + static_cast<float>(k) * dx;
+          y = static_cast<float>(r) + static_cast<float>(k) * dy;
+          z = h[c] + static_cast<float>(k) * dz;
+          if (z > top || x < 0 || y < 0 || x > xmax || y > ymax) break;
+          if (bilinear(height_mm, x, y) > z) {
+            out[c] = 255;
+            break;
+          }
+        }
+      }
+    }
+  });
+  return mask;
+}
+
+cv::Mat render_lambertian(const Swatch& swatch, const DistantLight& light, bool cast_shadows) {
+  cv::Mat out(swatch.normal.size(), CV_32FC3, cv::Scalar::all(0));
+  const double norm = cv::norm(light.direction);
+  if (swatch.normal.empty() || !(norm > 0)) return out;
+  CV_Assert(swatch.normal.type() == CV_32FC3 && swatch.albedo.type() == CV_32FC3 &&
+            swatch.albedo.size() == swatch.normal.size());
+  const cv::Vec3f l = cv::Vec3f(light.direction / norm);
+  cv::Mat shadow;
+  if (cast_shadows && !swatch.height_mm.empty()) {
+    shadow = cast_shadow_mask(swatch.height_mm, swatch.pixel_size_mm, light.direction);
+  }
+  cv::parallel_for_(cv::Range(0, out.rows), [&](const cv::Range& range) {
+    for (int r = range.start; r < range.end; ++r) {
+      const auto* n = swatch.normal.ptr<cv::Vec3f>(r);
+      const auto* albedo = swatch.albedo.ptr<cv::Vec3f>(r);
+      const auto* blocked = shadow.empty() ? nullptr : shadow.ptr<std::uint8_t>(r);
+      auto* radiance = out.ptr<cv::Vec3f>(r);
+      for (int c = 0; c < out.cols; ++c) {
+        if (blocked != nullptr && blocked[c] != 0) continue;
+        const float cosine = std::max(0.0f, n[c].dot(l));
+        radiance[c] = albedo[c].mul(light.intensity_bgr) * cosine;
+      }
+    }
+  });
+  return out;
+}
+
+}  // namespace psrig::firmware_host::sim
