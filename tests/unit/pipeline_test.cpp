@@ -110,7 +110,7 @@ TEST(Pipeline, ReprocessingReplacesTheMaps) {
   ASSERT_TRUE(again) << again.error().describe();
   EXPECT_TRUE(fs::exists(temp / "scan" / "maps" / "height.exr"));
   EXPECT_EQ(test::list_directory(temp / "scan"),
-            (std::vector<std::string>{"led0.png", "led1.png", "led2.png", "maps", "scan.json"}));
+            (std::vector<std::string>{"gt_normal.exr", "led0.png", "led1.png", "led2.png", "maps", "scan.json"}));
 }
 
 TEST(Pipeline, RefusesToReplaceWhatIsNotAMapsDirectory) {

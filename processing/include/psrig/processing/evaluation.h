@@ -25,6 +25,12 @@ struct Distribution {
 // (CV_32FC3, x y z), CV_32F.
 [[nodiscard]] cv::Mat angular_error_deg(const cv::Mat& p, const cv::Mat& q, const cv::Mat& truth);
 
+// Mean |dp/dy - dq/dx| (central differences) over pixels whose four
+// neighbours are selected too. Zero for an integrable field; wrong light
+// directions or ambient light raise it, so it checks a real scan without
+// ground truth.
+[[nodiscard]] double mean_abs_curl(const cv::Mat& p, const cv::Mat& q, const cv::Mat& select);
+
 // RMS of height - truth over `select` once their mean difference there is
 // removed (integration fixes heights only up to a constant).
 [[nodiscard]] double height_rms_error(const cv::Mat& height, const cv::Mat& truth, const cv::Mat& select = {});

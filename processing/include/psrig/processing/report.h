@@ -33,6 +33,7 @@ struct ReportInputs {
   const Scan* scan = nullptr;
   const ProcessOptions* options = nullptr;
   const SolveResult* solve = nullptr;
+  cv::Mat valid;  // CV_8U, 255 where the solve is valid
   std::optional<HeightSummary> height;
   GroundTruthSummary ground_truth;
   std::vector<std::pair<std::string, double>> stage_ms;  // in the order they ran
