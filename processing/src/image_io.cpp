@@ -3,9 +3,30 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include <algorithm>
+#include <cctype>
 #include <system_error>
 
+#include "png_codec.h"
+
 namespace psrig::processing {
+namespace {
+
+bool is_png(const std::filesystem::path& file) {
+  std::string extension = file.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+  return extension == ".png";
+}
+
+// OpenCV's PNG compression parameter, if given; psrig's default is the
+// fastest level that still compresses.
+int png_level(const std::vector<int>& params) {
+  for (std::size_t i = 0; i + 1 < params.size(); i += 2)
+    if (params[i] == cv::IMWRITE_PNG_COMPRESSION) return params[i + 1];
+  return 1;
+}
+
+}  // namespace
 
 Result<cv::Mat> read_image(const std::filesystem::path& file, const std::string& key) {
   std::error_code ec;
@@ -14,6 +35,9 @@ Result<cv::Mat> read_image(const std::filesystem::path& file, const std::string&
     return std::unexpected(bad_input(file, key, "no such file"));
   if (!std::filesystem::is_regular_file(status))
     return std::unexpected(bad_input(file, key, "not a regular file"));
+  if (is_png(file)) {
+    if (auto fast = png::read(file)) return std::move(*fast);
+  }
   cv::Mat image;
   try {
     image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
@@ -28,6 +52,7 @@ Result<cv::Mat> read_image(const std::filesystem::path& file, const std::string&
 
 Status write_image(const std::filesystem::path& file, const cv::Mat& image,
                    const std::vector<int>& params) {
+  if (is_png(file) && png::can_write(image)) return png::write(file, image, png_level(params));
   try {
     if (!cv::imwrite(file.string(), image, params))
       return std::unexpected(io_error(file, "cannot write image"));

@@ -1,0 +1,286 @@
+#include "png_codec.h"
+
+#include <libdeflate.h>
+
+#include <algorithm>
+#include <array>
+#include <cstdlib>
+#include <cstdio>
+#include <cstring>
+#include <memory>
+#include <vector>
+
+#include "psrig/processing/parallel.h"
+#include "vector_clones.h"
+
+namespace psrig::processing::png {
+namespace {
+
+namespace fs = std::filesystem;
+
+constexpr std::array<std::uint8_t, 8> kSignature = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+constexpr std::size_t kIdatChunk = 1u << 22;  // 4 MiB: large, yet not one huge chunk
+constexpr int kRowsPerChunk = 32;
+
+std::uint32_t load_be32(const std::uint8_t* p) {
+  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) | p[3];
+}
+void store_be32(std::uint8_t* p, std::uint32_t v) {
+  p[0] = static_cast<std::uint8_t>(v >> 24);
+  p[1] = static_cast<std::uint8_t>(v >> 16);
+  p[2] = static_cast<std::uint8_t>(v >> 8);
+  p[3] = static_cast<std::uint8_t>(v);
+}
+
+struct FileCloser {
+  void operator()(std::FILE* f) const { std::fclose(f); }
+};
+using File = std::unique_ptr<std::FILE, FileCloser>;
+
+std::optional<std::vector<std::uint8_t>> read_file(const fs::path& file) {
+  File f(std::fopen(file.c_str(), "rb"));
+  if (!f) return std::nullopt;
+  std::vector<std::uint8_t> bytes;
+  std::error_code ec;
+  const auto size = fs::file_size(file, ec);
+  if (ec) return std::nullopt;
+  bytes.resize(size);
+  if (std::fread(bytes.data(), 1, size, f.get()) != size) return std::nullopt;
+  return bytes;
+}
+
+// PNG's Paeth predictor (PNG specification, section 9.4).
+std::uint8_t paeth(int a, int b, int c) {
+  const int p = a + b - c;
+  const int pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
+  return static_cast<std::uint8_t>(pa <= pb && pa <= pc ? a : pb <= pc ? b : c);
+}
+
+// Undoes one row's filter in place; `previous` is the unfiltered row above
+// (zeros for the first row), `bpp` bytes per pixel.
+bool unfilter_row(std::uint8_t type, std::uint8_t* row, const std::uint8_t* previous, std::size_t n, std::size_t bpp) {
+  switch (type) {
+    case 0:
+      return true;
+    case 1:
+      for (std::size_t i = bpp; i < n; ++i) row[i] = static_cast<std::uint8_t>(row[i] + row[i - bpp]);
+      return true;
+    case 2:
+      for (std::size_t i = 0; i < n; ++i) row[i] = static_cast<std::uint8_t>(row[i] + previous[i]);
+      return true;
+    case 3:
+      for (std::size_t i = 0; i < n; ++i) {
+        const int left = i >= bpp ? row[i - bpp] : 0;
+        row[i] = static_cast<std::uint8_t>(row[i] + ((left + previous[i]) >> 1));
+      }
+      return true;
+    case 4:
+      for (std::size_t i = 0; i < n; ++i) {
+        const int left = i >= bpp ? row[i - bpp] : 0;
+        const int upper_left = i >= bpp ? previous[i - bpp] : 0;
+        row[i] = static_cast<std::uint8_t>(row[i] + paeth(left, previous[i], upper_left));
+      }
+      return true;
+    default:
+      return false;
+  }
+}
+
+// PNG byte order (RGB, big-endian samples) to OpenCV's (BGR, native), and back.
+PSRIG_VECTOR_CLONES
+void rgb16_to_bgr(const std::uint8_t* __restrict in, std::uint16_t* __restrict out, int pixels) {
+  for (int i = 0; i < pixels; ++i) {
+    out[3 * i] = static_cast<std::uint16_t>(in[6 * i + 4] << 8 | in[6 * i + 5]);
+    out[3 * i + 1] = static_cast<std::uint16_t>(in[6 * i + 2] << 8 | in[6 * i + 3]);
+    out[3 * i + 2] = static_cast<std::uint16_t>(in[6 * i] << 8 | in[6 * i + 1]);
+  }
+}
+PSRIG_VECTOR_CLONES
+void grey16_from_be(const std::uint8_t* __restrict in, std::uint16_t* __restrict out, int samples) {
+  for (int i = 0; i < samples; ++i) out[i] = static_cast<std::uint16_t>(in[2 * i] << 8 | in[2 * i + 1]);
+}
+PSRIG_VECTOR_CLONES
+void rgb8_to_bgr(const std::uint8_t* __restrict in, std::uint8_t* __restrict out, int pixels) {
+  for (int i = 0; i < pixels; ++i) {
+    out[3 * i] = in[3 * i + 2];
+    out[3 * i + 1] = in[3 * i + 1];
+    out[3 * i + 2] = in[3 * i];
+  }
+}
+PSRIG_VECTOR_CLONES
+void bgr16_to_rgb_be(const std::uint16_t* __restrict in, std::uint8_t* __restrict out, int pixels) {
+  for (int i = 0; i < pixels; ++i) {
+    const std::uint16_t b = in[3 * i], g = in[3 * i + 1], r = in[3 * i + 2];
+    out[6 * i] = static_cast<std::uint8_t>(r >> 8);
+    out[6 * i + 1] = static_cast<std::uint8_t>(r);
+    out[6 * i + 2] = static_cast<std::uint8_t>(g >> 8);
+    out[6 * i + 3] = static_cast<std::uint8_t>(g);
+    out[6 * i + 4] = static_cast<std::uint8_t>(b >> 8);
+    out[6 * i + 5] = static_cast<std::uint8_t>(b);
+  }
+}
+PSRIG_VECTOR_CLONES
+void grey16_to_be(const std::uint16_t* __restrict in, std::uint8_t* __restrict out, int samples) {
+  for (int i = 0; i < samples; ++i) {
+    out[2 * i] = static_cast<std::uint8_t>(in[i] >> 8);
+    out[2 * i + 1] = static_cast<std::uint8_t>(in[i]);
+  }
+}
+PSRIG_VECTOR_CLONES
+void subtract_row(std::uint8_t* __restrict row, const std::uint8_t* __restrict above, std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i) row[i] = static_cast<std::uint8_t>(row[i] - above[i]);
+}
+
+}  // namespace
+
+std::optional<cv::Mat> read(const fs::path& file) {
+  auto bytes = read_file(file);
+  if (!bytes || bytes->size() < kSignature.size() + 12 + 13 ||
+      !std::equal(kSignature.begin(), kSignature.end(), bytes->begin()))
+    return std::nullopt;
+
+  // Walk the chunks, compacting the IDAT payloads in place at the front of
+  // the buffer (they are one zlib stream split across chunks).
+  std::uint8_t* data = bytes->data();
+  const std::size_t size = bytes->size();
+  std::size_t at = kSignature.size(), compressed = 0;
+  std::uint32_t width = 0, height = 0;
+  int bit_depth = 0, colour_type = -1;
+  bool seen_header = false, seen_end = false;
+  while (at + 12 <= size) {
+    const std::uint32_t length = load_be32(data + at);
+    const std::uint8_t* type = data + at + 4;
+    if (length > size - at - 12) return std::nullopt;
+    std::uint8_t* payload = data + at + 8;
+    const bool critical = !(type[0] & 0x20);
+    if (critical && libdeflate_crc32(0, type, length + 4) != load_be32(payload + length)) return std::nullopt;
+    if (std::memcmp(type, "IHDR", 4) == 0) {
+      if (length != 13) return std::nullopt;
+      width = load_be32(payload);
+      height = load_be32(payload + 4);
+      bit_depth = payload[8];
+      colour_type = payload[9];
+      if (payload[10] != 0 || payload[11] != 0 || payload[12] != 0) return std::nullopt;  // interlaced or unknown
+      seen_header = true;
+    } else if (std::memcmp(type, "IDAT", 4) == 0) {
+      std::memmove(data + compressed, payload, length);  // never overtakes the read position
+      compressed += length;
+    } else if (std::memcmp(type, "tRNS", 4) == 0 || std::memcmp(type, "PLTE", 4) == 0) {
+      return std::nullopt;  // transparency or palette: OpenCV's job
+    } else if (std::memcmp(type, "IEND", 4) == 0) {
+      seen_end = true;
+      break;
+    } else if (critical) {
+      return std::nullopt;
+    }
+    at += 12 + length;
+  }
+  if (!seen_header || !seen_end || (bit_depth != 8 && bit_depth != 16) || (colour_type != 0 && colour_type != 2) ||
+      width == 0 || height == 0 || width > (1u << 16) || height > (1u << 16))
+    return std::nullopt;
+
+  const int channels = colour_type == 2 ? 3 : 1;
+  const std::size_t bpp = static_cast<std::size_t>(channels) * (bit_depth / 8);
+  const std::size_t row_bytes = bpp * width;
+  std::vector<std::uint8_t> raw(height * (row_bytes + 1));
+  std::unique_ptr<libdeflate_decompressor, decltype(&libdeflate_free_decompressor)> inflater(
+      libdeflate_alloc_decompressor(), &libdeflate_free_decompressor);
+  std::size_t produced = 0;
+  if (!inflater || libdeflate_zlib_decompress(inflater.get(), data, compressed, raw.data(), raw.size(), &produced) !=
+                       LIBDEFLATE_SUCCESS ||
+      produced != raw.size())
+    return std::nullopt;
+  bytes.reset();
+
+  // Rows depend on the row above, so unfiltering runs in order.
+  std::vector<std::uint8_t> zeros(row_bytes, 0);
+  for (std::uint32_t r = 0; r < height; ++r) {
+    std::uint8_t* row = raw.data() + r * (row_bytes + 1);
+    const std::uint8_t* previous = r ? row - row_bytes : zeros.data();
+    if (!unfilter_row(row[0], row + 1, previous, row_bytes, bpp)) return std::nullopt;
+  }
+
+  cv::Mat image(static_cast<int>(height), static_cast<int>(width), CV_MAKETYPE(bit_depth == 8 ? CV_8U : CV_16U, channels));
+  parallel_chunks(image.rows, kRowsPerChunk, [&](int begin, int end) {
+    for (int r = begin; r < end; ++r) {
+      const std::uint8_t* in = raw.data() + static_cast<std::size_t>(r) * (row_bytes + 1) + 1;
+      if (bit_depth == 16 && channels == 3) rgb16_to_bgr(in, image.ptr<std::uint16_t>(r), image.cols);
+      else if (bit_depth == 16) grey16_from_be(in, image.ptr<std::uint16_t>(r), image.cols);
+      else if (channels == 3) rgb8_to_bgr(in, image.ptr<std::uint8_t>(r), image.cols);
+      else std::memcpy(image.ptr(r), in, row_bytes);
+    }
+  });
+  return image;
+}
+
+bool can_write(const cv::Mat& image) {
+  return !image.empty() && (image.depth() == CV_8U || image.depth() == CV_16U) &&
+         (image.channels() == 1 || image.channels() == 3);
+}
+
+Status write(const fs::path& file, const cv::Mat& image, int level) {
+  if (!can_write(image)) return std::unexpected(internal_error("png::write: unsupported image type"));
+  const bool sixteen = image.depth() == CV_16U;
+  const int channels = image.channels();
+  const std::size_t row_bytes = static_cast<std::size_t>(image.cols) * channels * (sixteen ? 2 : 1);
+  const std::size_t stride = row_bytes + 1;
+  std::vector<std::uint8_t> raw(image.rows * stride);
+
+  parallel_chunks(image.rows, kRowsPerChunk, [&](int begin, int end) {
+    for (int r = begin; r < end; ++r) {
+      std::uint8_t* out = raw.data() + static_cast<std::size_t>(r) * stride + 1;
+      if (sixteen && channels == 3) bgr16_to_rgb_be(image.ptr<std::uint16_t>(r), out, image.cols);
+      else if (sixteen) grey16_to_be(image.ptr<std::uint16_t>(r), out, image.cols);
+      else if (channels == 3) rgb8_to_bgr(image.ptr<std::uint8_t>(r), out, image.cols);  // the swap is symmetric
+      else std::memcpy(out, image.ptr(r), row_bytes);
+    }
+  });
+  // Stored data gains nothing from a filter; compressed data gains most
+  // from "Up" among the cheap ones. Bottom row first, so the row above is
+  // still unfiltered when it is subtracted.
+  const std::uint8_t filter = level > 0 ? 2 : 0;
+  for (int r = image.rows - 1; r >= 0; --r) {
+    raw[r * stride] = filter;
+    if (filter == 2 && r > 0) subtract_row(raw.data() + r * stride + 1, raw.data() + (r - 1) * stride + 1, row_bytes);
+  }
+
+  std::unique_ptr<libdeflate_compressor, decltype(&libdeflate_free_compressor)> deflater(
+      libdeflate_alloc_compressor(std::clamp(level, 0, 12)), &libdeflate_free_compressor);
+  if (!deflater) return std::unexpected(internal_error("png::write: cannot allocate a compressor"));
+  std::vector<std::uint8_t> compressed(libdeflate_zlib_compress_bound(deflater.get(), raw.size()));
+  const std::size_t length =
+      libdeflate_zlib_compress(deflater.get(), raw.data(), raw.size(), compressed.data(), compressed.size());
+  if (length == 0) return std::unexpected(internal_error("png::write: compression failed"));
+  raw = {};
+
+  File f(std::fopen(file.c_str(), "wb"));
+  if (!f) return std::unexpected(io_error(file, std::string("cannot create: ") + std::strerror(errno)));
+  bool ok = std::fwrite(kSignature.data(), 1, kSignature.size(), f.get()) == kSignature.size();
+  const auto chunk = [&](const char* type, const std::uint8_t* payload, std::size_t n) {
+    std::uint8_t header[8];
+    store_be32(header, static_cast<std::uint32_t>(n));
+    std::memcpy(header + 4, type, 4);
+    // (A null buffer would make libdeflate_crc32 return the initial value.)
+    std::uint32_t checksum = libdeflate_crc32(0, header + 4, 4);
+    if (n > 0) checksum = libdeflate_crc32(checksum, payload, n);
+    std::uint8_t crc[4];
+    store_be32(crc, checksum);
+    ok = ok && std::fwrite(header, 1, 8, f.get()) == 8 && (n == 0 || std::fwrite(payload, 1, n, f.get()) == n) &&
+         std::fwrite(crc, 1, 4, f.get()) == 4;
+  };
+  std::uint8_t header[13];
+  store_be32(header, static_cast<std::uint32_t>(image.cols));
+  store_be32(header + 4, static_cast<std::uint32_t>(image.rows));
+  header[8] = sixteen ? 16 : 8;
+  header[9] = channels == 3 ? 2 : 0;
+  header[10] = header[11] = header[12] = 0;
+  chunk("IHDR", header, sizeof header);
+  for (std::size_t offset = 0; offset < length; offset += kIdatChunk)
+    chunk("IDAT", compressed.data() + offset, std::min(kIdatChunk, length - offset));
+  chunk("IEND", nullptr, 0);
+  ok = ok && std::fflush(f.get()) == 0;
+  if (!ok) return std::unexpected(io_error(file, std::string("cannot write: ") + std::strerror(errno)));
+  return {};
+}
+
+}  // namespace psrig::processing::png
