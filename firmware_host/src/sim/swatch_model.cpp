@@ -46,7 +46,7 @@ struct PatternSpec {
   detail::WeaveSpec weave;
   YarnLook yarn;  // knits: the yarn; woven: the warp
   YarnLook weft;
-  double crease_fill_mm;   // smoothing that stands in for fibres filling the creases
+  double smoothing_mm;  // yarn surfaces are soft: a light blur rounds the kinks where sections meet
   double fibre_relief_mm;  // amplitude of fibre-scale roughness
 };
 
@@ -94,7 +94,7 @@ PatternSpec spec_for(SwatchPattern pattern) {
       spec.weft = {{0.72f, 0.78f, 0.80f}, 1.0, 2, 0.012};
       break;
   }
-  spec.crease_fill_mm = spec.knitted ? 0.02 : 0.015;
+  spec.smoothing_mm = spec.knitted ? 0.02 : 0.015;
   spec.fibre_relief_mm = spec.knitted ? 0.006 : 0.004;
   return spec;
 }
@@ -149,7 +149,7 @@ std::string_view to_string(SwatchPattern pattern) {
   for (const auto& [n, p] : kNames) {
     if (p == pattern) return n;
   }
-  return "jersey";
+  return "unknown";
 }
 
 Swatch make_swatch(const SwatchParams& params) {
@@ -227,7 +227,8 @@ Swatch make_swatch(const SwatchParams& params) {
                             std::asin(a) * static_cast<float>(0.5 / std::numbers::pi);
         const float psi = static_cast<float>(look.plies) * turns;
         const float nearest = std::floor(psi + 0.5f);
-        const float groove = std::pow(std::cos(static_cast<float>(std::numbers::pi) * psi), 4.0f);
+        const float cosine = std::cos(static_cast<float>(std::numbers::pi) * psi);
+        const float groove = cosine * cosine * cosine * cosine;  // narrow, between the plies
         const float crown = std::sqrt(std::max(0.0f, 1.0f - a * a));
         const float across_mm = a * yarn.half_width_mm;
         const float fibres = detail::value_noise(s / 0.4f, across_mm / 0.05f, yarn.key);
@@ -242,8 +243,8 @@ Swatch make_swatch(const SwatchParams& params) {
   });
   raster = {};
 
-  // Fibres fill the creases where yarns meet, so no facet is a cliff.
-  const double sigma_px = spec.crease_fill_mm / px;
+  // Below a quarter pixel the blur would do nothing visible.
+  const double sigma_px = spec.smoothing_mm / px;
   if (sigma_px > 0.25) {
     cv::GaussianBlur(height, height, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REFLECT);
   }
