@@ -52,16 +52,18 @@ struct PatternSpec {
 
 // Physical figures. Knits are medium-gauge (about 14 gauge) knitwear:
 // - 2/30 Nm yarn (66 tex) packed at about 0.5 g/cm^3 has a diameter of
-//   sqrt(4 tex / (pi rho)) ~ 0.41 mm;
+//   sqrt(4 tex / (pi rho)) ~ 0.41 mm; knitted, it flattens to ~1.2x as wide;
 // - relaxed plain knit has about 7 wales/cm and, at Munden's dry-relaxed
 //   courses-to-wales ratio of about 1.3, about 9 courses/cm;
 // - 2-ply yarn has about 7 turns/cm of ply twist (a turn every 1.4 mm);
-// - garter has about 1.5x the courses of jersey at the same stitch (knit
-//   and purl courses nest), so its ridges come every 2 courses;
-// - a 1x1 rib draws in: the purl wales sink behind the knit wales.
+// - a 1x1 rib draws in: the purl wales (0.5 mm) sink behind the knit wales
+//   (1.3 mm), about 5.5 ribs/cm;
+// - garter in a heavier wool (0.48 mm): its row gauge is about twice its
+//   stitch gauge (say 20 stitches x 40 rows per 10 cm), here 6.25 wales and
+//   12.5 courses per cm, and a ridge every 2 courses.
 // Woven cloth:
 // - plain: a sheeting of Ne 16 yarn (37 tex, d ~ 1/(28 sqrt(Ne)) in ~ 0.23 mm
-//   by Peirce) at 24 ends x 22 picks per cm, flattened to ~1.5x as wide as thick;
+//   by Peirce) at 24 ends x 22 picks per cm, flattened to ~2x as wide as thick;
 // - twill: denim, Ne 7 warp (0.34 mm) at 26 ends/cm and Ne 10 weft (0.29 mm)
 //   at 19 picks/cm, an indigo warp over an undyed weft.
 PatternSpec spec_for(SwatchPattern pattern) {
