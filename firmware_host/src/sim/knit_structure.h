@@ -169,7 +169,7 @@ struct Layout {
       }
     }
     Yarn yarn;
-    yarn.path = sample_catmull_rom(keys, 0.3, 5.0 * std::numbers::pi / 180.0);
+    yarn.path = sample_catmull_rom(keys, 0.3, 7.0 * std::numbers::pi / 180.0);
     yarn.half_width_mm = spec.half_width * spec.yarn_diameter_mm;
     yarn.half_height_mm = spec.half_height * spec.yarn_diameter_mm;
     yarns.push_back(std::move(yarn));

@@ -233,12 +233,13 @@ Swatch make_swatch(const SwatchParams& params) {
         const float groove = cosine * cosine * cosine * cosine;  // narrow, between the plies
         const float crown = std::sqrt(std::max(0.0f, 1.0f - a * a));
         const float across_mm = a * yarn.half_width_mm;
+        // Fibres run along the yarn: texture stretched along it, fine across it,
+        // a little proud and a little lighter where they bunch.
         const float fibres = detail::value_noise(s / 0.4f, across_mm / 0.05f, yarn.key);
         h[c] = top[c] - static_cast<float>(look.groove_mm) * groove * crown +
                static_cast<float>(spec.fibre_relief_mm) * fibres;
         const bool odd_ply = (static_cast<std::int64_t>(nearest) & 1) != 0;
-        const float streaks = detail::value_noise(s / 0.3f, across_mm / 0.025f, yarn.key ^ 0xF1B3E);
-        const float variation = (odd_ply ? 1.025f : 0.975f) * (1.0f + 0.035f * streaks);
+        const float variation = (odd_ply ? 1.025f : 0.975f) * (1.0f + 0.035f * fibres);
         albedo[c] = yarn.bgr * variation;
       }
     }
