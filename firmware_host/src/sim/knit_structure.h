@@ -11,6 +11,7 @@
 
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
 #include <numbers>
 #include <utility>
@@ -118,8 +119,8 @@ struct Layout {
   const double x_phase = 0.5 * (jitter(seed, 1) + 1.0) * 2.0 * pitch;
   const double y_phase = 0.5 * (jitter(seed, 2) + 1.0) * 2.0 * spec.course_mm;
   const double y_base = extent.height + y_phase;
-  const auto wale_begin = static_cast<std::int64_t>(std::floor(-x_phase / pitch)) - 3;
-  const auto wale_end = static_cast<std::int64_t>(std::ceil((extent.width - x_phase) / pitch)) + 3;
+  const std::int64_t wale_begin = -3;
+  const auto wale_end = static_cast<std::int64_t>(std::ceil((extent.width + x_phase) / pitch)) + 3;
   const auto course_end = static_cast<std::int64_t>(std::ceil(y_base / spec.course_mm)) + 3;
 
   // Small per-loop variation: loops are never quite identical in real knits.
@@ -132,7 +133,7 @@ struct Layout {
     const std::uint64_t course_key = hash_of(seed, 0x6B6E6974, j);  // "knit"
     std::vector<YarnVertex> keys;
     const auto place = [&](double x, double v, double z, std::int64_t i, std::int64_t k) {
-      keys.push_back({x + kJitterUV * pitch * jitter(course_key, i, k, 1),
+      keys.push_back({x - x_phase + kJitterUV * pitch * jitter(course_key, i, k, 1),
                       y_base - (static_cast<double>(j) + v) * spec.course_mm +
                           kJitterUV * spec.course_mm * jitter(course_key, i, k, 2),
                       radius * (z + kJitterZ * jitter(course_key, i, k, 3))});
@@ -168,7 +169,7 @@ struct Layout {
       }
     }
     Yarn yarn;
-    yarn.path = sample_catmull_rom(keys, 0.3, 5.0 * std::numbers::pi / 180.0);
+    yarn.path = sample_catmull_rom(keys, 0.3, 7.0 * std::numbers::pi / 180.0);
     yarn.half_width_mm = spec.half_width * spec.yarn_diameter_mm;
     yarn.half_height_mm = spec.half_height * spec.yarn_diameter_mm;
     yarns.push_back(std::move(yarn));

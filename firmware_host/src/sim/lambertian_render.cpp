@@ -10,14 +10,17 @@ namespace {
 constexpr double kOverhead = 1e-9;
 
 float bilinear(const cv::Mat& height, float x, float y) {
-  const int x0 = std::min(static_cast<int>(x), height.cols - 2);
-  const int y0 = std::min(static_cast<int>(y), height.rows - 2);
+  // x and y are within the image, so the far neighbour is clamped only at its last pixel.
+  const int x0 = static_cast<int>(x);
+  const int y0 = static_cast<int>(y);
+  const int x1 = std::min(x0 + 1, height.cols - 1);
+  const int y1 = std::min(y0 + 1, height.rows - 1);
   const float fx = x - static_cast<float>(x0);
   const float fy = y - static_cast<float>(y0);
-  const auto* a = height.ptr<float>(y0) + x0;
-  const auto* b = height.ptr<float>(y0 + 1) + x0;
-  const float top = a[0] + fx * (a[1] - a[0]);
-  const float bottom = b[0] + fx * (b[1] - b[0]);
+  const auto* a = height.ptr<float>(y0);
+  const auto* b = height.ptr<float>(y1);
+  const float top = a[x0] + fx * (a[x1] - a[x0]);
+  const float bottom = b[x0] + fx * (b[x1] - b[x0]);
   return top + fy * (bottom - top);
 }
 
@@ -33,9 +36,7 @@ cv::Mat cast_shadow_mask(const cv::Mat& height_mm, double pixel_size_mm,
     mask.setTo(255);  // a light at or below the swatch's plane lights nothing
     return mask;
   }
-  if (horizontal < kOverhead * direction[2] || height_mm.rows < 2 || height_mm.cols < 2) {
-    return mask;
-  }
+  if (horizontal < kOverhead * direction[2]) return mask;
   double highest = 0;
   cv::minMaxLoc(height_mm, nullptr, &highest);
 
@@ -53,14 +54,11 @@ cv::Mat cast_shadow_mask(const cv::Mat& height_mm, double pixel_size_mm,
       const auto* h = height_mm.ptr<float>(r);
       auto* out = mask.ptr<std::uint8_t>(r);
       for (int c = 0; c < height_mm.cols; ++c) {
-        float x = static_cast<float>(c);
-        float y = static_cast<float>(r);
-        float z = h[c];
         for (int k = 1;; ++k) {
           // Recomputed from the start, not accumulated, so long rays keep their aim.
-          x = static_cast<float>(c) + static_cast<float>(k) * dx;
-          y = static_cast<float>(r) + static_cast<float>(k) * dy;
-          z = h[c] + static_cast<float>(k) * dz;
+          const float x = static_cast<float>(c) + static_cast<float>(k) * dx;
+          const float y = static_cast<float>(r) + static_cast<float>(k) * dy;
+          const float z = h[c] + static_cast<float>(k) * dz;
           if (z > top || x < 0 || y < 0 || x > xmax || y > ymax) break;
           if (bilinear(height_mm, x, y) > z) {
             out[c] = 255;

@@ -46,22 +46,24 @@ struct PatternSpec {
   detail::WeaveSpec weave;
   YarnLook yarn;  // knits: the yarn; woven: the warp
   YarnLook weft;
-  double crease_fill_mm;   // smoothing that stands in for fibres filling the creases
+  double smoothing_mm;  // yarn surfaces are soft: a light blur rounds the kinks where sections meet
   double fibre_relief_mm;  // amplitude of fibre-scale roughness
 };
 
 // Physical figures. Knits are medium-gauge (about 14 gauge) knitwear:
 // - 2/30 Nm yarn (66 tex) packed at about 0.5 g/cm^3 has a diameter of
-//   sqrt(4 tex / (pi rho)) ~ 0.41 mm;
+//   sqrt(4 tex / (pi rho)) ~ 0.41 mm; knitted, it flattens to ~1.2x as wide;
 // - relaxed plain knit has about 7 wales/cm and, at Munden's dry-relaxed
 //   courses-to-wales ratio of about 1.3, about 9 courses/cm;
 // - 2-ply yarn has about 7 turns/cm of ply twist (a turn every 1.4 mm);
-// - garter has about 1.5x the courses of jersey at the same stitch (knit
-//   and purl courses nest), so its ridges come every 2 courses;
-// - a 1x1 rib draws in: the purl wales sink behind the knit wales.
+// - a 1x1 rib draws in: the purl wales (0.5 mm) sink behind the knit wales
+//   (1.3 mm), about 5.5 ribs/cm;
+// - garter in a heavier wool (0.48 mm): its row gauge is about twice its
+//   stitch gauge (say 20 stitches x 40 rows per 10 cm), here 6.25 wales and
+//   12.5 courses per cm, and a ridge every 2 courses.
 // Woven cloth:
 // - plain: a sheeting of Ne 16 yarn (37 tex, d ~ 1/(28 sqrt(Ne)) in ~ 0.23 mm
-//   by Peirce) at 24 ends x 22 picks per cm, flattened to ~1.5x as wide as thick;
+//   by Peirce) at 24 ends x 22 picks per cm, flattened to ~2x as wide as thick;
 // - twill: denim, Ne 7 warp (0.34 mm) at 26 ends/cm and Ne 10 weft (0.29 mm)
 //   at 19 picks/cm, an indigo warp over an undyed weft.
 PatternSpec spec_for(SwatchPattern pattern) {
@@ -94,7 +96,7 @@ PatternSpec spec_for(SwatchPattern pattern) {
       spec.weft = {{0.72f, 0.78f, 0.80f}, 1.0, 2, 0.012};
       break;
   }
-  spec.crease_fill_mm = spec.knitted ? 0.02 : 0.015;
+  spec.smoothing_mm = spec.knitted ? 0.02 : 0.015;
   spec.fibre_relief_mm = spec.knitted ? 0.006 : 0.004;
   return spec;
 }
@@ -149,7 +151,7 @@ std::string_view to_string(SwatchPattern pattern) {
   for (const auto& [n, p] : kNames) {
     if (p == pattern) return n;
   }
-  return "jersey";
+  return "unknown";
 }
 
 Swatch make_swatch(const SwatchParams& params) {
@@ -227,23 +229,25 @@ Swatch make_swatch(const SwatchParams& params) {
                             std::asin(a) * static_cast<float>(0.5 / std::numbers::pi);
         const float psi = static_cast<float>(look.plies) * turns;
         const float nearest = std::floor(psi + 0.5f);
-        const float groove = std::pow(std::cos(static_cast<float>(std::numbers::pi) * psi), 4.0f);
+        const float cosine = std::cos(static_cast<float>(std::numbers::pi) * psi);
+        const float groove = cosine * cosine * cosine * cosine;  // narrow, between the plies
         const float crown = std::sqrt(std::max(0.0f, 1.0f - a * a));
         const float across_mm = a * yarn.half_width_mm;
+        // Fibres run along the yarn: texture stretched along it, fine across it,
+        // a little proud and a little lighter where they bunch.
         const float fibres = detail::value_noise(s / 0.4f, across_mm / 0.05f, yarn.key);
         h[c] = top[c] - static_cast<float>(look.groove_mm) * groove * crown +
                static_cast<float>(spec.fibre_relief_mm) * fibres;
         const bool odd_ply = (static_cast<std::int64_t>(nearest) & 1) != 0;
-        const float streaks = detail::value_noise(s / 0.3f, across_mm / 0.025f, yarn.key ^ 0xF1B3E);
-        const float variation = (odd_ply ? 1.025f : 0.975f) * (1.0f + 0.035f * streaks);
+        const float variation = (odd_ply ? 1.025f : 0.975f) * (1.0f + 0.035f * fibres);
         albedo[c] = yarn.bgr * variation;
       }
     }
   });
   raster = {};
 
-  // Fibres fill the creases where yarns meet, so no facet is a cliff.
-  const double sigma_px = spec.crease_fill_mm / px;
+  // Below a quarter pixel the blur would do nothing visible.
+  const double sigma_px = spec.smoothing_mm / px;
   if (sigma_px > 0.25) {
     cv::GaussianBlur(height, height, cv::Size(0, 0), sigma_px, sigma_px, cv::BORDER_REFLECT);
   }

@@ -18,7 +18,11 @@ struct DistantLight {
 [[nodiscard]] cv::Mat render_lambertian(const Swatch& swatch, const DistantLight& light,
                                         bool cast_shadows = true);
 
-// CV_8U, 255 where the height field blocks the light from that pixel.
+// CV_8U, 255 where the height field blocks the light from that pixel: a ray
+// marched toward the light in half-pixel steps over the bilinear height
+// meets higher ground before it rises above the field or leaves the image.
+// An overhead light casts no shadow; one at or below the swatch's plane
+// (direction z <= 0) is blocked everywhere.
 [[nodiscard]] cv::Mat cast_shadow_mask(const cv::Mat& height_mm, double pixel_size_mm,
                                        const cv::Vec3d& direction);
 
