@@ -1,55 +1,162 @@
 #include "psrig/processing/evaluation.h"
 
 #include <algorithm>
+#include <array>
+#include <bit>
 #include <cmath>
+#include <cstdint>
 #include <numbers>
+#include <vector>
 
 #include "psrig/processing/parallel.h"
+#include "psrig/processing/woodham.h"
 
 namespace psrig::processing {
 namespace {
 
-constexpr int kRowsPerChunk = 16;
+constexpr int kRowsPerChunk = 32;
 
-// Values selected from `values`, in row-major order (so the result, and
-// every statistic of it, is the same whatever the thread count).
-std::vector<float> selected(const cv::Mat& values, const cv::Mat& select) {
-  std::vector<float> out;
-  out.reserve(values.total());
+// Sums per fixed row chunk, added up in chunk order: reproducible.
+template <class Partial, class Body, class Combine>
+Partial reduce_rows(int rows, Body body, Combine combine, int chunk_rows = kRowsPerChunk) {
+  std::vector<Partial> partials(chunk_count(rows, chunk_rows));
+  parallel_chunks(rows, chunk_rows, [&](int begin, int end) { body(begin, end, partials[begin / chunk_rows]); });
+  Partial total{};
+  for (const auto& partial : partials) combine(total, partial);
+  return total;
+}
+
+// Floats to unsigned keys in the same order, so quantiles can be found by
+// counting key prefixes instead of sorting.
+std::uint32_t order_key(float value) {
+  const auto bits = std::bit_cast<std::uint32_t>(value);
+  return bits & 0x80000000u ? ~bits : bits | 0x80000000u;
+}
+float from_order_key(std::uint32_t key) {
+  return std::bit_cast<float>(key & 0x80000000u ? key & 0x7FFFFFFFu : ~key);
+}
+
+bool selected_at(const std::uint8_t* select_row, int c) { return !select_row || select_row[c]; }
+
+// The k-th smallest (0-based) selected finite values for each k in `ranks`
+// (ascending): one histogram of the top 16 key bits finds each rank's
+// bucket, a second pass sorts just those buckets' members.
+std::vector<float> kth_smallest(const cv::Mat& values, const cv::Mat& select, const std::vector<std::size_t>& ranks) {
+  using Histogram = std::vector<std::size_t>;
+  const Histogram histogram = reduce_rows<Histogram>(
+      values.rows,
+      [&](int begin, int end, Histogram& h) {
+        h.assign(1 << 16, 0);
+        for (int r = begin; r < end; ++r) {
+          const float* v = values.ptr<float>(r);
+          const std::uint8_t* s = select.empty() ? nullptr : select.ptr<std::uint8_t>(r);
+          for (int c = 0; c < values.cols; ++c)
+            if (selected_at(s, c) && std::isfinite(v[c])) ++h[order_key(v[c]) >> 16];
+        }
+      },
+      [](Histogram& total, const Histogram& h) {
+        if (total.empty()) total.assign(1 << 16, 0);
+        for (std::size_t i = 0; i < h.size(); ++i) total[i] += h[i];
+      },
+      // Counts are exact in any order, so a few large chunks keep the
+      // half-megabyte histograms few.
+      std::max(1, values.rows / 8 + 1));
+
+  std::vector<std::uint32_t> buckets;  // per rank
+  std::vector<std::size_t> below;      // values in lower buckets, per rank
+  std::uint32_t bucket = 0;
+  std::size_t counted = 0;
+  for (std::size_t k : ranks) {
+    while (counted + histogram[bucket] <= k) counted += histogram[bucket++];
+    buckets.push_back(bucket);
+    below.push_back(counted);
+  }
+  std::vector<std::vector<float>> members(ranks.size());
   for (int r = 0; r < values.rows; ++r) {
     const float* v = values.ptr<float>(r);
     const std::uint8_t* s = select.empty() ? nullptr : select.ptr<std::uint8_t>(r);
-    for (int c = 0; c < values.cols; ++c)
-      if (!s || s[c]) out.push_back(v[c]);
+    for (int c = 0; c < values.cols; ++c) {
+      if (!selected_at(s, c) || !std::isfinite(v[c])) continue;
+      const std::uint32_t key = order_key(v[c]) >> 16;
+      for (std::size_t i = 0; i < ranks.size(); ++i)
+        if (key == buckets[i]) members[i].push_back(v[c]);
+    }
   }
-  return out;
-}
-
-double quantile(std::vector<float>& values, double fraction) {
-  const auto k = static_cast<std::size_t>(std::llround(fraction * static_cast<double>(values.size() - 1)));
-  std::nth_element(values.begin(), values.begin() + static_cast<std::ptrdiff_t>(k), values.end());
-  return values[k];
+  std::vector<float> result;
+  for (std::size_t i = 0; i < ranks.size(); ++i) {
+    const auto nth = members[i].begin() + static_cast<std::ptrdiff_t>(ranks[i] - below[i]);
+    std::nth_element(members[i].begin(), nth, members[i].end());
+    result.push_back(*nth);
+  }
+  return result;
 }
 
 }  // namespace
 
 Distribution describe(const cv::Mat& values, const cv::Mat& select) {
-  std::vector<float> v = selected(values, select);
+  struct Sums {
+    std::size_t count = 0;
+    double sum = 0, squares = 0;
+    std::uint32_t largest = 0;
+  };
+  const Sums sums = reduce_rows<Sums>(
+      values.rows,
+      [&](int begin, int end, Sums& out) {
+        for (int r = begin; r < end; ++r) {
+          const float* v = values.ptr<float>(r);
+          const std::uint8_t* s = select.empty() ? nullptr : select.ptr<std::uint8_t>(r);
+          for (int c = 0; c < values.cols; ++c) {
+            if (!selected_at(s, c) || !std::isfinite(v[c])) continue;
+            ++out.count;
+            out.sum += v[c];
+            out.squares += static_cast<double>(v[c]) * v[c];
+            out.largest = std::max(out.largest, order_key(v[c]));
+          }
+        }
+      },
+      [](Sums& total, const Sums& s) {
+        total.count += s.count;
+        total.sum += s.sum;
+        total.squares += s.squares;
+        total.largest = std::max(total.largest, s.largest);
+      });
   Distribution d;
-  d.count = v.size();
-  if (v.empty()) return d;
-  double sum = 0, squares = 0, largest = v.front();
-  for (float x : v) {
-    sum += x;
-    squares += static_cast<double>(x) * x;
-    largest = std::max<double>(largest, x);
-  }
-  d.mean = sum / static_cast<double>(v.size());
-  d.rms = std::sqrt(squares / static_cast<double>(v.size()));
-  d.max = largest;
-  d.p95 = quantile(v, 0.95);
-  d.median = quantile(v, 0.5);
+  d.count = sums.count;
+  if (d.count == 0) return d;
+  const auto n = static_cast<double>(d.count);
+  d.mean = sums.sum / n;
+  d.rms = std::sqrt(sums.squares / n);
+  d.max = from_order_key(sums.largest);
+  const auto rank = [&](double fraction) { return static_cast<std::size_t>(std::llround(fraction * (n - 1))); };
+  const auto quantiles = kth_smallest(values, select, {rank(0.5), rank(0.95)});
+  d.median = quantiles[0];
+  d.p95 = quantiles[1];
   return d;
+}
+
+PixelCounts count_pixels(const cv::Mat& flags) {
+  return reduce_rows<PixelCounts>(
+      flags.rows,
+      [&](int begin, int end, PixelCounts& n) {
+        for (int r = begin; r < end; ++r) {
+          const std::uint8_t* f = flags.ptr<std::uint8_t>(r);
+          for (int c = 0; c < flags.cols; ++c) {
+            ++n.total;
+            n.valid += is_valid(f[c]);
+            n.outside_mask += (f[c] & kOutsideMask) != 0;
+            n.saturated += (f[c] & kSaturated) != 0;
+            n.shadowed += (f[c] & kShadowed) != 0;
+            n.low_signal += (f[c] & kLowSignal) != 0;
+            n.no_solution += (f[c] & kNoSolution) != 0;
+            n.recovered += (f[c] & kRecovered) != 0;
+          }
+        }
+      },
+      [](PixelCounts& t, const PixelCounts& n) {
+        t.total += n.total, t.valid += n.valid, t.outside_mask += n.outside_mask, t.saturated += n.saturated;
+        t.shadowed += n.shadowed, t.low_signal += n.low_signal, t.no_solution += n.no_solution;
+        t.recovered += n.recovered;
+      });
 }
 
 cv::Mat angular_error_deg(const cv::Mat& p, const cv::Mat& q, const cv::Mat& truth) {
@@ -61,12 +168,12 @@ cv::Mat angular_error_deg(const cv::Mat& p, const cv::Mat& q, const cv::Mat& tru
       const float* t = truth.ptr<float>(r);
       float* e = error.ptr<float>(r);
       for (int c = 0; c < p.cols; ++c) {
-        const double nx = -pr[c], ny = -qr[c], nz = 1;
-        const double tx = t[3 * c], ty = t[3 * c + 1], tz = t[3 * c + 2];
+        const float nx = -pr[c], ny = -qr[c], nz = 1;
+        const float tx = t[3 * c], ty = t[3 * c + 1], tz = t[3 * c + 2];
         // atan2 of |cross| and dot stays accurate for tiny angles, unlike acos.
-        const double cx = ny * tz - nz * ty, cy = nz * tx - nx * tz, cz = nx * ty - ny * tx;
-        const double angle = std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), nx * tx + ny * ty + nz * tz);
-        e[c] = static_cast<float>(angle * 180 / std::numbers::pi);
+        const float cx = ny * tz - nz * ty, cy = nz * tx - nx * tz, cz = nx * ty - ny * tx;
+        const float angle = std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), nx * tx + ny * ty + nz * tz);
+        e[c] = angle * static_cast<float>(180 / std::numbers::pi);
       }
     }
   });
@@ -74,34 +181,42 @@ cv::Mat angular_error_deg(const cv::Mat& p, const cv::Mat& q, const cv::Mat& tru
 }
 
 double mean_abs_curl(const cv::Mat& p, const cv::Mat& q, const cv::Mat& select) {
-  double sum = 0;
-  std::size_t count = 0;
-  for (int r = 1; r + 1 < p.rows; ++r) {
-    const std::uint8_t* above = select.ptr<std::uint8_t>(r - 1);
-    const std::uint8_t* here = select.ptr<std::uint8_t>(r);
-    const std::uint8_t* below = select.ptr<std::uint8_t>(r + 1);
-    for (int c = 1; c + 1 < p.cols; ++c) {
-      if (!(here[c] && above[c] && below[c] && here[c - 1] && here[c + 1])) continue;
-      // y grows toward the top, i.e. toward row r - 1.
-      const double dp_dy = (p.at<float>(r - 1, c) - p.at<float>(r + 1, c)) / 2;
-      const double dq_dx = (q.at<float>(r, c + 1) - q.at<float>(r, c - 1)) / 2;
-      sum += std::abs(dp_dy - dq_dx);
-      ++count;
-    }
-  }
-  return count ? sum / static_cast<double>(count) : 0;
+  struct Sums {
+    double sum = 0;
+    std::size_t count = 0;
+  };
+  const Sums sums = reduce_rows<Sums>(
+      p.rows,
+      [&](int begin, int end, Sums& out) {
+        for (int r = std::max(begin, 1); r < std::min(end, p.rows - 1); ++r) {
+          const std::uint8_t* above = select.ptr<std::uint8_t>(r - 1);
+          const std::uint8_t* here = select.ptr<std::uint8_t>(r);
+          const std::uint8_t* below = select.ptr<std::uint8_t>(r + 1);
+          const float* p_above = p.ptr<float>(r - 1);
+          const float* p_below = p.ptr<float>(r + 1);
+          const float* q_here = q.ptr<float>(r);
+          for (int c = 1; c + 1 < p.cols; ++c) {
+            if (!(here[c] && above[c] && below[c] && here[c - 1] && here[c + 1])) continue;
+            // y grows toward the top, i.e. toward row r - 1.
+            const double dp_dy = (p_above[c] - p_below[c]) / 2.0;
+            const double dq_dx = (q_here[c + 1] - q_here[c - 1]) / 2.0;
+            out.sum += std::abs(dp_dy - dq_dx);
+            ++out.count;
+          }
+        }
+      },
+      [](Sums& total, const Sums& s) {
+        total.sum += s.sum;
+        total.count += s.count;
+      });
+  return sums.count ? sums.sum / static_cast<double>(sums.count) : 0;
 }
 
 double height_rms_error(const cv::Mat& height, const cv::Mat& truth, const cv::Mat& select) {
-  cv::Mat difference = height - truth;
-  std::vector<float> d = selected(difference, select);
-  if (d.empty()) return 0;
-  double sum = 0;
-  for (float x : d) sum += x;
-  const double mean = sum / static_cast<double>(d.size());
-  double squares = 0;
-  for (float x : d) squares += (x - mean) * (x - mean);
-  return std::sqrt(squares / static_cast<double>(d.size()));
+  const cv::Mat difference = height - truth;
+  const Distribution d = describe(difference, select);
+  // RMS about the mean: sqrt(E[d^2] - E[d]^2).
+  return std::sqrt(std::max(0.0, d.rms * d.rms - d.mean * d.mean));
 }
 
 }  // namespace psrig::processing

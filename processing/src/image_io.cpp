@@ -12,11 +12,12 @@
 namespace psrig::processing {
 namespace {
 
-bool is_png(const std::filesystem::path& file) {
+bool has_extension(const std::filesystem::path& file, const std::string& wanted) {
   std::string extension = file.extension().string();
   std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
-  return extension == ".png";
+  return extension == wanted;
 }
+bool is_png(const std::filesystem::path& file) { return has_extension(file, ".png"); }
 
 // OpenCV's PNG compression parameter, if given; psrig's default is the
 // fastest level that still compresses.
@@ -24,6 +25,23 @@ int png_level(const std::vector<int>& params) {
   for (std::size_t i = 0; i + 1 < params.size(); i += 2)
     if (params[i] == cv::IMWRITE_PNG_COMPRESSION) return params[i + 1];
   return 1;
+}
+
+bool is_exr(const std::filesystem::path& file) { return has_extension(file, ".exr"); }
+
+// Float maps barely compress (ZIP saves ~3 % on 12 MP gradients and costs
+// ~1 s), so EXR files are written as 32-bit float, uncompressed, unless the
+// caller says otherwise.
+std::vector<int> with_exr_defaults(std::vector<int> params) {
+  const auto has = [&](int key) {
+    for (std::size_t i = 0; i + 1 < params.size(); i += 2)
+      if (params[i] == key) return true;
+    return false;
+  };
+  if (!has(cv::IMWRITE_EXR_TYPE)) params.insert(params.end(), {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_FLOAT});
+  if (!has(cv::IMWRITE_EXR_COMPRESSION))
+    params.insert(params.end(), {cv::IMWRITE_EXR_COMPRESSION, cv::IMWRITE_EXR_COMPRESSION_NO});
+  return params;
 }
 
 }  // namespace
@@ -54,7 +72,7 @@ Status write_image(const std::filesystem::path& file, const cv::Mat& image,
                    const std::vector<int>& params) {
   if (is_png(file) && png::can_write(image)) return png::write(file, image, png_level(params));
   try {
-    if (!cv::imwrite(file.string(), image, params))
+    if (!cv::imwrite(file.string(), image, is_exr(file) ? with_exr_defaults(params) : params))
       return std::unexpected(io_error(file, "cannot write image"));
   } catch (const cv::Exception& e) {
     return std::unexpected(io_error(file, std::string("cannot write image: ") + e.what()));
@@ -65,7 +83,7 @@ Status write_image(const std::filesystem::path& file, const cv::Mat& image,
 Status write_vector_exr(const std::filesystem::path& file, const cv::Mat& xyz) {
   cv::Mat zyx;
   cv::cvtColor(xyz, zyx, cv::COLOR_RGB2BGR);
-  return write_image(file, zyx, {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_FLOAT});
+  return write_image(file, zyx);
 }
 
 Result<cv::Mat> read_vector_exr(const std::filesystem::path& file, const std::string& key) {

@@ -1,5 +1,6 @@
 #include "psrig/processing/pipeline.h"
 
+
 #include <opencv2/imgcodecs.hpp>
 
 #include <chrono>
@@ -61,10 +62,12 @@ Status check_output(const fs::path& output) {
                                    "(choose another --out, or remove it)"));
 }
 
-const std::vector<int> kExrFloat = {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_FLOAT,
-                                    // Float gradients barely compress and ZIP costs ~1 s per
-                                    // 12 MP map; the maps are derived data, kept uncompressed.
-                                    cv::IMWRITE_EXR_COMPRESSION, cv::IMWRITE_EXR_COMPRESSION_NO};
+// Noisy 16-bit maps barely deflate (12 MP normals: 64 MB against 74 MB
+// stored) at ~0.4 s of CPU each; they are stored uncompressed.
+const std::vector<int> kStoredPng = {cv::IMWRITE_PNG_COMPRESSION, 0};
+// Half floats hold albedo (linear, about 0..1) to 1 part in 2000, at half
+// the bytes of the largest map.
+const std::vector<int> kHalfExr = {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_HALF};
 
 }  // namespace
 
@@ -88,15 +91,25 @@ Result<ProcessSummary> process_scan(const fs::path& scan_directory, const Proces
   if (!solved) return std::unexpected(solved.error());
   const SolveResult& result = *solved;
   stages.emplace_back("solve", ms_since(stage_start));
+  ReportInputs inputs;
+  inputs.scan = &*scan;
+  inputs.options = &options;
+  inputs.size = scan->size();
+  inputs.channels = scan->channels();
+  inputs.depth = scan->depth();
+  scan->frames.clear();  // their memory goes back before the maps are made
 
   stage_start = Clock::now();
-  GroundTruthSummary truth;
   const cv::Mat valid = encode_valid_mask(result.flags);
+  cv::Mat solved_pixels;
+  cv::compare(result.flags & (kOutsideMask | kLowSignal | kNoSolution), 0, solved_pixels, cv::CMP_EQ);
+  inputs.pixels = count_pixels(result.flags);
+  inputs.residual = describe(result.residual, solved_pixels);
+  inputs.mean_abs_curl = mean_abs_curl(result.p, result.q, valid);
+  GroundTruthSummary truth;
   if (!scan->ground_truth_normal.empty()) {
     const cv::Mat error = angular_error_deg(result.p, result.q, scan->ground_truth_normal);
     truth.angular_error_deg = describe(error, valid);
-    cv::Mat solved_pixels;
-    cv::compare(result.flags & (kOutsideMask | kLowSignal | kNoSolution), 0, solved_pixels, cv::CMP_EQ);
     truth.mean_angular_error_all_deg = describe(error, solved_pixels).mean;
   }
   stages.emplace_back("evaluate", ms_since(stage_start));
@@ -106,9 +119,13 @@ Result<ProcessSummary> process_scan(const fs::path& scan_directory, const Proces
   const double pixel_size = scan->description.pixel_size_mm.value_or(1.0);
   std::optional<HeightSummary> height_summary;
   double integrate_ms = 0;
-  std::vector<std::function<Status()>> tasks;
+  struct Task {
+    std::string name;
+    std::function<Status()> run;
+  };
+  std::vector<Task> tasks;
   if (options.integration != IntegrationMethod::none) {
-    tasks.emplace_back([&]() -> Status {
+    tasks.push_back({"integrate + height maps", [&]() -> Status {
       const auto integrate_start = Clock::now();
       auto height = integrate(options.integration, clamped_gradient(result.p), clamped_gradient(result.q));
       if (!height) return std::unexpected(height.error());
@@ -118,26 +135,32 @@ Result<ProcessSummary> process_scan(const fs::path& scan_directory, const Proces
       height_summary = HeightSummary{low, high, scan->description.pixel_size_mm ? "mm" : "px"};
       if (!scan->ground_truth_height.empty()) truth.height_rms_error = height_rms_error(*height, scan->ground_truth_height);
       integrate_ms = ms_since(integrate_start);
-      if (auto ok = write_image(dir / map_files::kHeightExr, *height, kExrFloat); !ok) return ok;
-      return write_image(dir / map_files::kHeightPng, encode_height16(*height, low, high));
-    });
+      log->debug("integration ({}): {:.0f} ms", to_string(options.integration), integrate_ms);
+      if (auto ok = write_image(dir / map_files::kHeightExr, *height); !ok) return ok;
+      return write_image(dir / map_files::kHeightPng, encode_height16(*height, low, high), kStoredPng);
+    }});
   }
-  tasks.emplace_back([&] { return write_image(dir / map_files::kNormalPng, encode_normal16(result.p, result.q)); });
-  tasks.emplace_back([&] { return write_image(dir / map_files::kAlbedoPng, encode_albedo_srgb8(result.albedo)); });
-  tasks.emplace_back([&] { return write_image(dir / map_files::kAlbedoExr, result.albedo, kExrFloat); });
-  tasks.emplace_back([&] { return write_image(dir / map_files::kP, result.p, kExrFloat); });
-  tasks.emplace_back([&] { return write_image(dir / map_files::kQ, result.q, kExrFloat); });
-  tasks.emplace_back([&] { return write_image(dir / map_files::kMask, valid); });
+  tasks.push_back({map_files::kNormalPng, [&] {
+                     return write_image(dir / map_files::kNormalPng, encode_normal16(result.p, result.q), kStoredPng);
+                   }});
+  tasks.push_back({map_files::kAlbedoPng,
+                   [&] { return write_image(dir / map_files::kAlbedoPng, encode_albedo_srgb8(result.albedo)); }});
+  tasks.push_back({map_files::kAlbedoExr, [&] { return write_image(dir / map_files::kAlbedoExr, result.albedo, kHalfExr); }});
+  tasks.push_back({map_files::kP, [&] { return write_image(dir / map_files::kP, result.p); }});
+  tasks.push_back({map_files::kQ, [&] { return write_image(dir / map_files::kQ, result.q); }});
+  tasks.push_back({map_files::kMask, [&] { return write_image(dir / map_files::kMask, valid); }});
 
   stage_start = Clock::now();
   std::vector<std::optional<Error>> errors(tasks.size());
   parallel_chunks(static_cast<int>(tasks.size()), 1, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
+      const auto task_start = Clock::now();
       try {
-        if (auto ok = tasks[i](); !ok) errors[i] = ok.error();
+        if (auto ok = tasks[i].run(); !ok) errors[i] = ok.error();
       } catch (const cv::Exception& e) {
         errors[i] = internal_error(std::string("OpenCV: ") + e.what());
       }
+      log->debug("{}: {:.0f} ms", tasks[i].name, ms_since(task_start));
     }
   });
   for (const auto& error : errors)
@@ -146,11 +169,6 @@ Result<ProcessSummary> process_scan(const fs::path& scan_directory, const Proces
   stages.emplace_back("integrate_and_write", ms_since(stage_start));
   stages.emplace_back("total", ms_since(start));
 
-  ReportInputs inputs;
-  inputs.scan = &*scan;
-  inputs.options = &options;
-  inputs.solve = &result;
-  inputs.valid = valid;
   inputs.height = height_summary;
   inputs.ground_truth = truth;
   inputs.stage_ms = stages;

@@ -1,6 +1,10 @@
 #include "png_codec.h"
 
+#include <fcntl.h>
 #include <libdeflate.h>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <array>
@@ -19,7 +23,6 @@ namespace {
 namespace fs = std::filesystem;
 
 constexpr std::array<std::uint8_t, 8> kSignature = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-constexpr std::size_t kIdatChunk = 1u << 22;  // 4 MiB: large, yet not one huge chunk
 constexpr int kRowsPerChunk = 32;
 
 std::uint32_t load_be32(const std::uint8_t* p) {
@@ -37,17 +40,36 @@ struct FileCloser {
 };
 using File = std::unique_ptr<std::FILE, FileCloser>;
 
-std::optional<std::vector<std::uint8_t>> read_file(const fs::path& file) {
-  File f(std::fopen(file.c_str(), "rb"));
-  if (!f) return std::nullopt;
-  std::vector<std::uint8_t> bytes;
-  std::error_code ec;
-  const auto size = fs::file_size(file, ec);
-  if (ec) return std::nullopt;
-  bytes.resize(size);
-  if (std::fread(bytes.data(), 1, size, f.get()) != size) return std::nullopt;
-  return bytes;
-}
+// A file mapped read-only: decoding reads it straight from the page cache,
+// with no buffer to allocate and fill.
+class MappedFile {
+ public:
+  explicit MappedFile(const fs::path& file) {
+    const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return;
+    struct stat info {};
+    if (::fstat(fd, &info) == 0 && info.st_size > 0) {
+      void* map = ::mmap(nullptr, static_cast<std::size_t>(info.st_size), PROT_READ, MAP_PRIVATE, fd, 0);
+      if (map != MAP_FAILED) {
+        data_ = static_cast<const std::uint8_t*>(map);
+        size_ = static_cast<std::size_t>(info.st_size);
+        ::madvise(map, size_, MADV_SEQUENTIAL);
+      }
+    }
+    ::close(fd);
+  }
+  ~MappedFile() {
+    if (data_) ::munmap(const_cast<std::uint8_t*>(data_), size_);
+  }
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  [[nodiscard]] const std::uint8_t* data() const { return data_; }
+  [[nodiscard]] std::size_t size() const { return size_; }
+
+ private:
+  const std::uint8_t* data_ = nullptr;
+  std::size_t size_ = 0;
+};
 
 // PNG's Paeth predictor (PNG specification, section 9.4).
 std::uint8_t paeth(int a, int b, int c) {
@@ -134,15 +156,15 @@ void subtract_row(std::uint8_t* __restrict row, const std::uint8_t* __restrict a
 }  // namespace
 
 std::optional<cv::Mat> read(const fs::path& file) {
-  auto bytes = read_file(file);
-  if (!bytes || bytes->size() < kSignature.size() + 12 + 13 ||
-      !std::equal(kSignature.begin(), kSignature.end(), bytes->begin()))
+  const MappedFile mapped(file);
+  const std::uint8_t* data = mapped.data();
+  const std::size_t size = mapped.size();
+  if (!data || size < kSignature.size() + 12 + 13 || !std::equal(kSignature.begin(), kSignature.end(), data))
     return std::nullopt;
 
-  // Walk the chunks, compacting the IDAT payloads in place at the front of
-  // the buffer (they are one zlib stream split across chunks).
-  std::uint8_t* data = bytes->data();
-  const std::size_t size = bytes->size();
+  // The IDAT payloads are one zlib stream split across chunks: used in
+  // place when there is one chunk (as psrig writes), gathered otherwise.
+  std::vector<std::pair<const std::uint8_t*, std::size_t>> idat;
   std::size_t at = kSignature.size(), compressed = 0;
   std::uint32_t width = 0, height = 0;
   int bit_depth = 0, colour_type = -1;
@@ -151,7 +173,7 @@ std::optional<cv::Mat> read(const fs::path& file) {
     const std::uint32_t length = load_be32(data + at);
     const std::uint8_t* type = data + at + 4;
     if (length > size - at - 12) return std::nullopt;
-    std::uint8_t* payload = data + at + 8;
+    const std::uint8_t* payload = data + at + 8;
     const bool critical = !(type[0] & 0x20);
     if (critical && libdeflate_crc32(0, type, length + 4) != load_be32(payload + length)) return std::nullopt;
     if (std::memcmp(type, "IHDR", 4) == 0) {
@@ -163,7 +185,7 @@ std::optional<cv::Mat> read(const fs::path& file) {
       if (payload[10] != 0 || payload[11] != 0 || payload[12] != 0) return std::nullopt;  // interlaced or unknown
       seen_header = true;
     } else if (std::memcmp(type, "IDAT", 4) == 0) {
-      std::memmove(data + compressed, payload, length);  // never overtakes the read position
+      idat.emplace_back(payload, length);
       compressed += length;
     } else if (std::memcmp(type, "tRNS", 4) == 0 || std::memcmp(type, "PLTE", 4) == 0) {
       return std::nullopt;  // transparency or palette: OpenCV's job
@@ -175,9 +197,17 @@ std::optional<cv::Mat> read(const fs::path& file) {
     }
     at += 12 + length;
   }
-  if (!seen_header || !seen_end || (bit_depth != 8 && bit_depth != 16) || (colour_type != 0 && colour_type != 2) ||
-      width == 0 || height == 0 || width > (1u << 16) || height > (1u << 16))
+  if (!seen_header || !seen_end || idat.empty() || (bit_depth != 8 && bit_depth != 16) ||
+      (colour_type != 0 && colour_type != 2) || width == 0 || height == 0 || width > (1u << 16) ||
+      height > (1u << 16))
     return std::nullopt;
+  std::vector<std::uint8_t> gathered;
+  const std::uint8_t* stream = idat.front().first;
+  if (idat.size() > 1) {
+    gathered.reserve(compressed);
+    for (const auto& [piece, length] : idat) gathered.insert(gathered.end(), piece, piece + length);
+    stream = gathered.data();
+  }
 
   const int channels = colour_type == 2 ? 3 : 1;
   const std::size_t bpp = static_cast<std::size_t>(channels) * (bit_depth / 8);
@@ -186,11 +216,12 @@ std::optional<cv::Mat> read(const fs::path& file) {
   std::unique_ptr<libdeflate_decompressor, decltype(&libdeflate_free_decompressor)> inflater(
       libdeflate_alloc_decompressor(), &libdeflate_free_decompressor);
   std::size_t produced = 0;
-  if (!inflater || libdeflate_zlib_decompress(inflater.get(), data, compressed, raw.data(), raw.size(), &produced) !=
-                       LIBDEFLATE_SUCCESS ||
+  if (!inflater ||
+      libdeflate_zlib_decompress(inflater.get(), stream, compressed, raw.data(), raw.size(), &produced) !=
+          LIBDEFLATE_SUCCESS ||
       produced != raw.size())
     return std::nullopt;
-  bytes.reset();
+  gathered = {};
 
   // Rows depend on the row above, so unfiltering runs in order.
   std::vector<std::uint8_t> zeros(row_bytes, 0);
@@ -218,68 +249,153 @@ bool can_write(const cv::Mat& image) {
          (image.channels() == 1 || image.channels() == 3);
 }
 
-Status write(const fs::path& file, const cv::Mat& image, int level) {
-  if (!can_write(image)) return std::unexpected(internal_error("png::write: unsupported image type"));
-  const bool sixteen = image.depth() == CV_16U;
-  const int channels = image.channels();
-  const std::size_t row_bytes = static_cast<std::size_t>(image.cols) * channels * (sixteen ? 2 : 1);
-  const std::size_t stride = row_bytes + 1;
-  std::vector<std::uint8_t> raw(image.rows * stride);
+namespace {
 
-  parallel_chunks(image.rows, kRowsPerChunk, [&](int begin, int end) {
-    for (int r = begin; r < end; ++r) {
-      std::uint8_t* out = raw.data() + static_cast<std::size_t>(r) * stride + 1;
-      if (sixteen && channels == 3) bgr16_to_rgb_be(image.ptr<std::uint16_t>(r), out, image.cols);
-      else if (sixteen) grey16_to_be(image.ptr<std::uint16_t>(r), out, image.cols);
-      else if (channels == 3) rgb8_to_bgr(image.ptr<std::uint8_t>(r), out, image.cols);  // the swap is symmetric
-      else std::memcpy(out, image.ptr(r), row_bytes);
+// Writes chunks to a file, computing each chunk's CRC as its bytes go by.
+class ChunkWriter {
+ public:
+  explicit ChunkWriter(const fs::path& file) : file_(std::fopen(file.c_str(), "wb")) {
+    if (file_) {
+      std::setvbuf(file_.get(), nullptr, _IOFBF, 1 << 20);
+      put(kSignature.data(), kSignature.size());
     }
-  });
-  // Stored data gains nothing from a filter; compressed data gains most
-  // from "Up" among the cheap ones. Bottom row first, so the row above is
-  // still unfiltered when it is subtracted.
-  const std::uint8_t filter = level > 0 ? 2 : 0;
-  for (int r = image.rows - 1; r >= 0; --r) {
-    raw[r * stride] = filter;
-    if (filter == 2 && r > 0) subtract_row(raw.data() + r * stride + 1, raw.data() + (r - 1) * stride + 1, row_bytes);
+  }
+  [[nodiscard]] bool ok() const { return file_ && ok_; }
+
+  void begin(const char* type, std::size_t length) {
+    std::uint8_t header[8];
+    store_be32(header, static_cast<std::uint32_t>(length));
+    std::memcpy(header + 4, type, 4);
+    put(header, 8);
+    crc_ = libdeflate_crc32(0, type, 4);
+  }
+  void data(const std::uint8_t* bytes, std::size_t n) {
+    if (n == 0) return;  // a null buffer would make libdeflate_crc32 return its initial value
+    crc_ = libdeflate_crc32(crc_, bytes, n);
+    put(bytes, n);
+  }
+  void end() {
+    std::uint8_t crc[4];
+    store_be32(crc, crc_);
+    put(crc, 4);
+  }
+  void chunk(const char* type, const std::uint8_t* bytes, std::size_t n) {
+    begin(type, n);
+    data(bytes, n);
+    end();
+  }
+  bool close() {
+    ok_ = ok_ && file_ && std::fflush(file_.get()) == 0;
+    return ok();
   }
 
+ private:
+  void put(const std::uint8_t* bytes, std::size_t n) {
+    ok_ = ok_ && file_ && std::fwrite(bytes, 1, n, file_.get()) == n;
+  }
+  File file_;
+  bool ok_ = true;
+  std::uint32_t crc_ = 0;
+};
+
+// One image row in PNG byte order (RGB, big-endian samples), filter byte first.
+void png_row(const cv::Mat& image, int r, std::uint8_t* out) {
+  const bool sixteen = image.depth() == CV_16U;
+  const int channels = image.channels();
+  if (sixteen && channels == 3) bgr16_to_rgb_be(image.ptr<std::uint16_t>(r), out, image.cols);
+  else if (sixteen) grey16_to_be(image.ptr<std::uint16_t>(r), out, image.cols);
+  else if (channels == 3) rgb8_to_bgr(image.ptr<std::uint8_t>(r), out, image.cols);  // the swap is symmetric
+  else std::memcpy(out, image.ptr(r), image.cols * image.elemSize());
+}
+
+// Level 0: a zlib stream of stored blocks, produced row by row straight
+// into one IDAT chunk, so no image-sized buffer is ever allocated.
+void write_stored(ChunkWriter& out, const cv::Mat& image) {
+  constexpr std::size_t kBlock = 65535;  // the most a stored block holds
+  const std::size_t row_bytes = image.cols * image.elemSize();
+  const std::size_t raw = static_cast<std::size_t>(image.rows) * (row_bytes + 1);
+  const std::size_t blocks = std::max<std::size_t>(1, (raw + kBlock - 1) / kBlock);
+  out.begin("IDAT", 2 + raw + 5 * blocks + 4);
+  const std::uint8_t zlib_header[2] = {0x78, 0x01};
+  out.data(zlib_header, 2);
+
+  std::vector<std::uint8_t> block(5 + kBlock);
+  std::size_t filled = 0, emitted = 0;
+  std::uint32_t adler = 1;
+  const auto flush = [&] {
+    emitted += filled;
+    block[0] = emitted == raw ? 1 : 0;  // BFINAL on the last block, type 00 (stored)
+    block[1] = static_cast<std::uint8_t>(filled);
+    block[2] = static_cast<std::uint8_t>(filled >> 8);
+    block[3] = static_cast<std::uint8_t>(~filled);
+    block[4] = static_cast<std::uint8_t>(~filled >> 8);
+    adler = libdeflate_adler32(adler, block.data() + 5, filled);
+    out.data(block.data(), 5 + filled);
+    filled = 0;
+  };
+  std::vector<std::uint8_t> row(row_bytes + 1, 0);  // filter type 0 (none): stored data gains nothing from one
+  for (int r = 0; r < image.rows; ++r) {
+    png_row(image, r, row.data() + 1);
+    for (std::size_t taken = 0; taken < row.size();) {
+      const std::size_t n = std::min(row.size() - taken, kBlock - filled);
+      std::memcpy(block.data() + 5 + filled, row.data() + taken, n);
+      filled += n;
+      taken += n;
+      if (filled == kBlock) flush();
+    }
+  }
+  if (filled > 0 || emitted < raw || raw == 0) flush();
+  std::uint8_t trailer[4];
+  store_be32(trailer, adler);
+  out.data(trailer, 4);
+  out.end();
+}
+
+// Level 1 and up: the whole filtered image compressed by libdeflate.
+Status write_compressed(ChunkWriter& out, const cv::Mat& image, int level) {
+  const std::size_t row_bytes = image.cols * image.elemSize();
+  const std::size_t stride = row_bytes + 1;
+  std::vector<std::uint8_t> raw(image.rows * stride);
+  parallel_chunks(image.rows, kRowsPerChunk, [&](int begin, int end) {
+    for (int r = begin; r < end; ++r) png_row(image, r, raw.data() + static_cast<std::size_t>(r) * stride + 1);
+  });
+  // "Up" is the cheap filter that helps most; bottom row first, so the row
+  // above is still unfiltered when it is subtracted.
+  for (int r = image.rows - 1; r >= 0; --r) {
+    raw[r * stride] = 2;
+    if (r > 0) subtract_row(raw.data() + r * stride + 1, raw.data() + (r - 1) * stride + 1, row_bytes);
+  }
   std::unique_ptr<libdeflate_compressor, decltype(&libdeflate_free_compressor)> deflater(
-      libdeflate_alloc_compressor(std::clamp(level, 0, 12)), &libdeflate_free_compressor);
+      libdeflate_alloc_compressor(std::clamp(level, 1, 12)), &libdeflate_free_compressor);
   if (!deflater) return std::unexpected(internal_error("png::write: cannot allocate a compressor"));
   std::vector<std::uint8_t> compressed(libdeflate_zlib_compress_bound(deflater.get(), raw.size()));
   const std::size_t length =
       libdeflate_zlib_compress(deflater.get(), raw.data(), raw.size(), compressed.data(), compressed.size());
   if (length == 0) return std::unexpected(internal_error("png::write: compression failed"));
-  raw = {};
+  out.chunk("IDAT", compressed.data(), length);  // one chunk: a reader can inflate it in place
+  return {};
+}
 
-  File f(std::fopen(file.c_str(), "wb"));
-  if (!f) return std::unexpected(io_error(file, std::string("cannot create: ") + std::strerror(errno)));
-  bool ok = std::fwrite(kSignature.data(), 1, kSignature.size(), f.get()) == kSignature.size();
-  const auto chunk = [&](const char* type, const std::uint8_t* payload, std::size_t n) {
-    std::uint8_t header[8];
-    store_be32(header, static_cast<std::uint32_t>(n));
-    std::memcpy(header + 4, type, 4);
-    // (A null buffer would make libdeflate_crc32 return the initial value.)
-    std::uint32_t checksum = libdeflate_crc32(0, header + 4, 4);
-    if (n > 0) checksum = libdeflate_crc32(checksum, payload, n);
-    std::uint8_t crc[4];
-    store_be32(crc, checksum);
-    ok = ok && std::fwrite(header, 1, 8, f.get()) == 8 && (n == 0 || std::fwrite(payload, 1, n, f.get()) == n) &&
-         std::fwrite(crc, 1, 4, f.get()) == 4;
-  };
+}  // namespace
+
+Status write(const fs::path& file, const cv::Mat& image, int level) {
+  if (!can_write(image)) return std::unexpected(internal_error("png::write: unsupported image type"));
+  ChunkWriter out(file);
+  if (!out.ok()) return std::unexpected(io_error(file, std::string("cannot create: ") + std::strerror(errno)));
   std::uint8_t header[13];
   store_be32(header, static_cast<std::uint32_t>(image.cols));
   store_be32(header + 4, static_cast<std::uint32_t>(image.rows));
-  header[8] = sixteen ? 16 : 8;
-  header[9] = channels == 3 ? 2 : 0;
+  header[8] = image.depth() == CV_16U ? 16 : 8;
+  header[9] = image.channels() == 3 ? 2 : 0;
   header[10] = header[11] = header[12] = 0;
-  chunk("IHDR", header, sizeof header);
-  for (std::size_t offset = 0; offset < length; offset += kIdatChunk)
-    chunk("IDAT", compressed.data() + offset, std::min(kIdatChunk, length - offset));
-  chunk("IEND", nullptr, 0);
-  ok = ok && std::fflush(f.get()) == 0;
-  if (!ok) return std::unexpected(io_error(file, std::string("cannot write: ") + std::strerror(errno)));
+  out.chunk("IHDR", header, sizeof header);
+  if (level <= 0) {
+    write_stored(out, image);
+  } else if (auto ok = write_compressed(out, image, level); !ok) {
+    return ok;
+  }
+  out.chunk("IEND", nullptr, 0);
+  if (!out.close()) return std::unexpected(io_error(file, std::string("cannot write: ") + std::strerror(errno)));
   return {};
 }
 

@@ -15,23 +15,10 @@ json distribution_json(const Distribution& d) {
 
 const char* depth_name(int depth) { return depth == CV_8U ? "8" : depth == CV_16U ? "16" : "32f"; }
 
-json pixel_counts(const cv::Mat& flags) {
-  std::size_t valid = 0, outside = 0, saturated = 0, shadowed = 0, low = 0, unsolved = 0, recovered = 0;
-  for (int r = 0; r < flags.rows; ++r) {
-    const std::uint8_t* f = flags.ptr<std::uint8_t>(r);
-    for (int c = 0; c < flags.cols; ++c) {
-      valid += is_valid(f[c]);
-      outside += (f[c] & kOutsideMask) != 0;
-      saturated += (f[c] & kSaturated) != 0;
-      shadowed += (f[c] & kShadowed) != 0;
-      low += (f[c] & kLowSignal) != 0;
-      unsolved += (f[c] & kNoSolution) != 0;
-      recovered += (f[c] & kRecovered) != 0;
-    }
-  }
-  return {{"total", flags.total()},          {"valid", valid},         {"masked", flags.total() - valid},
-          {"outside_mask", outside},         {"saturated", saturated}, {"shadowed", shadowed},
-          {"low_signal", low},               {"no_solution", unsolved}, {"recovered_by_rejection", recovered}};
+json pixel_counts(const PixelCounts& n) {
+  return {{"total", n.total},         {"valid", n.valid},           {"masked", n.total - n.valid},
+          {"outside_mask", n.outside_mask}, {"saturated", n.saturated}, {"shadowed", n.shadowed},
+          {"low_signal", n.low_signal}, {"no_solution", n.no_solution}, {"recovered_by_rejection", n.recovered}};
 }
 
 }  // namespace
@@ -44,9 +31,9 @@ json make_report(const ReportInputs& in) {
 
   json inputs = {{"scan", std::filesystem::absolute(d.directory).lexically_normal().string()},
                  {"sample", {{"id", d.sample_id}, {"description", d.sample_description}}},
-                 {"size", {scan.size().width, scan.size().height}},
-                 {"channels", scan.channels()},
-                 {"bit_depth", depth_name(scan.depth())},
+                 {"size", {in.size.width, in.size.height}},
+                 {"channels", in.channels},
+                 {"bit_depth", depth_name(in.depth)},
                  {"encoding", d.encoding == Encoding::srgb ? "srgb" : "linear"},
                  {"black_level", d.black_level},
                  {"white_level", scan.white_level},
@@ -76,13 +63,9 @@ json make_report(const ReportInputs& in) {
   for (const auto& l : matrix.directions) rows.push_back({l[0], l[1], l[2]});
   report["light_matrix"] = {{"directions", rows}, {"condition_number", matrix.condition_number}};
 
-  report["pixels"] = pixel_counts(in.solve->flags);
-
-  cv::Mat solved;
-  cv::compare(in.solve->flags & (kOutsideMask | kLowSignal | kNoSolution), 0, solved, cv::CMP_EQ);
-  const Distribution residual = describe(in.solve->residual, solved);
-  report["residual"] = {{"mean", residual.mean}, {"p95", residual.p95}, {"units", "fraction of full scale"}};
-  report["integrability"] = {{"mean_abs_curl", mean_abs_curl(in.solve->p, in.solve->q, in.valid)}};
+  report["pixels"] = pixel_counts(in.pixels);
+  report["residual"] = {{"mean", in.residual.mean}, {"p95", in.residual.p95}, {"units", "fraction of full scale"}};
+  report["integrability"] = {{"mean_abs_curl", in.mean_abs_curl}};
 
   if (in.height)
     report["height"] = {{"min", in.height->low},

@@ -42,35 +42,43 @@ struct Coefficients {
 };
 
 // --- Three lights: Woodham's exact inverse, the rig's case and the hot path.
-// Simple loops over one row, each left to the vectoriser. With g_k the
-// grey measurements and t = L^-1 g, L t = g exactly, so the shading of
-// light k is s_k = l_k.n = g_k/|t| and the per-channel least-squares albedo
-// rho_c = sum s_k m_kc / sum s_k^2 becomes |t| sum g_k m_kc / sum g_k^2.
+// Two fused loops over a row, left to the vectoriser (compiled for AVX2 and
+// AVX-512 too). With g_k the grey measurements and t = L^-1 g, L t = g
+// exactly, so the shading of light k is s_k = l_k.n = g_k/|t|, and the
+// per-channel least-squares albedo rho_c = sum s_k m_kc / sum s_k^2
+// becomes |t| w_c with w_c = sum g_k m_kc / sum g_k^2.
 
 struct ThreeLightInverse {
   float a[3][3];  // a[row][light]: t = a g
 };
 
-PSRIG_VECTOR_CLONES
-void mean_of_channels(const float* __restrict b, const float* __restrict g, const float* __restrict r,
-                      float* __restrict grey, int n) {
-  for (int i = 0; i < n; ++i) grey[i] = (b[i] + g[i] + r[i]) * (1.0f / 3.0f);
+// The measurement planes of one row: light k, channel c at m[k * C + c].
+template <int C>
+struct RowPlanes {
+  const float* __restrict m[3 * C];
+};
+
+template <int C>
+[[gnu::always_inline]] inline float grey(const RowPlanes<C>& planes, int k, int i) {
+  if constexpr (C == 1) {
+    return planes.m[k][i];
+  } else {
+    return (planes.m[3 * k][i] + planes.m[3 * k + 1][i] + planes.m[3 * k + 2][i]) * (1.0f / 3.0f);
+  }
 }
 
-PSRIG_VECTOR_CLONES
-void mask_to_float(const std::uint8_t* __restrict mask, float* __restrict inside, int n) {
-  for (int i = 0; i < n; ++i) inside[i] = mask[i] ? 1.0f : 0.0f;
-}
-
-// Scaled normal, gradients and what the albedo loop needs, per pixel.
-// code gets the kLowSignal, kNoSolution and kShadowed bits.
-PSRIG_VECTOR_CLONES
-void three_light_normals(const float* __restrict g0, const float* __restrict g1, const float* __restrict g2,
-                         const float* __restrict inside, ThreeLightInverse l, float shadow_ratio,
-                         float low_signal, float* __restrict p, float* __restrict q, float* __restrict length,
-                         float* __restrict inverse_energy, std::int32_t* __restrict code, int n) {
+// Scaled normal, gradients, and per pixel |t| and 1 / sum g^2 for the
+// albedo loop; code gets the kLowSignal, kNoSolution and kShadowed bits.
+// (Two loops rather than one: together they run out of vector registers.)
+template <int C>
+[[gnu::always_inline]] inline void three_light_normals(const RowPlanes<C>& planes, const std::uint8_t* __restrict mask,
+                                                       const ThreeLightInverse& l, float shadow_ratio, float low_signal,
+                                                       float* __restrict p, float* __restrict q,
+                                                       float* __restrict length, float* __restrict inverse_energy,
+                                                       std::uint8_t* __restrict code, int n) {
   for (int i = 0; i < n; ++i) {
-    const float x0 = g0[i] * inside[i], x1 = g1[i] * inside[i], x2 = g2[i] * inside[i];
+    const float inside = mask[i] ? 1.0f : 0.0f;
+    const float x0 = grey(planes, 0, i) * inside, x1 = grey(planes, 1, i) * inside, x2 = grey(planes, 2, i) * inside;
     const float tx = l.a[0][0] * x0 + l.a[0][1] * x1 + l.a[0][2] * x2;
     const float ty = l.a[1][0] * x0 + l.a[1][1] * x1 + l.a[1][2] * x2;
     const float tz = l.a[2][0] * x0 + l.a[2][1] * x1 + l.a[2][2] * x2;
@@ -81,52 +89,40 @@ void three_light_normals(const float* __restrict g0, const float* __restrict g1,
     const bool no_solution = !(tz > kMinNormalZ * t);
     const bool solved = !low && !no_solution;
     const bool shadowed = darkest < shadow_ratio * t;
-    const float energy = x0 * x0 + x1 * x1 + x2 * x2;
     const float inverse_tz = 1.0f / tz;
     p[i] = solved ? -tx * inverse_tz : 0.0f;
     q[i] = solved ? -ty * inverse_tz : 0.0f;
     length[i] = solved ? t : 0.0f;
-    inverse_energy[i] = solved ? 1.0f / energy : 0.0f;
-    code[i] = (low ? kLowSignal : 0) | (!low && no_solution ? kNoSolution : 0) | (solved && shadowed ? kShadowed : 0);
+    inverse_energy[i] = solved ? 1.0f / (x0 * x0 + x1 * x1 + x2 * x2) : 0.0f;
+    code[i] = static_cast<std::uint8_t>((low ? kLowSignal : 0) | (!low && no_solution ? kNoSolution : 0) |
+                                        (solved && shadowed ? kShadowed : 0));
   }
 }
 
-// One channel's albedo, and its share of the misfit sum_k (m_k - rho s_k)^2,
-// where rho s_k = w g_k with w = sum_k g_k m_k / sum_k g_k^2 (computed
-// directly: expanding the square cancels badly in float).
-PSRIG_VECTOR_CLONES
-void three_light_albedo(const float* __restrict g0, const float* __restrict g1, const float* __restrict g2,
-                        const float* __restrict m0, const float* __restrict m1, const float* __restrict m2,
-                        const float* __restrict length, const float* __restrict inverse_energy,
-                        float* __restrict albedo, float* __restrict misfit, int n) {
+// Per channel w = sum g m / sum g^2, albedo |t| w (interleaved, as the
+// output is), and the RMS misfit of m - w g over lights and channels
+// (computed directly: expanding the square cancels badly in float).
+template <int C>
+[[gnu::always_inline]] inline void three_light_albedo(const RowPlanes<C>& planes, const float* __restrict length,
+                                                      const float* __restrict inverse_energy,
+                                                      float* __restrict albedo, float* __restrict residual, int n) {
+  constexpr float kInverseTerms = 1.0f / (3 * C);
   for (int i = 0; i < n; ++i) {
-    const float w = (g0[i] * m0[i] + g1[i] * m1[i] + g2[i] * m2[i]) * inverse_energy[i];
-    const float e0 = m0[i] - w * g0[i], e1 = m1[i] - w * g1[i], e2 = m2[i] - w * g2[i];
-    albedo[i] = length[i] * w;
-    misfit[i] += e0 * e0 + e1 * e1 + e2 * e2;
+    const float g0 = grey(planes, 0, i), g1 = grey(planes, 1, i), g2 = grey(planes, 2, i);
+    float misfit = 0;
+    for (int c = 0; c < C; ++c) {
+      const float m0 = planes.m[c][i], m1 = planes.m[C + c][i], m2 = planes.m[2 * C + c][i];
+      const float w = (g0 * m0 + g1 * m1 + g2 * m2) * inverse_energy[i];
+      const float e0 = m0 - w * g0, e1 = m1 - w * g1, e2 = m2 - w * g2;
+      albedo[C * i + c] = length[i] * w;
+      misfit += e0 * e0 + e1 * e1 + e2 * e2;
+    }
+    residual[i] = length[i] > 0.0f ? std::sqrt(misfit * kInverseTerms) : 0.0f;
   }
 }
 
 PSRIG_VECTOR_CLONES
-void interleave(const float* __restrict b, const float* __restrict g, const float* __restrict r,
-                float* __restrict bgr, int n) {
-  for (int i = 0; i < n; ++i) {
-    bgr[3 * i] = b[i];
-    bgr[3 * i + 1] = g[i];
-    bgr[3 * i + 2] = r[i];
-  }
-}
-
-PSRIG_VECTOR_CLONES
-void finish_residual(const float* __restrict misfit, const float* __restrict length, float terms,
-                     float* __restrict residual, int n) {
-  const float inverse_terms = 1.0f / terms;
-  for (int i = 0; i < n; ++i)
-    residual[i] = length[i] > 0.0f ? std::sqrt(misfit[i] * inverse_terms) : 0.0f;
-}
-
-PSRIG_VECTOR_CLONES
-void three_light_flags(const std::int32_t* __restrict code, const std::uint8_t* __restrict mask,
+void three_light_flags(const std::uint8_t* __restrict code, const std::uint8_t* __restrict mask,
                        const std::uint8_t* __restrict s0, const std::uint8_t* __restrict s1,
                        const std::uint8_t* __restrict s2, std::uint8_t* __restrict flags, int n) {
   for (int i = 0; i < n; ++i) {
@@ -135,52 +131,46 @@ void three_light_flags(const std::int32_t* __restrict code, const std::uint8_t* 
   }
 }
 
-// Per-thread row buffers of the three-light path.
-struct ThreeLightScratch {
-  std::vector<float> grey, inside, length, inverse_energy, misfit, albedo;
-  std::vector<std::int32_t> code;
-  void resize(std::size_t cols, int channels) {
-    grey.resize(3 * cols);
-    inside.resize(cols);
-    length.resize(cols);
-    inverse_energy.resize(cols);
-    misfit.resize(cols);
-    albedo.resize(cols * channels);
-    code.resize(cols);
-  }
+// The loops, compiled per channel count and per ISA.
+struct ThreeLightRow {
+  const std::uint8_t* mask;
+  float *p, *q, *length, *inverse_energy, *albedo, *residual;
+  std::uint8_t* code;
+  int n;
 };
+// Everything by value: local copies no store in the loops can alias, so
+// the plane pointers and coefficients stay in registers.
+PSRIG_VECTOR_CLONES
+void solve_three_grey(RowPlanes<1> planes, ThreeLightInverse l, float shadow_ratio, float low_signal, ThreeLightRow r) {
+  three_light_normals(planes, r.mask, l, shadow_ratio, low_signal, r.p, r.q, r.length, r.inverse_energy, r.code, r.n);
+  three_light_albedo(planes, r.length, r.inverse_energy, r.albedo, r.residual, r.n);
+}
+PSRIG_VECTOR_CLONES
+void solve_three_colour(RowPlanes<3> planes, ThreeLightInverse l, float shadow_ratio, float low_signal, ThreeLightRow r) {
+  three_light_normals(planes, r.mask, l, shadow_ratio, low_signal, r.p, r.q, r.length, r.inverse_energy, r.code, r.n);
+  three_light_albedo(planes, r.length, r.inverse_energy, r.albedo, r.residual, r.n);
+}
 
 void solve_row_three(const RowData& row, const ThreeLightInverse& inverse, const SolveOptions& options) {
-  thread_local ThreeLightScratch scratch;
-  const int n = row.cols, channels = row.channels;
+  thread_local std::vector<float> length, inverse_energy;
+  thread_local std::vector<std::uint8_t> code;
+  const int n = row.cols;
   const std::size_t cols = static_cast<std::size_t>(n);
-  scratch.resize(cols, channels);
-  const auto plane = [&](int light, int channel) { return row.measurement + (light * channels + channel) * cols; };
-
-  const float* grey[3];
-  for (int k = 0; k < 3; ++k) {
-    if (channels == 1) {
-      grey[k] = plane(k, 0);
-    } else {
-      mean_of_channels(plane(k, 0), plane(k, 1), plane(k, 2), scratch.grey.data() + k * cols, n);
-      grey[k] = scratch.grey.data() + k * cols;
-    }
+  length.resize(cols);
+  inverse_energy.resize(cols);
+  code.resize(cols);
+  const ThreeLightRow out{row.mask, row.p, row.q, length.data(), inverse_energy.data(), row.albedo,
+                          row.residual, code.data(), n};
+  if (row.channels == 1) {
+    RowPlanes<1> planes{};
+    for (int j = 0; j < 3; ++j) planes.m[j] = row.measurement + j * cols;
+    solve_three_grey(planes, inverse, options.shadow_ratio, options.low_signal, out);
+  } else {
+    RowPlanes<3> planes{};
+    for (int j = 0; j < 9; ++j) planes.m[j] = row.measurement + j * cols;
+    solve_three_colour(planes, inverse, options.shadow_ratio, options.low_signal, out);
   }
-  mask_to_float(row.mask, scratch.inside.data(), n);
-  three_light_normals(grey[0], grey[1], grey[2], scratch.inside.data(), inverse, options.shadow_ratio,
-                      options.low_signal, row.p, row.q, scratch.length.data(), scratch.inverse_energy.data(),
-                      scratch.code.data(), n);
-  std::fill(scratch.misfit.begin(), scratch.misfit.end(), 0.0f);
-  for (int c = 0; c < channels; ++c) {
-    float* albedo = channels == 1 ? row.albedo : scratch.albedo.data() + c * cols;
-    three_light_albedo(grey[0], grey[1], grey[2], plane(0, c), plane(1, c), plane(2, c), scratch.length.data(),
-                       scratch.inverse_energy.data(), albedo, scratch.misfit.data(), n);
-  }
-  if (channels == 3)
-    interleave(scratch.albedo.data(), scratch.albedo.data() + cols, scratch.albedo.data() + 2 * cols, row.albedo, n);
-  finish_residual(scratch.misfit.data(), scratch.length.data(), static_cast<float>(3 * channels), row.residual, n);
-  three_light_flags(scratch.code.data(), row.mask, row.saturated, row.saturated + cols, row.saturated + 2 * cols,
-                    row.flags, n);
+  three_light_flags(code.data(), row.mask, row.saturated, row.saturated + cols, row.saturated + 2 * cols, row.flags, n);
 }
 
 // Solves t = A^-1 b for the symmetric 3x3 A by cofactors; false when A is

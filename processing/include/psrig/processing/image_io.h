@@ -16,7 +16,10 @@ namespace psrig::processing {
 // scan.json key that named the file, for the error message.
 [[nodiscard]] Result<cv::Mat> read_image(const std::filesystem::path& file, const std::string& key);
 
-// Writes with cv::imwrite; the format follows the extension.
+// Writes; the format follows the extension. PNG: 8/16-bit grey or colour
+// go through psrig's libdeflate path, compression level from
+// cv::IMWRITE_PNG_COMPRESSION (default 1). EXR: 32-bit float, uncompressed,
+// unless params say otherwise.
 [[nodiscard]] Status write_image(const std::filesystem::path& file, const cv::Mat& image,
                                  const std::vector<int>& params = {});
 

@@ -30,10 +30,14 @@ struct GroundTruthSummary {
 };
 
 struct ReportInputs {
-  const Scan* scan = nullptr;
+  const Scan* scan = nullptr;  // its frames may already be released
+  cv::Size size;               // of the frames
+  int channels = 0;
+  int depth = -1;
   const ProcessOptions* options = nullptr;
-  const SolveResult* solve = nullptr;
-  cv::Mat valid;  // CV_8U, 255 where the solve is valid
+  PixelCounts pixels;
+  Distribution residual;  // over solved pixels
+  double mean_abs_curl = 0;  // over valid pixels
   std::optional<HeightSummary> height;
   GroundTruthSummary ground_truth;
   std::vector<std::pair<std::string, double>> stage_ms;  // in the order they ran

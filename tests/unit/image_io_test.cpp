@@ -1,0 +1,113 @@
+// Image files: psrig's own PNG path must agree with OpenCV's both ways, and
+// damaged files must give errors, never crashes or wrong pixels.
+
+#include <gtest/gtest.h>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include <fstream>
+#include <random>
+
+#include "psrig/processing/image_io.h"
+#include "test_support.h"
+
+namespace psrig::processing {
+namespace {
+
+namespace fs = std::filesystem;
+
+cv::Mat random_image(int type, int seed) {
+  cv::Mat image(37, 53, type);  // odd sizes: no row is a multiple of anything
+  cv::RNG rng(seed);
+  rng.fill(image, cv::RNG::UNIFORM, 0, image.depth() == CV_8U ? 256 : 65536);
+  // A smooth part too, so the compressor has something to find.
+  image(cv::Rect(0, 0, 20, 20)).setTo(cv::Scalar::all(image.depth() == CV_8U ? 77 : 40000));
+  return image;
+}
+
+const int kTypes[] = {CV_8UC1, CV_8UC3, CV_16UC1, CV_16UC3};
+
+TEST(ImageIo, PngRoundTripsEveryTypeAtEveryLevel) {
+  test::TempDir temp;
+  for (int type : kTypes) {
+    const cv::Mat image = random_image(type, type);
+    for (int level : {0, 1, 6}) {
+      const fs::path file = temp / ("t" + std::to_string(type) + "_" + std::to_string(level) + ".png");
+      ASSERT_TRUE(write_image(file, image, {cv::IMWRITE_PNG_COMPRESSION, level}));
+      auto back = read_image(file, "test");
+      ASSERT_TRUE(back) << back.error().describe();
+      EXPECT_EQ(back->type(), type);
+      EXPECT_EQ(cv::norm(*back, image, cv::NORM_INF), 0) << "type " << type << " level " << level;
+      // OpenCV (libpng) reads what psrig wrote, channel order included.
+      const cv::Mat by_opencv = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+      EXPECT_EQ(cv::norm(by_opencv, image, cv::NORM_INF), 0) << "type " << type << " level " << level;
+    }
+  }
+}
+
+TEST(ImageIo, ReadsWhatLibpngWroteWithEveryFilter) {
+  // At level 9 libpng picks filters per row adaptively (Sub, Up, Average,
+  // Paeth): psrig's reader must undo all of them exactly.
+  test::TempDir temp;
+  for (int type : kTypes) {
+    cv::Mat image = random_image(type, 100 + type);
+    cv::GaussianBlur(image, image, cv::Size(5, 5), 1.5);  // gradients make Paeth and Average win
+    const fs::path file = temp / ("lib" + std::to_string(type) + ".png");
+    ASSERT_TRUE(cv::imwrite(file.string(), image, {cv::IMWRITE_PNG_COMPRESSION, 9}));
+    auto back = read_image(file, "test");
+    ASSERT_TRUE(back) << back.error().describe();
+    EXPECT_EQ(cv::norm(*back, image, cv::NORM_INF), 0) << "type " << type;
+  }
+}
+
+TEST(ImageIo, PngsOutsideTheFastPathStillRead) {
+  test::TempDir temp;
+  const cv::Mat rgba(9, 7, CV_16UC4, cv::Scalar(1000, 2000, 3000, 65535));
+  ASSERT_TRUE(cv::imwrite((temp / "rgba.png").string(), rgba));
+  auto back = read_image(temp / "rgba.png", "test");
+  ASSERT_TRUE(back);
+  EXPECT_EQ(back->type(), CV_16UC4);  // the scan reader then refuses it, naming the alpha channel
+  EXPECT_EQ(cv::norm(*back, rgba, cv::NORM_INF), 0);
+}
+
+TEST(ImageIo, DamagedPngsGiveErrors) {
+  test::TempDir temp;
+  const cv::Mat image = random_image(CV_16UC3, 5);
+  const fs::path good = temp / "good.png";
+  ASSERT_TRUE(write_image(good, image));
+  std::ifstream in(good, std::ios::binary);
+  const std::string bytes((std::istreambuf_iterator<char>(in)), {});
+
+  // Truncated anywhere: an error, not a crash.
+  for (std::size_t keep : {std::size_t{10}, std::size_t{40}, bytes.size() / 2, bytes.size() - 5}) {
+    const fs::path file = temp / "cut.png";
+    std::ofstream(file, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(keep));
+    auto read = read_image(file, "lights[0].image");
+    ASSERT_FALSE(read) << "kept " << keep;
+    EXPECT_EQ(read.error().kind, ErrorKind::bad_input);
+    EXPECT_EQ(read.error().key, "lights[0].image");
+  }
+  // Flipped bytes: the CRC catches them (or the read fails); never a wrong image.
+  std::mt19937 random(3);
+  for (int trial = 0; trial < 50; ++trial) {
+    std::string damaged = bytes;
+    const std::size_t at = 33 + random() % (damaged.size() - 45);
+    damaged[at] = static_cast<char>(damaged[at] ^ (1 + random() % 255));
+    const fs::path file = temp / "flip.png";
+    std::ofstream(file, std::ios::binary).write(damaged.data(), static_cast<std::streamsize>(damaged.size()));
+    auto read = read_image(file, "x");
+    if (read) {
+      EXPECT_EQ(cv::norm(*read, image, cv::NORM_INF), 0) << "byte " << at;
+    }
+  }
+}
+
+TEST(ImageIo, WriteErrorsNameTheFile) {
+  auto failed = write_image("/nonexistent-dir/x.png", cv::Mat(4, 4, CV_8U, cv::Scalar(1)));
+  ASSERT_FALSE(failed);
+  EXPECT_EQ(failed.error().file, fs::path("/nonexistent-dir/x.png"));
+}
+
+}  // namespace
+}  // namespace psrig::processing
