@@ -40,8 +40,10 @@ std::vector<ImageFile> image_files(const Scan& scan) {
   if (!scan.mask.empty()) files.push_back({"mask.png", &scan.mask});
   for (std::size_t k = 0; k < scan.flats.size(); ++k)
     files.push_back({image_name("flat" + std::to_string(k), scan.flats[k]), &scan.flats[k]});
-  if (!scan.ground_truth_normal.empty()) files.push_back({"gt_normal.exr", &scan.ground_truth_normal, true});
-  if (!scan.ground_truth_height.empty()) files.push_back({"gt_height.exr", &scan.ground_truth_height});
+  if (!scan.ground_truth_normal.empty())
+    files.push_back({"gt_normal.exr", &scan.ground_truth_normal, true});
+  if (!scan.ground_truth_height.empty())
+    files.push_back({"gt_height.exr", &scan.ground_truth_height});
   return files;
 }
 
@@ -51,20 +53,24 @@ nlohmann::json scan_json(const Scan& scan) {
   const auto& d = scan.description;
   nlohmann::json doc = d.document.is_object() ? d.document : nlohmann::json::object();
   doc["format"] = processing::kScanFormat;
-  nlohmann::json sample = doc.contains("sample") && doc["sample"].is_object() ? doc["sample"] : nlohmann::json::object();
+  nlohmann::json sample = doc.contains("sample") && doc["sample"].is_object()
+                              ? doc["sample"]
+                              : nlohmann::json::object();
   sample["id"] = d.sample_id;
   sample["description"] = d.sample_description;
   doc["sample"] = sample;
   doc["encoding"] = d.encoding == processing::Encoding::srgb ? "srgb" : "linear";
   doc["black_level"] = d.black_level;
   doc["white_level"] = scan.white_level > 0 ? scan.white_level : d.white_level.value_or(0);
-  doc["dark"] = scan.dark.empty() ? nlohmann::json() : nlohmann::json(image_name("dark", scan.dark));
+  doc["dark"] =
+      scan.dark.empty() ? nlohmann::json() : nlohmann::json(image_name("dark", scan.dark));
   doc["mask"] = scan.mask.empty() ? nlohmann::json() : nlohmann::json("mask.png");
   if (scan.flats.empty()) {
     doc.erase("flats");
   } else {
     nlohmann::json flats = nlohmann::json::array();
-    for (std::size_t k = 0; k < scan.flats.size(); ++k) flats.push_back(image_name("flat" + std::to_string(k), scan.flats[k]));
+    for (std::size_t k = 0; k < scan.flats.size(); ++k)
+      flats.push_back(image_name("flat" + std::to_string(k), scan.flats[k]));
     doc["flats"] = flats;
   }
   nlohmann::json lights = nlohmann::json::array();
@@ -89,10 +95,12 @@ nlohmann::json scan_json(const Scan& scan) {
 
 processing::Status write_scan(const Scan& scan, const fs::path& directory) {
   if (scan.frames.size() != scan.description.lights.size() || scan.frames.size() < 3)
-    return std::unexpected(processing::internal_error("write_scan: need one frame per light, at least three"));
+    return std::unexpected(
+        processing::internal_error("write_scan: need one frame per light, at least three"));
   std::error_code ec;
   if (fs::exists(directory, ec))
-    return std::unexpected(processing::bad_input(directory, "", "already exists; a scan is never overwritten"));
+    return std::unexpected(
+        processing::bad_input(directory, "", "already exists; a scan is never overwritten"));
   auto staging = processing::AtomicDirectory::create(directory);
   if (!staging) return std::unexpected(staging.error());
 

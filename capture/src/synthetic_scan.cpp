@@ -32,7 +32,8 @@ processing::Scan make_synthetic_scan(const SyntheticScanParams& params) {
 
   for (int k = 0; k < 3; ++k) {
     const double tilt = 2 * std::numbers::pi * k / 3;
-    const cv::Vec3d direction(std::cos(tilt) * std::sin(slant), std::sin(tilt) * std::sin(slant), std::cos(slant));
+    const cv::Vec3d direction(std::cos(tilt) * std::sin(slant), std::sin(tilt) * std::sin(slant),
+                              std::cos(slant));
     d.lights.push_back({"led" + std::to_string(k) + ".png", direction, {1, 1, 1}, false});
     cv::Mat radiance = sim::render_lambertian(swatch, {direction, {1, 1, 1}}, params.cast_shadows);
     radiance *= params.exposure;
@@ -42,7 +43,8 @@ processing::Scan make_synthetic_scan(const SyntheticScanParams& params) {
       radiance += noise;
     }
     cv::Mat frame;
-    radiance.convertTo(frame, CV_MAKETYPE(params.depth, 3), full);  // rounds and clips to the sensor range
+    radiance.convertTo(frame, CV_MAKETYPE(params.depth, 3),
+                       full);  // rounds and clips to the sensor range
     scan.frames.push_back(frame);
   }
   scan.ground_truth_normal = swatch.normal;

@@ -1,22 +1,23 @@
 #include "psrig/processing/atomic_directory.h"
 
-#include <fcntl.h>
-#include <stdio.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <cstring>
+#include <fcntl.h>
 #include <random>
+#include <stdio.h>
 #include <string>
+#include <sys/stat.h>
 #include <system_error>
+#include <unistd.h>
 
 namespace psrig::processing {
 namespace {
 
 namespace fs = std::filesystem;
 
-std::string errno_text(int error) { return std::strerror(error); }
+std::string errno_text(int error) {
+  return std::strerror(error);
+}
 
 bool sync_path(const fs::path& path) {
   const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
@@ -36,16 +37,19 @@ Result<AtomicDirectory> AtomicDirectory::create(const fs::path& target) {
     return std::unexpected(bad_input(target, "", "not a usable directory name"));
   std::error_code ec;
   if (!fs::is_directory(parent, ec))
-    return std::unexpected(bad_input(target, "", "parent directory " + parent.string() + " does not exist"));
+    return std::unexpected(
+        bad_input(target, "", "parent directory " + parent.string() + " does not exist"));
 
   std::random_device random;
   for (int attempt = 0; attempt < 100; ++attempt) {
-    fs::path staging = parent / ("." + name + ".partial-" + std::to_string(::getpid()) + "-" + std::to_string(random()));
+    fs::path staging = parent / ("." + name + ".partial-" + std::to_string(::getpid()) + "-" +
+                                 std::to_string(random()));
     if (::mkdir(staging.c_str(), 0755) == 0) return AtomicDirectory(absolute, staging);
     if (errno != EEXIST)
-      return std::unexpected(errno == EACCES || errno == EROFS || errno == EPERM
-                                 ? bad_input(parent, "", "cannot write here: " + errno_text(errno))
-                                 : io_error(parent, "cannot create a directory: " + errno_text(errno)));
+      return std::unexpected(
+          errno == EACCES || errno == EROFS || errno == EPERM
+              ? bad_input(parent, "", "cannot write here: " + errno_text(errno))
+              : io_error(parent, "cannot create a directory: " + errno_text(errno)));
   }
   return std::unexpected(io_error(parent, "cannot create a unique staging directory"));
 }
@@ -54,7 +58,9 @@ AtomicDirectory::AtomicDirectory(fs::path target, fs::path staging)
     : target_(std::move(target)), staging_(std::move(staging)) {}
 
 AtomicDirectory::AtomicDirectory(AtomicDirectory&& other) noexcept
-    : target_(std::move(other.target_)), staging_(std::move(other.staging_)), committed_(other.committed_) {
+    : target_(std::move(other.target_)),
+      staging_(std::move(other.staging_)),
+      committed_(other.committed_) {
   other.committed_ = true;  // the moved-from object owns nothing
 }
 
@@ -67,8 +73,11 @@ AtomicDirectory::~AtomicDirectory() {
 Status AtomicDirectory::commit(Existing existing, bool durable) {
   if (durable) {
     for (const auto& entry : fs::directory_iterator(staging_))
-      if (!sync_path(entry.path())) return std::unexpected(io_error(entry.path(), "cannot flush to disk: " + errno_text(errno)));
-    if (!sync_path(staging_)) return std::unexpected(io_error(staging_, "cannot flush to disk: " + errno_text(errno)));
+      if (!sync_path(entry.path()))
+        return std::unexpected(
+            io_error(entry.path(), "cannot flush to disk: " + errno_text(errno)));
+    if (!sync_path(staging_))
+      return std::unexpected(io_error(staging_, "cannot flush to disk: " + errno_text(errno)));
   }
 
   std::error_code ec;
@@ -79,18 +88,22 @@ Status AtomicDirectory::commit(Existing existing, bool durable) {
       return std::unexpected(io_error(target_, "cannot replace: " + errno_text(errno)));
     committed_ = true;
     fs::remove_all(staging_, ec);  // now holds the old contents
-    if (ec) return std::unexpected(io_error(staging_, "replaced, but cannot remove the old contents: " + ec.message()));
+    if (ec)
+      return std::unexpected(
+          io_error(staging_, "replaced, but cannot remove the old contents: " + ec.message()));
   } else {
     if (::rename(staging_.c_str(), target_.c_str()) != 0) {
       const int error = errno;
       if (error == ENOTEMPTY || error == EEXIST || error == ENOTDIR)
-        return std::unexpected(bad_input(target_, "", "already exists; choose another name or remove it first"));
+        return std::unexpected(
+            bad_input(target_, "", "already exists; choose another name or remove it first"));
       return std::unexpected(io_error(target_, "cannot rename into place: " + errno_text(error)));
     }
     committed_ = true;
   }
   if (durable && !sync_path(target_.parent_path()))
-    return std::unexpected(io_error(target_.parent_path(), "cannot flush to disk: " + errno_text(errno)));
+    return std::unexpected(
+        io_error(target_.parent_path(), "cannot flush to disk: " + errno_text(errno)));
   return {};
 }
 

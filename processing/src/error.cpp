@@ -28,6 +28,8 @@ Error internal_error(std::string message) {
   return {ErrorKind::internal, std::move(message), {}, {}};
 }
 
-int exit_code(const Error& error) { return error.kind == ErrorKind::bad_input ? 2 : 1; }
+int exit_code(const Error& error) {
+  return error.kind == ErrorKind::bad_input ? 2 : 1;
+}
 
 }  // namespace psrig::processing

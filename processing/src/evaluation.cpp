@@ -20,9 +20,11 @@ constexpr int kRowsPerChunk = 32;
 template <class Partial, class Body, class Combine>
 Partial reduce_rows(int rows, Body body, Combine combine, int chunk_rows = kRowsPerChunk) {
   std::vector<Partial> partials(chunk_count(rows, chunk_rows));
-  parallel_chunks(rows, chunk_rows, [&](int begin, int end) { body(begin, end, partials[begin / chunk_rows]); });
+  parallel_chunks(rows, chunk_rows,
+                  [&](int begin, int end) { body(begin, end, partials[begin / chunk_rows]); });
   Partial total{};
-  for (const auto& partial : partials) combine(total, partial);
+  for (const auto& partial : partials)
+    combine(total, partial);
   return total;
 }
 
@@ -36,12 +38,15 @@ float from_order_key(std::uint32_t key) {
   return std::bit_cast<float>(key & 0x80000000u ? key & 0x7FFFFFFFu : ~key);
 }
 
-bool selected_at(const std::uint8_t* select_row, int c) { return !select_row || select_row[c]; }
+bool selected_at(const std::uint8_t* select_row, int c) {
+  return !select_row || select_row[c];
+}
 
 // The k-th smallest (0-based) selected finite values for each k in `ranks`
 // (ascending): one histogram of the top 16 key bits finds each rank's
 // bucket, a second pass sorts just those buckets' members.
-std::vector<float> kth_smallest(const cv::Mat& values, const cv::Mat& select, const std::vector<std::size_t>& ranks) {
+std::vector<float> kth_smallest(const cv::Mat& values, const cv::Mat& select,
+                                const std::vector<std::size_t>& ranks) {
   using Histogram = std::vector<std::size_t>;
   const Histogram histogram = reduce_rows<Histogram>(
       values.rows,
@@ -56,7 +61,8 @@ std::vector<float> kth_smallest(const cv::Mat& values, const cv::Mat& select, co
       },
       [](Histogram& total, const Histogram& h) {
         if (total.empty()) total.assign(1 << 16, 0);
-        for (std::size_t i = 0; i < h.size(); ++i) total[i] += h[i];
+        for (std::size_t i = 0; i < h.size(); ++i)
+          total[i] += h[i];
       },
       // Counts are exact in any order, so a few large chunks keep the
       // half-megabyte histograms few.
@@ -67,7 +73,8 @@ std::vector<float> kth_smallest(const cv::Mat& values, const cv::Mat& select, co
   std::uint32_t bucket = 0;
   std::size_t counted = 0;
   for (std::size_t k : ranks) {
-    while (counted + histogram[bucket] <= k) counted += histogram[bucket++];
+    while (counted + histogram[bucket] <= k)
+      counted += histogram[bucket++];
     buckets.push_back(bucket);
     below.push_back(counted);
   }
@@ -127,7 +134,9 @@ Distribution describe(const cv::Mat& values, const cv::Mat& select) {
   d.mean = sums.sum / n;
   d.rms = std::sqrt(sums.squares / n);
   d.max = from_order_key(sums.largest);
-  const auto rank = [&](double fraction) { return static_cast<std::size_t>(std::llround(fraction * (n - 1))); };
+  const auto rank = [&](double fraction) {
+    return static_cast<std::size_t>(std::llround(fraction * (n - 1)));
+  };
   const auto quantiles = kth_smallest(values, select, {rank(0.5), rank(0.95)});
   d.median = quantiles[0];
   d.p95 = quantiles[1];
@@ -153,7 +162,8 @@ PixelCounts count_pixels(const cv::Mat& flags) {
         }
       },
       [](PixelCounts& t, const PixelCounts& n) {
-        t.total += n.total, t.valid += n.valid, t.outside_mask += n.outside_mask, t.saturated += n.saturated;
+        t.total += n.total, t.valid += n.valid, t.outside_mask += n.outside_mask,
+            t.saturated += n.saturated;
         t.shadowed += n.shadowed, t.low_signal += n.low_signal, t.no_solution += n.no_solution;
         t.recovered += n.recovered;
       });
@@ -172,7 +182,8 @@ cv::Mat angular_error_deg(const cv::Mat& p, const cv::Mat& q, const cv::Mat& tru
         const float tx = t[3 * c], ty = t[3 * c + 1], tz = t[3 * c + 2];
         // atan2 of |cross| and dot stays accurate for tiny angles, unlike acos.
         const float cx = ny * tz - nz * ty, cy = nz * tx - nx * tz, cz = nx * ty - ny * tx;
-        const float angle = std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), nx * tx + ny * ty + nz * tz);
+        const float angle =
+            std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), nx * tx + ny * ty + nz * tz);
         e[c] = angle * static_cast<float>(180 / std::numbers::pi);
       }
     }

@@ -1,11 +1,11 @@
 #include "psrig/processing/image_io.h"
 
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cctype>
 #include <system_error>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "png_codec.h"
 
@@ -14,10 +14,13 @@ namespace {
 
 bool has_extension(const std::filesystem::path& file, const std::string& wanted) {
   std::string extension = file.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(), [](unsigned char c) { return std::tolower(c); });
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
   return extension == wanted;
 }
-bool is_png(const std::filesystem::path& file) { return has_extension(file, ".png"); }
+bool is_png(const std::filesystem::path& file) {
+  return has_extension(file, ".png");
+}
 
 // OpenCV's PNG compression parameter, if given; psrig's default is the
 // fastest level that still compresses.
@@ -27,7 +30,9 @@ int png_level(const std::vector<int>& params) {
   return 1;
 }
 
-bool is_exr(const std::filesystem::path& file) { return has_extension(file, ".exr"); }
+bool is_exr(const std::filesystem::path& file) {
+  return has_extension(file, ".exr");
+}
 
 // Float maps barely compress (ZIP saves ~3 % on 12 MP gradients and costs
 // ~1 s), so EXR files are written as 32-bit float, uncompressed, unless the
@@ -38,7 +43,8 @@ std::vector<int> with_exr_defaults(std::vector<int> params) {
       if (params[i] == key) return true;
     return false;
   };
-  if (!has(cv::IMWRITE_EXR_TYPE)) params.insert(params.end(), {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_FLOAT});
+  if (!has(cv::IMWRITE_EXR_TYPE))
+    params.insert(params.end(), {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_FLOAT});
   if (!has(cv::IMWRITE_EXR_COMPRESSION))
     params.insert(params.end(), {cv::IMWRITE_EXR_COMPRESSION, cv::IMWRITE_EXR_COMPRESSION_NO});
   return params;
@@ -63,8 +69,8 @@ Result<cv::Mat> read_image(const std::filesystem::path& file, const std::string&
     return std::unexpected(bad_input(file, key, std::string("cannot decode: ") + e.what()));
   }
   if (image.empty())
-    return std::unexpected(bad_input(
-        file, key, "cannot read: not a PNG, TIFF or EXR image, unreadable, or corrupt"));
+    return std::unexpected(
+        bad_input(file, key, "cannot read: not a PNG, TIFF or EXR image, unreadable, or corrupt"));
   return image;
 }
 

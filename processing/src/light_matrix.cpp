@@ -1,9 +1,9 @@
 #include "psrig/processing/light_matrix.h"
 
-#include <Eigen/Dense>
-
 #include <cmath>
 #include <limits>
+
+#include <Eigen/Dense>
 
 namespace psrig::processing {
 
@@ -25,11 +25,13 @@ LightMatrix make_light_matrix(const std::vector<cv::Vec3d>& directions) {
 
   const Eigen::Matrix3d normal = l.transpose() * l;
   for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c) result.normal_matrix(r, c) = normal(r, c);
+    for (int c = 0; c < 3; ++c)
+      result.normal_matrix(r, c) = normal(r, c);
 
   if (std::isfinite(result.condition_number)) {
     const Eigen::MatrixXd pinv = normal.inverse() * l.transpose();  // 3 x n
-    for (int k = 0; k < n; ++k) result.pseudo_inverse_columns.emplace_back(pinv(0, k), pinv(1, k), pinv(2, k));
+    for (int k = 0; k < n; ++k)
+      result.pseudo_inverse_columns.emplace_back(pinv(0, k), pinv(1, k), pinv(2, k));
   }
   return result;
 }

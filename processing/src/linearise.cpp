@@ -1,12 +1,12 @@
 #include "psrig/processing/linearise.h"
 
-#include "vector_clones.h"
-
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <cmath>
 #include <limits>
+
+#include <opencv2/imgproc.hpp>
+
+#include "vector_clones.h"
 
 namespace psrig::processing {
 namespace {
@@ -17,7 +17,9 @@ double srgb_to_linear(double encoded) {
   return encoded <= 0.04045 ? encoded / 12.92 : std::pow((encoded + 0.055) / 1.055, 2.4);
 }
 
-double full_scale(int depth) { return depth == CV_8U ? 255.0 : depth == CV_16U ? 65535.0 : 1.0; }
+double full_scale(int depth) {
+  return depth == CV_8U ? 255.0 : depth == CV_16U ? 65535.0 : 1.0;
+}
 
 // Blur applied to flat-field frames: the LED pattern is smooth, the noise of
 // a single white-target frame is not, and dividing by noise adds noise.
@@ -28,12 +30,16 @@ constexpr double kFlatFloor = 0.01;
 
 // Stored values to linear: x * scale + offset, for each integer depth.
 PSRIG_VECTOR_CLONES
-void scale_u8(const std::uint8_t* __restrict src, int n, float scale, float offset, float* __restrict out) {
-  for (int i = 0; i < n; ++i) out[i] = static_cast<float>(src[i]) * scale + offset;
+void scale_u8(const std::uint8_t* __restrict src, int n, float scale, float offset,
+              float* __restrict out) {
+  for (int i = 0; i < n; ++i)
+    out[i] = static_cast<float>(src[i]) * scale + offset;
 }
 PSRIG_VECTOR_CLONES
-void scale_u16(const std::uint16_t* __restrict src, int n, float scale, float offset, float* __restrict out) {
-  for (int i = 0; i < n; ++i) out[i] = static_cast<float>(src[i]) * scale + offset;
+void scale_u16(const std::uint16_t* __restrict src, int n, float scale, float offset,
+               float* __restrict out) {
+  for (int i = 0; i < n; ++i)
+    out[i] = static_cast<float>(src[i]) * scale + offset;
 }
 // Interleaved BGR stored values to three planes, x * scale[c] + offset[c].
 struct ChannelAffine {
@@ -41,8 +47,8 @@ struct ChannelAffine {
   float offset[3];
 };
 template <class T>
-void deinterleave_affine(const T* __restrict src, int n, ChannelAffine a, float* __restrict b, float* __restrict g,
-                         float* __restrict r) {
+void deinterleave_affine(const T* __restrict src, int n, ChannelAffine a, float* __restrict b,
+                         float* __restrict g, float* __restrict r) {
   for (int i = 0; i < n; ++i) {
     b[i] = static_cast<float>(src[3 * i]) * a.scale[0] + a.offset[0];
     g[i] = static_cast<float>(src[3 * i + 1]) * a.scale[1] + a.offset[1];
@@ -50,11 +56,13 @@ void deinterleave_affine(const T* __restrict src, int n, ChannelAffine a, float*
   }
 }
 PSRIG_VECTOR_CLONES
-void deinterleave_u8(const std::uint8_t* src, int n, ChannelAffine a, float* b, float* g, float* r) {
+void deinterleave_u8(const std::uint8_t* src, int n, ChannelAffine a, float* b, float* g,
+                     float* r) {
   deinterleave_affine(src, n, a, b, g, r);
 }
 PSRIG_VECTOR_CLONES
-void deinterleave_u16(const std::uint16_t* src, int n, ChannelAffine a, float* b, float* g, float* r) {
+void deinterleave_u16(const std::uint16_t* src, int n, ChannelAffine a, float* b, float* g,
+                      float* r) {
   deinterleave_affine(src, n, a, b, g, r);
 }
 
@@ -63,41 +71,54 @@ template <class T, int C>
 void saturation(const T* __restrict src, int n, T white, std::uint8_t* __restrict saturated) {
   for (int i = 0; i < n; ++i) {
     bool any = false;
-    for (int c = 0; c < C; ++c) any |= src[C * i + c] >= white;
+    for (int c = 0; c < C; ++c)
+      any |= src[C * i + c] >= white;
     saturated[i] = any;
   }
 }
 PSRIG_VECTOR_CLONES
-void saturation_u8(const std::uint8_t* src, int n, int channels, std::uint8_t white, std::uint8_t* saturated) {
-  if (channels == 1) saturation<std::uint8_t, 1>(src, n, white, saturated);
-  else saturation<std::uint8_t, 3>(src, n, white, saturated);
+void saturation_u8(const std::uint8_t* src, int n, int channels, std::uint8_t white,
+                   std::uint8_t* saturated) {
+  if (channels == 1)
+    saturation<std::uint8_t, 1>(src, n, white, saturated);
+  else
+    saturation<std::uint8_t, 3>(src, n, white, saturated);
 }
 PSRIG_VECTOR_CLONES
-void saturation_u16(const std::uint16_t* src, int n, int channels, std::uint16_t white, std::uint8_t* saturated) {
-  if (channels == 1) saturation<std::uint16_t, 1>(src, n, white, saturated);
-  else saturation<std::uint16_t, 3>(src, n, white, saturated);
+void saturation_u16(const std::uint16_t* src, int n, int channels, std::uint16_t white,
+                    std::uint8_t* saturated) {
+  if (channels == 1)
+    saturation<std::uint16_t, 1>(src, n, white, saturated);
+  else
+    saturation<std::uint16_t, 3>(src, n, white, saturated);
 }
 void saturation_f32(const float* src, int n, int channels, float white, std::uint8_t* saturated) {
-  if (channels == 1) saturation<float, 1>(src, n, white, saturated);
-  else saturation<float, 3>(src, n, white, saturated);
+  if (channels == 1)
+    saturation<float, 1>(src, n, white, saturated);
+  else
+    saturation<float, 3>(src, n, white, saturated);
 }
 
 template <class T>
 void lookup(const T* __restrict src, int n, const float* __restrict table, float* __restrict out) {
-  for (int i = 0; i < n; ++i) out[i] = table[src[i]];
+  for (int i = 0; i < n; ++i)
+    out[i] = table[src[i]];
 }
 
 PSRIG_VECTOR_CLONES
 void subtract(float* __restrict values, const float* __restrict dark, int n) {
-  for (int i = 0; i < n; ++i) values[i] -= dark[i];
+  for (int i = 0; i < n; ++i)
+    values[i] -= dark[i];
 }
 PSRIG_VECTOR_CLONES
 void multiply(float* __restrict values, const float* __restrict gain, float factor, int n) {
-  for (int i = 0; i < n; ++i) values[i] *= gain[i] * factor;
+  for (int i = 0; i < n; ++i)
+    values[i] *= gain[i] * factor;
 }
 PSRIG_VECTOR_CLONES
 void scale_in_place(float* __restrict values, float factor, int n) {
-  for (int i = 0; i < n; ++i) values[i] *= factor;
+  for (int i = 0; i < n; ++i)
+    values[i] *= factor;
 }
 
 }  // namespace
@@ -128,25 +149,35 @@ float CodeLineariser::operator()(double stored) const {
 void CodeLineariser::convert(const void* stored, int count, float* linear, float factor) const {
   switch (depth_) {
     case CV_8U:
-      if (table_.empty()) scale_u8(static_cast<const std::uint8_t*>(stored), count, scale_ * factor, offset_ * factor, linear);
-      else lookup(static_cast<const std::uint8_t*>(stored), count, table_.data(), linear);
+      if (table_.empty())
+        scale_u8(static_cast<const std::uint8_t*>(stored), count, scale_ * factor, offset_ * factor,
+                 linear);
+      else
+        lookup(static_cast<const std::uint8_t*>(stored), count, table_.data(), linear);
       break;
     case CV_16U:
-      if (table_.empty()) scale_u16(static_cast<const std::uint16_t*>(stored), count, scale_ * factor, offset_ * factor, linear);
-      else lookup(static_cast<const std::uint16_t*>(stored), count, table_.data(), linear);
+      if (table_.empty())
+        scale_u16(static_cast<const std::uint16_t*>(stored), count, scale_ * factor,
+                  offset_ * factor, linear);
+      else
+        lookup(static_cast<const std::uint16_t*>(stored), count, table_.data(), linear);
       break;
     default: {
       const auto* values = static_cast<const float*>(stored);
-      for (int i = 0; i < count; ++i) linear[i] = (*this)(values[i]);
+      for (int i = 0; i < count; ++i)
+        linear[i] = (*this)(values[i]);
     }
   }
-  if (factor != 1.0f && (!table_.empty() || depth_ == CV_32F)) scale_in_place(linear, factor, count);
+  if (factor != 1.0f && (!table_.empty() || depth_ == CV_32F))
+    scale_in_place(linear, factor, count);
 }
 
 Result<ScanLineariser> ScanLineariser::create(const Scan& scan) {
-  if (scan.frames.empty()) return std::unexpected(internal_error("ScanLineariser: scan has no frames"));
-  ScanLineariser result(scan, CodeLineariser(scan.description.encoding, scan.description.black_level,
-                                             scan.white_level, scan.depth()));
+  if (scan.frames.empty())
+    return std::unexpected(internal_error("ScanLineariser: scan has no frames"));
+  ScanLineariser result(scan,
+                        CodeLineariser(scan.description.encoding, scan.description.black_level,
+                                       scan.white_level, scan.depth()));
   const int channels = result.channels_;
 
   for (const auto& light : scan.description.lights)
@@ -174,9 +205,10 @@ Result<ScanLineariser> ScanLineariser::create(const Scan& scan) {
       cv::GaussianBlur(flat, flat, cv::Size(), kFlatBlurSigma);
       const double mean = cv::mean(flat)[0];
       if (!(mean > 0))
-        return std::unexpected(bad_input(scan.description.directory / scan.description.flats[k],
-                                         "flats[" + std::to_string(k) + "]",
-                                         "is black (after dark subtraction): a flat is a white target under the LED"));
+        return std::unexpected(
+            bad_input(scan.description.directory / scan.description.flats[k],
+                      "flats[" + std::to_string(k) + "]",
+                      "is black (after dark subtraction): a flat is a white target under the LED"));
       cv::max(flat, kFlatFloor * mean, flat);
       cv::Mat gain;
       cv::divide(mean, flat, gain, 1.0, CV_32F);
@@ -188,7 +220,11 @@ Result<ScanLineariser> ScanLineariser::create(const Scan& scan) {
 }
 
 ScanLineariser::ScanLineariser(const Scan& scan, CodeLineariser codes)
-    : scan_(&scan), codes_(codes), channels_(scan.channels()), cols_(scan.size().width), rows_(scan.size().height) {
+    : scan_(&scan),
+      codes_(codes),
+      channels_(scan.channels()),
+      cols_(scan.size().width),
+      rows_(scan.size().height) {
   if (scan.depth() != CV_32F) white_code_ = static_cast<std::uint64_t>(std::ceil(scan.white_level));
 }
 
@@ -203,14 +239,17 @@ void ScanLineariser::row(int light, int row, float* const* planes, std::uint8_t*
   switch (frame.depth()) {
     case CV_8U:
       saturation_u8(static_cast<const std::uint8_t*>(src), n, channels_,
-                    static_cast<std::uint8_t>(std::min<std::uint64_t>(white_code_, 255)), saturated);
+                    static_cast<std::uint8_t>(std::min<std::uint64_t>(white_code_, 255)),
+                    saturated);
       break;
     case CV_16U:
       saturation_u16(static_cast<const std::uint16_t*>(src), n, channels_,
-                     static_cast<std::uint16_t>(std::min<std::uint64_t>(white_code_, 65535)), saturated);
+                     static_cast<std::uint16_t>(std::min<std::uint64_t>(white_code_, 65535)),
+                     saturated);
       break;
     default:
-      saturation_f32(static_cast<const float*>(src), n, channels_, static_cast<float>(scan_->white_level), saturated);
+      saturation_f32(static_cast<const float*>(src), n, channels_,
+                     static_cast<float>(scan_->white_level), saturated);
   }
 
   if (channels_ == 1) {
@@ -222,30 +261,39 @@ void ScanLineariser::row(int light, int row, float* const* planes, std::uint8_t*
       affine.scale[c] = codes_.scale() * factor;
       affine.offset[c] = codes_.offset() * factor;
     }
-    if (frame.depth() == CV_8U) deinterleave_u8(static_cast<const std::uint8_t*>(src), n, affine, planes[0], planes[1], planes[2]);
-    else deinterleave_u16(static_cast<const std::uint16_t*>(src), n, affine, planes[0], planes[1], planes[2]);
+    if (frame.depth() == CV_8U)
+      deinterleave_u8(static_cast<const std::uint8_t*>(src), n, affine, planes[0], planes[1],
+                      planes[2]);
+    else
+      deinterleave_u16(static_cast<const std::uint16_t*>(src), n, affine, planes[0], planes[1],
+                       planes[2]);
   } else {
     // sRGB tables and float frames: split first, then convert each plane.
     thread_local cv::Mat split[3];
     cv::split(frame.row(row), split);
-    for (int c = 0; c < 3; ++c) codes_.convert(split[c].data, n, planes[c], corrected ? 1.0f : inverse_intensity[c]);
+    for (int c = 0; c < 3; ++c)
+      codes_.convert(split[c].data, n, planes[c], corrected ? 1.0f : inverse_intensity[c]);
   }
   if (!corrected) return;
 
   for (int c = 0; c < channels_; ++c) {
     if (!dark_planes_.empty()) subtract(planes[c], dark_planes_[c].ptr<float>(row), n);
-    if (!gains_.empty()) multiply(planes[c], gains_[light][c].ptr<float>(row), inverse_intensity[c], n);
-    else scale_in_place(planes[c], inverse_intensity[c], n);
+    if (!gains_.empty())
+      multiply(planes[c], gains_[light][c].ptr<float>(row), inverse_intensity[c], n);
+    else
+      scale_in_place(planes[c], inverse_intensity[c], n);
   }
 }
 
 cv::Mat ScanLineariser::frame(int light) const {
   std::vector<cv::Mat> planes(channels_);
-  for (auto& plane : planes) plane.create(rows_, cols_, CV_32F);
+  for (auto& plane : planes)
+    plane.create(rows_, cols_, CV_32F);
   std::vector<std::uint8_t> saturated(cols_);
   std::vector<float*> pointers(channels_);
   for (int r = 0; r < rows_; ++r) {
-    for (int c = 0; c < channels_; ++c) pointers[c] = planes[c].ptr<float>(r);
+    for (int c = 0; c < channels_; ++c)
+      pointers[c] = planes[c].ptr<float>(r);
     row(light, r, pointers.data(), saturated.data());
   }
   cv::Mat merged;

@@ -1,8 +1,8 @@
 #include "psrig/processing/log.h"
 
-#include <spdlog/sinks/stdout_sinks.h>
-
 #include <mutex>
+
+#include <spdlog/sinks/stdout_sinks.h>
 
 namespace psrig::processing {
 namespace {

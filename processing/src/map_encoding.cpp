@@ -20,7 +20,8 @@ const std::array<std::uint8_t, kSrgbSteps + 1>& srgb_table() {
     std::array<std::uint8_t, kSrgbSteps + 1> t{};
     for (int i = 0; i <= kSrgbSteps; ++i) {
       const double linear = static_cast<double>(i) / kSrgbSteps;
-      const double encoded = linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
+      const double encoded =
+          linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
       t[i] = static_cast<std::uint8_t>(std::lround(encoded * 255));
     }
     return t;
@@ -29,7 +30,8 @@ const std::array<std::uint8_t, kSrgbSteps + 1>& srgb_table() {
 }
 
 PSRIG_VECTOR_CLONES
-void normal_row(const float* __restrict p, const float* __restrict q, std::uint16_t* __restrict bgr, int n) {
+void normal_row(const float* __restrict p, const float* __restrict q, std::uint16_t* __restrict bgr,
+                int n) {
   for (int i = 0; i < n; ++i) {
     const float inverse = 1.0f / std::sqrt(p[i] * p[i] + q[i] * q[i] + 1.0f);
     // (n + 1) / 2 * 65535, rounded; n = (-p, -q, 1) / |(-p, -q, 1)|
@@ -50,7 +52,8 @@ cv::Mat encode_albedo_srgb8(const cv::Mat& albedo) {
       const float* in = albedo.ptr<float>(r);
       std::uint8_t* o = out.ptr<std::uint8_t>(r);
       for (int i = 0; i < values; ++i) {
-        const float clamped = std::clamp(in[i], 0.0f, 1.0f);  // NaN-free input: the solve zeroes unsolved pixels
+        const float clamped =
+            std::clamp(in[i], 0.0f, 1.0f);  // NaN-free input: the solve zeroes unsolved pixels
         o[i] = table[static_cast<int>(clamped * kSrgbSteps + 0.5f)];
       }
     }
@@ -61,7 +64,8 @@ cv::Mat encode_albedo_srgb8(const cv::Mat& albedo) {
 cv::Mat encode_normal16(const cv::Mat& p, const cv::Mat& q) {
   cv::Mat out(p.size(), CV_16UC3);
   parallel_chunks(p.rows, kRowsPerChunk, [&](int begin, int end) {
-    for (int r = begin; r < end; ++r) normal_row(p.ptr<float>(r), q.ptr<float>(r), out.ptr<std::uint16_t>(r), p.cols);
+    for (int r = begin; r < end; ++r)
+      normal_row(p.ptr<float>(r), q.ptr<float>(r), out.ptr<std::uint16_t>(r), p.cols);
   });
   return out;
 }
@@ -79,7 +83,8 @@ cv::Mat encode_valid_mask(const cv::Mat& flags) {
     for (int r = begin; r < end; ++r) {
       const std::uint8_t* f = flags.ptr<std::uint8_t>(r);
       std::uint8_t* o = out.ptr<std::uint8_t>(r);
-      for (int i = 0; i < flags.cols; ++i) o[i] = is_valid(f[i]) ? 255 : 0;
+      for (int i = 0; i < flags.cols; ++i)
+        o[i] = is_valid(f[i]) ? 255 : 0;
     }
   });
   return out;

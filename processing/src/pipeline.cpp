@@ -1,12 +1,11 @@
 #include "psrig/processing/pipeline.h"
 
-
-#include <opencv2/imgcodecs.hpp>
-
 #include <chrono>
 #include <fstream>
 #include <functional>
 #include <optional>
+
+#include <opencv2/imgcodecs.hpp>
 
 #include "psrig/processing/atomic_directory.h"
 #include "psrig/processing/evaluation.h"
@@ -34,13 +33,15 @@ constexpr float kMaxSlope = 11.43f;
 
 PSRIG_VECTOR_CLONES
 void clamp_row(const float* __restrict in, float* __restrict out, int n) {
-  for (int i = 0; i < n; ++i) out[i] = std::clamp(in[i], -kMaxSlope, kMaxSlope);
+  for (int i = 0; i < n; ++i)
+    out[i] = std::clamp(in[i], -kMaxSlope, kMaxSlope);
 }
 
 cv::Mat clamped_gradient(const cv::Mat& gradient) {
   cv::Mat out(gradient.size(), CV_32F);
   parallel_chunks(gradient.rows, 32, [&](int begin, int end) {
-    for (int r = begin; r < end; ++r) clamp_row(gradient.ptr<float>(r), out.ptr<float>(r), gradient.cols);
+    for (int r = begin; r < end; ++r)
+      clamp_row(gradient.ptr<float>(r), out.ptr<float>(r), gradient.cols);
   });
   return out;
 }
@@ -52,14 +53,16 @@ Status check_output(const fs::path& output) {
   const auto status = fs::symlink_status(output, ec);
   if (!fs::exists(status)) return {};
   if (!fs::is_directory(status))
-    return std::unexpected(bad_input(output, "", "exists and is not a directory; choose another --out"));
+    return std::unexpected(
+        bad_input(output, "", "exists and is not a directory; choose another --out"));
   if (fs::is_empty(output, ec)) return {};
   std::ifstream report(output / map_files::kReport);
   nlohmann::json doc = nlohmann::json::parse(report, nullptr, false);
   if (report && doc.is_object() && doc.value("format", "") == kReportFormat) return {};
-  return std::unexpected(bad_input(output, "",
-                                   "exists and is not a psrig maps directory; refusing to replace it "
-                                   "(choose another --out, or remove it)"));
+  return std::unexpected(
+      bad_input(output, "",
+                "exists and is not a psrig maps directory; refusing to replace it "
+                "(choose another --out, or remove it)"));
 }
 
 // Noisy 16-bit maps barely deflate (12 MP normals: 64 MB against 74 MB
@@ -102,7 +105,8 @@ Result<ProcessSummary> process_scan(const fs::path& scan_directory, const Proces
   stage_start = Clock::now();
   const cv::Mat valid = encode_valid_mask(result.flags);
   cv::Mat solved_pixels;
-  cv::compare(result.flags & (kOutsideMask | kLowSignal | kNoSolution), 0, solved_pixels, cv::CMP_EQ);
+  cv::compare(result.flags & (kOutsideMask | kLowSignal | kNoSolution), 0, solved_pixels,
+              cv::CMP_EQ);
   inputs.pixels = count_pixels(result.flags);
   inputs.residual = describe(result.residual, solved_pixels);
   inputs.mean_abs_curl = mean_abs_curl(result.p, result.q, valid);
@@ -125,27 +129,36 @@ Result<ProcessSummary> process_scan(const fs::path& scan_directory, const Proces
   };
   std::vector<Task> tasks;
   if (options.integration != IntegrationMethod::none) {
-    tasks.push_back({"integrate + height maps", [&]() -> Status {
-      const auto integrate_start = Clock::now();
-      auto height = integrate(options.integration, clamped_gradient(result.p), clamped_gradient(result.q));
-      if (!height) return std::unexpected(height.error());
-      if (scan->description.pixel_size_mm) *height *= pixel_size;
-      double low = 0, high = 0;
-      cv::minMaxLoc(*height, &low, &high);
-      height_summary = HeightSummary{low, high, scan->description.pixel_size_mm ? "mm" : "px"};
-      if (!scan->ground_truth_height.empty()) truth.height_rms_error = height_rms_error(*height, scan->ground_truth_height);
-      integrate_ms = ms_since(integrate_start);
-      log->debug("integration ({}): {:.0f} ms", to_string(options.integration), integrate_ms);
-      if (auto ok = write_image(dir / map_files::kHeightExr, *height); !ok) return ok;
-      return write_image(dir / map_files::kHeightPng, encode_height16(*height, low, high), kStoredPng);
-    }});
+    tasks.push_back(
+        {"integrate + height maps", [&]() -> Status {
+           const auto integrate_start = Clock::now();
+           auto height = integrate(options.integration, clamped_gradient(result.p),
+                                   clamped_gradient(result.q));
+           if (!height) return std::unexpected(height.error());
+           if (scan->description.pixel_size_mm) *height *= pixel_size;
+           double low = 0, high = 0;
+           cv::minMaxLoc(*height, &low, &high);
+           height_summary = HeightSummary{low, high, scan->description.pixel_size_mm ? "mm" : "px"};
+           if (!scan->ground_truth_height.empty())
+             truth.height_rms_error = height_rms_error(*height, scan->ground_truth_height);
+           integrate_ms = ms_since(integrate_start);
+           log->debug("integration ({}): {:.0f} ms", to_string(options.integration), integrate_ms);
+           if (auto ok = write_image(dir / map_files::kHeightExr, *height); !ok) return ok;
+           return write_image(dir / map_files::kHeightPng, encode_height16(*height, low, high),
+                              kStoredPng);
+         }});
   }
   tasks.push_back({map_files::kNormalPng, [&] {
-                     return write_image(dir / map_files::kNormalPng, encode_normal16(result.p, result.q), kStoredPng);
+                     return write_image(dir / map_files::kNormalPng,
+                                        encode_normal16(result.p, result.q), kStoredPng);
                    }});
-  tasks.push_back({map_files::kAlbedoPng,
-                   [&] { return write_image(dir / map_files::kAlbedoPng, encode_albedo_srgb8(result.albedo)); }});
-  tasks.push_back({map_files::kAlbedoExr, [&] { return write_image(dir / map_files::kAlbedoExr, result.albedo, kHalfExr); }});
+  tasks.push_back({map_files::kAlbedoPng, [&] {
+                     return write_image(dir / map_files::kAlbedoPng,
+                                        encode_albedo_srgb8(result.albedo));
+                   }});
+  tasks.push_back({map_files::kAlbedoExr, [&] {
+                     return write_image(dir / map_files::kAlbedoExr, result.albedo, kHalfExr);
+                   }});
   tasks.push_back({map_files::kP, [&] { return write_image(dir / map_files::kP, result.p); }});
   tasks.push_back({map_files::kQ, [&] { return write_image(dir / map_files::kQ, result.q); }});
   tasks.push_back({map_files::kMask, [&] { return write_image(dir / map_files::kMask, valid); }});
@@ -165,7 +178,8 @@ Result<ProcessSummary> process_scan(const fs::path& scan_directory, const Proces
   });
   for (const auto& error : errors)
     if (error) return std::unexpected(*error);
-  if (options.integration != IntegrationMethod::none) stages.emplace_back("integrate", integrate_ms);
+  if (options.integration != IntegrationMethod::none)
+    stages.emplace_back("integrate", integrate_ms);
   stages.emplace_back("integrate_and_write", ms_since(stage_start));
   stages.emplace_back("total", ms_since(start));
 
@@ -179,7 +193,8 @@ Result<ProcessSummary> process_scan(const fs::path& scan_directory, const Proces
   out.close();
   if (!out) return std::unexpected(io_error(report_path, "cannot write"));
 
-  if (auto ok = staging->commit(AtomicDirectory::Existing::replace, false); !ok) return std::unexpected(ok.error());
+  if (auto ok = staging->commit(AtomicDirectory::Existing::replace, false); !ok)
+    return std::unexpected(ok.error());
   log->debug("maps of {} written to {}", scan_directory.string(), output.string());
   return ProcessSummary{output, report};
 }

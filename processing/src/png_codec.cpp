@@ -1,17 +1,16 @@
 #include "png_codec.h"
 
+#include <algorithm>
+#include <array>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
 #include <fcntl.h>
 #include <libdeflate.h>
+#include <memory>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
-
-#include <algorithm>
-#include <array>
-#include <cstdlib>
-#include <cstdio>
-#include <cstring>
-#include <memory>
 #include <vector>
 
 #include "psrig/processing/parallel.h"
@@ -26,7 +25,8 @@ constexpr std::array<std::uint8_t, 8> kSignature = {0x89, 'P', 'N', 'G', '\r', '
 constexpr int kRowsPerChunk = 32;
 
 std::uint32_t load_be32(const std::uint8_t* p) {
-  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) | p[3];
+  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) |
+         p[3];
 }
 void store_be32(std::uint8_t* p, std::uint32_t v) {
   p[0] = static_cast<std::uint8_t>(v >> 24);
@@ -49,7 +49,8 @@ class MappedFile {
     if (fd < 0) return;
     struct stat info {};
     if (::fstat(fd, &info) == 0 && info.st_size > 0) {
-      void* map = ::mmap(nullptr, static_cast<std::size_t>(info.st_size), PROT_READ, MAP_PRIVATE, fd, 0);
+      void* map =
+          ::mmap(nullptr, static_cast<std::size_t>(info.st_size), PROT_READ, MAP_PRIVATE, fd, 0);
       if (map != MAP_FAILED) {
         data_ = static_cast<const std::uint8_t*>(map);
         size_ = static_cast<std::size_t>(info.st_size);
@@ -80,15 +81,18 @@ std::uint8_t paeth(int a, int b, int c) {
 
 // Undoes one row's filter in place; `previous` is the unfiltered row above
 // (zeros for the first row), `bpp` bytes per pixel.
-bool unfilter_row(std::uint8_t type, std::uint8_t* row, const std::uint8_t* previous, std::size_t n, std::size_t bpp) {
+bool unfilter_row(std::uint8_t type, std::uint8_t* row, const std::uint8_t* previous, std::size_t n,
+                  std::size_t bpp) {
   switch (type) {
     case 0:
       return true;
     case 1:
-      for (std::size_t i = bpp; i < n; ++i) row[i] = static_cast<std::uint8_t>(row[i] + row[i - bpp]);
+      for (std::size_t i = bpp; i < n; ++i)
+        row[i] = static_cast<std::uint8_t>(row[i] + row[i - bpp]);
       return true;
     case 2:
-      for (std::size_t i = 0; i < n; ++i) row[i] = static_cast<std::uint8_t>(row[i] + previous[i]);
+      for (std::size_t i = 0; i < n; ++i)
+        row[i] = static_cast<std::uint8_t>(row[i] + previous[i]);
       return true;
     case 3:
       for (std::size_t i = 0; i < n; ++i) {
@@ -119,7 +123,8 @@ void rgb16_to_bgr(const std::uint8_t* __restrict in, std::uint16_t* __restrict o
 }
 PSRIG_VECTOR_CLONES
 void grey16_from_be(const std::uint8_t* __restrict in, std::uint16_t* __restrict out, int samples) {
-  for (int i = 0; i < samples; ++i) out[i] = static_cast<std::uint16_t>(in[2 * i] << 8 | in[2 * i + 1]);
+  for (int i = 0; i < samples; ++i)
+    out[i] = static_cast<std::uint16_t>(in[2 * i] << 8 | in[2 * i + 1]);
 }
 PSRIG_VECTOR_CLONES
 void rgb8_to_bgr(const std::uint8_t* __restrict in, std::uint8_t* __restrict out, int pixels) {
@@ -149,8 +154,10 @@ void grey16_to_be(const std::uint16_t* __restrict in, std::uint8_t* __restrict o
   }
 }
 PSRIG_VECTOR_CLONES
-void subtract_row(std::uint8_t* __restrict row, const std::uint8_t* __restrict above, std::size_t n) {
-  for (std::size_t i = 0; i < n; ++i) row[i] = static_cast<std::uint8_t>(row[i] - above[i]);
+void subtract_row(std::uint8_t* __restrict row, const std::uint8_t* __restrict above,
+                  std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i)
+    row[i] = static_cast<std::uint8_t>(row[i] - above[i]);
 }
 
 }  // namespace
@@ -159,7 +166,8 @@ std::optional<cv::Mat> read(const fs::path& file) {
   const MappedFile mapped(file);
   const std::uint8_t* data = mapped.data();
   const std::size_t size = mapped.size();
-  if (!data || size < kSignature.size() + 12 + 13 || !std::equal(kSignature.begin(), kSignature.end(), data))
+  if (!data || size < kSignature.size() + 12 + 13 ||
+      !std::equal(kSignature.begin(), kSignature.end(), data))
     return std::nullopt;
 
   // The IDAT payloads are one zlib stream split across chunks: used in
@@ -175,14 +183,16 @@ std::optional<cv::Mat> read(const fs::path& file) {
     if (length > size - at - 12) return std::nullopt;
     const std::uint8_t* payload = data + at + 8;
     const bool critical = !(type[0] & 0x20);
-    if (critical && libdeflate_crc32(0, type, length + 4) != load_be32(payload + length)) return std::nullopt;
+    if (critical && libdeflate_crc32(0, type, length + 4) != load_be32(payload + length))
+      return std::nullopt;
     if (std::memcmp(type, "IHDR", 4) == 0) {
       if (length != 13) return std::nullopt;
       width = load_be32(payload);
       height = load_be32(payload + 4);
       bit_depth = payload[8];
       colour_type = payload[9];
-      if (payload[10] != 0 || payload[11] != 0 || payload[12] != 0) return std::nullopt;  // interlaced or unknown
+      if (payload[10] != 0 || payload[11] != 0 || payload[12] != 0)
+        return std::nullopt;  // interlaced or unknown
       seen_header = true;
     } else if (std::memcmp(type, "IDAT", 4) == 0) {
       idat.emplace_back(payload, length);
@@ -205,7 +215,8 @@ std::optional<cv::Mat> read(const fs::path& file) {
   const std::uint8_t* stream = idat.front().first;
   if (idat.size() > 1) {
     gathered.reserve(compressed);
-    for (const auto& [piece, length] : idat) gathered.insert(gathered.end(), piece, piece + length);
+    for (const auto& [piece, length] : idat)
+      gathered.insert(gathered.end(), piece, piece + length);
     stream = gathered.data();
   }
 
@@ -217,8 +228,8 @@ std::optional<cv::Mat> read(const fs::path& file) {
       libdeflate_alloc_decompressor(), &libdeflate_free_decompressor);
   std::size_t produced = 0;
   if (!inflater ||
-      libdeflate_zlib_decompress(inflater.get(), stream, compressed, raw.data(), raw.size(), &produced) !=
-          LIBDEFLATE_SUCCESS ||
+      libdeflate_zlib_decompress(inflater.get(), stream, compressed, raw.data(), raw.size(),
+                                 &produced) != LIBDEFLATE_SUCCESS ||
       produced != raw.size())
     return std::nullopt;
   gathered = {};
@@ -231,14 +242,19 @@ std::optional<cv::Mat> read(const fs::path& file) {
     if (!unfilter_row(row[0], row + 1, previous, row_bytes, bpp)) return std::nullopt;
   }
 
-  cv::Mat image(static_cast<int>(height), static_cast<int>(width), CV_MAKETYPE(bit_depth == 8 ? CV_8U : CV_16U, channels));
+  cv::Mat image(static_cast<int>(height), static_cast<int>(width),
+                CV_MAKETYPE(bit_depth == 8 ? CV_8U : CV_16U, channels));
   parallel_chunks(image.rows, kRowsPerChunk, [&](int begin, int end) {
     for (int r = begin; r < end; ++r) {
       const std::uint8_t* in = raw.data() + static_cast<std::size_t>(r) * (row_bytes + 1) + 1;
-      if (bit_depth == 16 && channels == 3) rgb16_to_bgr(in, image.ptr<std::uint16_t>(r), image.cols);
-      else if (bit_depth == 16) grey16_from_be(in, image.ptr<std::uint16_t>(r), image.cols);
-      else if (channels == 3) rgb8_to_bgr(in, image.ptr<std::uint8_t>(r), image.cols);
-      else std::memcpy(image.ptr(r), in, row_bytes);
+      if (bit_depth == 16 && channels == 3)
+        rgb16_to_bgr(in, image.ptr<std::uint16_t>(r), image.cols);
+      else if (bit_depth == 16)
+        grey16_from_be(in, image.ptr<std::uint16_t>(r), image.cols);
+      else if (channels == 3)
+        rgb8_to_bgr(in, image.ptr<std::uint8_t>(r), image.cols);
+      else
+        std::memcpy(image.ptr(r), in, row_bytes);
     }
   });
   return image;
@@ -302,10 +318,14 @@ class ChunkWriter {
 void png_row(const cv::Mat& image, int r, std::uint8_t* out) {
   const bool sixteen = image.depth() == CV_16U;
   const int channels = image.channels();
-  if (sixteen && channels == 3) bgr16_to_rgb_be(image.ptr<std::uint16_t>(r), out, image.cols);
-  else if (sixteen) grey16_to_be(image.ptr<std::uint16_t>(r), out, image.cols);
-  else if (channels == 3) rgb8_to_bgr(image.ptr<std::uint8_t>(r), out, image.cols);  // the swap is symmetric
-  else std::memcpy(out, image.ptr(r), image.cols * image.elemSize());
+  if (sixteen && channels == 3)
+    bgr16_to_rgb_be(image.ptr<std::uint16_t>(r), out, image.cols);
+  else if (sixteen)
+    grey16_to_be(image.ptr<std::uint16_t>(r), out, image.cols);
+  else if (channels == 3)
+    rgb8_to_bgr(image.ptr<std::uint8_t>(r), out, image.cols);  // the swap is symmetric
+  else
+    std::memcpy(out, image.ptr(r), image.cols * image.elemSize());
 }
 
 // Level 0: a zlib stream of stored blocks, produced row by row straight
@@ -333,7 +353,8 @@ void write_stored(ChunkWriter& out, const cv::Mat& image) {
     out.data(block.data(), 5 + filled);
     filled = 0;
   };
-  std::vector<std::uint8_t> row(row_bytes + 1, 0);  // filter type 0 (none): stored data gains nothing from one
+  std::vector<std::uint8_t> row(row_bytes + 1,
+                                0);  // filter type 0 (none): stored data gains nothing from one
   for (int r = 0; r < image.rows; ++r) {
     png_row(image, r, row.data() + 1);
     for (std::size_t taken = 0; taken < row.size();) {
@@ -357,20 +378,22 @@ Status write_compressed(ChunkWriter& out, const cv::Mat& image, int level) {
   const std::size_t stride = row_bytes + 1;
   std::vector<std::uint8_t> raw(image.rows * stride);
   parallel_chunks(image.rows, kRowsPerChunk, [&](int begin, int end) {
-    for (int r = begin; r < end; ++r) png_row(image, r, raw.data() + static_cast<std::size_t>(r) * stride + 1);
+    for (int r = begin; r < end; ++r)
+      png_row(image, r, raw.data() + static_cast<std::size_t>(r) * stride + 1);
   });
   // "Up" is the cheap filter that helps most; bottom row first, so the row
   // above is still unfiltered when it is subtracted.
   for (int r = image.rows - 1; r >= 0; --r) {
     raw[r * stride] = 2;
-    if (r > 0) subtract_row(raw.data() + r * stride + 1, raw.data() + (r - 1) * stride + 1, row_bytes);
+    if (r > 0)
+      subtract_row(raw.data() + r * stride + 1, raw.data() + (r - 1) * stride + 1, row_bytes);
   }
   std::unique_ptr<libdeflate_compressor, decltype(&libdeflate_free_compressor)> deflater(
       libdeflate_alloc_compressor(std::clamp(level, 1, 12)), &libdeflate_free_compressor);
   if (!deflater) return std::unexpected(internal_error("png::write: cannot allocate a compressor"));
   std::vector<std::uint8_t> compressed(libdeflate_zlib_compress_bound(deflater.get(), raw.size()));
-  const std::size_t length =
-      libdeflate_zlib_compress(deflater.get(), raw.data(), raw.size(), compressed.data(), compressed.size());
+  const std::size_t length = libdeflate_zlib_compress(deflater.get(), raw.data(), raw.size(),
+                                                      compressed.data(), compressed.size());
   if (length == 0) return std::unexpected(internal_error("png::write: compression failed"));
   out.chunk("IDAT", compressed.data(), length);  // one chunk: a reader can inflate it in place
   return {};
@@ -379,9 +402,11 @@ Status write_compressed(ChunkWriter& out, const cv::Mat& image, int level) {
 }  // namespace
 
 Status write(const fs::path& file, const cv::Mat& image, int level) {
-  if (!can_write(image)) return std::unexpected(internal_error("png::write: unsupported image type"));
+  if (!can_write(image))
+    return std::unexpected(internal_error("png::write: unsupported image type"));
   ChunkWriter out(file);
-  if (!out.ok()) return std::unexpected(io_error(file, std::string("cannot create: ") + std::strerror(errno)));
+  if (!out.ok())
+    return std::unexpected(io_error(file, std::string("cannot create: ") + std::strerror(errno)));
   std::uint8_t header[13];
   store_be32(header, static_cast<std::uint32_t>(image.cols));
   store_be32(header + 4, static_cast<std::uint32_t>(image.rows));
@@ -395,7 +420,8 @@ Status write(const fs::path& file, const cv::Mat& image, int level) {
     return ok;
   }
   out.chunk("IEND", nullptr, 0);
-  if (!out.close()) return std::unexpected(io_error(file, std::string("cannot write: ") + std::strerror(errno)));
+  if (!out.close())
+    return std::unexpected(io_error(file, std::string("cannot write: ") + std::strerror(errno)));
   return {};
 }
 

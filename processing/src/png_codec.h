@@ -5,10 +5,10 @@
 // faster, with OpenCV's libpng path kept for everything outside the subset
 // handled here: 8- or 16-bit grey or RGB, not interlaced, no transparency.
 
-#include <opencv2/core.hpp>
-
 #include <filesystem>
 #include <optional>
+
+#include <opencv2/core.hpp>
 
 #include "psrig/processing/error.h"
 

@@ -1,6 +1,5 @@
 #include "psrig/processing/report.h"
 
-
 #include "psrig/processing/light_matrix.h"
 #include "psrig/processing/parallel.h"
 
@@ -10,15 +9,24 @@ namespace {
 using nlohmann::json;
 
 json distribution_json(const Distribution& d) {
-  return {{"pixels", d.count}, {"mean", d.mean}, {"median", d.median}, {"p95", d.p95}, {"max", d.max}, {"rms", d.rms}};
+  return {{"pixels", d.count}, {"mean", d.mean}, {"median", d.median},
+          {"p95", d.p95},      {"max", d.max},   {"rms", d.rms}};
 }
 
-const char* depth_name(int depth) { return depth == CV_8U ? "8" : depth == CV_16U ? "16" : "32f"; }
+const char* depth_name(int depth) {
+  return depth == CV_8U ? "8" : depth == CV_16U ? "16" : "32f";
+}
 
 json pixel_counts(const PixelCounts& n) {
-  return {{"total", n.total},         {"valid", n.valid},           {"masked", n.total - n.valid},
-          {"outside_mask", n.outside_mask}, {"saturated", n.saturated}, {"shadowed", n.shadowed},
-          {"low_signal", n.low_signal}, {"no_solution", n.no_solution}, {"recovered_by_rejection", n.recovered}};
+  return {{"total", n.total},
+          {"valid", n.valid},
+          {"masked", n.total - n.valid},
+          {"outside_mask", n.outside_mask},
+          {"saturated", n.saturated},
+          {"shadowed", n.shadowed},
+          {"low_signal", n.low_signal},
+          {"no_solution", n.no_solution},
+          {"recovered_by_rejection", n.recovered}};
 }
 
 }  // namespace
@@ -53,18 +61,22 @@ json make_report(const ReportInputs& in) {
                        {"low_signal", options.solve.low_signal}};
 
   json times = json::object();
-  for (const auto& [stage, ms] : in.stage_ms) times[stage] = ms;
+  for (const auto& [stage, ms] : in.stage_ms)
+    times[stage] = ms;
   report["timings_ms"] = times;
 
   std::vector<cv::Vec3d> directions;
-  for (const auto& light : d.lights) directions.push_back(light.direction);
+  for (const auto& light : d.lights)
+    directions.push_back(light.direction);
   const LightMatrix matrix = make_light_matrix(directions);
   json rows = json::array();
-  for (const auto& l : matrix.directions) rows.push_back({l[0], l[1], l[2]});
+  for (const auto& l : matrix.directions)
+    rows.push_back({l[0], l[1], l[2]});
   report["light_matrix"] = {{"directions", rows}, {"condition_number", matrix.condition_number}};
 
   report["pixels"] = pixel_counts(in.pixels);
-  report["residual"] = {{"mean", in.residual.mean}, {"p95", in.residual.p95}, {"units", "fraction of full scale"}};
+  report["residual"] = {
+      {"mean", in.residual.mean}, {"p95", in.residual.p95}, {"units", "fraction of full scale"}};
   report["integrability"] = {{"mean_abs_curl", in.mean_abs_curl}};
 
   if (in.height)
@@ -77,8 +89,10 @@ json make_report(const ReportInputs& in) {
   const auto& truth = in.ground_truth;
   if (truth.angular_error_deg || truth.height_rms_error) {
     json gt = json::object();
-    if (truth.angular_error_deg) gt["angular_error_deg"] = distribution_json(*truth.angular_error_deg);
-    if (truth.mean_angular_error_all_deg) gt["mean_angular_error_all_solved_deg"] = *truth.mean_angular_error_all_deg;
+    if (truth.angular_error_deg)
+      gt["angular_error_deg"] = distribution_json(*truth.angular_error_deg);
+    if (truth.mean_angular_error_all_deg)
+      gt["mean_angular_error_all_solved_deg"] = *truth.mean_angular_error_all_deg;
     if (truth.height_rms_error) gt["height_rms_error"] = *truth.height_rms_error;
     report["ground_truth"] = gt;
   }

@@ -31,14 +31,17 @@ class DescriptionParser {
     const auto name = value.get<std::string>();
     const fs::path path(name);
     if (path.is_absolute())
-      return std::unexpected(error(key, "'" + name + "' is absolute; name a file inside the scan directory"));
+      return std::unexpected(
+          error(key, "'" + name + "' is absolute; name a file inside the scan directory"));
     for (const auto& part : path)
       if (part == "..")
-        return std::unexpected(error(key, "'" + name + "' leaves the scan directory; name a file inside it"));
+        return std::unexpected(
+            error(key, "'" + name + "' leaves the scan directory; name a file inside it"));
     return name;
   }
 
-  Result<std::optional<std::string>> optional_file_name(const json& object, const std::string& key) const {
+  Result<std::optional<std::string>> optional_file_name(const json& object,
+                                                        const std::string& key) const {
     if (!object.contains(key) || object.at(key).is_null()) return std::optional<std::string>{};
     auto name = file_name(object.at(key), key);
     if (!name) return std::unexpected(name.error());
@@ -62,7 +65,8 @@ class DescriptionParser {
       d[i] = value[i].get<double>();
       if (!std::isfinite(d[i])) return std::unexpected(error(key, "has a non-finite component"));
     }
-    if (cv::norm(d) < 1e-9) return std::unexpected(error(key, "is the zero vector; give the direction toward the light"));
+    if (cv::norm(d) < 1e-9)
+      return std::unexpected(error(key, "is the zero vector; give the direction toward the light"));
     return d / cv::norm(d);
   }
 
@@ -90,20 +94,25 @@ class DescriptionParser {
   }
 
   Result<ScanDescription> parse(const json& doc, const fs::path& directory) const {
-    if (!doc.is_object()) return std::unexpected(error("", "expected a JSON object at the top level"));
+    if (!doc.is_object())
+      return std::unexpected(error("", "expected a JSON object at the top level"));
     ScanDescription d;
     d.directory = directory;
     d.document = doc;
 
-    if (!doc.contains("format")) return std::unexpected(error("format", "missing; expected \"psrig-scan/1\""));
+    if (!doc.contains("format"))
+      return std::unexpected(error("format", "missing; expected \"psrig-scan/1\""));
     if (!doc["format"].is_string() || doc["format"].get<std::string>() != kScanFormat)
-      return std::unexpected(error("format", "is " + doc["format"].dump() + "; this psrig reads \"psrig-scan/1\""));
+      return std::unexpected(
+          error("format", "is " + doc["format"].dump() + "; this psrig reads \"psrig-scan/1\""));
 
     if (doc.contains("sample") && !doc["sample"].is_null()) {
       const auto& sample = doc["sample"];
-      if (!sample.is_object()) return std::unexpected(error("sample", "expected an object {id, description}"));
+      if (!sample.is_object())
+        return std::unexpected(error("sample", "expected an object {id, description}"));
       if (sample.contains("id")) {
-        if (!sample["id"].is_string()) return std::unexpected(error("sample.id", "expected a string"));
+        if (!sample["id"].is_string())
+          return std::unexpected(error("sample.id", "expected a string"));
         d.sample_id = sample["id"].get<std::string>();
       }
       if (sample.contains("description")) {
@@ -115,9 +124,13 @@ class DescriptionParser {
 
     if (doc.contains("encoding")) {
       const auto& e = doc["encoding"];
-      if (e == "linear") d.encoding = Encoding::linear;
-      else if (e == "srgb") d.encoding = Encoding::srgb;
-      else return std::unexpected(error("encoding", "is " + e.dump() + "; expected \"linear\" or \"srgb\""));
+      if (e == "linear")
+        d.encoding = Encoding::linear;
+      else if (e == "srgb")
+        d.encoding = Encoding::srgb;
+      else
+        return std::unexpected(
+            error("encoding", "is " + e.dump() + "; expected \"linear\" or \"srgb\""));
     }
 
     if (doc.contains("black_level") && !doc["black_level"].is_null()) {
@@ -130,7 +143,8 @@ class DescriptionParser {
       auto white = finite_number(doc["white_level"], "white_level");
       if (!white) return std::unexpected(white.error());
       if (*white <= d.black_level)
-        return std::unexpected(error("white_level", "must be above black_level (" + std::to_string(d.black_level) + ")"));
+        return std::unexpected(error(
+            "white_level", "must be above black_level (" + std::to_string(d.black_level) + ")"));
       d.white_level = *white;
     }
 
@@ -140,27 +154,32 @@ class DescriptionParser {
       (std::string(key) == "dark" ? d.dark : d.mask) = *name;
     }
 
-    if (!doc.contains("lights")) return std::unexpected(error("lights", "missing; list at least three lights"));
+    if (!doc.contains("lights"))
+      return std::unexpected(error("lights", "missing; list at least three lights"));
     const auto& lights = doc["lights"];
     if (!lights.is_array()) return std::unexpected(error("lights", "expected an array of lights"));
     if (lights.size() < 3)
-      return std::unexpected(error("lights", std::to_string(lights.size()) +
-                                                 " light(s) given; photometric stereo needs at least three"));
+      return std::unexpected(
+          error("lights", std::to_string(lights.size()) +
+                              " light(s) given; photometric stereo needs at least three"));
     for (std::size_t i = 0; i < lights.size(); ++i) {
       const std::string prefix = "lights[" + std::to_string(i) + "]";
       const auto& entry = lights[i];
-      if (!entry.is_object()) return std::unexpected(error(prefix, "expected an object {image, direction, intensity}"));
+      if (!entry.is_object())
+        return std::unexpected(error(prefix, "expected an object {image, direction, intensity}"));
       ScanLight light;
       if (!entry.contains("image")) return std::unexpected(error(prefix + ".image", "missing"));
       auto image = file_name(entry["image"], prefix + ".image");
       if (!image) return std::unexpected(image.error());
       light.image = *image;
-      if (!entry.contains("direction")) return std::unexpected(error(prefix + ".direction", "missing"));
+      if (!entry.contains("direction"))
+        return std::unexpected(error(prefix + ".direction", "missing"));
       auto dir = direction(entry["direction"], prefix + ".direction");
       if (!dir) return std::unexpected(dir.error());
       light.direction = *dir;
       if (light.direction[2] <= 0)
-        return std::unexpected(error(prefix + ".direction", "points below the swatch (z <= 0); z is toward the camera"));
+        return std::unexpected(error(prefix + ".direction",
+                                     "points below the swatch (z <= 0); z is toward the camera"));
       if (entry.contains("intensity")) {
         if (auto ok = intensity(entry["intensity"], prefix + ".intensity", light); !ok)
           return std::unexpected(ok.error());
@@ -183,13 +202,15 @@ class DescriptionParser {
     if (doc.contains("pixel_size_mm") && !doc["pixel_size_mm"].is_null()) {
       auto size = finite_number(doc["pixel_size_mm"], "pixel_size_mm");
       if (!size) return std::unexpected(size.error());
-      if (*size <= 0) return std::unexpected(error("pixel_size_mm", "must be positive (or null when unknown)"));
+      if (*size <= 0)
+        return std::unexpected(error("pixel_size_mm", "must be positive (or null when unknown)"));
       d.pixel_size_mm = *size;
     }
 
     if (doc.contains("ground_truth") && !doc["ground_truth"].is_null()) {
       const auto& truth = doc["ground_truth"];
-      if (!truth.is_object()) return std::unexpected(error("ground_truth", "expected an object {normal, height}"));
+      if (!truth.is_object())
+        return std::unexpected(error("ground_truth", "expected an object {normal, height}"));
       auto normal = optional_file_name(truth, "normal");
       if (!normal) return std::unexpected(error("ground_truth.normal", normal.error().message));
       auto height = optional_file_name(truth, "height");
@@ -199,7 +220,8 @@ class DescriptionParser {
     }
 
     std::vector<cv::Vec3d> directions;
-    for (const auto& light : d.lights) directions.push_back(light.direction);
+    for (const auto& light : d.lights)
+      directions.push_back(light.direction);
     const double condition = make_light_matrix(directions).condition_number;
     if (!(condition <= kMaxLightConditionNumber)) {
       std::ostringstream message;
@@ -231,23 +253,31 @@ std::pair<int, int> line_and_column(const std::string& text, std::size_t byte) {
 
 const char* depth_name(int depth) {
   switch (depth) {
-    case CV_8U: return "8-bit";
-    case CV_16U: return "16-bit";
-    case CV_32F: return "32-bit float";
-    default: return "unsupported-depth";
+    case CV_8U:
+      return "8-bit";
+    case CV_16U:
+      return "16-bit";
+    case CV_32F:
+      return "32-bit float";
+    default:
+      return "unsupported-depth";
   }
 }
 
 std::string describe_image(const cv::Mat& image) {
-  return std::to_string(image.cols) + "x" + std::to_string(image.rows) + " " + depth_name(image.depth()) + " " +
+  return std::to_string(image.cols) + "x" + std::to_string(image.rows) + " " +
+         depth_name(image.depth()) + " " +
          (image.channels() == 1 ? "grey" : std::to_string(image.channels()) + "-channel");
 }
 
 double full_scale(int depth) {
   switch (depth) {
-    case CV_8U: return 255.0;
-    case CV_16U: return 65535.0;
-    default: return 1.0;
+    case CV_8U:
+      return 255.0;
+    case CV_16U:
+      return 65535.0;
+    default:
+      return 1.0;
   }
 }
 
@@ -263,9 +293,11 @@ struct ImageRequest {
 Result<ScanDescription> read_scan_description(const fs::path& directory) {
   std::error_code ec;
   if (!fs::is_directory(directory, ec))
-    return std::unexpected(bad_input(directory, "", fs::exists(directory, ec) ? "not a directory" : "no such scan directory"));
+    return std::unexpected(bad_input(
+        directory, "", fs::exists(directory, ec) ? "not a directory" : "no such scan directory"));
   const fs::path file = directory / "scan.json";
-  if (!fs::exists(file, ec)) return std::unexpected(bad_input(file, "", "missing: a scan directory holds scan.json"));
+  if (!fs::exists(file, ec))
+    return std::unexpected(bad_input(file, "", "missing: a scan directory holds scan.json"));
   std::ifstream stream(file, std::ios::binary);
   if (!stream) return std::unexpected(bad_input(file, "", "cannot open for reading"));
   std::stringstream buffer;
@@ -297,13 +329,16 @@ Result<Scan> read_scan(const fs::path& directory) {
 
   std::vector<ImageRequest> requests;
   for (std::size_t i = 0; i < d.lights.size(); ++i)
-    requests.push_back({d.lights[i].image, "lights[" + std::to_string(i) + "].image", &scan.frames[i]});
+    requests.push_back(
+        {d.lights[i].image, "lights[" + std::to_string(i) + "].image", &scan.frames[i]});
   if (d.dark) requests.push_back({*d.dark, "dark", &scan.dark});
   if (d.mask) requests.push_back({*d.mask, "mask", &scan.mask});
   for (std::size_t i = 0; i < d.flats.size(); ++i)
     requests.push_back({d.flats[i], "flats[" + std::to_string(i) + "]", &scan.flats[i]});
-  if (d.ground_truth_normal) requests.push_back({*d.ground_truth_normal, "ground_truth.normal", &scan.ground_truth_normal});
-  if (d.ground_truth_height) requests.push_back({*d.ground_truth_height, "ground_truth.height", &scan.ground_truth_height});
+  if (d.ground_truth_normal)
+    requests.push_back({*d.ground_truth_normal, "ground_truth.normal", &scan.ground_truth_normal});
+  if (d.ground_truth_height)
+    requests.push_back({*d.ground_truth_height, "ground_truth.height", &scan.ground_truth_height});
 
   // Decoding dominates reading time, so the files are decoded in parallel;
   // the first error in request order is the one reported.
@@ -314,8 +349,10 @@ Result<Scan> read_scan(const fs::path& directory) {
       auto image = request.destination == &scan.ground_truth_normal
                        ? read_vector_exr(directory / request.name, request.key)
                        : read_image(directory / request.name, request.key);
-      if (image) *request.destination = std::move(*image);
-      else errors[i] = image.error();
+      if (image)
+        *request.destination = std::move(*image);
+      else
+        errors[i] = image.error();
     }
   });
   for (auto& error : errors)
@@ -327,10 +364,12 @@ Result<Scan> read_scan(const fs::path& directory) {
     return bad_input(directory / request.name, request.key, what);
   };
   const auto check_like_first = [&](const ImageRequest& request, const cv::Mat& image) -> Status {
-    if (image.size() != first.size() || image.channels() != first.channels() || image.depth() != first.depth())
-      return std::unexpected(frame_error(request, "is " + describe_image(image) + " but " + d.lights[0].image +
-                                                      " is " + describe_image(first) +
-                                                      "; all frames of a scan share size, channels and bit depth"));
+    if (image.size() != first.size() || image.channels() != first.channels() ||
+        image.depth() != first.depth())
+      return std::unexpected(
+          frame_error(request, "is " + describe_image(image) + " but " + d.lights[0].image +
+                                   " is " + describe_image(first) +
+                                   "; all frames of a scan share size, channels and bit depth"));
     return {};
   };
   for (std::size_t i = 0; i < requests.size(); ++i) {
@@ -338,26 +377,34 @@ Result<Scan> read_scan(const fs::path& directory) {
     const cv::Mat& image = *request.destination;
     if (request.key == "mask") {
       if (image.size() != first.size())
-        return std::unexpected(frame_error(request, "is " + describe_image(image) + " but the frames are " +
-                                                        std::to_string(first.cols) + "x" + std::to_string(first.rows)));
-      if (image.channels() != 1) return std::unexpected(frame_error(request, "must be a grey image (nonzero = use)"));
-      if (image.depth() != CV_8U) image.convertTo(scan.mask, CV_8U, 255.0);  // any nonzero stays nonzero
+        return std::unexpected(frame_error(
+            request, "is " + describe_image(image) + " but the frames are " +
+                         std::to_string(first.cols) + "x" + std::to_string(first.rows)));
+      if (image.channels() != 1)
+        return std::unexpected(frame_error(request, "must be a grey image (nonzero = use)"));
+      if (image.depth() != CV_8U)
+        image.convertTo(scan.mask, CV_8U, 255.0);  // any nonzero stays nonzero
       cv::compare(scan.mask, 0, scan.mask, cv::CMP_GT);
       continue;
     }
     if (request.key.starts_with("ground_truth")) {
       const int expected = request.key.ends_with("normal") ? CV_32FC3 : CV_32FC1;
       if (image.size() != first.size() || image.type() != expected)
-        return std::unexpected(frame_error(request, "is " + describe_image(image) + "; expected " +
-                                                        std::to_string(first.cols) + "x" + std::to_string(first.rows) +
-                                                        (expected == CV_32FC3 ? " 32-bit float 3-channel" : " 32-bit float grey")));
+        return std::unexpected(frame_error(
+            request,
+            "is " + describe_image(image) + "; expected " + std::to_string(first.cols) + "x" +
+                std::to_string(first.rows) +
+                (expected == CV_32FC3 ? " 32-bit float 3-channel" : " 32-bit float grey")));
       continue;
     }
     if (image.depth() != CV_8U && image.depth() != CV_16U && image.depth() != CV_32F)
-      return std::unexpected(frame_error(request, "has an unsupported pixel type; frames are 8- or 16-bit PNG or 32-bit float TIFF/EXR"));
+      return std::unexpected(frame_error(
+          request,
+          "has an unsupported pixel type; frames are 8- or 16-bit PNG or 32-bit float TIFF/EXR"));
     if (image.channels() != 1 && image.channels() != 3)
-      return std::unexpected(frame_error(request, "has " + std::to_string(image.channels()) +
-                                                      " channels; frames are grey or colour (no alpha)"));
+      return std::unexpected(
+          frame_error(request, "has " + std::to_string(image.channels()) +
+                                   " channels; frames are grey or colour (no alpha)"));
     if (auto ok = check_like_first(request, image); !ok) return std::unexpected(ok.error());
   }
 
@@ -366,8 +413,9 @@ Result<Scan> read_scan(const fs::path& directory) {
   const fs::path json_file = directory / "scan.json";
   if (first.depth() != CV_32F && scan.white_level > full)
     return std::unexpected(bad_input(json_file, "white_level",
-                                     "is " + std::to_string(scan.white_level) + " but the frames are " +
-                                         depth_name(first.depth()) + " (full scale " + std::to_string(full) + ")"));
+                                     "is " + std::to_string(scan.white_level) +
+                                         " but the frames are " + depth_name(first.depth()) +
+                                         " (full scale " + std::to_string(full) + ")"));
   if (scan.description.black_level >= scan.white_level)
     return std::unexpected(bad_input(json_file, "black_level", "must be below the white level"));
   for (std::size_t i = 0; i < d.lights.size(); ++i)

@@ -5,7 +5,8 @@
 // build stays runnable anywhere. Elsewhere (the rig's ARM board) the
 // baseline ISA already has NEON.
 #if defined(__x86_64__) && defined(__GNUC__) && !defined(__clang__)
-#define PSRIG_VECTOR_CLONES __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
+#define PSRIG_VECTOR_CLONES \
+  __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default")))
 #else
 #define PSRIG_VECTOR_CLONES
 #endif

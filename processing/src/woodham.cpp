@@ -28,7 +28,7 @@ struct RowData {
   // light * channels + channel, saturation plane light.
   const float* measurement = nullptr;
   const std::uint8_t* saturated = nullptr;
-  const std::uint8_t* mask = nullptr;               // 0 = outside the scan's mask
+  const std::uint8_t* mask = nullptr;  // 0 = outside the scan's mask
   float* p = nullptr;
   float* q = nullptr;
   float* albedo = nullptr;  // interleaved channels
@@ -71,14 +71,15 @@ template <int C>
 // albedo loop; code gets the kLowSignal, kNoSolution and kShadowed bits.
 // (Two loops rather than one: together they run out of vector registers.)
 template <int C>
-[[gnu::always_inline]] inline void three_light_normals(const RowPlanes<C>& planes, const std::uint8_t* __restrict mask,
-                                                       const ThreeLightInverse& l, float shadow_ratio, float low_signal,
-                                                       float* __restrict p, float* __restrict q,
-                                                       float* __restrict length, float* __restrict inverse_energy,
-                                                       std::uint8_t* __restrict code, int n) {
+[[gnu::always_inline]] inline void three_light_normals(
+    const RowPlanes<C>& planes, const std::uint8_t* __restrict mask, const ThreeLightInverse& l,
+    float shadow_ratio, float low_signal, float* __restrict p, float* __restrict q,
+    float* __restrict length, float* __restrict inverse_energy, std::uint8_t* __restrict code,
+    int n) {
   for (int i = 0; i < n; ++i) {
     const float inside = mask[i] ? 1.0f : 0.0f;
-    const float x0 = grey(planes, 0, i) * inside, x1 = grey(planes, 1, i) * inside, x2 = grey(planes, 2, i) * inside;
+    const float x0 = grey(planes, 0, i) * inside, x1 = grey(planes, 1, i) * inside,
+                x2 = grey(planes, 2, i) * inside;
     const float tx = l.a[0][0] * x0 + l.a[0][1] * x1 + l.a[0][2] * x2;
     const float ty = l.a[1][0] * x0 + l.a[1][1] * x1 + l.a[1][2] * x2;
     const float tz = l.a[2][0] * x0 + l.a[2][1] * x1 + l.a[2][2] * x2;
@@ -94,8 +95,9 @@ template <int C>
     q[i] = solved ? -ty * inverse_tz : 0.0f;
     length[i] = solved ? t : 0.0f;
     inverse_energy[i] = solved ? 1.0f / (x0 * x0 + x1 * x1 + x2 * x2) : 0.0f;
-    code[i] = static_cast<std::uint8_t>((low ? kLowSignal : 0) | (!low && no_solution ? kNoSolution : 0) |
-                                        (solved && shadowed ? kShadowed : 0));
+    code[i] =
+        static_cast<std::uint8_t>((low ? kLowSignal : 0) | (!low && no_solution ? kNoSolution : 0) |
+                                  (solved && shadowed ? kShadowed : 0));
   }
 }
 
@@ -103,9 +105,11 @@ template <int C>
 // output is), and the RMS misfit of m - w g over lights and channels
 // (computed directly: expanding the square cancels badly in float).
 template <int C>
-[[gnu::always_inline]] inline void three_light_albedo(const RowPlanes<C>& planes, const float* __restrict length,
+[[gnu::always_inline]] inline void three_light_albedo(const RowPlanes<C>& planes,
+                                                      const float* __restrict length,
                                                       const float* __restrict inverse_energy,
-                                                      float* __restrict albedo, float* __restrict residual, int n) {
+                                                      float* __restrict albedo,
+                                                      float* __restrict residual, int n) {
   constexpr float kInverseTerms = 1.0f / (3 * C);
   for (int i = 0; i < n; ++i) {
     const float g0 = grey(planes, 0, i), g1 = grey(planes, 1, i), g2 = grey(planes, 2, i);
@@ -126,7 +130,8 @@ void three_light_flags(const std::uint8_t* __restrict code, const std::uint8_t* 
                        const std::uint8_t* __restrict s0, const std::uint8_t* __restrict s1,
                        const std::uint8_t* __restrict s2, std::uint8_t* __restrict flags, int n) {
   for (int i = 0; i < n; ++i) {
-    const auto bits = static_cast<std::uint8_t>(code[i] | ((s0[i] | s1[i] | s2[i]) ? kSaturated : 0));
+    const auto bits =
+        static_cast<std::uint8_t>(code[i] | ((s0[i] | s1[i] | s2[i]) ? kSaturated : 0));
     flags[i] = mask[i] ? bits : static_cast<std::uint8_t>(kOutsideMask);
   }
 }
@@ -141,17 +146,22 @@ struct ThreeLightRow {
 // Everything by value: local copies no store in the loops can alias, so
 // the plane pointers and coefficients stay in registers.
 PSRIG_VECTOR_CLONES
-void solve_three_grey(RowPlanes<1> planes, ThreeLightInverse l, float shadow_ratio, float low_signal, ThreeLightRow r) {
-  three_light_normals(planes, r.mask, l, shadow_ratio, low_signal, r.p, r.q, r.length, r.inverse_energy, r.code, r.n);
+void solve_three_grey(RowPlanes<1> planes, ThreeLightInverse l, float shadow_ratio,
+                      float low_signal, ThreeLightRow r) {
+  three_light_normals(planes, r.mask, l, shadow_ratio, low_signal, r.p, r.q, r.length,
+                      r.inverse_energy, r.code, r.n);
   three_light_albedo(planes, r.length, r.inverse_energy, r.albedo, r.residual, r.n);
 }
 PSRIG_VECTOR_CLONES
-void solve_three_colour(RowPlanes<3> planes, ThreeLightInverse l, float shadow_ratio, float low_signal, ThreeLightRow r) {
-  three_light_normals(planes, r.mask, l, shadow_ratio, low_signal, r.p, r.q, r.length, r.inverse_energy, r.code, r.n);
+void solve_three_colour(RowPlanes<3> planes, ThreeLightInverse l, float shadow_ratio,
+                        float low_signal, ThreeLightRow r) {
+  three_light_normals(planes, r.mask, l, shadow_ratio, low_signal, r.p, r.q, r.length,
+                      r.inverse_energy, r.code, r.n);
   three_light_albedo(planes, r.length, r.inverse_energy, r.albedo, r.residual, r.n);
 }
 
-void solve_row_three(const RowData& row, const ThreeLightInverse& inverse, const SolveOptions& options) {
+void solve_row_three(const RowData& row, const ThreeLightInverse& inverse,
+                     const SolveOptions& options) {
   thread_local std::vector<float> length, inverse_energy;
   thread_local std::vector<std::uint8_t> code;
   const int n = row.cols;
@@ -159,18 +169,22 @@ void solve_row_three(const RowData& row, const ThreeLightInverse& inverse, const
   length.resize(cols);
   inverse_energy.resize(cols);
   code.resize(cols);
-  const ThreeLightRow out{row.mask, row.p, row.q, length.data(), inverse_energy.data(), row.albedo,
-                          row.residual, code.data(), n};
+  const ThreeLightRow out{
+      row.mask,     row.p,       row.q, length.data(), inverse_energy.data(), row.albedo,
+      row.residual, code.data(), n};
   if (row.channels == 1) {
     RowPlanes<1> planes{};
-    for (int j = 0; j < 3; ++j) planes.m[j] = row.measurement + j * cols;
+    for (int j = 0; j < 3; ++j)
+      planes.m[j] = row.measurement + j * cols;
     solve_three_grey(planes, inverse, options.shadow_ratio, options.low_signal, out);
   } else {
     RowPlanes<3> planes{};
-    for (int j = 0; j < 9; ++j) planes.m[j] = row.measurement + j * cols;
+    for (int j = 0; j < 9; ++j)
+      planes.m[j] = row.measurement + j * cols;
     solve_three_colour(planes, inverse, options.shadow_ratio, options.low_signal, out);
   }
-  three_light_flags(code.data(), row.mask, row.saturated, row.saturated + cols, row.saturated + 2 * cols, row.flags, n);
+  three_light_flags(code.data(), row.mask, row.saturated, row.saturated + cols,
+                    row.saturated + 2 * cols, row.flags, n);
 }
 
 // Solves t = A^-1 b for the symmetric 3x3 A by cofactors; false when A is
@@ -205,7 +219,8 @@ void solve_row_general(const RowData& row, const Coefficients& co, const SolveOp
     bool saturated = false;
     for (int k = 0; k < lights; ++k) {
       double sum = 0;
-      for (int c = 0; c < channels; ++c) sum += row.measurement[(k * channels + c) * row.cols + i];
+      for (int c = 0; c < channels; ++c)
+        sum += row.measurement[(k * channels + c) * row.cols + i];
       grey[k] = sum / channels;
       brightest = std::max(brightest, grey[k]);
       const bool saturated_here = row.saturated[k * row.cols + i] != 0;
@@ -251,7 +266,8 @@ void solve_row_general(const RowData& row, const Coefficients& co, const SolveOp
           break;
         }
       }
-      for (int k = 0; k < lights; ++k) recovered |= !used[k];
+      for (int k = 0; k < lights; ++k)
+        recovered |= !used[k];
     }
 
     const double length = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
@@ -283,30 +299,34 @@ void solve_row_general(const RowData& row, const Coefficients& co, const SolveOp
     row.p[i] = solved ? static_cast<float>(-t[0] / t[2]) : 0.0f;
     row.q[i] = solved ? static_cast<float>(-t[1] / t[2]) : 0.0f;
     row.residual[i] = solved && terms ? static_cast<float>(std::sqrt(misfit / terms)) : 0.0f;
-    row.flags[i] = static_cast<std::uint8_t>((outside ? kOutsideMask : 0) | (saturated ? kSaturated : 0) |
-                                             (solved && shadowed ? kShadowed : 0) |
-                                             (!outside && low ? kLowSignal : 0) | (no_solution ? kNoSolution : 0) |
-                                             (solved && recovered ? kRecovered : 0));
+    row.flags[i] = static_cast<std::uint8_t>(
+        (outside ? kOutsideMask : 0) | (saturated ? kSaturated : 0) |
+        (solved && shadowed ? kShadowed : 0) | (!outside && low ? kLowSignal : 0) |
+        (no_solution ? kNoSolution : 0) | (solved && recovered ? kRecovered : 0));
   }
 }
 
 Coefficients make_coefficients(const Scan& scan) {
   std::vector<cv::Vec3d> directions;
-  for (const auto& light : scan.description.lights) directions.push_back(light.direction);
+  for (const auto& light : scan.description.lights)
+    directions.push_back(light.direction);
   Coefficients co;
   for (const auto& d : make_light_matrix(directions).directions)
-    co.direction.push_back({static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2])});
+    co.direction.push_back(
+        {static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2])});
   return co;
 }
 
 ThreeLightInverse three_light_inverse(const Coefficients& co) {
   cv::Matx33d l;
   for (int k = 0; k < 3; ++k)
-    for (int j = 0; j < 3; ++j) l(k, j) = co.direction[k][j];
+    for (int j = 0; j < 3; ++j)
+      l(k, j) = co.direction[k][j];
   const cv::Matx33d inverse = l.inv(cv::DECOMP_LU);
   ThreeLightInverse result;
   for (int r = 0; r < 3; ++r)
-    for (int k = 0; k < 3; ++k) result.a[r][k] = static_cast<float>(inverse(r, k));
+    for (int k = 0; k < 3; ++k)
+      result.a[r][k] = static_cast<float>(inverse(r, k));
   return result;
 }
 
@@ -338,7 +358,8 @@ Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& re
     saturation.resize(cols * lights);
     everywhere.assign(cols, 255);
     std::vector<float*> planes(static_cast<std::size_t>(lights) * channels);
-    for (std::size_t j = 0; j < planes.size(); ++j) planes[j] = measurements.data() + j * cols;
+    for (std::size_t j = 0; j < planes.size(); ++j)
+      planes[j] = measurements.data() + j * cols;
 
     RowData row;
     row.cols = size.width;
@@ -348,15 +369,18 @@ Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& re
     row.saturated = saturation.data();
     for (int r = begin; r < end; ++r) {
       for (int k = 0; k < lights; ++k)
-        lineariser->row(k, r, planes.data() + static_cast<std::size_t>(k) * channels, saturation.data() + k * cols);
+        lineariser->row(k, r, planes.data() + static_cast<std::size_t>(k) * channels,
+                        saturation.data() + k * cols);
       row.mask = scan.mask.empty() ? everywhere.data() : scan.mask.ptr<std::uint8_t>(r);
       row.p = result.p.ptr<float>(r);
       row.q = result.q.ptr<float>(r);
       row.albedo = result.albedo.ptr<float>(r);
       row.residual = result.residual.ptr<float>(r);
       row.flags = result.flags.ptr<std::uint8_t>(r);
-      if (three) solve_row_three(row, inverse, options);
-      else solve_row_general(row, co, options);
+      if (three)
+        solve_row_three(row, inverse, options);
+      else
+        solve_row_general(row, co, options);
     }
   });
   return {};

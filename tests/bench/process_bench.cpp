@@ -4,11 +4,11 @@
 // BM_FileCopy/12MP: reading the same input files and writing the same
 // number of output bytes with plain read/write, the I/O floor.
 
-#include <benchmark/benchmark.h>
-
 #include <cstdio>
 #include <fstream>
 #include <vector>
+
+#include <benchmark/benchmark.h>
 
 #include "psrig/capture/scan_writer.h"
 #include "psrig/capture/synthetic_scan.h"
@@ -34,7 +34,8 @@ const fs::path& scan_12mp() {
     synthetic.ground_truth_normal = cv::Mat();  // a rig scan has none
     synthetic.ground_truth_height = cv::Mat();
     const fs::path dir = workspace() / "scan";
-    if (auto ok = psrig::capture::write_scan(synthetic, dir); !ok) std::fprintf(stderr, "%s\n", ok.error().describe().c_str());
+    if (auto ok = psrig::capture::write_scan(synthetic, dir); !ok)
+      std::fprintf(stderr, "%s\n", ok.error().describe().c_str());
     return dir;
   }();
   return scan;
@@ -81,11 +82,20 @@ void BM_FileCopy(benchmark::State& state) {
     }
     std::ofstream file(out / "maps.bin", std::ios::binary);
     for (std::size_t written = 0; written < maps_bytes; written += buffer.size())
-      file.write(buffer.data(), static_cast<std::streamsize>(std::min(buffer.size(), maps_bytes - written)));
+      file.write(buffer.data(),
+                 static_cast<std::streamsize>(std::min(buffer.size(), maps_bytes - written)));
   }
 }
 
-BENCHMARK(BM_Process)->Name("BM_Process/12MP")->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(5);
-BENCHMARK(BM_FileCopy)->Name("BM_FileCopy/12MP")->Unit(benchmark::kMillisecond)->UseRealTime()->Iterations(5);
+BENCHMARK(BM_Process)
+    ->Name("BM_Process/12MP")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(5);
+BENCHMARK(BM_FileCopy)
+    ->Name("BM_FileCopy/12MP")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(5);
 
 }  // namespace

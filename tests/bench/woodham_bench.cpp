@@ -3,9 +3,9 @@
 // BM_StreamCopy/12MP: the same bytes read and written, nothing computed.
 // Report Woodham3's throughput as a ratio of StreamCopy's.
 
-#include <benchmark/benchmark.h>
-
 #include <cstring>
+
+#include <benchmark/benchmark.h>
 
 #include "psrig/processing/parallel.h"
 #include "psrig/processing/woodham.h"
@@ -27,12 +27,15 @@ const Scan& scan_12mp() {
 
 std::size_t input_bytes(const Scan& scan) {
   std::size_t bytes = 0;
-  for (const auto& frame : scan.frames) bytes += frame.total() * frame.elemSize();
+  for (const auto& frame : scan.frames)
+    bytes += frame.total() * frame.elemSize();
   return bytes;
 }
 
 // p, q, residual (float), albedo (3 floats), flags (1 byte) per pixel.
-std::size_t output_bytes_per_pixel() { return 3 * sizeof(float) + 3 * sizeof(float) + 1; }
+std::size_t output_bytes_per_pixel() {
+  return 3 * sizeof(float) + 3 * sizeof(float) + 1;
+}
 
 void BM_Woodham3(benchmark::State& state) {
   const Scan& scan = scan_12mp();
@@ -43,8 +46,8 @@ void BM_Woodham3(benchmark::State& state) {
     benchmark::DoNotOptimize(result.p.data);
   }
   const std::size_t pixels = scan.size().area();
-  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() *
-                                               (input_bytes(scan) + pixels * output_bytes_per_pixel())));
+  state.SetBytesProcessed(static_cast<int64_t>(
+      state.iterations() * (input_bytes(scan) + pixels * output_bytes_per_pixel())));
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * pixels));
 }
 
@@ -72,12 +75,20 @@ void BM_StreamCopy(benchmark::State& state) {
     benchmark::ClobberMemory();
   }
   const std::size_t pixels = size.area();
-  state.SetBytesProcessed(static_cast<int64_t>(state.iterations() *
-                                               (input_bytes(scan) + pixels * output_bytes_per_pixel())));
+  state.SetBytesProcessed(static_cast<int64_t>(
+      state.iterations() * (input_bytes(scan) + pixels * output_bytes_per_pixel())));
   state.SetItemsProcessed(static_cast<int64_t>(state.iterations() * pixels));
 }
 
-BENCHMARK(BM_Woodham3)->Name("BM_Woodham3/12MP")->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2);
-BENCHMARK(BM_StreamCopy)->Name("BM_StreamCopy/12MP")->Unit(benchmark::kMillisecond)->UseRealTime()->MinTime(2);
+BENCHMARK(BM_Woodham3)
+    ->Name("BM_Woodham3/12MP")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(2);
+BENCHMARK(BM_StreamCopy)
+    ->Name("BM_StreamCopy/12MP")
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->MinTime(2);
 
 }  // namespace

@@ -1,13 +1,11 @@
 // The `psrig` program as a technician meets it: exit codes, messages, and
 // nothing half-written.
 
-#include <gtest/gtest.h>
-
-#include <nlohmann/json.hpp>
-
+#include <fstream>
 #include <unistd.h>
 
-#include <fstream>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "test_support.h"
 
@@ -16,12 +14,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool contains(const std::string& text, const std::string& part) { return text.find(part) != std::string::npos; }
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
 
 TEST(PsrigCli, SynthThenProcess) {
   TempDir temp;
   const auto scan = (temp / "scan").string();
-  auto synth = run_program("psrig", {"synth", "--out", scan, "--pattern", "rib", "--size", "160x120", "--noise", "0.002"});
+  auto synth = run_program("psrig", {"synth", "--out", scan, "--pattern", "rib", "--size",
+                                     "160x120", "--noise", "0.002"});
   ASSERT_EQ(synth.exit_code, 0) << synth.err;
   auto process = run_program("psrig", {"process", scan, "--threads", "2"});
   ASSERT_EQ(process.exit_code, 0) << process.err;
@@ -45,7 +46,8 @@ TEST(PsrigCli, UsageErrorsExitTwo) {
 TEST(PsrigCli, BadScanExitsTwoNamingFileAndKeyAndWritesNothing) {
   TempDir temp;
   const auto scan = temp / "scan";
-  ASSERT_EQ(run_program("psrig", {"synth", "--out", scan.string(), "--size", "32x24"}).exit_code, 0);
+  ASSERT_EQ(run_program("psrig", {"synth", "--out", scan.string(), "--size", "32x24"}).exit_code,
+            0);
   std::ifstream in(scan / "scan.json");
   auto doc = nlohmann::json::parse(in);
   doc["lights"][1]["direction"] = {0, 0, 0};
@@ -71,7 +73,8 @@ TEST(PsrigCli, ReadOnlyScanNeedsOut) {
   EXPECT_EQ(run.exit_code, 2);
   EXPECT_TRUE(contains(run.err, "cannot write")) << run.err;
   TempDir temp;
-  auto with_out = run_program("psrig", {"process", beethoven->string(), "--out", (temp / "maps").string()});
+  auto with_out =
+      run_program("psrig", {"process", beethoven->string(), "--out", (temp / "maps").string()});
   EXPECT_EQ(with_out.exit_code, 0) << with_out.err;
 }
 

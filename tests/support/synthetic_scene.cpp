@@ -11,7 +11,8 @@ std::vector<cv::Vec3d> ring_lights(int count, double slant_deg, double first_til
   const double slant = slant_deg * std::numbers::pi / 180;
   for (int k = 0; k < count; ++k) {
     const double tilt = (first_tilt_deg + 360.0 * k / count) * std::numbers::pi / 180;
-    lights.emplace_back(std::cos(tilt) * std::sin(slant), std::sin(tilt) * std::sin(slant), std::cos(slant));
+    lights.emplace_back(std::cos(tilt) * std::sin(slant), std::sin(tilt) * std::sin(slant),
+                        std::cos(slant));
   }
   return lights;
 }
@@ -24,9 +25,12 @@ Surface sphere_surface(cv::Size size, double radius, int channels) {
       const double x = (c - cx) / radius, y = (cy - r) / radius;  // y up
       const double d2 = x * x + y * y;
       cv::Vec3f n(0, 0, 1);
-      if (d2 < 1) n = cv::Vec3f(static_cast<float>(x), static_cast<float>(y), static_cast<float>(std::sqrt(1 - d2)));
+      if (d2 < 1)
+        n = cv::Vec3f(static_cast<float>(x), static_cast<float>(y),
+                      static_cast<float>(std::sqrt(1 - d2)));
       s.normal.at<cv::Vec3f>(r, c) = n;
-      const double u = static_cast<double>(c) / size.width, v = static_cast<double>(r) / size.height;
+      const double u = static_cast<double>(c) / size.width,
+                   v = static_cast<double>(r) / size.height;
       float* a = s.albedo.ptr<float>(r) + c * channels;
       a[0] = static_cast<float>(0.35 + 0.3 * u);
       if (channels == 3) {
@@ -50,7 +54,7 @@ cv::Mat dome_cast_shadow(cv::Size size, double radius, const cv::Vec3d& light) {
   for (int r = 0; r < size.height; ++r) {
     for (int c = 0; c < size.width; ++c) {
       const cv::Vec3d o((c - cx) / radius, (cy - r) / radius, 0);  // plane point, sphere units
-      if (o.dot(o) < 1) continue;                                    // on the dome itself
+      if (o.dot(o) < 1) continue;                                  // on the dome itself
       // o + s l hits the unit sphere for some s > 0 when b^2 >= c and b < 0.
       const double b = o.dot(l), cterm = o.dot(o) - 1;
       if (b < 0 && b * b >= cterm) mask.at<std::uint8_t>(r, c) = 255;
@@ -59,8 +63,9 @@ cv::Mat dome_cast_shadow(cv::Size size, double radius, const cv::Vec3d& light) {
   return mask;
 }
 
-processing::Scan render_scan(const Surface& surface, const std::vector<cv::Vec3d>& lights, int depth,
-                             double noise, std::uint64_t seed, const std::vector<cv::Mat>& shadows) {
+processing::Scan render_scan(const Surface& surface, const std::vector<cv::Vec3d>& lights,
+                             int depth, double noise, std::uint64_t seed,
+                             const std::vector<cv::Mat>& shadows) {
   processing::Scan scan;
   const int channels = surface.albedo.channels();
   const double full = depth == CV_8U ? 255 : depth == CV_16U ? 65535 : 1;
@@ -74,7 +79,8 @@ processing::Scan render_scan(const Surface& surface, const std::vector<cv::Vec3d
     for (int r = 0; r < linear.rows; ++r) {
       for (int c = 0; c < linear.cols; ++c) {
         const cv::Vec3f n = surface.normal.at<cv::Vec3f>(r, c);
-        const bool blocked = k < shadows.size() && !shadows[k].empty() && shadows[k].at<std::uint8_t>(r, c);
+        const bool blocked =
+            k < shadows.size() && !shadows[k].empty() && shadows[k].at<std::uint8_t>(r, c);
         const double shade = blocked ? 0.0 : std::max(0.0, n[0] * l[0] + n[1] * l[1] + n[2] * l[2]);
         for (int ch = 0; ch < channels; ++ch) {
           double value = surface.albedo.ptr<float>(r)[c * channels + ch] * shade;

@@ -2,10 +2,10 @@
 // Synthetic photometric-stereo scenes with a known answer, built in memory:
 // analytic surfaces rendered Lambertian under lights at the rig's geometry.
 
-#include <opencv2/core.hpp>
-
 #include <cstdint>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "psrig/processing/scan.h"
 
@@ -13,7 +13,8 @@ namespace psrig::test {
 
 // `count` lights evenly spread in tilt from `first_tilt_deg` (0, 120, 240 for
 // three), all at `slant_deg` from the camera axis: DESIGN.md's convention.
-[[nodiscard]] std::vector<cv::Vec3d> ring_lights(int count, double slant_deg, double first_tilt_deg = 0);
+[[nodiscard]] std::vector<cv::Vec3d> ring_lights(int count, double slant_deg,
+                                                 double first_tilt_deg = 0);
 
 struct Surface {
   cv::Mat normal;  // CV_32FC3 unit (nx, ny, nz), camera axes
@@ -35,12 +36,14 @@ struct Surface {
 // `depth` (CV_8U, CV_16U or CV_32F). The scan carries the ground-truth
 // normals, and `description` is filled so solve() can run on it.
 // Where `shadows[k]` is given and nonzero, light k is blocked.
-[[nodiscard]] processing::Scan render_scan(const Surface& surface, const std::vector<cv::Vec3d>& lights,
-                                           int depth, double noise = 0, std::uint64_t seed = 1,
+[[nodiscard]] processing::Scan render_scan(const Surface& surface,
+                                           const std::vector<cv::Vec3d>& lights, int depth,
+                                           double noise = 0, std::uint64_t seed = 1,
                                            const std::vector<cv::Mat>& shadows = {});
 
 // Mean angle in degrees between two normal maps over the pixels where
 // `select` is nonzero (all pixels when empty).
-[[nodiscard]] double mean_angular_error_deg(const cv::Mat& a, const cv::Mat& b, const cv::Mat& select = {});
+[[nodiscard]] double mean_angular_error_deg(const cv::Mat& a, const cv::Mat& b,
+                                            const cv::Mat& select = {});
 
 }  // namespace psrig::test

@@ -1,15 +1,13 @@
 #include "test_support.h"
 
-#include <fcntl.h>
-
-#include <spawn.h>
-#include <sys/wait.h>
-
 #include <algorithm>
 #include <cstdlib>
+#include <fcntl.h>
 #include <fstream>
-#include <sstream>
 #include <random>
+#include <spawn.h>
+#include <sstream>
+#include <sys/wait.h>
 #include <system_error>
 
 namespace psrig::test {
@@ -39,7 +37,9 @@ std::optional<std::filesystem::path> real_dataset(const std::string& name) {
   return folder;
 }
 
-std::filesystem::path program(const std::string& name) { return std::filesystem::path(PSRIG_BIN_DIR) / name; }
+std::filesystem::path program(const std::string& name) {
+  return std::filesystem::path(PSRIG_BIN_DIR) / name;
+}
 
 namespace {
 std::string read_all(const std::filesystem::path& file) {
@@ -59,7 +59,8 @@ ProgramRun run_program(const std::string& name, const std::vector<std::string>& 
   posix_spawn_file_actions_addopen(&actions, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   const std::string path = program(name).string();
   std::vector<char*> argv{const_cast<char*>(path.c_str())};
-  for (const auto& arg : args) argv.push_back(const_cast<char*>(arg.c_str()));
+  for (const auto& arg : args)
+    argv.push_back(const_cast<char*>(arg.c_str()));
   argv.push_back(nullptr);
   pid_t pid = 0;
   ProgramRun run;
@@ -76,7 +77,8 @@ ProgramRun run_program(const std::string& name, const std::vector<std::string>& 
 
 std::vector<std::string> list_directory(const std::filesystem::path& directory) {
   std::vector<std::string> names;
-  for (const auto& entry : std::filesystem::directory_iterator(directory)) names.push_back(entry.path().filename());
+  for (const auto& entry : std::filesystem::directory_iterator(directory))
+    names.push_back(entry.path().filename());
   std::sort(names.begin(), names.end());
   return names;
 }

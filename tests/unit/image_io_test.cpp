@@ -1,15 +1,15 @@
 // Image files: psrig's own PNG path must agree with OpenCV's both ways, and
 // damaged files must give errors, never crashes or wrong pixels.
 
-#include <gtest/gtest.h>
-
-#include <opencv2/imgcodecs.hpp>
-#include <opencv2/imgproc.hpp>
+#include "psrig/processing/image_io.h"
 
 #include <fstream>
 #include <random>
 
-#include "psrig/processing/image_io.h"
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "test_support.h"
 
 namespace psrig::processing {
@@ -33,7 +33,8 @@ TEST(ImageIo, PngRoundTripsEveryTypeAtEveryLevel) {
   for (int type : kTypes) {
     const cv::Mat image = random_image(type, type);
     for (int level : {0, 1, 6}) {
-      const fs::path file = temp / ("t" + std::to_string(type) + "_" + std::to_string(level) + ".png");
+      const fs::path file =
+          temp / ("t" + std::to_string(type) + "_" + std::to_string(level) + ".png");
       ASSERT_TRUE(write_image(file, image, {cv::IMWRITE_PNG_COMPRESSION, level}));
       auto back = read_image(file, "test");
       ASSERT_TRUE(back) << back.error().describe();
@@ -41,7 +42,8 @@ TEST(ImageIo, PngRoundTripsEveryTypeAtEveryLevel) {
       EXPECT_EQ(cv::norm(*back, image, cv::NORM_INF), 0) << "type " << type << " level " << level;
       // OpenCV (libpng) reads what psrig wrote, channel order included.
       const cv::Mat by_opencv = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
-      EXPECT_EQ(cv::norm(by_opencv, image, cv::NORM_INF), 0) << "type " << type << " level " << level;
+      EXPECT_EQ(cv::norm(by_opencv, image, cv::NORM_INF), 0)
+          << "type " << type << " level " << level;
     }
   }
 }
@@ -95,7 +97,8 @@ TEST(ImageIo, DamagedPngsGiveErrors) {
     const std::size_t at = 33 + random() % (damaged.size() - 45);
     damaged[at] = static_cast<char>(damaged[at] ^ (1 + random() % 255));
     const fs::path file = temp / "flip.png";
-    std::ofstream(file, std::ios::binary).write(damaged.data(), static_cast<std::streamsize>(damaged.size()));
+    std::ofstream(file, std::ios::binary)
+        .write(damaged.data(), static_cast<std::streamsize>(damaged.size()));
     auto read = read_image(file, "x");
     if (read) {
       EXPECT_EQ(cv::norm(*read, image, cv::NORM_INF), 0) << "byte " << at;

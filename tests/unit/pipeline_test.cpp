@@ -1,15 +1,15 @@
 // The whole chain, files to files: scan directory in, maps directory out.
 
-#include <gtest/gtest.h>
-
-#include <opencv2/imgcodecs.hpp>
+#include "psrig/processing/pipeline.h"
 
 #include <fstream>
+
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include "psrig/capture/scan_writer.h"
 #include "psrig/capture/synthetic_scan.h"
 #include "psrig/processing/map_encoding.h"
-#include "psrig/processing/pipeline.h"
 #include "synthetic_scene.h"
 #include "test_support.h"
 
@@ -18,8 +18,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-const std::vector<std::string> kMapFiles = {"albedo.exr", "albedo.png", "height.exr", "height.png", "mask.png",
-                                            "normal.png", "p.exr",      "q.exr",      "report.json"};
+const std::vector<std::string> kMapFiles = {"albedo.exr", "albedo.png", "height.exr",
+                                            "height.png", "mask.png",   "normal.png",
+                                            "p.exr",      "q.exr",      "report.json"};
 
 // A plane of one orientation, as a scan on disk.
 fs::path write_plane_scan(const fs::path& dir, const cv::Vec3f& normal) {
@@ -32,7 +33,8 @@ fs::path write_plane_scan(const fs::path& dir, const cv::Vec3f& normal) {
 
 TEST(Pipeline, WritesEveryMapAndTheReport) {
   test::TempDir temp;
-  auto scan = test::render_scan(test::sphere_surface({96, 80}, 30, 3), test::ring_lights(3, 45), CV_16U);
+  auto scan =
+      test::render_scan(test::sphere_surface({96, 80}, 30, 3), test::ring_lights(3, 45), CV_16U);
   scan.description.pixel_size_mm = 0.05;
   ASSERT_TRUE(capture::write_scan(scan, temp / "scan"));
   auto summary = process_scan(temp / "scan");
@@ -44,8 +46,10 @@ TEST(Pipeline, WritesEveryMapAndTheReport) {
   EXPECT_EQ(r["format"], kReportFormat);
   EXPECT_EQ(r["inputs"]["lights"], 3);
   EXPECT_EQ(r["height"]["units"], "mm");
-  EXPECT_NEAR(r["light_matrix"]["condition_number"].get<double>(), std::sqrt(2.0), 1e-6);  // sqrt(2) cot 45
-  for (const char* stage : {"read", "solve", "evaluate", "integrate", "integrate_and_write", "total"})
+  EXPECT_NEAR(r["light_matrix"]["condition_number"].get<double>(), std::sqrt(2.0),
+              1e-6);  // sqrt(2) cot 45
+  for (const char* stage :
+       {"read", "solve", "evaluate", "integrate", "integrate_and_write", "total"})
     EXPECT_TRUE(r["timings_ms"].contains(stage)) << stage;
   EXPECT_EQ(r["pixels"]["total"], 96 * 80);
   EXPECT_LT(r["ground_truth"]["angular_error_deg"]["mean"].get<double>(), 0.05);
@@ -69,7 +73,8 @@ TEST(Pipeline, NormalMapConventionsOnRealFiles) {
   auto toward_top = process_scan(write_plane_scan(temp / "top", {0, s, c}));
   ASSERT_TRUE(toward_x && toward_top);
   const cv::Mat x = cv::imread((temp / "x" / "maps" / "normal.png").string(), cv::IMREAD_UNCHANGED);
-  const cv::Mat top = cv::imread((temp / "top" / "maps" / "normal.png").string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat top =
+      cv::imread((temp / "top" / "maps" / "normal.png").string(), cv::IMREAD_UNCHANGED);
   const cv::Vec3w x_bgr = x.at<cv::Vec3w>(24, 32), top_bgr = top.at<cv::Vec3w>(24, 32);
   EXPECT_GT(x_bgr[2], 32768 + 10000);  // red above mid-grey
   EXPECT_NEAR(x_bgr[1], 32768, 30);
@@ -96,7 +101,8 @@ TEST_P(SyntheticSwatch, NoiseFreeNormalsAreExact) {
   EXPECT_TRUE(truth.contains("height_rms_error"));
 }
 
-INSTANTIATE_TEST_SUITE_P(Patterns, SyntheticSwatch, ::testing::Values("jersey", "rib", "garter", "plain", "twill"));
+INSTANTIATE_TEST_SUITE_P(Patterns, SyntheticSwatch,
+                         ::testing::Values("jersey", "rib", "garter", "plain", "twill"));
 
 TEST(Pipeline, ReprocessingReplacesTheMaps) {
   test::TempDir temp;
@@ -110,7 +116,8 @@ TEST(Pipeline, ReprocessingReplacesTheMaps) {
   ASSERT_TRUE(again) << again.error().describe();
   EXPECT_TRUE(fs::exists(temp / "scan" / "maps" / "height.exr"));
   EXPECT_EQ(test::list_directory(temp / "scan"),
-            (std::vector<std::string>{"gt_normal.exr", "led0.png", "led1.png", "led2.png", "maps", "scan.json"}));
+            (std::vector<std::string>{"gt_normal.exr", "led0.png", "led1.png", "led2.png", "maps",
+                                      "scan.json"}));
 }
 
 TEST(Pipeline, RefusesToReplaceWhatIsNotAMapsDirectory) {

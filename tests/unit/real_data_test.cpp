@@ -2,28 +2,24 @@
 // hold for real cameras and lights, not just for the simulator. Figures
 // measured when these tests were written are in the comments.
 
-#include <gtest/gtest.h>
-
 #include <algorithm>
 #include <cmath>
 #include <numbers>
 
+#include <gtest/gtest.h>
+
 #include "psrig/processing/evaluation.h"
 #include "psrig/processing/scan_reader.h"
+#include "psrig/processing/map_encoding.h"
 #include "psrig/processing/woodham.h"
 #include "test_support.h"
 
 namespace psrig::processing {
 namespace {
 
-cv::Mat valid_pixels(const cv::Mat& flags) {
-  cv::Mat valid(flags.size(), CV_8U);
-  for (int i = 0; i < static_cast<int>(flags.total()); ++i) valid.data[i] = is_valid(flags.data[i]) ? 255 : 0;
-  return valid;
-}
-
 Scan with_y_flipped(Scan scan) {
-  for (auto& light : scan.description.lights) light.direction[1] = -light.direction[1];
+  for (auto& light : scan.description.lights)
+    light.direction[1] = -light.direction[1];
   return scan;
 }
 
@@ -47,7 +43,7 @@ TEST(RealData, BeethovenPlasterAlbedoIsNearlyFlatAndNormalsIntegrable) {
   ASSERT_TRUE(scan) << scan.error().describe();
   auto result = solve(*scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = valid_pixels(result->flags);
+  const cv::Mat valid = encode_valid_mask(result->flags);
   // Measured: 96.7 % of the mask valid (the rest grazes a light).
   EXPECT_GT(cv::countNonZero(valid), 0.95 * cv::countNonZero(scan->mask));
 
@@ -95,16 +91,17 @@ TEST(RealData, ButterflyEightLightsWithAmbientFrame) {
   ASSERT_GT(object_pixels, 50000);
 
   // Measured: 99.6 % valid by least squares, 100 % with rejection.
-  EXPECT_GT(cv::countNonZero(valid_pixels(result->flags) & object), 0.99 * object_pixels);
-  EXPECT_GE(cv::countNonZero(valid_pixels(rejecting->flags) & object),
-            cv::countNonZero(valid_pixels(result->flags) & object));
+  EXPECT_GT(cv::countNonZero(encode_valid_mask(result->flags) & object), 0.99 * object_pixels);
+  EXPECT_GE(cv::countNonZero(encode_valid_mask(rejecting->flags) & object),
+            cv::countNonZero(encode_valid_mask(result->flags) & object));
   // Eight lights leave a real misfit; measured mean 0.029 of full scale.
   EXPECT_LT(cv::mean(result->residual, object)[0], 0.04);
   // Ambient light adds the same to every frame and flattens the relief;
   // subtracting the ambient frame restores it. Measured: 44.7 vs 41.5 deg.
   EXPECT_GT(mean_tilt_deg(*result, object), mean_tilt_deg(*without_dark, object) + 2.0);
   // The documented axes are the integrable ones. Measured: 0.063 vs 0.089.
-  EXPECT_LT(mean_abs_curl(result->p, result->q, object), 0.8 * mean_abs_curl(flipped->p, flipped->q, object));
+  EXPECT_LT(mean_abs_curl(result->p, result->q, object),
+            0.8 * mean_abs_curl(flipped->p, flipped->q, object));
 }
 
 }  // namespace

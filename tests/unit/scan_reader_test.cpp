@@ -1,13 +1,13 @@
 // Reading psrig-scan/1 directories, and every way one can be wrong.
 
-#include <gtest/gtest.h>
-
-#include <opencv2/imgcodecs.hpp>
+#include "psrig/processing/scan_reader.h"
 
 #include <fstream>
 
+#include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
+
 #include "psrig/capture/scan_writer.h"
-#include "psrig/processing/scan_reader.h"
 #include "synthetic_scene.h"
 #include "test_support.h"
 
@@ -59,7 +59,8 @@ TEST_F(ScanReader, ReadsWhatTheWriterWrote) {
   EXPECT_EQ(scan->white_level, 65535);
   EXPECT_EQ(scan->description.sample_id, "J-0042");
   EXPECT_EQ(scan->description.pixel_size_mm, 0.05);
-  EXPECT_NEAR(scan->description.lights[1].direction[1], std::sin(2 * CV_PI / 3) * std::sqrt(0.5), 1e-9);
+  EXPECT_NEAR(scan->description.lights[1].direction[1], std::sin(2 * CV_PI / 3) * std::sqrt(0.5),
+              1e-9);
   ASSERT_FALSE(scan->ground_truth_normal.empty());
   EXPECT_EQ(scan->ground_truth_normal.type(), CV_32FC3);
   // Ground truth comes back in (x, y, z), whatever the file's channel order.
@@ -210,13 +211,15 @@ TEST_F(ScanReader, FramesWithAlpha) {
 
 TEST_F(ScanReader, WhiteLevelAboveFullScale) {
   for (int k = 0; k < 3; ++k)
-    cv::imwrite((dir_ / ("led" + std::to_string(k) + ".png")).string(), cv::Mat(48, 64, CV_8UC3, cv::Scalar(9, 9, 9)));
+    cv::imwrite((dir_ / ("led" + std::to_string(k) + ".png")).string(),
+                cv::Mat(48, 64, CV_8UC3, cv::Scalar(9, 9, 9)));
   expect_error("scan.json", "white_level");  // 65535 on 8-bit frames
 }
 
 TEST_F(ScanReader, RgbIntensityOnGreyFrames) {
   for (int k = 0; k < 3; ++k)
-    cv::imwrite((dir_ / ("led" + std::to_string(k) + ".png")).string(), cv::Mat(48, 64, CV_16UC1, cv::Scalar(9)));
+    cv::imwrite((dir_ / ("led" + std::to_string(k) + ".png")).string(),
+                cv::Mat(48, 64, CV_16UC1, cv::Scalar(9)));
   auto doc = load_json();
   doc["lights"][1]["intensity"] = {1.0, 0.9, 0.8};
   save_json(doc);
@@ -270,7 +273,8 @@ TEST(ScanWriter, NeverOverwritesAndLeavesNothingHalfWritten) {
   EXPECT_EQ(again.error().kind, ErrorKind::bad_input);
   // Only the finished scan is there: no staging directories left behind.
   int entries = 0;
-  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(temp.path())) ++entries;
+  for ([[maybe_unused]] const auto& entry : fs::directory_iterator(temp.path()))
+    ++entries;
   EXPECT_EQ(entries, 1);
 }
 

@@ -1,12 +1,14 @@
 // Woodham's solve on scenes with a known answer.
 
-#include <gtest/gtest.h>
+#include "psrig/processing/map_encoding.h"
+#include "psrig/processing/woodham.h"
 
 #include <cmath>
 #include <numbers>
 
+#include <gtest/gtest.h>
+
 #include "psrig/processing/parallel.h"
-#include "psrig/processing/woodham.h"
 #include "synthetic_scene.h"
 
 namespace psrig::processing {
@@ -17,14 +19,8 @@ using test::render_scan;
 using test::ring_lights;
 using test::sphere_surface;
 
-cv::Mat valid_mask(const cv::Mat& flags) {
-  cv::Mat valid(flags.size(), CV_8U);
-  for (int i = 0; i < static_cast<int>(flags.total()); ++i) valid.data[i] = is_valid(flags.data[i]) ? 255 : 0;
-  return valid;
-}
-
 double valid_fraction(const cv::Mat& flags) {
-  return cv::countNonZero(valid_mask(flags)) / static_cast<double>(flags.total());
+  return cv::countNonZero(encode_valid_mask(flags)) / static_cast<double>(flags.total());
 }
 
 TEST(Woodham, SphereColour16BitNoiseFreeIsExact) {
@@ -33,7 +29,7 @@ TEST(Woodham, SphereColour16BitNoiseFreeIsExact) {
   auto result = solve(scan);
   ASSERT_TRUE(result) << result.error().describe();
   const cv::Mat normals = normals_from_gradients(result->p, result->q);
-  const cv::Mat valid = valid_mask(result->flags);
+  const cv::Mat valid = encode_valid_mask(result->flags);
   EXPECT_GT(cv::countNonZero(valid), 0.8 * valid.total());
   EXPECT_LT(mean_angular_error_deg(normals, surface.normal, valid), 0.05);
 
@@ -55,8 +51,10 @@ TEST(Woodham, SphereGreyFloatNoiseFree) {
   const Scan scan = render_scan(surface, ring_lights(3, 30, 15), CV_32F);
   auto result = solve(scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = valid_mask(result->flags);
-  EXPECT_LT(mean_angular_error_deg(normals_from_gradients(result->p, result->q), surface.normal, valid), 0.01);
+  const cv::Mat valid = encode_valid_mask(result->flags);
+  EXPECT_LT(
+      mean_angular_error_deg(normals_from_gradients(result->p, result->q), surface.normal, valid),
+      0.01);
   // Grey with three lights: the model fits exactly.
   double worst_residual = 0;
   cv::minMaxLoc(result->residual, nullptr, &worst_residual, nullptr, nullptr, valid);
@@ -77,13 +75,14 @@ TEST(Woodham, NoiseErrorMatchesDerivedBound) {
   const Scan scan = render_scan(surface, lights, CV_16U, sigma, 7);
   auto result = solve(scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = valid_mask(result->flags);
+  const cv::Mat valid = encode_valid_mask(result->flags);
   const double measured =
       mean_angular_error_deg(normals_from_gradients(result->p, result->q), surface.normal, valid);
 
   cv::Matx33d ltl = cv::Matx33d::zeros();
-  for (const auto& l : lights) ltl += cv::Matx33d(l[0] * l[0], l[0] * l[1], l[0] * l[2], l[1] * l[0], l[1] * l[1],
-                                                  l[1] * l[2], l[2] * l[0], l[2] * l[1], l[2] * l[2]);
+  for (const auto& l : lights)
+    ltl += cv::Matx33d(l[0] * l[0], l[0] * l[1], l[0] * l[2], l[1] * l[0], l[1] * l[1], l[1] * l[2],
+                       l[2] * l[0], l[2] * l[1], l[2] * l[2]);
   const cv::Matx33d covariance = ltl.inv();
   double predicted = 0;
   int count = 0;
@@ -113,7 +112,7 @@ TEST(Woodham, LeastSquaresWithThreeLightsEqualsExactInverse) {
   options.force_least_squares = true;
   auto least_squares = solve(scan, options);
   ASSERT_TRUE(exact && least_squares);
-  const cv::Mat valid = valid_mask(exact->flags);
+  const cv::Mat valid = encode_valid_mask(exact->flags);
   EXPECT_EQ(cv::norm(exact->flags, least_squares->flags, cv::NORM_INF), 0);
   EXPECT_LT(cv::norm(exact->p, least_squares->p, cv::NORM_INF, valid), 1e-4);
   EXPECT_LT(cv::norm(exact->q, least_squares->q, cv::NORM_INF, valid), 1e-4);
@@ -131,7 +130,8 @@ TEST(Woodham, AttachedShadowsAreFlaggedWhereTheGeometrySaysSo) {
     for (int c = 0; c < 160; ++c) {
       const cv::Vec3f n = surface.normal.at<cv::Vec3f>(r, c);
       double darkest = 1;
-      for (const auto& l : lights) darkest = std::min(darkest, n[0] * l[0] + n[1] * l[1] + n[2] * l[2]);
+      for (const auto& l : lights)
+        darkest = std::min(darkest, n[0] * l[0] + n[1] * l[1] + n[2] * l[2]);
       const bool flagged = result->flags.at<std::uint8_t>(r, c) & kShadowed;
       shadowed += flagged;
       if (darkest < 0.03 && !flagged) ++wrong;  // clearly in shadow of some light
@@ -144,7 +144,7 @@ TEST(Woodham, AttachedShadowsAreFlaggedWhereTheGeometrySaysSo) {
 
 TEST(Woodham, SaturatedAndDarkPixelsAreFlaggedAndNotValid) {
   auto surface = sphere_surface({80, 60}, 25, 1);
-  surface.albedo(cv::Rect(0, 0, 10, 10)).setTo(3.0);    // far above white
+  surface.albedo(cv::Rect(0, 0, 10, 10)).setTo(3.0);      // far above white
   surface.albedo(cv::Rect(70, 50, 10, 10)).setTo(0.002);  // barely any signal
   const Scan scan = render_scan(surface, ring_lights(3, 45), CV_16U);
   auto result = solve(scan);
@@ -180,8 +180,10 @@ TEST(Woodham, PerLightRgbIntensityIsDividedOut) {
   scan.description.lights[1].intensity_bgr = {1, 1, 2};
   auto result = solve(scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = valid_mask(result->flags);
-  EXPECT_LT(mean_angular_error_deg(normals_from_gradients(result->p, result->q), surface.normal, valid), 0.01);
+  const cv::Mat valid = encode_valid_mask(result->flags);
+  EXPECT_LT(
+      mean_angular_error_deg(normals_from_gradients(result->p, result->q), surface.normal, valid),
+      0.01);
   EXPECT_LT(cv::norm(result->albedo, surface.albedo, cv::NORM_INF, valid), 1e-4);
 }
 
@@ -204,14 +206,16 @@ TEST(Woodham, RejectionBeatsLeastSquaresUnderCastShadows) {
   options.reject_outliers = true;
   auto rejecting = solve(scan, options);
   ASSERT_TRUE(plain && rejecting);
-  const double plain_error = mean_angular_error_deg(normals_from_gradients(plain->p, plain->q), surface.normal, any_shadow);
-  const double rejecting_error =
-      mean_angular_error_deg(normals_from_gradients(rejecting->p, rejecting->q), surface.normal, any_shadow);
+  const double plain_error = mean_angular_error_deg(normals_from_gradients(plain->p, plain->q),
+                                                    surface.normal, any_shadow);
+  const double rejecting_error = mean_angular_error_deg(
+      normals_from_gradients(rejecting->p, rejecting->q), surface.normal, any_shadow);
   EXPECT_GT(plain_error, 5.0);
   EXPECT_LT(rejecting_error, 0.5);
   // Cast-shadowed pixels are solved from the other lights and count as valid.
   EXPECT_GT(valid_fraction(rejecting->flags), valid_fraction(plain->flags));
-  EXPECT_TRUE(rejecting->flags.at<std::uint8_t>(100, 100 + static_cast<int>(radius) + 5) & kRecovered ||
+  EXPECT_TRUE(rejecting->flags.at<std::uint8_t>(100, 100 + static_cast<int>(radius) + 5) &
+                  kRecovered ||
               !(any_shadow.at<std::uint8_t>(100, 100 + static_cast<int>(radius) + 5)));
 }
 

@@ -1,10 +1,10 @@
 #pragma once
 // One `psrig` subcommand: its CLI11 definition and what runs when chosen.
 
-#include <CLI/CLI.hpp>
-
 #include <functional>
 #include <string>
+
+#include <CLI/CLI.hpp>
 
 #include "psrig/processing/error.h"
 

@@ -26,16 +26,18 @@ void print_summary(const processing::ProcessSummary& summary) {
   const double total = px["total"].get<double>();
   const auto percent = [&](const char* key) { return 100.0 * px[key].get<double>() / total; };
   std::printf("maps: %s\n", summary.maps_directory.string().c_str());
-  std::printf("valid pixels: %.1f %% (shadowed %.1f %%, saturated %.1f %%, low signal %.1f %%)\n", percent("valid"),
-              percent("shadowed"), percent("saturated"), percent("low_signal"));
+  std::printf("valid pixels: %.1f %% (shadowed %.1f %%, saturated %.1f %%, low signal %.1f %%)\n",
+              percent("valid"), percent("shadowed"), percent("saturated"), percent("low_signal"));
   std::printf("residual: mean %.5f of full scale\n", r["residual"]["mean"].get<double>());
   if (r.contains("height"))
     std::printf("height: range %.4f %s (%s)\n", r["height"]["range"].get<double>(),
-                r["height"]["units"].get<std::string>().c_str(), r["options"]["integration"].get<std::string>().c_str());
+                r["height"]["units"].get<std::string>().c_str(),
+                r["options"]["integration"].get<std::string>().c_str());
   if (r.contains("ground_truth") && r["ground_truth"].contains("angular_error_deg")) {
     const auto& e = r["ground_truth"]["angular_error_deg"];
-    std::printf("ground truth: mean angular error %.3f deg (median %.3f, p95 %.3f) over valid pixels\n",
-                e["mean"].get<double>(), e["median"].get<double>(), e["p95"].get<double>());
+    std::printf(
+        "ground truth: mean angular error %.3f deg (median %.3f, p95 %.3f) over valid pixels\n",
+        e["mean"].get<double>(), e["median"].get<double>(), e["p95"].get<double>());
   }
   std::printf("time: %.0f ms\n", r["timings_ms"]["total"].get<double>());
 }
@@ -44,10 +46,12 @@ void print_summary(const processing::ProcessSummary& summary) {
 
 Command add_process_command(CLI::App& parent) {
   auto args = std::make_shared<ProcessArgs>();
-  CLI::App* app = parent.add_subcommand("process", "Process a scan directory into a maps directory");
+  CLI::App* app =
+      parent.add_subcommand("process", "Process a scan directory into a maps directory");
   app->add_option("scan", args->scan, "Scan directory (psrig-scan/1)")->required();
   app->add_option("--out", args->out, "Maps directory to write (default: SCAN_DIR/maps)");
-  app->add_option("--integrate", args->integrate, "Height integration: fc (Frankot-Chellappa), poisson or none")
+  app->add_option("--integrate", args->integrate,
+                  "Height integration: fc (Frankot-Chellappa), poisson or none")
       ->check(CLI::IsMember({"fc", "poisson", "none"}))
       ->capture_default_str();
   app->add_option("--threads", args->threads, "Worker threads (0: one per core)")

@@ -27,29 +27,39 @@ struct SynthArgs {
 
 Command add_synth_command(CLI::App& parent) {
   auto args = std::make_shared<SynthArgs>();
-  CLI::App* app = parent.add_subcommand("synth", "Render a synthetic swatch scan with ground truth");
+  CLI::App* app =
+      parent.add_subcommand("synth", "Render a synthetic swatch scan with ground truth");
   app->add_option("--out", args->out, "Scan directory to create (must not exist)")->required();
-  app->add_option("--pattern", args->pattern, "Swatch: jersey, rib, garter (knitted), plain, twill (woven)")
+  app->add_option("--pattern", args->pattern,
+                  "Swatch: jersey, rib, garter (knitted), plain, twill (woven)")
       ->check(CLI::IsMember({"jersey", "rib", "garter", "plain", "twill"}))
       ->capture_default_str();
   app->add_option("--size", args->size, "Image size WxH in pixels")->capture_default_str();
   app->add_option("--slant", args->slant, "Light slant from the camera axis, degrees")
       ->check(CLI::Range(1.0, 89.0))
       ->capture_default_str();
-  app->add_option("--noise", args->noise, "Gaussian noise, standard deviation as a fraction of full scale")
+  app->add_option("--noise", args->noise,
+                  "Gaussian noise, standard deviation as a fraction of full scale")
       ->check(CLI::Range(0.0, 0.5))
       ->capture_default_str();
-  app->add_option("--seed", args->seed, "Random seed: same seed, same swatch")->capture_default_str();
+  app->add_option("--seed", args->seed, "Random seed: same seed, same swatch")
+      ->capture_default_str();
   app->add_option("--pixel-size", args->pixel_size, "Millimetres per pixel on the swatch")
       ->check(CLI::Range(0.001, 1.0))
       ->capture_default_str();
-  app->add_option("--bits", args->bits, "Bit depth of the frames")->check(CLI::IsMember({8, 16}))->capture_default_str();
+  app->add_option("--bits", args->bits, "Bit depth of the frames")
+      ->check(CLI::IsMember({8, 16}))
+      ->capture_default_str();
 
   return {app, [args] {
             std::smatch match;
             const std::regex size_pattern(R"((\d{1,5})x(\d{1,5}))");
-            if (!std::regex_match(args->size, match, size_pattern) || std::stoi(match[1]) < 8 || std::stoi(match[2]) < 8)
-              return report_error("synth", processing::bad_input({}, "--size", "expected WxH of at least 8x8, e.g. 640x480; got '" + args->size + "'"));
+            if (!std::regex_match(args->size, match, size_pattern) || std::stoi(match[1]) < 8 ||
+                std::stoi(match[2]) < 8)
+              return report_error("synth", processing::bad_input(
+                                               {}, "--size",
+                                               "expected WxH of at least 8x8, e.g. 640x480; got '" +
+                                                   args->size + "'"));
             SyntheticScanParams params;
             params.swatch.pattern = *firmware_host::sim::parse_swatch_pattern(args->pattern);
             params.swatch.size = {std::stoi(match[1]), std::stoi(match[2])};
@@ -59,10 +69,11 @@ Command add_synth_command(CLI::App& parent) {
             params.noise = args->noise;
             params.depth = args->bits == 8 ? CV_8U : CV_16U;
             const processing::Scan scan = make_synthetic_scan(params);
-            if (auto ok = write_scan(scan, args->out); !ok) return report_error("synth", ok.error());
-            std::printf("scan: %s (%s, %dx%d, %.3f mm/px, slant %.0f deg, noise %g)\n", args->out.c_str(),
-                        args->pattern.c_str(), params.swatch.size.width, params.swatch.size.height,
-                        args->pixel_size, args->slant, args->noise);
+            if (auto ok = write_scan(scan, args->out); !ok)
+              return report_error("synth", ok.error());
+            std::printf("scan: %s (%s, %dx%d, %.3f mm/px, slant %.0f deg, noise %g)\n",
+                        args->out.c_str(), args->pattern.c_str(), params.swatch.size.width,
+                        params.swatch.size.height, args->pixel_size, args->slant, args->noise);
             return 0;
           }};
 }

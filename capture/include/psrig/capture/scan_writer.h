@@ -2,9 +2,9 @@
 // Writes scan directories in the psrig-scan/1 layout (DESIGN.md): the rig's
 // scans, `psrig synth`'s synthetic ones, and test fixtures.
 
-#include <nlohmann/json.hpp>
-
 #include <filesystem>
+
+#include <nlohmann/json.hpp>
 
 #include "psrig/processing/error.h"
 #include "psrig/processing/scan.h"
@@ -19,6 +19,7 @@ namespace psrig::capture {
 
 // Writes the images and scan.json into `directory`, which must not exist
 // yet: the directory appears whole, flushed to disk, or not at all.
-[[nodiscard]] processing::Status write_scan(const processing::Scan& scan, const std::filesystem::path& directory);
+[[nodiscard]] processing::Status write_scan(const processing::Scan& scan,
+                                            const std::filesystem::path& directory);
 
 }  // namespace psrig::capture

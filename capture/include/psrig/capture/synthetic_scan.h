@@ -11,10 +11,10 @@ namespace psrig::capture {
 
 struct SyntheticScanParams {
   firmware_host::sim::SwatchParams swatch;
-  double slant_deg = 45;            // all three lights; tilts 0, 120, 240
-  double noise = 0;                 // Gaussian, standard deviation as a fraction of full scale
-  int depth = CV_16U;               // CV_8U or CV_16U
-  double exposure = 1.0;            // scales the radiance before quantisation
+  double slant_deg = 45;  // all three lights; tilts 0, 120, 240
+  double noise = 0;       // Gaussian, standard deviation as a fraction of full scale
+  int depth = CV_16U;     // CV_8U or CV_16U
+  double exposure = 1.0;  // scales the radiance before quantisation
   bool cast_shadows = true;
 };
 

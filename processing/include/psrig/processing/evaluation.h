@@ -3,9 +3,9 @@
 // and errors against the ground truth that simulated scans carry. All are
 // exact and the same whatever the thread count.
 
-#include <opencv2/core.hpp>
-
 #include <cstddef>
+
+#include <opencv2/core.hpp>
 
 namespace psrig::processing {
 
@@ -40,6 +40,7 @@ struct PixelCounts {
 
 // RMS of height - truth over `select` once their mean difference there is
 // removed (integration fixes heights only up to a constant).
-[[nodiscard]] double height_rms_error(const cv::Mat& height, const cv::Mat& truth, const cv::Mat& select = {});
+[[nodiscard]] double height_rms_error(const cv::Mat& height, const cv::Mat& truth,
+                                      const cv::Mat& select = {});
 
 }  // namespace psrig::processing

@@ -2,11 +2,11 @@
 // Image files in and out, with errors that name the file. Colour Mats are
 // in OpenCV's BGR channel order, as cv::imread gives them.
 
-#include <opencv2/core.hpp>
-
 #include <filesystem>
 #include <string>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "psrig/processing/error.h"
 
@@ -27,6 +27,7 @@ namespace psrig::processing {
 // R, G, B channels hold x, y, z (cv::imwrite takes BGR).
 [[nodiscard]] Status write_vector_exr(const std::filesystem::path& file, const cv::Mat& xyz);
 // Reads an image written by write_vector_exr back as (x, y, z).
-[[nodiscard]] Result<cv::Mat> read_vector_exr(const std::filesystem::path& file, const std::string& key);
+[[nodiscard]] Result<cv::Mat> read_vector_exr(const std::filesystem::path& file,
+                                              const std::string& key);
 
 }  // namespace psrig::processing

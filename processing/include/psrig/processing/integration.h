@@ -5,10 +5,10 @@
 // of the grid spacing, i.e. pixels; the caller scales by pixel_size_mm.
 // Both methods fix the free constant by giving the result zero mean.
 
-#include <opencv2/core.hpp>
-
 #include <optional>
 #include <string_view>
+
+#include <opencv2/core.hpp>
 
 #include "psrig/processing/error.h"
 
@@ -34,6 +34,7 @@ enum class IntegrationMethod { frankot_chellappa, poisson, none };
 [[nodiscard]] Result<cv::Mat> integrate_poisson(const cv::Mat& p, const cv::Mat& q);
 
 // Dispatches on method; `none` returns an empty Mat.
-[[nodiscard]] Result<cv::Mat> integrate(IntegrationMethod method, const cv::Mat& p, const cv::Mat& q);
+[[nodiscard]] Result<cv::Mat> integrate(IntegrationMethod method, const cv::Mat& p,
+                                        const cv::Mat& q);
 
 }  // namespace psrig::processing

@@ -9,10 +9,10 @@
 // Works a row at a time into planar float buffers so the solve can consume
 // the measurements while they are still in cache (the frames are 12 MP).
 
-#include <opencv2/core.hpp>
-
 #include <cstdint>
 #include <vector>
+
+#include <opencv2/core.hpp>
 
 #include "psrig/processing/error.h"
 #include "psrig/processing/scan.h"
@@ -39,7 +39,7 @@ class CodeLineariser {
   double black_;
   double white_;
   int depth_;
-  float scale_ = 1;   // linear encoding: (x - black) * scale_
+  float scale_ = 1;  // linear encoding: (x - black) * scale_
   float offset_ = 0;
   std::vector<float> table_;  // srgb encoding, integer depths: one entry per code
 };

@@ -3,10 +3,10 @@
 // ("processing", "capture", ...). All categories share one stderr sink, so
 // the format (and, for the daemon, journald priority prefixes) is set once.
 
-#include <spdlog/spdlog.h>
-
 #include <memory>
 #include <string>
+
+#include <spdlog/spdlog.h>
 
 namespace psrig::processing {
 

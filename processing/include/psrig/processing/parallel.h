@@ -17,6 +17,8 @@ void set_thread_count(int threads);
 // reduction done per chunk and combined in chunk order is reproducible.
 void parallel_chunks(int count, int chunk, const std::function<void(int begin, int end)>& body);
 
-[[nodiscard]] inline int chunk_count(int count, int chunk) { return (count + chunk - 1) / chunk; }
+[[nodiscard]] inline int chunk_count(int count, int chunk) {
+  return (count + chunk - 1) / chunk;
+}
 
 }  // namespace psrig::processing

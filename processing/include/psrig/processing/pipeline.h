@@ -2,9 +2,9 @@
 // The whole chain for one scan: read -> linearise -> solve -> integrate ->
 // evaluate -> maps directory, with the report of what happened.
 
-#include <nlohmann/json.hpp>
-
 #include <filesystem>
+
+#include <nlohmann/json.hpp>
 
 #include "psrig/processing/error.h"
 #include "psrig/processing/integration.h"

@@ -3,12 +3,12 @@
 // per-stage times, the light matrix and its condition number, mask counts,
 // residual, height range, and errors against ground truth when there is one.
 
-#include <nlohmann/json.hpp>
-
 #include <optional>
 #include <string>
 #include <utility>
 #include <vector>
+
+#include <nlohmann/json.hpp>
 
 #include "psrig/processing/evaluation.h"
 #include "psrig/processing/pipeline.h"
@@ -25,8 +25,9 @@ struct HeightSummary {
 
 struct GroundTruthSummary {
   std::optional<Distribution> angular_error_deg;  // over valid pixels
-  std::optional<double> mean_angular_error_all_deg;  // over every solved pixel, shadowed ones included
-  std::optional<double> height_rms_error;            // in the height's units
+  std::optional<double>
+      mean_angular_error_all_deg;          // over every solved pixel, shadowed ones included
+  std::optional<double> height_rms_error;  // in the height's units
 };
 
 struct ReportInputs {
@@ -36,7 +37,7 @@ struct ReportInputs {
   int depth = -1;
   const ProcessOptions* options = nullptr;
   PixelCounts pixels;
-  Distribution residual;  // over solved pixels
+  Distribution residual;     // over solved pixels
   double mean_abs_curl = 0;  // over valid pixels
   std::optional<HeightSummary> height;
   GroundTruthSummary ground_truth;

@@ -2,13 +2,13 @@
 // A scan directory in the psrig-scan/1 layout (DESIGN.md "Scan directory"):
 // what scan.json says, and the frames it names.
 
-#include <nlohmann/json.hpp>
-#include <opencv2/core.hpp>
-
 #include <filesystem>
 #include <optional>
 #include <string>
 #include <vector>
+
+#include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
 namespace psrig::processing {
 
@@ -45,15 +45,17 @@ struct ScanDescription {
 // channel (grey) or three (BGR), all the same size, channels and depth.
 struct Scan {
   ScanDescription description;
-  double white_level = 0;           // description.white_level or the frames' full scale
-  std::vector<cv::Mat> frames;      // one per light, in the order of description.lights
-  cv::Mat dark;                     // empty when the scan has none
-  cv::Mat mask;                     // CV_8U, nonzero = pixel to solve; empty = all
-  std::vector<cv::Mat> flats;       // empty, or one per light
-  cv::Mat ground_truth_normal;      // CV_32FC3 (nx, ny, nz) in camera axes, or empty
-  cv::Mat ground_truth_height;      // CV_32F, millimetres (or pixels without pixel_size_mm), or empty
+  double white_level = 0;       // description.white_level or the frames' full scale
+  std::vector<cv::Mat> frames;  // one per light, in the order of description.lights
+  cv::Mat dark;                 // empty when the scan has none
+  cv::Mat mask;                 // CV_8U, nonzero = pixel to solve; empty = all
+  std::vector<cv::Mat> flats;   // empty, or one per light
+  cv::Mat ground_truth_normal;  // CV_32FC3 (nx, ny, nz) in camera axes, or empty
+  cv::Mat ground_truth_height;  // CV_32F, millimetres (or pixels without pixel_size_mm), or empty
 
-  [[nodiscard]] cv::Size size() const { return frames.empty() ? cv::Size() : frames.front().size(); }
+  [[nodiscard]] cv::Size size() const {
+    return frames.empty() ? cv::Size() : frames.front().size();
+  }
   [[nodiscard]] int channels() const { return frames.empty() ? 0 : frames.front().channels(); }
   [[nodiscard]] int depth() const { return frames.empty() ? -1 : frames.front().depth(); }
 };

@@ -6,9 +6,9 @@
 // from the mean of the channels, and an albedo per channel: the least-squares
 // rho_c with that normal fixed.
 
-#include <opencv2/core.hpp>
-
 #include <cstdint>
+
+#include <opencv2/core.hpp>
 
 #include "psrig/processing/error.h"
 #include "psrig/processing/light_matrix.h"
@@ -24,7 +24,8 @@ enum PixelFlag : std::uint8_t {
   kShadowed = 1 << 2,     // some measurement below shadow_ratio * albedo (attached or cast shadow)
   kLowSignal = 1 << 3,    // even the brightest measurement is below low_signal: not solved
   kNoSolution = 1 << 4,   // the scaled normal points into the swatch or vanishes: not solved
-  kRecovered = 1 << 5,    // rejection dropped shadowed or saturated measurements and solved from the rest
+  kRecovered =
+      1 << 5,  // rejection dropped shadowed or saturated measurements and solved from the rest
 };
 
 // A pixel is valid (mask.png) when nothing doubtful is left about it.

@@ -9,7 +9,7 @@
 namespace psrig::firmware_host::sim {
 
 struct DistantLight {
-  cv::Vec3d direction{0, 0, 1};     // from the swatch toward the light, camera axes; need not be unit
+  cv::Vec3d direction{0, 0, 1};  // from the swatch toward the light, camera axes; need not be unit
   cv::Vec3f intensity_bgr{1, 1, 1};  // irradiance at normal incidence, per channel (BGR)
 };
 

@@ -4,11 +4,11 @@
 // directory; the simulated rig (lights + camera) renders it under whichever
 // LEDs are on.
 
-#include <opencv2/core.hpp>
-
 #include <cstdint>
 #include <optional>
 #include <string_view>
+
+#include <opencv2/core.hpp>
 
 namespace psrig::firmware_host::sim {
 
@@ -20,15 +20,15 @@ enum class SwatchPattern { jersey, rib, garter, plain, twill };
 
 struct SwatchParams {
   SwatchPattern pattern = SwatchPattern::jersey;
-  cv::Size size{640, 480};      // pixels
+  cv::Size size{640, 480};       // pixels
   double pixel_size_mm = 0.025;  // millimetres per pixel on the swatch
   std::uint64_t seed = 1;        // same seed, same swatch
 };
 
 struct Swatch {
   cv::Mat height_mm;  // CV_32F, millimetres above the lowest point; row 0 is the image top
-  cv::Mat normal;     // CV_32FC3 unit normals (nx, ny, nz) in camera axes: x right, y up, z to camera
-  cv::Mat albedo;     // CV_32FC3 linear reflectance in OpenCV's BGR channel order, within [0, 1]
+  cv::Mat normal;  // CV_32FC3 unit normals (nx, ny, nz) in camera axes: x right, y up, z to camera
+  cv::Mat albedo;  // CV_32FC3 linear reflectance in OpenCV's BGR channel order, within [0, 1]
   double pixel_size_mm = 0.025;
 };
 
