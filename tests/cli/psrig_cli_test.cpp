@@ -2,6 +2,7 @@
 // nothing half-written.
 
 #include <fstream>
+#include <functional>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -43,20 +44,63 @@ TEST(PsrigCli, UsageErrorsExitTwo) {
   EXPECT_EQ(run_program("psrig", {"--help"}).exit_code, 0);
 }
 
-TEST(PsrigCli, BadScanExitsTwoNamingFileAndKeyAndWritesNothing) {
-  TempDir temp;
-  const auto scan = temp / "scan";
-  ASSERT_EQ(run_program("psrig", {"synth", "--out", scan.string(), "--size", "32x24"}).exit_code,
-            0);
+// One way a scan can be wrong, what the message must name, and the change
+// that makes it so.
+struct BadScan {
+  const char* name;
+  const char* must_name;  // in stderr
+  std::function<void(const fs::path&)> spoil;
+};
+
+void edit_json(const fs::path& scan, const std::function<void(nlohmann::json&)>& edit) {
   std::ifstream in(scan / "scan.json");
   auto doc = nlohmann::json::parse(in);
-  doc["lights"][1]["direction"] = {0, 0, 0};
+  edit(doc);
   std::ofstream(scan / "scan.json") << doc.dump(2);
-  auto run = run_program("psrig", {"process", scan.string(), "--out", (temp / "maps").string()});
-  EXPECT_EQ(run.exit_code, 2);
-  EXPECT_TRUE(contains(run.err, "scan.json")) << run.err;
-  EXPECT_TRUE(contains(run.err, "lights[1].direction")) << run.err;
-  EXPECT_EQ(list_directory(temp.path()), std::vector<std::string>{"scan"});
+}
+
+const BadScan kBadScans[] = {
+    {"zero direction", "lights[1].direction",
+     [](const fs::path& s) {
+       edit_json(s, [](auto& d) { d["lights"][1]["direction"] = {0, 0, 0}; });
+     }},
+    {"two lights", "'lights'",
+     [](const fs::path& s) { edit_json(s, [](auto& d) { d["lights"].erase(2); }); }},
+    {"coplanar lights", "condition number",
+     [](const fs::path& s) {
+       edit_json(s, [](auto& d) {
+         d["lights"][0]["direction"] = {1, 0, 1};
+         d["lights"][1]["direction"] = {0, 1, 1};
+         d["lights"][2]["direction"] = {1, 1, 2};
+       });
+     }},
+    {"malformed json",
+     "scan.json:1:", [](const fs::path& s) { std::ofstream(s / "scan.json") << "{\"format\": }"; }},
+    {"missing frame", "led2.png", [](const fs::path& s) { fs::remove(s / "led2.png"); }},
+    {"corrupt frame", "led0.png",
+     [](const fs::path& s) { std::ofstream(s / "led0.png") << "not an image"; }},
+    {"frame of another size", "led1.png",
+     [](const fs::path& s) {
+       fs::copy_file(s / "small.png", s / "led1.png", fs::copy_options::overwrite_existing);
+     }},
+};
+
+TEST(PsrigCli, EveryBadScanExitsTwoNamingTheProblemAndWritesNothing) {
+  for (const auto& bad : kBadScans) {
+    TempDir temp;
+    const auto scan = temp / "scan";
+    ASSERT_EQ(run_program("psrig", {"synth", "--out", scan.string(), "--size", "32x24"}).exit_code,
+              0);
+    ASSERT_EQ(run_program("psrig", {"synth", "--out", (temp / "small").string(), "--size", "16x16"})
+                  .exit_code,
+              0);
+    fs::copy_file(temp / "small" / "led0.png", scan / "small.png");
+    bad.spoil(scan);
+    auto run = run_program("psrig", {"process", scan.string(), "--out", (temp / "maps").string()});
+    EXPECT_EQ(run.exit_code, 2) << bad.name << ": " << run.err;
+    EXPECT_TRUE(contains(run.err, bad.must_name)) << bad.name << ": " << run.err;
+    EXPECT_EQ(list_directory(temp.path()), (std::vector<std::string>{"scan", "small"})) << bad.name;
+  }
 }
 
 TEST(PsrigCli, MissingScanDirectory) {
