@@ -61,7 +61,9 @@ nlohmann::json scan_json(const Scan& scan) {
   doc["sample"] = sample;
   doc["encoding"] = d.encoding == processing::Encoding::srgb ? "srgb" : "linear";
   doc["black_level"] = d.black_level;
-  doc["white_level"] = scan.white_level > 0 ? scan.white_level : d.white_level.value_or(0);
+  doc["white_level"] = scan.white_level > 0 ? nlohmann::json(scan.white_level)
+                       : d.white_level      ? nlohmann::json(*d.white_level)
+                                       : nlohmann::json();  // unknown: the reader takes full scale
   doc["dark"] =
       scan.dark.empty() ? nlohmann::json() : nlohmann::json(image_name("dark", scan.dark));
   doc["mask"] = scan.mask.empty() ? nlohmann::json() : nlohmann::json("mask.png");
@@ -93,7 +95,9 @@ nlohmann::json scan_json(const Scan& scan) {
   return doc;
 }
 
-processing::Status write_scan(const Scan& scan, const fs::path& directory) {
+namespace {
+
+processing::Status write_scan_unguarded(const Scan& scan, const fs::path& directory) {
   if (scan.frames.size() != scan.description.lights.size() || scan.frames.size() < 3)
     return std::unexpected(
         processing::internal_error("write_scan: need one frame per light, at least three"));
@@ -123,6 +127,17 @@ processing::Status write_scan(const Scan& scan, const fs::path& directory) {
   json.close();
   if (!json) return std::unexpected(processing::io_error(json_path, "cannot write"));
   return staging->commit(processing::AtomicDirectory::Existing::refuse, true);
+}
+
+}  // namespace
+
+processing::Status write_scan(const Scan& scan, const fs::path& directory) {
+  try {
+    return write_scan_unguarded(scan, directory);
+  } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
+    return std::unexpected(
+        processing::internal_error(directory.string() + ": writing the scan failed: " + e.what()));
+  }
 }
 
 }  // namespace psrig::capture

@@ -1,9 +1,11 @@
 #include "psrig/processing/atomic_directory.h"
 
 #include <cerrno>
+#include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
 #include <random>
+#include <signal.h>
 #include <stdio.h>
 #include <string>
 #include <sys/stat.h>
@@ -27,18 +29,37 @@ bool sync_path(const fs::path& path) {
   return ok;
 }
 
+// Staging directories of runs that were killed (their process is gone):
+// ".NAME.partial-PID-RANDOM" beside the target.
+void remove_abandoned_staging(const fs::path& parent, const std::string& name) {
+  const std::string prefix = "." + name + ".partial-";
+  std::error_code ec;
+  for (fs::directory_iterator it(parent, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string entry = it->path().filename().string();
+    if (!entry.starts_with(prefix)) continue;
+    const long pid = std::strtol(entry.c_str() + prefix.size(), nullptr, 10);
+    if (pid > 0 && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
+      std::error_code ignored;
+      fs::remove_all(it->path(), ignored);
+    }
+  }
+}
+
 }  // namespace
 
 Result<AtomicDirectory> AtomicDirectory::create(const fs::path& target) {
-  const fs::path absolute = fs::absolute(target).lexically_normal();
+  std::error_code ec;
+  fs::path absolute = fs::absolute(target, ec).lexically_normal();
+  if (ec) return std::unexpected(io_error(target, "cannot resolve the path: " + ec.message()));
+  if (absolute.filename().empty()) absolute = absolute.parent_path();  // "maps/" names "maps"
   const fs::path parent = absolute.parent_path();
   const std::string name = absolute.filename().string();
   if (name.empty() || name == "." || name == "..")
     return std::unexpected(bad_input(target, "", "not a usable directory name"));
-  std::error_code ec;
   if (!fs::is_directory(parent, ec))
     return std::unexpected(
         bad_input(target, "", "parent directory " + parent.string() + " does not exist"));
+  remove_abandoned_staging(parent, name);
 
   std::random_device random;
   for (int attempt = 0; attempt < 100; ++attempt) {

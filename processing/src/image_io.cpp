@@ -59,14 +59,16 @@ Result<cv::Mat> read_image(const std::filesystem::path& file, const std::string&
     return std::unexpected(bad_input(file, key, "no such file"));
   if (!std::filesystem::is_regular_file(status))
     return std::unexpected(bad_input(file, key, "not a regular file"));
-  if (is_png(file)) {
-    if (auto fast = png::read(file)) return std::move(*fast);
-  }
   cv::Mat image;
   try {
+    if (is_png(file)) {
+      if (auto fast = png::read(file)) return std::move(*fast);
+    }
     image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& e) {
     return std::unexpected(bad_input(file, key, std::string("cannot decode: ") + e.what()));
+  } catch (const std::exception& e) {  // out of memory
+    return std::unexpected(internal_error(file.string() + ": cannot read: " + e.what()));
   }
   if (image.empty())
     return std::unexpected(
@@ -76,19 +78,21 @@ Result<cv::Mat> read_image(const std::filesystem::path& file, const std::string&
 
 Status write_image(const std::filesystem::path& file, const cv::Mat& image,
                    const std::vector<int>& params) {
-  if (is_png(file) && png::can_write(image)) return png::write(file, image, png_level(params));
   try {
+    if (is_png(file) && png::can_write(image)) return png::write(file, image, png_level(params));
     if (!cv::imwrite(file.string(), image, is_exr(file) ? with_exr_defaults(params) : params))
       return std::unexpected(io_error(file, "cannot write image"));
-  } catch (const cv::Exception& e) {
+  } catch (const std::exception& e) {
     return std::unexpected(io_error(file, std::string("cannot write image: ") + e.what()));
   }
   return {};
 }
 
 Status write_vector_exr(const std::filesystem::path& file, const cv::Mat& xyz) {
+  if (xyz.type() != CV_32FC3)
+    return std::unexpected(internal_error("write_vector_exr: expected CV_32FC3"));
   cv::Mat zyx;
-  cv::cvtColor(xyz, zyx, cv::COLOR_RGB2BGR);
+  cv::cvtColor(xyz, zyx, cv::COLOR_RGB2BGR);  // cannot throw for CV_32FC3
   return write_image(file, zyx);
 }
 
@@ -98,7 +102,7 @@ Result<cv::Mat> read_vector_exr(const std::filesystem::path& file, const std::st
   if (image->type() != CV_32FC3)
     return std::unexpected(bad_input(file, key, "expected a 3-channel 32-bit float image"));
   cv::Mat xyz;
-  cv::cvtColor(*image, xyz, cv::COLOR_BGR2RGB);
+  cv::cvtColor(*image, xyz, cv::COLOR_BGR2RGB);  // cannot throw for CV_32FC3
   return xyz;
 }
 

@@ -1,6 +1,5 @@
 #include "psrig/processing/light_matrix.h"
 
-#include <cmath>
 #include <limits>
 
 #include <Eigen/Dense>
@@ -16,24 +15,19 @@ LightMatrix make_light_matrix(const std::vector<cv::Vec3d>& directions) {
     result.directions.push_back(unit);
     l.row(k) << unit[0], unit[1], unit[2];
   }
-
-  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(l, Eigen::ComputeThinU | Eigen::ComputeThinV);
+  const Eigen::JacobiSVD<Eigen::MatrixXd> svd(l);
   const auto& singular = svd.singularValues();
   const double smallest = singular.size() == 3 ? singular(2) : 0.0;
   result.condition_number =
       smallest > 0 ? singular(0) / smallest : std::numeric_limits<double>::infinity();
-
-  const Eigen::Matrix3d normal = l.transpose() * l;
-  for (int r = 0; r < 3; ++r)
-    for (int c = 0; c < 3; ++c)
-      result.normal_matrix(r, c) = normal(r, c);
-
-  if (std::isfinite(result.condition_number)) {
-    const Eigen::MatrixXd pinv = normal.inverse() * l.transpose();  // 3 x n
-    for (int k = 0; k < n; ++k)
-      result.pseudo_inverse_columns.emplace_back(pinv(0, k), pinv(1, k), pinv(2, k));
-  }
   return result;
+}
+
+LightMatrix make_light_matrix(const ScanDescription& description) {
+  std::vector<cv::Vec3d> directions;
+  for (const auto& light : description.lights)
+    directions.push_back(light.direction);
+  return make_light_matrix(directions);
 }
 
 }  // namespace psrig::processing

@@ -11,14 +11,13 @@
 namespace psrig::processing {
 namespace {
 
-// IEC 61966-2-1 sRGB decoding of a value in [0, 1].
+// IEC 61966-2-1 sRGB decoding, extended to values outside [0, 1] (float
+// frames) by odd symmetry and the same curve above 1.
 double srgb_to_linear(double encoded) {
-  encoded = std::clamp(encoded, 0.0, 1.0);
-  return encoded <= 0.04045 ? encoded / 12.92 : std::pow((encoded + 0.055) / 1.055, 2.4);
-}
-
-double full_scale(int depth) {
-  return depth == CV_8U ? 255.0 : depth == CV_16U ? 65535.0 : 1.0;
+  const double magnitude = std::abs(encoded);
+  const double linear =
+      magnitude <= 0.04045 ? magnitude / 12.92 : std::pow((magnitude + 0.055) / 1.055, 2.4);
+  return std::copysign(linear, encoded);
 }
 
 // Blur applied to flat-field frames: the LED pattern is smooth, the noise of
@@ -196,13 +195,21 @@ Result<ScanLineariser> ScanLineariser::create(const Scan& scan) {
 
   if (!scan.dark.empty()) result.dark_planes_ = linear_planes(scan.dark);
 
+  // Flat fields: F_k, a white target facing the camera under LED k, holds
+  // the LED's pattern and brightness times the target's incidence term
+  // l_k.z. Dividing by F_k / l_k.z evens out both, so the lights agree;
+  // one constant for the whole scan (the flats' mean level) keeps albedo on
+  // the scale of the frames.
+  std::vector<std::vector<cv::Mat>> flats;  // per light, per channel: F_k / l_k.z, smoothed
+  double level = 0;
   for (std::size_t k = 0; k < scan.flats.size(); ++k) {
     auto planes = linear_planes(scan.flats[k]);
-    std::vector<cv::Mat> gains;
+    const double incidence = scan.description.lights[k].direction[2];
     for (int c = 0; c < channels; ++c) {
-      cv::Mat flat = planes[c];
+      cv::Mat& flat = planes[c];
       if (!result.dark_planes_.empty()) flat -= result.dark_planes_[c];
       cv::GaussianBlur(flat, flat, cv::Size(), kFlatBlurSigma);
+      flat /= incidence;
       const double mean = cv::mean(flat)[0];
       if (!(mean > 0))
         return std::unexpected(
@@ -210,8 +217,16 @@ Result<ScanLineariser> ScanLineariser::create(const Scan& scan) {
                       "flats[" + std::to_string(k) + "]",
                       "is black (after dark subtraction): a flat is a white target under the LED"));
       cv::max(flat, kFlatFloor * mean, flat);
+      level += mean;
+    }
+    flats.push_back(std::move(planes));
+  }
+  if (!flats.empty()) level /= static_cast<double>(flats.size() * channels);
+  for (auto& planes : flats) {
+    std::vector<cv::Mat> gains;
+    for (auto& flat : planes) {
       cv::Mat gain;
-      cv::divide(mean, flat, gain, 1.0, CV_32F);
+      cv::divide(level, flat, gain, 1.0, CV_32F);
       gains.push_back(gain);
     }
     result.gains_.push_back(std::move(gains));
@@ -254,7 +269,7 @@ void ScanLineariser::row(int light, int row, float* const* planes, std::uint8_t*
 
   if (channels_ == 1) {
     codes_.convert(src, n, planes[0], corrected ? 1.0f : inverse_intensity[0]);
-  } else if (codes_.is_affine() && frame.depth() != CV_32F) {
+  } else if (codes_.is_linear() && frame.depth() != CV_32F) {
     ChannelAffine affine{};
     for (int c = 0; c < 3; ++c) {
       const float factor = corrected ? 1.0f : inverse_intensity[c];

@@ -13,11 +13,13 @@ namespace psrig::processing {
 namespace {
 
 constexpr int kRowsPerChunk = 16;
-constexpr int kSrgbSteps = 4096;  // table resolution: finer than 8-bit sRGB needs
+// Table resolution: in sRGB's linear toe one step moves the 8-bit code by
+// 0.05, so the table agrees with the exact encoding.
+constexpr int kSrgbSteps = 65536;
 
-const std::array<std::uint8_t, kSrgbSteps + 1>& srgb_table() {
+const std::vector<std::uint8_t>& srgb_table() {
   static const auto table = [] {
-    std::array<std::uint8_t, kSrgbSteps + 1> t{};
+    std::vector<std::uint8_t> t(kSrgbSteps + 1);
     for (int i = 0; i <= kSrgbSteps; ++i) {
       const double linear = static_cast<double>(i) / kSrgbSteps;
       const double encoded =
@@ -52,8 +54,8 @@ cv::Mat encode_albedo_srgb8(const cv::Mat& albedo) {
       const float* in = albedo.ptr<float>(r);
       std::uint8_t* o = out.ptr<std::uint8_t>(r);
       for (int i = 0; i < values; ++i) {
-        const float clamped =
-            std::clamp(in[i], 0.0f, 1.0f);  // NaN-free input: the solve zeroes unsolved pixels
+        // NaN and negatives to 0, above 1 to 1 (a NaN comparison is false).
+        const float clamped = in[i] > 0.0f ? std::min(in[i], 1.0f) : 0.0f;
         o[i] = table[static_cast<int>(clamped * kSrgbSteps + 0.5f)];
       }
     }

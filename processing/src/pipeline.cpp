@@ -48,17 +48,21 @@ cv::Mat clamped_gradient(const cv::Mat& gradient) {
 
 // An existing output may only be replaced if it is a maps directory psrig
 // wrote (or empty): --out must never swallow a scan or a home directory.
-Status check_output(const fs::path& output) {
+// Says how the commit must treat the target: replace what was checked, or
+// refuse anything that appeared since.
+Result<AtomicDirectory::Existing> check_output(const fs::path& output) {
   std::error_code ec;
   const auto status = fs::symlink_status(output, ec);
-  if (!fs::exists(status)) return {};
+  if (!fs::exists(status)) return AtomicDirectory::Existing::refuse;
   if (!fs::is_directory(status))
     return std::unexpected(
         bad_input(output, "", "exists and is not a directory; choose another --out"));
-  if (fs::is_empty(output, ec)) return {};
+  if (fs::is_empty(output, ec) && !ec) return AtomicDirectory::Existing::replace;
   std::ifstream report(output / map_files::kReport);
-  nlohmann::json doc = nlohmann::json::parse(report, nullptr, false);
-  if (report && doc.is_object() && doc.value("format", "") == kReportFormat) return {};
+  const nlohmann::json doc = nlohmann::json::parse(report, nullptr, false);
+  if (doc.is_object() && doc.contains("format") && doc["format"].is_string() &&
+      doc["format"].get<std::string>() == kReportFormat)
+    return AtomicDirectory::Existing::replace;
   return std::unexpected(
       bad_input(output, "",
                 "exists and is not a psrig maps directory; refusing to replace it "
@@ -72,22 +76,24 @@ const std::vector<int> kStoredPng = {cv::IMWRITE_PNG_COMPRESSION, 0};
 // the bytes of the largest map.
 const std::vector<int> kHalfExr = {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_HALF};
 
-}  // namespace
-
-Result<ProcessSummary> process_scan(const fs::path& scan_directory, const ProcessOptions& options) {
+Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
+                                         const ProcessOptions& options) {
   auto log = logger("processing");
   const auto start = Clock::now();
   std::vector<std::pair<std::string, double>> stages;
 
-  auto scan = read_scan(scan_directory);
-  if (!scan) return std::unexpected(scan.error());
-  stages.emplace_back("read", ms_since(start));
-
+  // Where the maps go is checked first: a bad --out should not wait for a
+  // 12 MP read. Nothing is visible there until the commit.
   const fs::path output = options.output.empty() ? scan_directory / "maps" : options.output;
-  if (auto ok = check_output(output); !ok) return std::unexpected(ok.error());
+  const auto existing = check_output(output);
+  if (!existing) return std::unexpected(existing.error());
   auto staging = AtomicDirectory::create(output);
   if (!staging) return std::unexpected(staging.error());
   const fs::path dir = staging->path();
+
+  auto scan = read_scan(scan_directory);
+  if (!scan) return std::unexpected(scan.error());
+  stages.emplace_back("read", ms_since(start));
 
   auto stage_start = Clock::now();
   auto solved = solve(*scan, options.solve);
@@ -170,8 +176,8 @@ Result<ProcessSummary> process_scan(const fs::path& scan_directory, const Proces
       const auto task_start = Clock::now();
       try {
         if (auto ok = tasks[i].run(); !ok) errors[i] = ok.error();
-      } catch (const cv::Exception& e) {
-        errors[i] = internal_error(std::string("OpenCV: ") + e.what());
+      } catch (const std::exception& e) {
+        errors[i] = internal_error(tasks[i].name + ": " + e.what());
       }
       log->debug("{}: {:.0f} ms", tasks[i].name, ms_since(task_start));
     }
@@ -193,10 +199,19 @@ Result<ProcessSummary> process_scan(const fs::path& scan_directory, const Proces
   out.close();
   if (!out) return std::unexpected(io_error(report_path, "cannot write"));
 
-  if (auto ok = staging->commit(AtomicDirectory::Existing::replace, false); !ok)
-    return std::unexpected(ok.error());
+  if (auto ok = staging->commit(*existing, false); !ok) return std::unexpected(ok.error());
   log->debug("maps of {} written to {}", scan_directory.string(), output.string());
   return ProcessSummary{output, report};
+}
+
+}  // namespace
+
+Result<ProcessSummary> process_scan(const fs::path& scan_directory, const ProcessOptions& options) {
+  try {
+    return process_unguarded(scan_directory, options);
+  } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
+    return std::unexpected(internal_error(std::string("processing failed: ") + e.what()));
+  }
 }
 
 }  // namespace psrig::processing

@@ -21,6 +21,10 @@ namespace {
 
 namespace fs = std::filesystem;
 
+// As cv::imread: larger images are refused (2^30 pixels).
+constexpr std::uint64_t kMaxPixels = std::uint64_t{1} << 30;
+// PNG chunk lengths are 31-bit.
+constexpr std::size_t kMaxChunk = 0x7FFFFFFF;
 constexpr std::array<std::uint8_t, 8> kSignature = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
 constexpr int kRowsPerChunk = 32;
 
@@ -208,8 +212,8 @@ std::optional<cv::Mat> read(const fs::path& file) {
     at += 12 + length;
   }
   if (!seen_header || !seen_end || idat.empty() || (bit_depth != 8 && bit_depth != 16) ||
-      (colour_type != 0 && colour_type != 2) || width == 0 || height == 0 || width > (1u << 16) ||
-      height > (1u << 16))
+      (colour_type != 0 && colour_type != 2) || width == 0 || height == 0 ||
+      std::uint64_t{width} * height > kMaxPixels)
     return std::nullopt;
   std::vector<std::uint8_t> gathered;
   const std::uint8_t* stream = idat.front().first;
@@ -223,21 +227,27 @@ std::optional<cv::Mat> read(const fs::path& file) {
   const int channels = colour_type == 2 ? 3 : 1;
   const std::size_t bpp = static_cast<std::size_t>(channels) * (bit_depth / 8);
   const std::size_t row_bytes = bpp * width;
-  std::vector<std::uint8_t> raw(height * (row_bytes + 1));
+  const std::size_t raw_size = height * (row_bytes + 1);
+  // Deflate expands at most 1032:1; a tiny file claiming a huge image is
+  // damaged or hostile and must not get a huge buffer.
+  if (compressed * 1032 < raw_size) return std::nullopt;
+  // Not zero-filled: inflation writes every byte.
+  const auto raw_buffer = std::make_unique_for_overwrite<std::uint8_t[]>(raw_size);
+  std::uint8_t* const raw = raw_buffer.get();
   std::unique_ptr<libdeflate_decompressor, decltype(&libdeflate_free_decompressor)> inflater(
       libdeflate_alloc_decompressor(), &libdeflate_free_decompressor);
   std::size_t produced = 0;
   if (!inflater ||
-      libdeflate_zlib_decompress(inflater.get(), stream, compressed, raw.data(), raw.size(),
-                                 &produced) != LIBDEFLATE_SUCCESS ||
-      produced != raw.size())
+      libdeflate_zlib_decompress(inflater.get(), stream, compressed, raw, raw_size, &produced) !=
+          LIBDEFLATE_SUCCESS ||
+      produced != raw_size)
     return std::nullopt;
   gathered = {};
 
   // Rows depend on the row above, so unfiltering runs in order.
   std::vector<std::uint8_t> zeros(row_bytes, 0);
   for (std::uint32_t r = 0; r < height; ++r) {
-    std::uint8_t* row = raw.data() + r * (row_bytes + 1);
+    std::uint8_t* row = raw + r * (row_bytes + 1);
     const std::uint8_t* previous = r ? row - row_bytes : zeros.data();
     if (!unfilter_row(row[0], row + 1, previous, row_bytes, bpp)) return std::nullopt;
   }
@@ -246,7 +256,7 @@ std::optional<cv::Mat> read(const fs::path& file) {
                 CV_MAKETYPE(bit_depth == 8 ? CV_8U : CV_16U, channels));
   parallel_chunks(image.rows, kRowsPerChunk, [&](int begin, int end) {
     for (int r = begin; r < end; ++r) {
-      const std::uint8_t* in = raw.data() + static_cast<std::size_t>(r) * (row_bytes + 1) + 1;
+      const std::uint8_t* in = raw + static_cast<std::size_t>(r) * (row_bytes + 1) + 1;
       if (bit_depth == 16 && channels == 3)
         rgb16_to_bgr(in, image.ptr<std::uint16_t>(r), image.cols);
       else if (bit_depth == 16)
@@ -279,6 +289,7 @@ class ChunkWriter {
   [[nodiscard]] bool ok() const { return file_ && ok_; }
 
   void begin(const char* type, std::size_t length) {
+    if (length > kMaxChunk) ok_ = false;  // too large for one PNG chunk
     std::uint8_t header[8];
     store_be32(header, static_cast<std::uint32_t>(length));
     std::memcpy(header + 4, type, 4);
@@ -301,8 +312,10 @@ class ChunkWriter {
     end();
   }
   bool close() {
-    ok_ = ok_ && file_ && std::fflush(file_.get()) == 0;
-    return ok();
+    if (!file_) return false;
+    ok_ = std::fflush(file_.get()) == 0 && ok_;
+    ok_ = std::fclose(file_.release()) == 0 && ok_;
+    return ok_;
   }
 
  private:

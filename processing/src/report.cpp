@@ -13,10 +13,6 @@ json distribution_json(const Distribution& d) {
           {"p95", d.p95},      {"max", d.max},   {"rms", d.rms}};
 }
 
-const char* depth_name(int depth) {
-  return depth == CV_8U ? "8" : depth == CV_16U ? "16" : "32f";
-}
-
 json pixel_counts(const PixelCounts& n) {
   return {{"total", n.total},
           {"valid", n.valid},
@@ -65,10 +61,7 @@ json make_report(const ReportInputs& in) {
     times[stage] = ms;
   report["timings_ms"] = times;
 
-  std::vector<cv::Vec3d> directions;
-  for (const auto& light : d.lights)
-    directions.push_back(light.direction);
-  const LightMatrix matrix = make_light_matrix(directions);
+  const LightMatrix matrix = make_light_matrix(d);
   json rows = json::array();
   for (const auto& l : matrix.directions)
     rows.push_back({l[0], l[1], l[2]});

@@ -62,8 +62,7 @@ class DescriptionParser {
     for (int i = 0; i < 3; ++i) {
       if (!value[i].is_number())
         return std::unexpected(error(key, "expected [x, y, z], three numbers"));
-      d[i] = value[i].get<double>();
-      if (!std::isfinite(d[i])) return std::unexpected(error(key, "has a non-finite component"));
+      d[i] = value[i].get<double>();  // finite: JSON cannot carry NaN or infinity
     }
     if (cv::norm(d) < 1e-9)
       return std::unexpected(error(key, "is the zero vector; give the direction toward the light"));
@@ -122,7 +121,7 @@ class DescriptionParser {
       }
     }
 
-    if (doc.contains("encoding")) {
+    if (doc.contains("encoding") && !doc["encoding"].is_null()) {
       const auto& e = doc["encoding"];
       if (e == "linear")
         d.encoding = Encoding::linear;
@@ -158,6 +157,10 @@ class DescriptionParser {
       return std::unexpected(error("lights", "missing; list at least three lights"));
     const auto& lights = doc["lights"];
     if (!lights.is_array()) return std::unexpected(error("lights", "expected an array of lights"));
+    if (lights.size() > static_cast<std::size_t>(kMaxLights))
+      return std::unexpected(error("lights", std::to_string(lights.size()) +
+                                                 " lights given; psrig solves up to " +
+                                                 std::to_string(kMaxLights)));
     if (lights.size() < 3)
       return std::unexpected(
           error("lights", std::to_string(lights.size()) +
@@ -180,14 +183,22 @@ class DescriptionParser {
       if (light.direction[2] <= 0)
         return std::unexpected(error(prefix + ".direction",
                                      "points below the swatch (z <= 0); z is toward the camera"));
-      if (entry.contains("intensity")) {
+      if (entry.contains("intensity") && !entry["intensity"].is_null()) {
         if (auto ok = intensity(entry["intensity"], prefix + ".intensity", light); !ok)
           return std::unexpected(ok.error());
       }
       d.lights.push_back(light);
     }
 
-    if (doc.contains("flats") && !doc["flats"].is_null()) {
+    if (!doc.contains("flats") || doc["flats"].is_null()) {
+      // No key: DESIGN.md's layout names them flat0.png, flat1.png, ...
+      for (const char* extension : {".png", ".tif", ".tiff", ".exr"}) {
+        if (!std::filesystem::exists(directory / ("flat0" + std::string(extension)))) continue;
+        for (std::size_t i = 0; i < lights.size(); ++i)
+          d.flats.push_back("flat" + std::to_string(i) + extension);
+        break;
+      }
+    } else {
       const auto& flats = doc["flats"];
       if (!flats.is_array() || flats.size() != lights.size())
         return std::unexpected(error("flats", "expected one flat-field frame per light (" +
@@ -219,10 +230,7 @@ class DescriptionParser {
       d.ground_truth_height = *height;
     }
 
-    std::vector<cv::Vec3d> directions;
-    for (const auto& light : d.lights)
-      directions.push_back(light.direction);
-    const double condition = make_light_matrix(directions).condition_number;
+    const double condition = make_light_matrix(d).condition_number;
     if (!(condition <= kMaxLightConditionNumber)) {
       std::ostringstream message;
       message << "the light directions are degenerate (light matrix condition number " << condition
@@ -251,34 +259,10 @@ std::pair<int, int> line_and_column(const std::string& text, std::size_t byte) {
   return {line, column};
 }
 
-const char* depth_name(int depth) {
-  switch (depth) {
-    case CV_8U:
-      return "8-bit";
-    case CV_16U:
-      return "16-bit";
-    case CV_32F:
-      return "32-bit float";
-    default:
-      return "unsupported-depth";
-  }
-}
-
 std::string describe_image(const cv::Mat& image) {
   return std::to_string(image.cols) + "x" + std::to_string(image.rows) + " " +
          depth_name(image.depth()) + " " +
          (image.channels() == 1 ? "grey" : std::to_string(image.channels()) + "-channel");
-}
-
-double full_scale(int depth) {
-  switch (depth) {
-    case CV_8U:
-      return 255.0;
-    case CV_16U:
-      return 65535.0;
-    default:
-      return 1.0;
-  }
 }
 
 // One image the description names, with where it goes once loaded.
@@ -317,7 +301,9 @@ Result<ScanDescription> read_scan_description(const fs::path& directory) {
   return DescriptionParser(file).parse(doc, directory);
 }
 
-Result<Scan> read_scan(const fs::path& directory) {
+namespace {
+
+Result<Scan> read_scan_unguarded(const fs::path& directory) {
   auto description = read_scan_description(directory);
   if (!description) return std::unexpected(description.error());
 
@@ -382,9 +368,7 @@ Result<Scan> read_scan(const fs::path& directory) {
                          std::to_string(first.cols) + "x" + std::to_string(first.rows)));
       if (image.channels() != 1)
         return std::unexpected(frame_error(request, "must be a grey image (nonzero = use)"));
-      if (image.depth() != CV_8U)
-        image.convertTo(scan.mask, CV_8U, 255.0);  // any nonzero stays nonzero
-      cv::compare(scan.mask, 0, scan.mask, cv::CMP_GT);
+      cv::compare(image, 0, scan.mask, cv::CMP_NE);  // any nonzero value, of any depth, selects
       continue;
     }
     if (request.key.starts_with("ground_truth")) {
@@ -423,6 +407,17 @@ Result<Scan> read_scan(const fs::path& directory) {
       return std::unexpected(bad_input(json_file, "lights[" + std::to_string(i) + "].intensity",
                                        "gives [r, g, b] but the frames are grey; give one number"));
   return scan;
+}
+
+}  // namespace
+
+Result<Scan> read_scan(const fs::path& directory) {
+  try {
+    return read_scan_unguarded(directory);
+  } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
+    return std::unexpected(
+        internal_error(directory.string() + ": reading the scan failed: " + e.what()));
+  }
 }
 
 }  // namespace psrig::processing

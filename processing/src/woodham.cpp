@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -118,7 +119,7 @@ template <int C>
       const float m0 = planes.m[c][i], m1 = planes.m[C + c][i], m2 = planes.m[2 * C + c][i];
       const float w = (g0 * m0 + g1 * m1 + g2 * m2) * inverse_energy[i];
       const float e0 = m0 - w * g0, e1 = m1 - w * g1, e2 = m2 - w * g2;
-      albedo[C * i + c] = length[i] * w;
+      albedo[C * i + c] = length[i] > 0.0f ? length[i] * w : 0.0f;  // a select: NaN input stays out
       misfit += e0 * e0 + e1 * e1 + e2 * e2;
     }
     residual[i] = length[i] > 0.0f ? std::sqrt(misfit * kInverseTerms) : 0.0f;
@@ -206,91 +207,86 @@ bool solve_symmetric3(const double a[6], const double b[3], double t[3]) {
   return true;
 }
 
-// Any number of lights, each pixel solving its own normal equations over
-// the lights it uses: all of them, or with rejection those that are neither
-// saturated nor shadowed.
+// Any number of lights (up to kMaxLights), each pixel solving its own
+// normal equations over the set of lights it uses (a bit mask): all of
+// them, or with rejection those that are neither saturated nor shadowed,
+// as long as at least three well-spread ones remain.
 void solve_row_general(const RowData& row, const Coefficients& co, const SolveOptions& options) {
   const int lights = row.lights, channels = row.channels;
-  std::vector<double> grey(lights);
-  std::vector<double> shade(lights);
-  std::vector<char> used(lights);
+  const std::uint64_t all = lights == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << lights) - 1;
+  const auto bit = [](int k) { return std::uint64_t{1} << k; };
+  std::array<double, kMaxLights> grey{}, shade{};
   for (int i = 0; i < row.cols; ++i) {
     double brightest = 0;
-    bool saturated = false;
+    std::uint64_t saturated = 0;
     for (int k = 0; k < lights; ++k) {
       double sum = 0;
       for (int c = 0; c < channels; ++c)
         sum += row.measurement[(k * channels + c) * row.cols + i];
       grey[k] = sum / channels;
       brightest = std::max(brightest, grey[k]);
-      const bool saturated_here = row.saturated[k * row.cols + i] != 0;
-      saturated |= saturated_here;
-      used[k] = !(options.reject_outliers && saturated_here);
+      if (row.saturated[k * row.cols + i]) saturated |= bit(k);
     }
     const bool outside = row.mask[i] == 0;
     const bool low = !(brightest >= options.low_signal);
 
     double t[3] = {0, 0, 0};
-    const auto solve_used = [&]() {
+    const auto solve_with = [&](std::uint64_t used, double out[3]) {
       double a[6] = {0, 0, 0, 0, 0, 0}, b[3] = {0, 0, 0};
       for (int k = 0; k < lights; ++k) {
-        if (!used[k]) continue;
+        if (!(used & bit(k))) continue;
         const auto& l = co.direction[k];
         a[0] += l[0] * l[0], a[1] += l[0] * l[1], a[2] += l[0] * l[2];
         a[3] += l[1] * l[1], a[4] += l[1] * l[2], a[5] += l[2] * l[2];
         b[0] += l[0] * grey[k], b[1] += l[1] * grey[k], b[2] += l[2] * grey[k];
       }
-      return solve_symmetric3(a, b, t);
+      return solve_symmetric3(a, b, out);
     };
-    bool ok = !outside && !low && solve_used();
-    bool recovered = false;
-    if (ok && options.reject_outliers) {
-      // Drop measurements too dark for the albedo found, then solve again
-      // without them; twice, as the first albedo is pulled down by them.
-      for (int pass = 0; pass < 2; ++pass) {
-        const double rho = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
-        int kept = 0;
-        bool changed = false;
-        std::vector<char> next = used;
-        for (int k = 0; k < lights; ++k) {
-          if (next[k] && grey[k] < options.shadow_ratio * rho) next[k] = 0, changed = true;
-          kept += next[k];
-        }
-        if (!changed || kept < 3) break;
-        const std::vector<char> previous = used;
-        double previous_t[3] = {t[0], t[1], t[2]};
-        used = next;
-        if (!solve_used()) {  // the remaining lights are too close to a plane
-          used = previous;
-          std::copy(previous_t, previous_t + 3, t);
-          break;
-        }
-      }
+    const auto too_dark = [&](std::uint64_t among, double rho) {
+      std::uint64_t dark = 0;
       for (int k = 0; k < lights; ++k)
-        recovered |= !used[k];
+        if ((among & bit(k)) && grey[k] < options.shadow_ratio * rho) dark |= bit(k);
+      return dark;
+    };
+
+    std::uint64_t used = all;
+    if (options.reject_outliers && std::popcount(all & ~saturated) >= 3) used &= ~saturated;
+    bool ok = !outside && !low && solve_with(used, t);
+    if (ok && options.reject_outliers) {
+      // Drop measurements too dark for the albedo found and solve again;
+      // twice, as the first albedo is pulled down by them.
+      for (int pass = 0; pass < 2; ++pass) {
+        const std::uint64_t next =
+            used & ~too_dark(used, std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]));
+        double next_t[3];
+        if (next == used || std::popcount(next) < 3 || !solve_with(next, next_t)) break;
+        used = next;
+        std::copy(next_t, next_t + 3, t);
+      }
     }
 
     const double length = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
     const bool no_solution = !outside && !low && !(ok && t[2] > kMinNormalZ * length);
     const bool solved = !outside && !low && !no_solution;
-    bool shadowed = false;
+    const bool shadowed = too_dark(all, length) != 0;
+    // Recovered: lights were dropped and none of those left is doubtful.
+    const bool recovered = used != all && !(used & saturated) && !too_dark(used, length);
     double shade_squared = 0;
     for (int k = 0; k < lights; ++k) {
       const auto& l = co.direction[k];
       shade[k] = solved ? (l[0] * t[0] + l[1] * t[1] + l[2] * t[2]) / length : 0;
-      if (used[k]) shade_squared += shade[k] * shade[k];
-      shadowed |= grey[k] < options.shadow_ratio * length;
+      if (used & bit(k)) shade_squared += shade[k] * shade[k];
     }
     double misfit = 0;
     int terms = 0;
     for (int c = 0; c < channels; ++c) {
       double dot = 0;
       for (int k = 0; k < lights; ++k)
-        if (used[k]) dot += shade[k] * row.measurement[(k * channels + c) * row.cols + i];
+        if (used & bit(k)) dot += shade[k] * row.measurement[(k * channels + c) * row.cols + i];
       const double rho = solved ? dot / shade_squared : 0;
       row.albedo[channels * i + c] = static_cast<float>(rho);
       for (int k = 0; k < lights; ++k) {
-        if (!used[k]) continue;
+        if (!(used & bit(k))) continue;
         const double e = row.measurement[(k * channels + c) * row.cols + i] - rho * shade[k];
         misfit += e * e;
         ++terms;
@@ -300,18 +296,15 @@ void solve_row_general(const RowData& row, const Coefficients& co, const SolveOp
     row.q[i] = solved ? static_cast<float>(-t[1] / t[2]) : 0.0f;
     row.residual[i] = solved && terms ? static_cast<float>(std::sqrt(misfit / terms)) : 0.0f;
     row.flags[i] = static_cast<std::uint8_t>(
-        (outside ? kOutsideMask : 0) | (saturated ? kSaturated : 0) |
+        (outside ? kOutsideMask : 0) | (!outside && saturated ? kSaturated : 0) |
         (solved && shadowed ? kShadowed : 0) | (!outside && low ? kLowSignal : 0) |
         (no_solution ? kNoSolution : 0) | (solved && recovered ? kRecovered : 0));
   }
 }
 
 Coefficients make_coefficients(const Scan& scan) {
-  std::vector<cv::Vec3d> directions;
-  for (const auto& light : scan.description.lights)
-    directions.push_back(light.direction);
   Coefficients co;
-  for (const auto& d : make_light_matrix(directions).directions)
+  for (const auto& d : make_light_matrix(scan.description).directions)
     co.direction.push_back(
         {static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2])});
   return co;
@@ -349,7 +342,9 @@ Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& re
   result.flags.create(size, CV_8U);
 
   parallel_chunks(size.height, kRowsPerChunk, [&](int begin, int end) {
-    // Per-thread scratch for one row of every light's measurements.
+    // Per-thread scratch for one row of every light's measurements. Safe as
+    // thread_local because nothing in this body opens a nested parallel
+    // region (which could run another chunk on this thread meanwhile).
     thread_local std::vector<float> measurements;
     thread_local std::vector<std::uint8_t> saturation;
     thread_local std::vector<std::uint8_t> everywhere;  // the mask row when the scan has none

@@ -2,6 +2,8 @@
 
 #include "psrig/processing/pipeline.h"
 
+#include <algorithm>
+#include <cmath>
 #include <fstream>
 
 #include <gtest/gtest.h>
@@ -9,6 +11,7 @@
 
 #include "psrig/capture/scan_writer.h"
 #include "psrig/capture/synthetic_scan.h"
+#include "psrig/firmware_host/sim/swatch_model.h"
 #include "psrig/processing/map_encoding.h"
 #include "synthetic_scene.h"
 #include "test_support.h"
@@ -101,6 +104,47 @@ TEST_P(SyntheticSwatch, NoiseFreeNormalsAreExact) {
   EXPECT_TRUE(truth.contains("height_rms_error"));
 }
 
+// The noise bound of woodham_test.cpp on a real-looking surface: per pixel
+// E[theta^2] = sigma^2 / (3 rho^2) tr(P (L^T L)^-1 P) for noise sigma per
+// channel, and the measured mean lies between sqrt(2/pi) and 1 times the
+// mean predicted RMS.
+TEST_P(SyntheticSwatch, NoisyNormalsMatchTheDerivedBound) {
+  const double sigma = 0.004;
+  capture::SyntheticScanParams params;
+  params.swatch.pattern = *firmware_host::sim::parse_swatch_pattern(GetParam());
+  params.swatch.size = {240, 180};
+  params.noise = sigma;
+  const Scan scan = capture::make_synthetic_scan(params);
+  const auto swatch = firmware_host::sim::make_swatch(params.swatch);
+  auto result = solve(scan);
+  ASSERT_TRUE(result);
+  const cv::Mat valid = encode_valid_mask(result->flags);
+
+  cv::Matx33d ltl = cv::Matx33d::zeros();
+  for (const auto& light : scan.description.lights)
+    ltl += light.direction * light.direction.t();
+  const cv::Matx33d covariance = ltl.inv();
+  double measured = 0, predicted = 0;
+  int count = 0;
+  for (int r = 0; r < valid.rows; ++r) {
+    for (int c = 0; c < valid.cols; ++c) {
+      if (!valid.at<std::uint8_t>(r, c)) continue;
+      const cv::Vec3d n = swatch.normal.at<cv::Vec3f>(r, c);
+      const cv::Vec3f a = swatch.albedo.at<cv::Vec3f>(r, c);
+      const double rho = (a[0] + a[1] + a[2]) / 3;
+      const cv::Matx33d projector = cv::Matx33d::eye() - n * n.t();
+      predicted +=
+          sigma / (std::sqrt(3.0) * rho) * std::sqrt(cv::trace(projector * covariance * projector));
+      const cv::Vec3d estimate(-result->p.at<float>(r, c), -result->q.at<float>(r, c), 1);
+      measured += std::acos(std::clamp(estimate.dot(n) / cv::norm(estimate), -1.0, 1.0));
+      ++count;
+    }
+  }
+  ASSERT_GT(count, 0.5 * valid.total());
+  EXPECT_LE(measured / count, 1.05 * predicted / count);
+  EXPECT_GE(measured / count, 0.75 * predicted / count);
+}
+
 INSTANTIATE_TEST_SUITE_P(Patterns, SyntheticSwatch,
                          ::testing::Values("jersey", "rib", "garter", "plain", "twill"));
 
@@ -135,6 +179,52 @@ TEST(Pipeline, RefusesToReplaceWhatIsNotAMapsDirectory) {
   options.output = temp / "scan";
   EXPECT_FALSE(process_scan(temp / "scan", options));
   EXPECT_TRUE(fs::exists(temp / "scan" / "scan.json"));
+}
+
+TEST(Pipeline, AFailureAfterStagingLeavesNothingBehind) {
+  // A black flat is found only while solving, after the staging directory
+  // exists: it must go, and no maps appear.
+  test::TempDir temp;
+  auto scan =
+      test::render_scan(test::sphere_surface({32, 24}, 8, 1), test::ring_lights(3, 45), CV_16U);
+  for (int k = 0; k < 3; ++k)
+    scan.flats.push_back(cv::Mat(scan.size(), CV_16U, cv::Scalar(k == 1 ? 0 : 30000)));
+  ASSERT_TRUE(capture::write_scan(scan, temp / "scan"));
+  ProcessOptions options;
+  options.output = temp / "maps";
+  auto failed = process_scan(temp / "scan", options);
+  ASSERT_FALSE(failed);
+  EXPECT_EQ(failed.error().key, "flats[1]");
+  EXPECT_EQ(test::list_directory(temp.path()), std::vector<std::string>{"scan"});
+}
+
+TEST(Pipeline, FlatsAreFoundByTheirDesignNames) {
+  // DESIGN.md's layout lists flat0.png ... without a key in scan.json.
+  test::TempDir temp;
+  auto scan =
+      test::render_scan(test::sphere_surface({32, 24}, 8, 1), test::ring_lights(3, 45), CV_16U);
+  for (int k = 0; k < 3; ++k)
+    scan.flats.push_back(cv::Mat(scan.size(), CV_16U, cv::Scalar(k == 1 ? 0 : 30000)));
+  ASSERT_TRUE(capture::write_scan(scan, temp / "scan"));
+  std::ifstream in(temp / "scan" / "scan.json");
+  auto doc = nlohmann::json::parse(in);
+  doc.erase("flats");
+  std::ofstream(temp / "scan" / "scan.json") << doc.dump();
+  ProcessOptions options;
+  options.output = temp / "maps";
+  auto failed = process_scan(temp / "scan", options);  // the black flat1.png is found, and refused
+  ASSERT_FALSE(failed);
+  EXPECT_EQ(failed.error().key, "flats[1]");
+}
+
+TEST(Pipeline, OutputWithATrailingSlash) {
+  test::TempDir temp;
+  write_plane_scan(temp / "scan", {0, 0, 1});
+  ProcessOptions options;
+  options.output = (temp / "maps").string() + "/";
+  auto summary = process_scan(temp / "scan", options);
+  ASSERT_TRUE(summary) << summary.error().describe();
+  EXPECT_TRUE(fs::exists(temp / "maps" / "report.json"));
 }
 
 TEST(Pipeline, BadInputWritesNothing) {

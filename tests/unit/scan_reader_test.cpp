@@ -234,6 +234,41 @@ TEST_F(ScanReader, MaskOfTheWrongSize) {
   expect_error("mask.png", "mask");
 }
 
+TEST_F(ScanReader, NullMeansDefault) {
+  auto doc = load_json();
+  doc["encoding"] = nullptr;
+  doc["lights"][0]["intensity"] = nullptr;
+  doc["pixel_size_mm"] = nullptr;
+  save_json(doc);
+  auto scan = read_scan(dir_);
+  ASSERT_TRUE(scan) << scan.error().describe();
+  EXPECT_EQ(scan->description.encoding, Encoding::linear);
+  EXPECT_EQ(scan->description.lights[0].intensity_bgr, cv::Vec3d(1, 1, 1));
+  EXPECT_FALSE(scan->description.pixel_size_mm);
+}
+
+TEST_F(ScanReader, AtMostSixtyFourLights) {
+  auto doc = load_json();
+  while (doc["lights"].size() <= static_cast<std::size_t>(kMaxLights))
+    doc["lights"].push_back(doc["lights"][0]);
+  save_json(doc);
+  expect_error("scan.json", "lights");
+}
+
+TEST_F(ScanReader, AnyNonzeroMaskValueSelects) {
+  cv::Mat mask(48, 64, CV_32F, cv::Scalar(0));
+  mask.at<float>(1, 1) = 0.001f;  // small, but not zero
+  mask.at<float>(2, 2) = -1.0f;
+  cv::imwrite((dir_ / "mask.exr").string(), mask);
+  auto doc = load_json();
+  doc["mask"] = "mask.exr";
+  save_json(doc);
+  auto scan = read_scan(dir_);
+  ASSERT_TRUE(scan) << scan.error().describe();
+  EXPECT_EQ(cv::countNonZero(scan->mask), 2);
+  EXPECT_NE(scan->mask.at<std::uint8_t>(1, 1), 0);
+}
+
 TEST_F(ScanReader, FlatsMustMatchTheLights) {
   auto doc = load_json();
   doc["flats"] = {"flat0.png"};

@@ -1,13 +1,14 @@
 // Woodham's solve on scenes with a known answer.
 
-#include "psrig/processing/map_encoding.h"
 #include "psrig/processing/woodham.h"
 
 #include <cmath>
 #include <numbers>
+#include <thread>
 
 #include <gtest/gtest.h>
 
+#include "psrig/processing/map_encoding.h"
 #include "psrig/processing/parallel.h"
 #include "synthetic_scene.h"
 
@@ -36,7 +37,6 @@ TEST(Woodham, SphereColour16BitNoiseFreeIsExact) {
   // One normal, three albedos: each channel's albedo is recovered.
   cv::Mat albedo_error;
   cv::absdiff(result->albedo, surface.albedo, albedo_error);
-  cv::Scalar worst_inside;
   for (int c = 0; c < 3; ++c) {
     cv::Mat channel;
     cv::extractChannel(albedo_error, channel, c);
@@ -214,12 +214,63 @@ TEST(Woodham, RejectionBeatsLeastSquaresUnderCastShadows) {
   EXPECT_LT(rejecting_error, 0.5);
   // Cast-shadowed pixels are solved from the other lights and count as valid.
   EXPECT_GT(valid_fraction(rejecting->flags), valid_fraction(plain->flags));
-  EXPECT_TRUE(rejecting->flags.at<std::uint8_t>(100, 100 + static_cast<int>(radius) + 5) &
-                  kRecovered ||
-              !(any_shadow.at<std::uint8_t>(100, 100 + static_cast<int>(radius) + 5)));
+  // A plane pixel just right of the dome, in some light's cast shadow:
+  // recovered by rejection, valid; least squares leaves it shadowed.
+  const int r = 100, c = 100 + static_cast<int>(radius) + 5;
+  ASSERT_TRUE(any_shadow.at<std::uint8_t>(r, c));
+  EXPECT_TRUE(rejecting->flags.at<std::uint8_t>(r, c) & kRecovered);
+  EXPECT_TRUE(is_valid(rejecting->flags.at<std::uint8_t>(r, c)));
+  EXPECT_FALSE(is_valid(plain->flags.at<std::uint8_t>(r, c)));
+}
+
+// Rejection only vouches for a pixel when what is left is sound: with four
+// lights, one saturated and one shadowed, three remain after dropping the
+// saturated one, and the shadowed one cannot go too. Not valid.
+TEST(Woodham, RejectionDoesNotVouchForADoubtfulRemainder) {
+  const auto lights = ring_lights(4, 45);
+  const test::Surface plane{cv::Mat(8, 8, CV_32FC3, cv::Scalar(0, 0, 1)),
+                            cv::Mat(8, 8, CV_32F, cv::Scalar(0.5))};
+  Scan scan = render_scan(plane, lights, CV_32F);
+  scan.frames[0].setTo(2.0);  // above white (1.0): saturated
+  scan.frames[1].setTo(0.0);  // blocked: shadowed
+  auto result = solve(scan, {.reject_outliers = true});
+  ASSERT_TRUE(result);
+  const std::uint8_t flags = result->flags.at<std::uint8_t>(4, 4);
+  EXPECT_TRUE(flags & kSaturated);
+  EXPECT_TRUE(flags & kShadowed);
+  EXPECT_FALSE(is_valid(flags));
+  // With only the shadowed light gone, the other three are sound: valid.
+  Scan shadowed_only = render_scan(plane, lights, CV_32F);
+  shadowed_only.frames[1].setTo(0.0);
+  auto recovered = solve(shadowed_only, {.reject_outliers = true});
+  ASSERT_TRUE(recovered);
+  EXPECT_TRUE(is_valid(recovered->flags.at<std::uint8_t>(4, 4)));
+  EXPECT_NEAR(recovered->p.at<float>(4, 4), 0.0f, 1e-5);
+}
+
+// Float frames can hold NaN or infinity (a dead pixel, a bad converter):
+// such pixels are not solved, and every output stays finite.
+TEST(Woodham, NonFiniteMeasurementsGiveFiniteOutputs) {
+  for (int lights : {3, 5}) {
+    const auto surface = sphere_surface({20, 10}, 6, 3);
+    Scan scan = render_scan(surface, ring_lights(lights, 45), CV_32F);
+    scan.frames[1].at<cv::Vec3f>(5, 5) = cv::Vec3f(std::nanf(""), 0.3f, 0.3f);
+    scan.frames[0].at<cv::Vec3f>(2, 2) = cv::Vec3f(INFINITY, INFINITY, INFINITY);
+    scan.mask = cv::Mat(scan.size(), CV_8U, cv::Scalar(255));
+    scan.mask.at<std::uint8_t>(5, 6) = 0;
+    scan.frames[2].at<cv::Vec3f>(5, 6) = cv::Vec3f(std::nanf(""), 0, 0);  // masked and NaN
+    auto result = solve(scan);
+    ASSERT_TRUE(result);
+    for (const cv::Mat* m : {&result->p, &result->q, &result->albedo, &result->residual})
+      EXPECT_TRUE(cv::checkRange(*m)) << lights << " lights";
+    EXPECT_FALSE(is_valid(result->flags.at<std::uint8_t>(5, 5)));
+    EXPECT_EQ(result->flags.at<std::uint8_t>(5, 6), kOutsideMask);
+  }
 }
 
 TEST(Woodham, ResultsDoNotDependOnThreadCount) {
+  if (std::thread::hardware_concurrency() < 2)
+    GTEST_SKIP() << "one hardware thread: nothing to compare";
   const auto surface = sphere_surface({333, 97}, 40, 3);
   const Scan scan = render_scan(surface, ring_lights(3, 45), CV_16U, 0.01, 5);
   const Scan many = render_scan(surface, ring_lights(5, 50), CV_16U, 0.01, 5);

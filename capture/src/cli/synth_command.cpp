@@ -54,12 +54,15 @@ Command add_synth_command(CLI::App& parent) {
   return {app, [args] {
             std::smatch match;
             const std::regex size_pattern(R"((\d{1,5})x(\d{1,5}))");
+            constexpr int kMaxSide = 16384;  // 268 MP: beyond any camera the rig takes
             if (!std::regex_match(args->size, match, size_pattern) || std::stoi(match[1]) < 8 ||
-                std::stoi(match[2]) < 8)
-              return report_error("synth", processing::bad_input(
-                                               {}, "--size",
-                                               "expected WxH of at least 8x8, e.g. 640x480; got '" +
-                                                   args->size + "'"));
+                std::stoi(match[2]) < 8 || std::stoi(match[1]) > kMaxSide ||
+                std::stoi(match[2]) > kMaxSide)
+              return report_error("synth",
+                                  processing::bad_input(
+                                      {}, "--size",
+                                      "expected WxH from 8x8 to 16384x16384, e.g. 640x480; got '" +
+                                          args->size + "'"));
             SyntheticScanParams params;
             params.swatch.pattern = *firmware_host::sim::parse_swatch_pattern(args->pattern);
             params.swatch.size = {std::stoi(match[1]), std::stoi(match[2])};

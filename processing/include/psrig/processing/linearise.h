@@ -2,7 +2,8 @@
 // Linearisation: one scan's stored frames to linear, corrected measurements.
 // In order: sRGB decoding (when encoding is srgb), black and white level
 // (black -> 0, white -> 1), dark-frame subtraction, flat-field division
-// (each LED's illumination pattern, from a white target under it) and the
+// (each LED's pattern and brightness, from a white target facing the
+// camera under it; with flats, leave the lights' intensities at 1) and the
 // light's relative intensity. Stored values at or above the white level are
 // reported as saturated.
 //
@@ -28,9 +29,8 @@ class CodeLineariser {
   // multiplied by `factor`.
   void convert(const void* stored, int count, float* linear, float factor = 1.0f) const;
   [[nodiscard]] float operator()(double stored) const;
-  [[nodiscard]] double white_level() const { return white_; }
-  // Linear encoding of integer codes is x * scale() + offset().
-  [[nodiscard]] bool is_affine() const { return table_.empty(); }
+  // Linear encoding is x * scale() + offset().
+  [[nodiscard]] bool is_linear() const { return encoding_ == Encoding::linear; }
   [[nodiscard]] float scale() const { return scale_; }
   [[nodiscard]] float offset() const { return offset_; }
 
@@ -44,6 +44,7 @@ class CodeLineariser {
   std::vector<float> table_;  // srgb encoding, integer depths: one entry per code
 };
 
+// Holds a pointer to the scan: it must not outlive it or see it move.
 class ScanLineariser {
  public:
   // Precomputes the linear dark frame and the flat-field gains.
@@ -60,7 +61,6 @@ class ScanLineariser {
   [[nodiscard]] int channels() const { return channels_; }
   [[nodiscard]] int cols() const { return cols_; }
   [[nodiscard]] int rows() const { return rows_; }
-  [[nodiscard]] const CodeLineariser& codes() const { return codes_; }
 
  private:
   ScanLineariser(const Scan& scan, CodeLineariser codes);

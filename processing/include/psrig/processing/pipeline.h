@@ -26,9 +26,9 @@ struct ProcessSummary {
 };
 
 // Processes the scan directory into a maps directory that appears whole or
-// not at all. An existing maps directory (one holding a psrig report) is
-// replaced; any other existing path is refused. Bad input is reported
-// before anything is written.
+// not at all: on any error, nothing is left behind. An existing maps
+// directory (one holding a psrig report) is replaced; any other existing
+// path is refused.
 [[nodiscard]] Result<ProcessSummary> process_scan(const std::filesystem::path& scan_directory,
                                                   const ProcessOptions& options = {});
 

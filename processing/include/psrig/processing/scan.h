@@ -13,6 +13,20 @@
 namespace psrig::processing {
 
 inline constexpr const char* kScanFormat = "psrig-scan/1";
+// The solve tracks each pixel's lights in a 64-bit mask.
+inline constexpr int kMaxLights = 64;
+
+// Full scale of a frame depth: 255, 65535, or 1.0 for float frames.
+[[nodiscard]] inline double full_scale(int depth) {
+  return depth == CV_8U ? 255.0 : depth == CV_16U ? 65535.0 : 1.0;
+}
+// "8-bit", "16-bit", "32-bit float".
+[[nodiscard]] inline const char* depth_name(int depth) {
+  return depth == CV_8U    ? "8-bit"
+         : depth == CV_16U ? "16-bit"
+         : depth == CV_32F ? "32-bit float"
+                           : "unsupported";
+}
 
 enum class Encoding { linear, srgb };
 
