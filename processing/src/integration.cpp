@@ -56,18 +56,6 @@ std::mutex& planner_mutex() {
   return mutex;
 }
 
-// True when FFTW's thread support is up; without it plans run serially.
-bool init_fftw_threads() {
-  static std::once_flag once;
-  static bool ready = false;
-  std::call_once(once, [] {
-    std::lock_guard lock(planner_mutex());
-    ready = fftwf_init_threads() != 0;
-    if (ready) fftwf_threads_set_callback(&run_fftw_jobs, nullptr);
-  });
-  return ready;
-}
-
 struct FftwFree {
   void operator()(float* data) const { fftwf_free(data); }
 };
@@ -86,7 +74,7 @@ using Plan = std::unique_ptr<fftwf_plan_s, PlanDestroy>;
 // its results could differ from run to run; ESTIMATE also leaves the buffer
 // untouched, so data may already be in it.
 Plan make_plan(int width, int height, fftw_r2r_kind kind_x, fftw_r2r_kind kind_y, float* buffer) {
-  const bool threads = init_fftw_threads();
+  const bool threads = prepare_fftw_threads();
   std::lock_guard lock(planner_mutex());
   if (threads) fftwf_plan_with_nthreads(thread_count());
   return Plan(fftwf_plan_r2r_2d(height, width, buffer, buffer, kind_y, kind_x, FFTW_ESTIMATE));
@@ -370,6 +358,17 @@ Result<cv::Mat> run(Method method, const cv::Mat& p, const cv::Mat& q) {
 }
 
 }  // namespace
+
+bool prepare_fftw_threads() {
+  static std::once_flag once;
+  static bool ready = false;
+  std::call_once(once, [] {
+    std::lock_guard lock(planner_mutex());
+    ready = fftwf_init_threads() != 0;
+    if (ready) fftwf_threads_set_callback(&run_fftw_jobs, nullptr);
+  });
+  return ready;
+}
 
 std::optional<IntegrationMethod> parse_integration_method(std::string_view name) {
   if (name == "fc") return IntegrationMethod::frankot_chellappa;

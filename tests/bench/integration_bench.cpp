@@ -74,22 +74,8 @@ void BM_Poisson(benchmark::State& state) {
   state.SetItemsProcessed(state.iterations() * kPixels);
 }
 
-// The library's thread setup, repeated here because it is private to the
-// library: FFTW's parallel loops run on the process's pool.
-void run_fftw_jobs(void* (*work)(char*), char* job_data, std::size_t job_size, int jobs,
-                   void* /*data*/) noexcept {
-  psrig::processing::parallel_chunks(jobs, 1, [&](int begin, int end) {
-    for (int job = begin; job < end; ++job)
-      work(job_data + job_size * static_cast<std::size_t>(job));
-  });
-}
-
 void BM_FftPair(benchmark::State& state) {
-  static std::once_flag once;
-  std::call_once(once, [] {
-    fftwf_init_threads();
-    fftwf_threads_set_callback(&run_fftw_jobs, nullptr);
-  });
+  psrig::processing::prepare_fftw_threads();  // the same thread setup as the integrators
   const std::size_t pixels = static_cast<std::size_t>(kPixels);
   float* buffer = fftwf_alloc_real(pixels);
   fftwf_plan_with_nthreads(psrig::processing::thread_count());

@@ -33,6 +33,11 @@ enum class IntegrationMethod { frankot_chellappa, poisson, none };
 // boundaries, diagonalised by the DCT. Same contract as above.
 [[nodiscard]] Result<cv::Mat> integrate_poisson(const cv::Mat& p, const cv::Mat& q);
 
+// Routes FFTW's threads into the process's pool, once; true when FFTW has
+// thread support. The integrators call it themselves; code calling FFTW
+// directly (benchmarks) calls it before planning.
+bool prepare_fftw_threads();
+
 // Dispatches on method; `none` returns an empty Mat.
 [[nodiscard]] Result<cv::Mat> integrate(IntegrationMethod method, const cv::Mat& p,
                                         const cv::Mat& q);
