@@ -7,6 +7,7 @@
 #include <vector>
 
 #include "psrig/processing/parallel.h"
+#include "stream_store.h"
 #include "vector_clones.h"
 
 namespace psrig::processing {
@@ -340,6 +341,18 @@ Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& re
     std::vector<float*> planes(static_cast<std::size_t>(lights) * channels);
     for (std::size_t j = 0; j < planes.size(); ++j) planes[j] = measurements.data() + j * cols;
 
+    // The three-light kernels write a row here, in cache, and it is then
+    // streamed to the results (stream_store.h).
+    thread_local std::vector<float> out_p, out_q, out_albedo, out_residual;
+    thread_local std::vector<std::uint8_t> out_flags;
+    if (three) {
+      out_p.resize(cols);
+      out_q.resize(cols);
+      out_albedo.resize(cols * channels);
+      out_residual.resize(cols);
+      out_flags.resize(cols);
+    }
+
     RowData row;
     row.cols = size.width;
     row.lights = lights;
@@ -350,14 +363,28 @@ Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& re
       for (int k = 0; k < lights; ++k)
         lineariser->row(k, r, planes.data() + static_cast<std::size_t>(k) * channels, saturation.data() + k * cols);
       row.mask = scan.mask.empty() ? everywhere.data() : scan.mask.ptr<std::uint8_t>(r);
-      row.p = result.p.ptr<float>(r);
-      row.q = result.q.ptr<float>(r);
-      row.albedo = result.albedo.ptr<float>(r);
-      row.residual = result.residual.ptr<float>(r);
-      row.flags = result.flags.ptr<std::uint8_t>(r);
-      if (three) solve_row_three(row, inverse, options);
-      else solve_row_general(row, co, options);
+      if (three) {
+        row.p = out_p.data();
+        row.q = out_q.data();
+        row.albedo = out_albedo.data();
+        row.residual = out_residual.data();
+        row.flags = out_flags.data();
+        solve_row_three(row, inverse, options);
+        stream_copy(result.p.ptr(r), out_p.data(), cols * sizeof(float));
+        stream_copy(result.q.ptr(r), out_q.data(), cols * sizeof(float));
+        stream_copy(result.albedo.ptr(r), out_albedo.data(), cols * channels * sizeof(float));
+        stream_copy(result.residual.ptr(r), out_residual.data(), cols * sizeof(float));
+        stream_copy(result.flags.ptr(r), out_flags.data(), cols);
+      } else {
+        row.p = result.p.ptr<float>(r);
+        row.q = result.q.ptr<float>(r);
+        row.albedo = result.albedo.ptr<float>(r);
+        row.residual = result.residual.ptr<float>(r);
+        row.flags = result.flags.ptr<std::uint8_t>(r);
+        solve_row_general(row, co, options);
+      }
     }
+    stream_fence();
   });
   return {};
 }
