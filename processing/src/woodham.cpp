@@ -71,15 +71,17 @@ template <int C>
 // Scaled normal, gradients, and per pixel |t| and 1 / sum g^2 for the
 // albedo loop; code gets the kLowSignal, kNoSolution and kShadowed bits.
 // (Two loops rather than one: together they run out of vector registers.)
+// Every array is 32-bit: a byte array would make the vectoriser take four
+// times as many pixels per iteration, and spill.
 template <int C>
-[[gnu::always_inline]] inline void three_light_normals(const RowPlanes<C>& planes, const std::uint8_t* __restrict mask,
+[[gnu::always_inline]] inline void three_light_normals(const RowPlanes<C>& planes, const float* __restrict inside,
                                                        const ThreeLightInverse& l, float shadow_ratio, float low_signal,
                                                        float* __restrict p, float* __restrict q,
                                                        float* __restrict length, float* __restrict inverse_energy,
-                                                       std::uint8_t* __restrict code, int n) {
+                                                       std::int32_t* __restrict code, int n) {
   for (int i = 0; i < n; ++i) {
-    const float inside = mask[i] ? 1.0f : 0.0f;
-    const float x0 = grey(planes, 0, i) * inside, x1 = grey(planes, 1, i) * inside, x2 = grey(planes, 2, i) * inside;
+    const float x0 = grey(planes, 0, i) * inside[i], x1 = grey(planes, 1, i) * inside[i],
+                x2 = grey(planes, 2, i) * inside[i];
     const float tx = l.a[0][0] * x0 + l.a[0][1] * x1 + l.a[0][2] * x2;
     const float ty = l.a[1][0] * x0 + l.a[1][1] * x1 + l.a[1][2] * x2;
     const float tz = l.a[2][0] * x0 + l.a[2][1] * x1 + l.a[2][2] * x2;
@@ -95,8 +97,7 @@ template <int C>
     q[i] = solved ? -ty * inverse_tz : 0.0f;
     length[i] = solved ? t : 0.0f;
     inverse_energy[i] = solved ? 1.0f / (x0 * x0 + x1 * x1 + x2 * x2) : 0.0f;
-    code[i] = static_cast<std::uint8_t>((low ? kLowSignal : 0) | (!low && no_solution ? kNoSolution : 0) |
-                                        (solved && shadowed ? kShadowed : 0));
+    code[i] = (low ? kLowSignal : 0) | (!low && no_solution ? kNoSolution : 0) | (solved && shadowed ? kShadowed : 0);
   }
 }
 
@@ -122,8 +123,14 @@ template <int C>
   }
 }
 
+// 1 inside the mask, 0 outside, as the normals loop takes it.
 PSRIG_VECTOR_CLONES
-void three_light_flags(const std::uint8_t* __restrict code, const std::uint8_t* __restrict mask,
+void mask_to_float(const std::uint8_t* __restrict mask, float* __restrict inside, int n) {
+  for (int i = 0; i < n; ++i) inside[i] = mask[i] ? 1.0f : 0.0f;
+}
+
+PSRIG_VECTOR_CLONES
+void three_light_flags(const std::int32_t* __restrict code, const std::uint8_t* __restrict mask,
                        const std::uint8_t* __restrict s0, const std::uint8_t* __restrict s1,
                        const std::uint8_t* __restrict s2, std::uint8_t* __restrict flags, int n) {
   for (int i = 0; i < n; ++i) {
@@ -134,33 +141,35 @@ void three_light_flags(const std::uint8_t* __restrict code, const std::uint8_t* 
 
 // The loops, compiled per channel count and per ISA.
 struct ThreeLightRow {
-  const std::uint8_t* mask;
+  const float* inside;
   float *p, *q, *length, *inverse_energy, *albedo, *residual;
-  std::uint8_t* code;
+  std::int32_t* code;
   int n;
 };
 // Everything by value: local copies no store in the loops can alias, so
 // the plane pointers and coefficients stay in registers.
 PSRIG_VECTOR_CLONES
 void solve_three_grey(RowPlanes<1> planes, ThreeLightInverse l, float shadow_ratio, float low_signal, ThreeLightRow r) {
-  three_light_normals(planes, r.mask, l, shadow_ratio, low_signal, r.p, r.q, r.length, r.inverse_energy, r.code, r.n);
+  three_light_normals(planes, r.inside, l, shadow_ratio, low_signal, r.p, r.q, r.length, r.inverse_energy, r.code, r.n);
   three_light_albedo(planes, r.length, r.inverse_energy, r.albedo, r.residual, r.n);
 }
 PSRIG_VECTOR_CLONES
 void solve_three_colour(RowPlanes<3> planes, ThreeLightInverse l, float shadow_ratio, float low_signal, ThreeLightRow r) {
-  three_light_normals(planes, r.mask, l, shadow_ratio, low_signal, r.p, r.q, r.length, r.inverse_energy, r.code, r.n);
+  three_light_normals(planes, r.inside, l, shadow_ratio, low_signal, r.p, r.q, r.length, r.inverse_energy, r.code, r.n);
   three_light_albedo(planes, r.length, r.inverse_energy, r.albedo, r.residual, r.n);
 }
 
 void solve_row_three(const RowData& row, const ThreeLightInverse& inverse, const SolveOptions& options) {
-  thread_local std::vector<float> length, inverse_energy;
-  thread_local std::vector<std::uint8_t> code;
+  thread_local std::vector<float> inside, length, inverse_energy;
+  thread_local std::vector<std::int32_t> code;
   const int n = row.cols;
   const std::size_t cols = static_cast<std::size_t>(n);
+  inside.resize(cols);
   length.resize(cols);
   inverse_energy.resize(cols);
   code.resize(cols);
-  const ThreeLightRow out{row.mask, row.p, row.q, length.data(), inverse_energy.data(), row.albedo,
+  mask_to_float(row.mask, inside.data(), n);
+  const ThreeLightRow out{inside.data(), row.p, row.q, length.data(), inverse_energy.data(), row.albedo,
                           row.residual, code.data(), n};
   if (row.channels == 1) {
     RowPlanes<1> planes{};
