@@ -81,6 +81,10 @@ template <int C>
 // ends of the row. Its rows are padded to whole blocks.
 constexpr int kBlock = 16;
 
+// Finished result lines are streamed out every this many pixels: often
+// enough to spread the stores, seldom enough that the bookkeeping is cheap.
+constexpr int kStreamPixels = 4 * kBlock;
+
 int padded_to_blocks(int cols) {
   return (cols + kBlock - 1) / kBlock * kBlock;
 }
@@ -183,7 +187,8 @@ struct ThreeLightRow {
   NextRow next;
 };
 
-// Block after block: prefetch, solve into the scratch rows, stream out.
+// Block after block: prefetch, solve into the scratch rows, now and then
+// stream out what is finished.
 template <int C, class Lines>
 [[gnu::always_inline]] inline void three_light_row(
     const RowPlanes<C>& planes, const ThreeLightInverse& l, float shadow_ratio, float low_signal,
@@ -212,11 +217,13 @@ template <int C, class Lines>
     three_light_albedo(planes, i0, length, inverse_energy, albedo, residual);
     three_light_flags(i0, code, inside, s0, s1, s2, flags);
     const std::size_t done = static_cast<std::size_t>(i0 + kBlock);
-    p_out.advance(done * sizeof(float));
-    q_out.advance(done * sizeof(float));
-    albedo_out.advance(done * C * sizeof(float));
-    residual_out.advance(done * sizeof(float));
-    flags_out.advance(done);
+    if (done % kStreamPixels == 0) {
+      p_out.advance(done * sizeof(float));
+      q_out.advance(done * sizeof(float));
+      albedo_out.advance(done * C * sizeof(float));
+      residual_out.advance(done * sizeof(float));
+      flags_out.advance(done);
+    }
   }
   p_out.finish();
   q_out.finish();
