@@ -518,8 +518,10 @@ Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& re
       row.residual = result.residual.ptr<float>(r);
       row.flags = result.flags.ptr<std::uint8_t>(r);
       if (three) {
+        // The next row is usually this thread's too: the pool hands out
+        // runs of consecutive chunks.
         NextRow next;
-        if (r + 1 < end) {
+        if (r + 1 < size.height) {
           for (int k = 0; k < 3; ++k)
             next.src[k] = reinterpret_cast<const char*>(scan.frames[k].ptr(r + 1));
           next.pixel_bytes = static_cast<std::ptrdiff_t>(scan.frames[0].elemSize());
