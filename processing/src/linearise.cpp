@@ -40,29 +40,34 @@ void scale_u16(const std::uint16_t* __restrict src, int n, float scale, float of
   for (int i = 0; i < n; ++i)
     out[i] = static_cast<float>(src[i]) * scale + offset;
 }
-// Interleaved BGR stored values to three planes, x * scale[c] + offset[c].
+// Interleaved BGR stored values to three planes, x * scale[c] + offset[c],
+// and saturated[i] = 1 where any of the three reaches white: one pass, as
+// the saturation check shares the loads and shuffles.
 struct ChannelAffine {
   float scale[3];
   float offset[3];
 };
 template <class T>
-void deinterleave_affine(const T* __restrict src, int n, ChannelAffine a, float* __restrict b,
-                         float* __restrict g, float* __restrict r) {
+void deinterleave_affine(const T* __restrict src, int n, ChannelAffine a, T white,
+                         float* __restrict b, float* __restrict g, float* __restrict r,
+                         std::uint8_t* __restrict saturated) {
   for (int i = 0; i < n; ++i) {
-    b[i] = static_cast<float>(src[3 * i]) * a.scale[0] + a.offset[0];
-    g[i] = static_cast<float>(src[3 * i + 1]) * a.scale[1] + a.offset[1];
-    r[i] = static_cast<float>(src[3 * i + 2]) * a.scale[2] + a.offset[2];
+    const T vb = src[3 * i], vg = src[3 * i + 1], vr = src[3 * i + 2];
+    b[i] = static_cast<float>(vb) * a.scale[0] + a.offset[0];
+    g[i] = static_cast<float>(vg) * a.scale[1] + a.offset[1];
+    r[i] = static_cast<float>(vr) * a.scale[2] + a.offset[2];
+    saturated[i] = (vb >= white) | (vg >= white) | (vr >= white);
   }
 }
 PSRIG_VECTOR_CLONES
-void deinterleave_u8(const std::uint8_t* src, int n, ChannelAffine a, float* b, float* g,
-                     float* r) {
-  deinterleave_affine(src, n, a, b, g, r);
+void deinterleave_u8(const std::uint8_t* src, int n, ChannelAffine a, std::uint8_t white, float* b,
+                     float* g, float* r, std::uint8_t* saturated) {
+  deinterleave_affine(src, n, a, white, b, g, r, saturated);
 }
 PSRIG_VECTOR_CLONES
-void deinterleave_u16(const std::uint16_t* src, int n, ChannelAffine a, float* b, float* g,
-                      float* r) {
-  deinterleave_affine(src, n, a, b, g, r);
+void deinterleave_u16(const std::uint16_t* src, int n, ChannelAffine a, std::uint16_t white,
+                      float* b, float* g, float* r, std::uint8_t* saturated) {
+  deinterleave_affine(src, n, a, white, b, g, r, saturated);
 }
 
 // saturated[i] = 1 where any of pixel i's `channels` values reaches white.
@@ -250,26 +255,28 @@ void ScanLineariser::row(int light, int row, float* const* planes, std::uint8_t*
   // Without dark or flat the light's intensity folds into the conversion.
   const bool corrected = !dark_planes_.empty() || !gains_.empty();
   const cv::Vec3f& inverse_intensity = inverse_intensity_[light];
+  const auto white_u8 = static_cast<std::uint8_t>(std::min<std::uint64_t>(white_code_, 255));
+  const auto white_u16 = static_cast<std::uint16_t>(std::min<std::uint64_t>(white_code_, 65535));
+  // Affine colour from integers checks saturation as it deinterleaves.
+  const bool deinterleaving = channels_ == 3 && codes_.is_linear() && frame.depth() != CV_32F;
 
-  switch (frame.depth()) {
-    case CV_8U:
-      saturation_u8(static_cast<const std::uint8_t*>(src), n, channels_,
-                    static_cast<std::uint8_t>(std::min<std::uint64_t>(white_code_, 255)),
-                    saturated);
-      break;
-    case CV_16U:
-      saturation_u16(static_cast<const std::uint16_t*>(src), n, channels_,
-                     static_cast<std::uint16_t>(std::min<std::uint64_t>(white_code_, 65535)),
-                     saturated);
-      break;
-    default:
-      saturation_f32(static_cast<const float*>(src), n, channels_,
-                     static_cast<float>(scan_->white_level), saturated);
+  if (!deinterleaving) {
+    switch (frame.depth()) {
+      case CV_8U:
+        saturation_u8(static_cast<const std::uint8_t*>(src), n, channels_, white_u8, saturated);
+        break;
+      case CV_16U:
+        saturation_u16(static_cast<const std::uint16_t*>(src), n, channels_, white_u16, saturated);
+        break;
+      default:
+        saturation_f32(static_cast<const float*>(src), n, channels_,
+                       static_cast<float>(scan_->white_level), saturated);
+    }
   }
 
   if (channels_ == 1) {
     codes_.convert(src, n, planes[0], corrected ? 1.0f : inverse_intensity[0]);
-  } else if (codes_.is_linear() && frame.depth() != CV_32F) {
+  } else if (deinterleaving) {
     ChannelAffine affine{};
     for (int c = 0; c < 3; ++c) {
       const float factor = corrected ? 1.0f : inverse_intensity[c];
@@ -277,11 +284,11 @@ void ScanLineariser::row(int light, int row, float* const* planes, std::uint8_t*
       affine.offset[c] = codes_.offset() * factor;
     }
     if (frame.depth() == CV_8U)
-      deinterleave_u8(static_cast<const std::uint8_t*>(src), n, affine, planes[0], planes[1],
-                      planes[2]);
+      deinterleave_u8(static_cast<const std::uint8_t*>(src), n, affine, white_u8, planes[0],
+                      planes[1], planes[2], saturated);
     else
-      deinterleave_u16(static_cast<const std::uint16_t*>(src), n, affine, planes[0], planes[1],
-                       planes[2]);
+      deinterleave_u16(static_cast<const std::uint16_t*>(src), n, affine, white_u16, planes[0],
+                       planes[1], planes[2], saturated);
   } else {
     // sRGB tables and float frames: split first, then convert each plane.
     thread_local cv::Mat split[3];
