@@ -107,6 +107,11 @@ inline float finite_or_zero(float value) {
   return std::bit_cast<float>(bits & keep);
 }
 
+// A gradient as the solvers take it: finite, and within +-limit.
+inline float gradient_value(float value, float limit) {
+  return std::clamp(finite_or_zero(value), -limit, limit);
+}
+
 Result<cv::Size> check_inputs(const cv::Mat& p, const cv::Mat& q) {
   using Named = std::pair<const cv::Mat*, const char*>;
   for (const auto& [mat, name] : {Named{&p, "p"}, Named{&q, "q"}}) {
@@ -183,7 +188,8 @@ std::vector<float> neumann_eigenvalues(int n) {
 // ---------------------------------------------------------------------------
 // Frankot–Chellappa.
 
-Result<cv::Mat> frankot_chellappa(const cv::Mat& p, const cv::Mat& q, int width, int height) {
+Result<cv::Mat> frankot_chellappa(const cv::Mat& p, const cv::Mat& q, int width, int height,
+                                  float limit) {
   const std::size_t pixels = static_cast<std::size_t>(width) * height;
   // The result doubles as the work buffer for p, then Z, then z: one large
   // allocation fewer and no copy out. A new cv::Mat is continuous (and
@@ -202,8 +208,8 @@ Result<cv::Mat> frankot_chellappa(const cv::Mat& p, const cv::Mat& q, int width,
       float* a_row = a + static_cast<std::size_t>(row) * width;
       float* b_row = b.get() + static_cast<std::size_t>(row) * width;
       for (int col = 0; col < width; ++col) {
-        a_row[col] = finite_or_zero(p_row[col]);
-        b_row[col] = finite_or_zero(q_row[col]);
+        a_row[col] = gradient_value(p_row[col], limit);
+        b_row[col] = gradient_value(q_row[col], limit);
       }
     }
   });
@@ -275,25 +281,26 @@ Result<cv::Mat> frankot_chellappa(const cv::Mat& p, const cv::Mat& q, int width,
 // (__restrict: f is a separate buffer, which lets the loops vectorise.)
 void poisson_rhs_row(const float* __restrict p_row, const float* __restrict q_prev,
                      const float* __restrict q_row, const float* __restrict q_next,
-                     float* __restrict f, int width, int row, int height) {
+                     float* __restrict f, int width, int row, int height, float limit) {
   if (width == 1) {
     f[0] = 0.0F;
   } else {
-    f[0] = 0.5F * (finite_or_zero(p_row[0]) + finite_or_zero(p_row[1]));
+    f[0] = 0.5F * (gradient_value(p_row[0], limit) + gradient_value(p_row[1], limit));
     for (int j = 1; j < width - 1; ++j)
-      f[j] = 0.5F * (finite_or_zero(p_row[j + 1]) - finite_or_zero(p_row[j - 1]));
-    f[width - 1] = -0.5F * (finite_or_zero(p_row[width - 2]) + finite_or_zero(p_row[width - 1]));
+      f[j] = 0.5F * (gradient_value(p_row[j + 1], limit) - gradient_value(p_row[j - 1], limit));
+    f[width - 1] =
+        -0.5F * (gradient_value(p_row[width - 2], limit) + gradient_value(p_row[width - 1], limit));
   }
   if (height == 1) return;
   if (row == 0) {  // gbar[0] only
     for (int j = 0; j < width; ++j)
-      f[j] -= 0.5F * (finite_or_zero(q_row[j]) + finite_or_zero(q_next[j]));
+      f[j] -= 0.5F * (gradient_value(q_row[j], limit) + gradient_value(q_next[j], limit));
   } else if (row == height - 1) {  // -gbar[H-2] only
     for (int j = 0; j < width; ++j)
-      f[j] += 0.5F * (finite_or_zero(q_prev[j]) + finite_or_zero(q_row[j]));
+      f[j] += 0.5F * (gradient_value(q_prev[j], limit) + gradient_value(q_row[j], limit));
   } else {
     for (int j = 0; j < width; ++j)
-      f[j] += 0.5F * (finite_or_zero(q_prev[j]) - finite_or_zero(q_next[j]));
+      f[j] += 0.5F * (gradient_value(q_prev[j], limit) - gradient_value(q_next[j], limit));
   }
 }
 
@@ -301,7 +308,7 @@ void poisson_rhs_row(const float* __restrict p_row, const float* __restrict q_pr
 // The normal equations are the 5-point Laplacian with Neumann boundaries
 // (mirror about the half-pixel) = divergence of (pbar, gbar), which the
 // DCT-II diagonalises (Simchony, Chellappa & Shao 1990).
-Result<cv::Mat> poisson(const cv::Mat& p, const cv::Mat& q, int width, int height) {
+Result<cv::Mat> poisson(const cv::Mat& p, const cv::Mat& q, int width, int height, float limit) {
   const std::size_t pixels = static_cast<std::size_t>(width) * height;
   // The result doubles as the work buffer (see frankot_chellappa).
   cv::Mat z(height, width, CV_32FC1);
@@ -314,7 +321,7 @@ Result<cv::Mat> poisson(const cv::Mat& p, const cv::Mat& q, int width, int heigh
       const float* q_prev = row > 0 ? q.ptr<float>(row - 1) : q_row;
       const float* q_next = row + 1 < height ? q.ptr<float>(row + 1) : q_row;
       poisson_rhs_row(p.ptr<float>(row), q_prev, q_row, q_next,
-                      f + static_cast<std::size_t>(row) * width, width, row, height);
+                      f + static_cast<std::size_t>(row) * width, width, row, height, limit);
     }
   });
 
@@ -344,14 +351,16 @@ Result<cv::Mat> poisson(const cv::Mat& p, const cv::Mat& q, int width, int heigh
   return z;
 }
 
-using Method = Result<cv::Mat> (*)(const cv::Mat&, const cv::Mat&, int, int);
+using Method = Result<cv::Mat> (*)(const cv::Mat&, const cv::Mat&, int, int, float);
 
 // Validates, then runs; never lets an exception (say, out of memory) escape.
-Result<cv::Mat> run(Method method, const cv::Mat& p, const cv::Mat& q) {
+Result<cv::Mat> run(Method method, const cv::Mat& p, const cv::Mat& q, float max_slope) {
   try {
     const auto size = check_inputs(p, q);
     if (!size) return std::unexpected(size.error());
-    return method(p, q, size->width, size->height);
+    if (!(max_slope > 0))
+      return std::unexpected(bad_input({}, {}, "integration: max_slope must be positive"));
+    return method(p, q, size->width, size->height, max_slope);
   } catch (const std::exception& e) {
     return std::unexpected(internal_error(std::string("integration: ") + e.what()));
   }
@@ -389,20 +398,21 @@ std::string_view to_string(IntegrationMethod method) {
   return "unknown";
 }
 
-Result<cv::Mat> integrate_frankot_chellappa(const cv::Mat& p, const cv::Mat& q) {
-  return run(&frankot_chellappa, p, q);
+Result<cv::Mat> integrate_frankot_chellappa(const cv::Mat& p, const cv::Mat& q, float max_slope) {
+  return run(&frankot_chellappa, p, q, max_slope);
 }
 
-Result<cv::Mat> integrate_poisson(const cv::Mat& p, const cv::Mat& q) {
-  return run(&poisson, p, q);
+Result<cv::Mat> integrate_poisson(const cv::Mat& p, const cv::Mat& q, float max_slope) {
+  return run(&poisson, p, q, max_slope);
 }
 
-Result<cv::Mat> integrate(IntegrationMethod method, const cv::Mat& p, const cv::Mat& q) {
+Result<cv::Mat> integrate(IntegrationMethod method, const cv::Mat& p, const cv::Mat& q,
+                          float max_slope) {
   switch (method) {
     case IntegrationMethod::frankot_chellappa:
-      return integrate_frankot_chellappa(p, q);
+      return integrate_frankot_chellappa(p, q, max_slope);
     case IntegrationMethod::poisson:
-      return integrate_poisson(p, q);
+      return integrate_poisson(p, q, max_slope);
     case IntegrationMethod::none:
       return cv::Mat();
   }

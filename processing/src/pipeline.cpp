@@ -15,7 +15,6 @@
 #include "psrig/processing/parallel.h"
 #include "psrig/processing/report.h"
 #include "psrig/processing/scan_reader.h"
-#include "vector_clones.h"
 
 namespace psrig::processing {
 namespace {
@@ -28,23 +27,8 @@ double ms_since(Clock::time_point start) {
 }
 
 // Steeper than this (85 degrees) a gradient says more about noise than
-// shape; integration gets it clamped so one pixel cannot tilt the surface.
+// shape; integration clamps it so one pixel cannot tilt the surface.
 constexpr float kMaxSlope = 11.43f;
-
-PSRIG_VECTOR_CLONES
-void clamp_row(const float* __restrict in, float* __restrict out, int n) {
-  for (int i = 0; i < n; ++i)
-    out[i] = std::clamp(in[i], -kMaxSlope, kMaxSlope);
-}
-
-cv::Mat clamped_gradient(const cv::Mat& gradient) {
-  cv::Mat out(gradient.size(), CV_32F);
-  parallel_chunks(gradient.rows, 32, [&](int begin, int end) {
-    for (int r = begin; r < end; ++r)
-      clamp_row(gradient.ptr<float>(r), out.ptr<float>(r), gradient.cols);
-  });
-  return out;
-}
 
 // An existing output may only be replaced if it is a maps directory psrig
 // wrote (or empty): --out must never swallow a scan or a home directory.
@@ -108,24 +92,29 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   inputs.depth = scan->depth();
   scan->frames.clear();  // their memory goes back before the maps are made
 
-  stage_start = Clock::now();
   const cv::Mat valid = encode_valid_mask(result.flags);
-  cv::Mat solved_pixels;
-  cv::compare(result.flags & (kOutsideMask | kLowSignal | kNoSolution), 0, solved_pixels,
-              cv::CMP_EQ);
-  inputs.pixels = count_pixels(result.flags);
-  inputs.residual = describe(result.residual, solved_pixels);
-  inputs.mean_abs_curl = mean_abs_curl(result.p, result.q, valid);
   GroundTruthSummary truth;
-  if (!scan->ground_truth_normal.empty()) {
-    const cv::Mat error = angular_error_deg(result.p, result.q, scan->ground_truth_normal);
-    truth.angular_error_deg = describe(error, valid);
-    truth.mean_angular_error_all_deg = describe(error, solved_pixels).mean;
-  }
-  stages.emplace_back("evaluate", ms_since(stage_start));
+  double evaluate_ms = 0;
+  // The report's statistics, and the ground truth's when the scan has one.
+  const auto evaluate = [&]() -> Status {
+    const auto evaluate_start = Clock::now();
+    cv::Mat solved_pixels;
+    cv::compare(result.flags & (kOutsideMask | kLowSignal | kNoSolution), 0, solved_pixels,
+                cv::CMP_EQ);
+    inputs.pixels = count_pixels(result.flags);
+    inputs.residual = describe(result.residual, solved_pixels);
+    inputs.mean_abs_curl = mean_abs_curl(result.p, result.q, valid);
+    if (!scan->ground_truth_normal.empty()) {
+      const cv::Mat error = angular_error_deg(result.p, result.q, scan->ground_truth_normal);
+      truth.angular_error_deg = describe(error, valid);
+      truth.mean_angular_error_all_deg = describe(error, solved_pixels).mean;
+    }
+    evaluate_ms = ms_since(evaluate_start);
+    return {};
+  };
 
-  // Integration runs beside the encoding and writing of the other maps:
-  // one task list on the one pool, the longest chain first.
+  // Integration runs beside the statistics and the encoding and writing of
+  // the other maps: one task list on the one pool, the longest chain first.
   const double pixel_size = scan->description.pixel_size_mm.value_or(1.0);
   std::optional<HeightSummary> height_summary;
   double integrate_ms = 0;
@@ -138,9 +127,10 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
     tasks.push_back(
         {"integrate + height maps", [&]() -> Status {
            const auto integrate_start = Clock::now();
-           auto height = integrate(options.integration, clamped_gradient(result.p),
-                                   clamped_gradient(result.q));
-           if (!height) return std::unexpected(height.error());
+           auto height = integrate(options.integration, result.p, result.q, kMaxSlope);
+           // The solve's own gradients cannot be bad input: a failure is ours.
+           if (!height)
+             return std::unexpected(internal_error("integration: " + height.error().describe()));
            if (scan->description.pixel_size_mm) *height *= pixel_size;
            double low = 0, high = 0;
            cv::minMaxLoc(*height, &low, &high);
@@ -154,6 +144,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
                               kStoredPng);
          }});
   }
+  tasks.push_back({"statistics", evaluate});
   tasks.push_back({map_files::kNormalPng, [&] {
                      return write_image(dir / map_files::kNormalPng,
                                         encode_normal16(result.p, result.q), kStoredPng);
@@ -184,6 +175,8 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   });
   for (const auto& error : errors)
     if (error) return std::unexpected(*error);
+  // Statistics and integration ran inside the last stage, beside the writes.
+  stages.emplace_back("evaluate", evaluate_ms);
   if (options.integration != IntegrationMethod::none)
     stages.emplace_back("integrate", integrate_ms);
   stages.emplace_back("integrate_and_write", ms_since(stage_start));

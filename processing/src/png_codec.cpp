@@ -6,7 +6,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <fcntl.h>
-#include <libdeflate.h>
+#include <isa-l/crc.h>
+#include <isa-l/igzip_lib.h>
 #include <memory>
 #include <sys/mman.h>
 #include <sys/stat.h>
@@ -174,9 +175,7 @@ std::optional<cv::Mat> read(const fs::path& file) {
       !std::equal(kSignature.begin(), kSignature.end(), data))
     return std::nullopt;
 
-  // The IDAT payloads are one zlib stream split across chunks: used in
-  // place when there is one chunk (as psrig writes), gathered otherwise.
-  std::vector<std::pair<const std::uint8_t*, std::size_t>> idat;
+  std::vector<std::pair<const std::uint8_t*, std::size_t>> idat;  // the zlib stream, in pieces
   std::size_t at = kSignature.size(), compressed = 0;
   std::uint32_t width = 0, height = 0;
   int bit_depth = 0, colour_type = -1;
@@ -187,7 +186,7 @@ std::optional<cv::Mat> read(const fs::path& file) {
     if (length > size - at - 12) return std::nullopt;
     const std::uint8_t* payload = data + at + 8;
     const bool critical = !(type[0] & 0x20);
-    if (critical && libdeflate_crc32(0, type, length + 4) != load_be32(payload + length))
+    if (critical && crc32_gzip_refl(0, type, length + 4) != load_be32(payload + length))
       return std::nullopt;
     if (std::memcmp(type, "IHDR", 4) == 0) {
       if (length != 13) return std::nullopt;
@@ -215,15 +214,6 @@ std::optional<cv::Mat> read(const fs::path& file) {
       (colour_type != 0 && colour_type != 2) || width == 0 || height == 0 ||
       std::uint64_t{width} * height > kMaxPixels)
     return std::nullopt;
-  std::vector<std::uint8_t> gathered;
-  const std::uint8_t* stream = idat.front().first;
-  if (idat.size() > 1) {
-    gathered.reserve(compressed);
-    for (const auto& [piece, length] : idat)
-      gathered.insert(gathered.end(), piece, piece + length);
-    stream = gathered.data();
-  }
-
   const int channels = colour_type == 2 ? 3 : 1;
   const std::size_t bpp = static_cast<std::size_t>(channels) * (bit_depth / 8);
   const std::size_t row_bytes = bpp * width;
@@ -234,15 +224,20 @@ std::optional<cv::Mat> read(const fs::path& file) {
   // Not zero-filled: inflation writes every byte.
   const auto raw_buffer = std::make_unique_for_overwrite<std::uint8_t[]>(raw_size);
   std::uint8_t* const raw = raw_buffer.get();
-  std::unique_ptr<libdeflate_decompressor, decltype(&libdeflate_free_decompressor)> inflater(
-      libdeflate_alloc_decompressor(), &libdeflate_free_decompressor);
-  std::size_t produced = 0;
-  if (!inflater ||
-      libdeflate_zlib_decompress(inflater.get(), stream, compressed, raw, raw_size, &produced) !=
-          LIBDEFLATE_SUCCESS ||
-      produced != raw_size)
-    return std::nullopt;
-  gathered = {};
+  // The IDAT payloads are one zlib stream split across chunks; ISA-L
+  // inflates it piece by piece, checking the Adler-32 at the end.
+  inflate_state inflater;
+  isal_inflate_init(&inflater);
+  inflater.crc_flag = ISAL_ZLIB;
+  inflater.next_out = raw;
+  inflater.avail_out = static_cast<std::uint32_t>(raw_size);
+  for (const auto& [piece, length] : idat) {
+    inflater.next_in = const_cast<std::uint8_t*>(piece);  // ISA-L's API is not const-correct
+    inflater.avail_in = static_cast<std::uint32_t>(length);
+    if (isal_inflate(&inflater) != ISAL_DECOMP_OK) return std::nullopt;
+    if (inflater.block_state == ISAL_BLOCK_FINISH) break;
+  }
+  if (inflater.block_state != ISAL_BLOCK_FINISH || inflater.avail_out != 0) return std::nullopt;
 
   // Rows depend on the row above, so unfiltering runs in order.
   std::vector<std::uint8_t> zeros(row_bytes, 0);
@@ -294,11 +289,11 @@ class ChunkWriter {
     store_be32(header, static_cast<std::uint32_t>(length));
     std::memcpy(header + 4, type, 4);
     put(header, 8);
-    crc_ = libdeflate_crc32(0, type, 4);
+    crc_ = crc32_gzip_refl(0, reinterpret_cast<const std::uint8_t*>(type), 4);
   }
   void data(const std::uint8_t* bytes, std::size_t n) {
-    if (n == 0) return;  // a null buffer would make libdeflate_crc32 return its initial value
-    crc_ = libdeflate_crc32(crc_, bytes, n);
+    if (n == 0) return;
+    crc_ = crc32_gzip_refl(crc_, bytes, n);
     put(bytes, n);
   }
   void end() {
@@ -362,7 +357,7 @@ void write_stored(ChunkWriter& out, const cv::Mat& image) {
     block[2] = static_cast<std::uint8_t>(filled >> 8);
     block[3] = static_cast<std::uint8_t>(~filled);
     block[4] = static_cast<std::uint8_t>(~filled >> 8);
-    adler = libdeflate_adler32(adler, block.data() + 5, filled);
+    adler = isal_adler32(adler, block.data() + 5, filled);
     out.data(block.data(), 5 + filled);
     filled = 0;
   };
@@ -385,30 +380,59 @@ void write_stored(ChunkWriter& out, const cv::Mat& image) {
   out.end();
 }
 
-// Level 1 and up: the whole filtered image compressed by libdeflate.
+// Level 1 and up: ISA-L's deflate (4x faster than zlib or libdeflate at
+// level 1, for the same size), fed rows filtered with "Up" (the cheap filter
+// that helps most) and emptied into IDAT chunks as it goes, so neither the
+// filtered image nor the compressed one is ever held whole.
 Status write_compressed(ChunkWriter& out, const cv::Mat& image, int level) {
+  constexpr std::size_t kChunk = 1 << 20;   // IDAT payload size
+  constexpr std::size_t kBatch = 1 << 18;   // filtered bytes handed to the compressor at a time
   const std::size_t row_bytes = image.cols * image.elemSize();
-  const std::size_t stride = row_bytes + 1;
-  std::vector<std::uint8_t> raw(image.rows * stride);
-  parallel_chunks(image.rows, kRowsPerChunk, [&](int begin, int end) {
-    for (int r = begin; r < end; ++r)
-      png_row(image, r, raw.data() + static_cast<std::size_t>(r) * stride + 1);
-  });
-  // "Up" is the cheap filter that helps most; bottom row first, so the row
-  // above is still unfiltered when it is subtracted.
-  for (int r = image.rows - 1; r >= 0; --r) {
-    raw[r * stride] = 2;
-    if (r > 0)
-      subtract_row(raw.data() + r * stride + 1, raw.data() + (r - 1) * stride + 1, row_bytes);
+  // zlib-scale levels onto ISA-L's 1 (fastest) to 3.
+  const int isal_level = level <= 3 ? 1 : level <= 6 ? 2 : 3;
+  const std::size_t level_buffer_size =
+      isal_level == 1 ? ISAL_DEF_LVL1_DEFAULT : isal_level == 2 ? ISAL_DEF_LVL2_DEFAULT : ISAL_DEF_LVL3_DEFAULT;
+  std::vector<std::uint8_t> level_buffer(level_buffer_size), chunk(kChunk), batch, above(row_bytes, 0), row(row_bytes);
+  batch.reserve(kBatch + row_bytes + 1);
+
+  isal_zstream stream;
+  isal_deflate_init(&stream);
+  stream.level = static_cast<std::uint32_t>(isal_level);
+  stream.level_buf = level_buffer.data();
+  stream.level_buf_size = static_cast<std::uint32_t>(level_buffer.size());
+  stream.gzip_flag = IGZIP_ZLIB;
+  stream.flush = NO_FLUSH;
+  stream.next_out = chunk.data();
+  stream.avail_out = static_cast<std::uint32_t>(kChunk);
+  const auto compress = [&](bool last) -> bool {
+    stream.next_in = batch.data();
+    stream.avail_in = static_cast<std::uint32_t>(batch.size());
+    stream.end_of_stream = last ? 1 : 0;
+    do {
+      if (isal_deflate(&stream) != COMP_OK) return false;
+      const bool full = stream.avail_out == 0;
+      const bool done = last && stream.internal_state.state == ZSTATE_END;
+      if (full || done) {
+        out.chunk("IDAT", chunk.data(), kChunk - stream.avail_out);
+        stream.next_out = chunk.data();
+        stream.avail_out = static_cast<std::uint32_t>(kChunk);
+      }
+      if (done) break;
+    } while (stream.avail_in > 0 || (last && stream.internal_state.state != ZSTATE_END));
+    batch.clear();
+    return true;
+  };
+  for (int r = 0; r < image.rows; ++r) {
+    png_row(image, r, row.data());
+    batch.push_back(2);  // filter type: Up
+    const std::size_t at = batch.size();
+    batch.insert(batch.end(), row.begin(), row.end());
+    subtract_row(batch.data() + at, above.data(), row_bytes);
+    std::swap(above, row);
+    if (batch.size() >= kBatch && !compress(false))
+      return std::unexpected(internal_error("png::write: compression failed"));
   }
-  std::unique_ptr<libdeflate_compressor, decltype(&libdeflate_free_compressor)> deflater(
-      libdeflate_alloc_compressor(std::clamp(level, 1, 12)), &libdeflate_free_compressor);
-  if (!deflater) return std::unexpected(internal_error("png::write: cannot allocate a compressor"));
-  std::vector<std::uint8_t> compressed(libdeflate_zlib_compress_bound(deflater.get(), raw.size()));
-  const std::size_t length = libdeflate_zlib_compress(deflater.get(), raw.data(), raw.size(),
-                                                      compressed.data(), compressed.size());
-  if (length == 0) return std::unexpected(internal_error("png::write: compression failed"));
-  out.chunk("IDAT", compressed.data(), length);  // one chunk: a reader can inflate it in place
+  if (!compress(true)) return std::unexpected(internal_error("png::write: compression failed"));
   return {};
 }
 

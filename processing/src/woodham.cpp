@@ -11,11 +11,6 @@
 #include "stream_store.h"
 #include "vector_clones.h"
 
-#if defined(__linux__)
-#include <sys/mman.h>
-#include <unistd.h>
-#endif
-
 namespace psrig::processing {
 namespace {
 
@@ -450,24 +445,6 @@ ThreeLightInverse three_light_inverse(const Coefficients& co) {
   return result;
 }
 
-// The results are written once, row after row, and each row touches some
-// 25 different 4 KiB pages: where Linux allows (transparent huge pages in
-// madvise mode), back new result buffers with 2 MiB pages to spare the TLB
-// misses. Advice only; it has to come before the first write.
-void create_result(cv::Mat& m, cv::Size size, int type) {
-  const unsigned char* before = m.data;
-  m.create(size, type);
-#if defined(__linux__) && defined(MADV_HUGEPAGE)
-  if (m.data == before) return;
-  const auto page = static_cast<std::uintptr_t>(sysconf(_SC_PAGESIZE));
-  const auto start = (reinterpret_cast<std::uintptr_t>(m.datastart) + page - 1) / page * page;
-  const auto stop = reinterpret_cast<std::uintptr_t>(m.dataend) / page * page;
-  if (stop > start) madvise(reinterpret_cast<void*>(start), stop - start, MADV_HUGEPAGE);
-#else
-  (void)before;
-#endif
-}
-
 }  // namespace
 
 Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& result) {
@@ -480,11 +457,11 @@ Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& re
   const bool three = lights == 3 && !options.force_least_squares;
   const ThreeLightInverse inverse = three ? three_light_inverse(co) : ThreeLightInverse{};
 
-  create_result(result.p, size, CV_32F);
-  create_result(result.q, size, CV_32F);
-  create_result(result.albedo, size, CV_32FC(channels));
-  create_result(result.residual, size, CV_32F);
-  create_result(result.flags, size, CV_8U);
+  result.p.create(size, CV_32F);
+  result.q.create(size, CV_32F);
+  result.albedo.create(size, CV_32FC(channels));
+  result.residual.create(size, CV_32F);
+  result.flags.create(size, CV_8U);
 
   parallel_chunks(size.height, kRowsPerChunk, [&](int begin, int end) {
     // Per-thread scratch for one row of every light's measurements.

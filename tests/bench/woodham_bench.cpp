@@ -5,7 +5,6 @@
 
 #include <cstdlib>
 #include <cstring>
-#include <sys/mman.h>
 #if defined(__x86_64__)
 #include <immintrin.h>
 #endif
@@ -86,9 +85,9 @@ void BM_StreamCopy(benchmark::State& state) {
 }
 
 #if defined(__x86_64__)
-// The same copy with the advantages the solve takes: non-temporal stores
-// (no read of each output line before it is written) into huge-page-advised
-// memory. The fairest floor for Woodham3; StreamCopy is the plain one.
+// The same copy with the advantage the solve takes: non-temporal stores (no
+// read of each output line before it is written). The fairest floor for
+// Woodham3; StreamCopy is the plain one.
 void BM_StreamCopyNonTemporal(benchmark::State& state) {
   const Scan& scan = scan_12mp();
   const cv::Size size = scan.size();
@@ -96,9 +95,7 @@ void BM_StreamCopyNonTemporal(benchmark::State& state) {
       static_cast<std::size_t>(size.width) * output_bytes_per_pixel() / 16 * 16;
   const std::size_t in_row = scan.frames[0].cols * scan.frames[0].elemSize();
   const std::size_t bytes = out_row * size.height;
-  auto* output = static_cast<unsigned char*>(
-      std::aligned_alloc(2 << 20, (bytes + (2 << 20) - 1) / (2 << 20) * (2 << 20)));
-  ::madvise(output, bytes, MADV_HUGEPAGE);
+  auto* output = static_cast<unsigned char*>(std::aligned_alloc(64, (bytes + 63) / 64 * 64));
   for (auto _ : state) {
     psrig::processing::parallel_chunks(size.height, 8, [&](int begin, int end) {
       for (int r = begin; r < end; ++r) {

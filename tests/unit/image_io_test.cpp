@@ -48,6 +48,20 @@ TEST(ImageIo, PngRoundTripsEveryTypeAtEveryLevel) {
   }
 }
 
+TEST(ImageIo, LargePngsSpanManyChunksBothWays) {
+  // Several megabytes of noise: psrig's writer emits many IDAT chunks, its
+  // reader and libpng must both put them back together.
+  test::TempDir temp;
+  cv::Mat image(900, 1300, CV_16UC3);
+  cv::RNG(9).fill(image, cv::RNG::UNIFORM, 0, 65536);
+  ASSERT_TRUE(write_image(temp / "big.png", image));
+  EXPECT_GT(std::filesystem::file_size(temp / "big.png"), 3u << 20);
+  auto back = read_image(temp / "big.png", "test");
+  ASSERT_TRUE(back);
+  EXPECT_EQ(cv::norm(*back, image, cv::NORM_INF), 0);
+  EXPECT_EQ(cv::norm(cv::imread((temp / "big.png").string(), cv::IMREAD_UNCHANGED), image, cv::NORM_INF), 0);
+}
+
 TEST(ImageIo, ReadsWhatLibpngWroteWithEveryFilter) {
   // At level 9 libpng picks filters per row adaptively (Sub, Up, Average,
   // Paeth): psrig's reader must undo all of them exactly.

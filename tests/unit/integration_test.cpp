@@ -514,6 +514,24 @@ TEST(IntegrationPoisson, SolvesTheNormalEquations) {
 // ---------------------------------------------------------------------------
 // Threads.
 
+TEST(Integration, MaxSlopeKeepsAWildPixelFromTiltingTheSurface) {
+  cv::Mat p(40, 60, CV_32F, cv::Scalar(0)), q(40, 60, CV_32F, cv::Scalar(0));
+  p.at<float>(20, 30) = 1e6f;  // one pixel's gradient gone wild
+  for (const auto method : {IntegrationMethod::frankot_chellappa, IntegrationMethod::poisson}) {
+    const auto wild = integrate(method, p, q);
+    const auto clamped = integrate(method, p, q, 10.0f);
+    ASSERT_TRUE(wild && clamped);
+    double wild_range = 0, clamped_range = 0, low = 0, high = 0;
+    cv::minMaxLoc(*wild, &low, &high);
+    wild_range = high - low;
+    cv::minMaxLoc(*clamped, &low, &high);
+    clamped_range = high - low;
+    EXPECT_GT(wild_range, 1e4) << to_string(method);
+    EXPECT_LT(clamped_range, 11.0) << to_string(method);  // at most one pixel's worth of the limit
+  }
+  EXPECT_FALSE(integrate(IntegrationMethod::poisson, p, q, 0.0f));
+}
+
 TEST(Integration, IsBitIdenticalForAnyThreadCount) {
   if (std::thread::hardware_concurrency() < 2)
     GTEST_SKIP() << "one hardware thread: nothing to compare";

@@ -5,6 +5,7 @@
 // of the grid spacing, i.e. pixels; the caller scales by pixel_size_mm.
 // Both methods fix the free constant by giving the result zero mean.
 
+#include <limits>
 #include <optional>
 #include <string_view>
 
@@ -25,13 +26,17 @@ enum class IntegrationMethod { frankot_chellappa, poisson, none };
 // border, so p and q are odd across the borders they cross) so the periodic
 // transform sees no wrap-around jump. Implemented with FFTW r2r transforms of
 // the un-extended size, which is the same computation.
-// p, q: CV_32F, same size; non-finite values (unsolved pixels) count as 0.
-// Returns CV_32F.
-[[nodiscard]] Result<cv::Mat> integrate_frankot_chellappa(const cv::Mat& p, const cv::Mat& q);
+// p, q: CV_32F, same size; non-finite values (unsolved pixels) count as 0,
+// and values beyond +-max_slope are clamped to it, so that a few wild
+// pixels cannot tilt the whole surface. Returns CV_32F.
+inline constexpr float kNoSlopeLimit = std::numeric_limits<float>::max();
+[[nodiscard]] Result<cv::Mat> integrate_frankot_chellappa(const cv::Mat& p, const cv::Mat& q,
+                                                          float max_slope = kNoSlopeLimit);
 
 // Least-squares Poisson solve of the discrete problem with Neumann
 // boundaries, diagonalised by the DCT. Same contract as above.
-[[nodiscard]] Result<cv::Mat> integrate_poisson(const cv::Mat& p, const cv::Mat& q);
+[[nodiscard]] Result<cv::Mat> integrate_poisson(const cv::Mat& p, const cv::Mat& q,
+                                                float max_slope = kNoSlopeLimit);
 
 // Routes FFTW's threads into the process's pool, once; true when FFTW has
 // thread support. The integrators call it themselves; code calling FFTW
@@ -40,6 +45,6 @@ bool prepare_fftw_threads();
 
 // Dispatches on method; `none` returns an empty Mat.
 [[nodiscard]] Result<cv::Mat> integrate(IntegrationMethod method, const cv::Mat& p,
-                                        const cv::Mat& q);
+                                        const cv::Mat& q, float max_slope = kNoSlopeLimit);
 
 }  // namespace psrig::processing
