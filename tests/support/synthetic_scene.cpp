@@ -100,6 +100,18 @@ processing::Scan render_scan(const Surface& surface, const std::vector<cv::Vec3d
   return scan;
 }
 
+double predicted_rms_angle(const std::vector<cv::Vec3d>& lights, const cv::Vec3d& n, double rho,
+                           double sigma, int channels) {
+  cv::Matx33d ltl = cv::Matx33d::zeros();
+  for (const auto& light : lights) {
+    const cv::Vec3d l = light / cv::norm(light);
+    ltl += l * l.t();
+  }
+  const cv::Matx33d projector = cv::Matx33d::eye() - n * n.t();
+  return sigma / (std::sqrt(static_cast<double>(channels)) * rho) *
+         std::sqrt(cv::trace(projector * ltl.inv() * projector));
+}
+
 double mean_angular_error_deg(const cv::Mat& a, const cv::Mat& b, const cv::Mat& select) {
   double sum = 0;
   long count = 0;

@@ -41,6 +41,14 @@ struct Surface {
                                            double noise = 0, std::uint64_t seed = 1,
                                            const std::vector<cv::Mat>& shadows = {});
 
+// The RMS angle error (radians) photometric stereo makes at a pixel of
+// normal n and grey albedo rho, under Gaussian noise sigma (fraction of full
+// scale) per channel in each of `channels`: cov(t) = sigma^2 / channels
+// (L^T L)^-1, and only the part across n turns the normal, so
+// E[theta^2] = sigma^2 / (channels rho^2) tr(P (L^T L)^-1 P), P = I - n n^T.
+[[nodiscard]] double predicted_rms_angle(const std::vector<cv::Vec3d>& lights, const cv::Vec3d& n,
+                                         double rho, double sigma, int channels);
+
 // Mean angle in degrees between two normal maps over the pixels where
 // `select` is nonzero (all pixels when empty).
 [[nodiscard]] double mean_angular_error_deg(const cv::Mat& a, const cv::Mat& b,

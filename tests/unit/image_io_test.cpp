@@ -59,7 +59,9 @@ TEST(ImageIo, LargePngsSpanManyChunksBothWays) {
   auto back = read_image(temp / "big.png", "test");
   ASSERT_TRUE(back);
   EXPECT_EQ(cv::norm(*back, image, cv::NORM_INF), 0);
-  EXPECT_EQ(cv::norm(cv::imread((temp / "big.png").string(), cv::IMREAD_UNCHANGED), image, cv::NORM_INF), 0);
+  EXPECT_EQ(
+      cv::norm(cv::imread((temp / "big.png").string(), cv::IMREAD_UNCHANGED), image, cv::NORM_INF),
+      0);
 }
 
 TEST(ImageIo, ReadsWhatLibpngWroteWithEveryFilter) {

@@ -9,8 +9,8 @@
 #include <gtest/gtest.h>
 
 #include "psrig/processing/evaluation.h"
-#include "psrig/processing/scan_reader.h"
 #include "psrig/processing/map_encoding.h"
+#include "psrig/processing/scan_reader.h"
 #include "psrig/processing/woodham.h"
 #include "test_support.h"
 

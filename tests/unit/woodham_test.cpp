@@ -79,23 +79,14 @@ TEST(Woodham, NoiseErrorMatchesDerivedBound) {
   const double measured =
       mean_angular_error_deg(normals_from_gradients(result->p, result->q), surface.normal, valid);
 
-  cv::Matx33d ltl = cv::Matx33d::zeros();
-  for (const auto& l : lights)
-    ltl += cv::Matx33d(l[0] * l[0], l[0] * l[1], l[0] * l[2], l[1] * l[0], l[1] * l[1], l[1] * l[2],
-                       l[2] * l[0], l[2] * l[1], l[2] * l[2]);
-  const cv::Matx33d covariance = ltl.inv();
   double predicted = 0;
   int count = 0;
   for (int r = 0; r < valid.rows; ++r) {
     for (int c = 0; c < valid.cols; ++c) {
       if (!valid.at<std::uint8_t>(r, c)) continue;
-      const cv::Vec3d n = surface.normal.at<cv::Vec3f>(r, c);
       const cv::Vec3f a = surface.albedo.at<cv::Vec3f>(r, c);
-      const double rho = (a[0] + a[1] + a[2]) / 3;
-      const cv::Matx33d projector = cv::Matx33d::eye() - n * n.t();
-      const cv::Matx33d across = projector * covariance * projector;
-      const double variance = sigma * sigma / (channels * rho * rho) * cv::trace(across);
-      predicted += std::sqrt(variance);
+      predicted += test::predicted_rms_angle(lights, surface.normal.at<cv::Vec3f>(r, c),
+                                             (a[0] + a[1] + a[2]) / 3, sigma, channels);
       ++count;
     }
   }
