@@ -1,0 +1,57 @@
+#pragma once
+// The rig's camera, behind one small interface: V4L2, libcamera and the
+// simulated one, chosen by the configuration's `camera.backend`.
+
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "psrig/config/rig_config.h"
+#include "psrig/firmware_host/switch_log.h"
+#include "psrig/processing/error.h"
+
+namespace psrig::firmware_host {
+class SimWorld;
+}
+
+namespace psrig::capture {
+
+using processing::Error;
+using processing::Result;
+using processing::Status;
+using Clock = firmware_host::Clock;
+
+struct Frame {
+  cv::Mat image;                     // CV_8U or CV_16U, grey or BGR
+  Clock::time_point exposure_start;  // on the same clock as the LED switch log
+  Clock::time_point exposure_end;
+  std::uint64_t sequence = 0;  // as the camera counts them; gaps mean dropped frames
+  int exposure_us = 0;         // what the camera actually used
+  double gain = 0;
+  double white_level = 0;  // full scale of `image` (e.g. 4095 for 12-bit data in 16 bits)
+  double black_level = 0;
+};
+
+class Camera {
+ public:
+  virtual ~Camera() = default;
+
+  // Applies size, format, exposure and gain; may be called only when stopped.
+  [[nodiscard]] virtual Status configure(const config::CameraConfig& settings) = 0;
+  [[nodiscard]] virtual Status start() = 0;
+  // The next frame, waiting at most `timeout`.
+  [[nodiscard]] virtual Result<Frame> grab(std::chrono::milliseconds timeout) = 0;
+  [[nodiscard]] virtual Status stop() = 0;
+  // "v4l2 /dev/video0 (uvcvideo, 'HD Camera'), 1920x1080 YUYV" and the like.
+  [[nodiscard]] virtual std::string describe() const = 0;
+};
+
+// The backend `camera.backend` names, opened and configured; errors name
+// the device, the configuration key and the fix.
+[[nodiscard]] Result<std::unique_ptr<Camera>> open_camera(
+    const config::RigConfig& config, std::shared_ptr<firmware_host::SimWorld> world);
+
+}  // namespace psrig::capture

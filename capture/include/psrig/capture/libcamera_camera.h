@@ -1,0 +1,14 @@
+#pragma once
+// The libcamera camera backend: a camera through libcamera 0.0.3 (camera.backend = "libcamera").
+
+#include <memory>
+
+#include "psrig/capture/camera.h"
+
+namespace psrig::capture {
+
+// Starts a camera manager and acquires camera.device (an id; empty: the first).
+[[nodiscard]] Result<std::unique_ptr<Camera>> open_libcamera_camera(
+    const config::CameraConfig& config);
+
+}  // namespace psrig::capture

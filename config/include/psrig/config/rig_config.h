@@ -1,0 +1,125 @@
+#pragma once
+// The rig configuration (rig.toml): what psrig knows about the hardware it
+// drives. Every field has a default; config/rig.example.toml documents them
+// for a real rig, config/sim.toml for the simulated one.
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+namespace psrig::config {
+
+// Where the lights are, DESIGN.md axes: tilt from +x toward +y, slant from +z.
+struct Geometry {
+  double slant_deg = 45;
+  std::vector<double> tilts_deg = {0, 120, 240};  // one per light, in channel order
+  double working_distance_mm = 200;               // camera to swatch
+  std::optional<double> pixel_size_mm;            // on the swatch; absent: heights in pixels
+};
+
+// A GPIO line per LED, through libgpiod.
+struct GpiodLights {
+  std::string chip = "gpiochip0";  // name, path (/dev/gpiochip0) or label
+  std::vector<unsigned> lines;     // offsets, one per channel
+  bool active_low = false;         // LED on when the line is driven low
+  std::string consumer = "psrig";
+};
+
+// The rig's USB strobe controller (firmware_host/PROTOCOL.md).
+struct UsbLights {
+  std::uint16_t vendor_id = 0x1209;
+  std::uint16_t product_id = 0x5053;
+  std::string serial;      // empty: the only controller present
+  int timeout_ms = 500;    // per USB transfer
+  int watchdog_ms = 1000;  // the controller turns everything off without a heartbeat
+};
+
+// Registers of a Modbus LED driver; defaults documented in rig.example.toml.
+struct ModbusRegisters {
+  int enable_coil = 0;           // coils enable_coil + channel: LED on/off
+  int intensity_register = 100;  // holding registers intensity_register + channel
+  int intensity_full_scale = 1000;
+  int status_register = 0;  // input register: nonzero = driver fault
+};
+
+// A Modbus LED driver over RTU (serial) or TCP, through libmodbus.
+struct ModbusLights {
+  std::string transport = "tcp";  // "tcp" | "rtu"
+  std::string device = "/dev/ttyUSB0";
+  int baud = 19200;
+  char parity = 'N';  // 'N' | 'E' | 'O'
+  int data_bits = 8;
+  int stop_bits = 1;
+  std::string host = "127.0.0.1";
+  int port = 502;
+  int slave = 1;
+  int timeout_ms = 300;
+  int retries = 2;
+  ModbusRegisters registers;
+};
+
+struct LightsConfig {
+  std::string backend = "sim";  // "gpiod" | "usb" | "modbus" | "sim"
+  int channels = 3;
+  std::vector<double> intensity;  // per channel, 0..1; empty: all 1
+  int max_on_ms = 5000;           // safety: an LED left on longer is turned off
+  GpiodLights gpiod;
+  UsbLights usb;
+  ModbusLights modbus;
+};
+
+struct CameraConfig {
+  std::string backend = "sim";         // "v4l2" | "libcamera" | "sim"
+  std::string device = "/dev/video0";  // v4l2 device node, or libcamera camera id ("" = first)
+  std::string format = "auto";  // v4l2 fourcc (GREY, Y16, YUYV, RGB3, BGR3, BA81, ...) or "auto"
+  int width = 0;                // 0: the camera's (or the simulator's) default
+  int height = 0;
+  int exposure_us = 20000;
+  double gain = 1.0;
+  int frames_average = 2;  // frames averaged per light
+  int frames_discard = 1;  // frames thrown away after each switch, on top of the stale-frame rule
+  int timeout_ms = 2000;   // per frame
+};
+
+struct CaptureConfig {
+  bool dark_frame = true;  // capture a frame with every LED off
+  int settle_ms = 10;      // after an LED turns on, before an exposure may start
+  bool process = true;     // process the scan into maps after capturing it
+};
+
+struct StorageConfig {
+  std::filesystem::path root = "/var/lib/psrig/scans";
+};
+
+// The simulated world: the swatch, the simulated camera, its timing.
+struct SimConfig {
+  std::string pattern = "jersey";
+  std::uint64_t seed = 1;
+  int width = 640;
+  int height = 480;
+  double pixel_size_mm = 0.025;
+  int bit_depth = 12;        // sensor ADC bits; frames are delivered in 16-bit containers
+  double full_well = 10000;  // electrons at full scale: sets the shot noise
+  double read_noise = 3;     // electrons RMS
+  double black_level = 64;   // in the ADC's codes
+  double ambient = 0.002;    // room light, fraction of an LED's irradiance
+  double vignetting = 0.15;  // fractional fall-off at the image corners
+  double led_irradiance =
+      0.8;  // at normal incidence, fraction of full scale at gain 1 and exposure 20 ms
+  int readout_us = 15000;     // sensor readout after each exposure
+  int frame_interval_us = 0;  // 0: exposure + readout
+};
+
+struct RigConfig {
+  std::filesystem::path source;  // the file it came from, for messages
+  Geometry geometry;
+  LightsConfig lights;
+  CameraConfig camera;
+  CaptureConfig capture;
+  StorageConfig storage;
+  SimConfig sim;
+};
+
+}  // namespace psrig::config
