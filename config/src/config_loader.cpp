@@ -1,0 +1,376 @@
+#include "psrig/config/config_loader.h"
+
+#include <toml++/toml.h>
+
+#include <algorithm>
+#include <fstream>
+#include <set>
+#include <sstream>
+
+namespace psrig::config {
+namespace {
+
+namespace fs = std::filesystem;
+using processing::Error;
+using processing::Result;
+using processing::Status;
+
+// Levenshtein distance, for "did you mean" on unknown keys.
+std::size_t distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> row(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    std::size_t previous = row[0];
+    row[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j) {
+      const std::size_t substitution = previous + (a[i - 1] == b[j - 1] ? 0 : 1);
+      previous = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, substitution});
+    }
+  }
+  return row[b.size()];
+}
+
+// Reads one TOML table against what psrig knows of it: each get() consumes
+// a key; finish() reports the keys left over as warnings.
+class Section {
+ public:
+  Section(const toml::table* table, std::string path, const fs::path& file, std::vector<std::string>* warnings)
+      : table_(table), path_(std::move(path)), file_(file), warnings_(warnings) {}
+
+  [[nodiscard]] std::string key(const std::string& name) const { return path_.empty() ? name : path_ + "." + name; }
+
+  Error error_at(const toml::node* node, const std::string& name, const std::string& message) const {
+    Error e = processing::bad_input(file_, key(name), message);
+    if (node) {
+      e.line = static_cast<int>(node->source().begin.line);
+      e.column = static_cast<int>(node->source().begin.column);
+    }
+    return e;
+  }
+
+  const toml::node* node(const std::string& name) {
+    known_.insert(name);
+    return table_ ? table_->get(name) : nullptr;
+  }
+
+  Status get(const std::string& name, double& out, double min, double max, bool exclusive_min = false) {
+    const toml::node* n = node(name);
+    if (!n) return {};
+    const auto value = n->value<double>();  // integers convert too
+    if (!value) return std::unexpected(error_at(n, name, "expected a number"));
+    if (*value < min || *value > max || (exclusive_min && *value == min))
+      return std::unexpected(error_at(n, name, "is " + format(*value) + "; expected " + (exclusive_min ? "more than " : "from ") +
+                                                   format(min) + (max < 1e300 ? (exclusive_min ? ", at most " : " to ") + format(max) : "")));
+    out = *value;
+    return {};
+  }
+
+  Status get(const std::string& name, int& out, long min, long max) {
+    const toml::node* n = node(name);
+    if (!n) return {};
+    const auto value = n->value<std::int64_t>();
+    if (!n->is_integer() || !value) return std::unexpected(error_at(n, name, "expected a whole number"));
+    if (*value < min || *value > max)
+      return std::unexpected(error_at(n, name, "is " + std::to_string(*value) + "; expected " + std::to_string(min) + " to " +
+                                                   std::to_string(max)));
+    out = static_cast<int>(*value);
+    return {};
+  }
+
+  Status get(const std::string& name, std::uint64_t& out) {
+    const toml::node* n = node(name);
+    if (!n) return {};
+    const auto value = n->value<std::int64_t>();
+    if (!n->is_integer() || !value || *value < 0) return std::unexpected(error_at(n, name, "expected a whole number, 0 or more"));
+    out = static_cast<std::uint64_t>(*value);
+    return {};
+  }
+
+  Status get(const std::string& name, bool& out) {
+    const toml::node* n = node(name);
+    if (!n) return {};
+    if (!n->is_boolean()) return std::unexpected(error_at(n, name, "expected true or false"));
+    out = *n->value<bool>();
+    return {};
+  }
+
+  Status get(const std::string& name, std::string& out, std::initializer_list<const char*> allowed = {}) {
+    const toml::node* n = node(name);
+    if (!n) return {};
+    if (!n->is_string()) return std::unexpected(error_at(n, name, "expected a string"));
+    const std::string value = *n->value<std::string>();
+    if (allowed.size() > 0 && std::none_of(allowed.begin(), allowed.end(), [&](const char* a) { return value == a; })) {
+      std::string list;
+      for (const char* a : allowed) list += (list.empty() ? "\"" : ", \"") + std::string(a) + "\"";
+      return std::unexpected(error_at(n, name, "is \"" + value + "\"; expected one of " + list));
+    }
+    out = value;
+    return {};
+  }
+
+  Status get(const std::string& name, std::vector<double>& out, double min, double max) {
+    const toml::node* n = node(name);
+    if (!n) return {};
+    const toml::array* array = n->as_array();
+    if (!array) return std::unexpected(error_at(n, name, "expected an array of numbers"));
+    std::vector<double> values;
+    for (const auto& element : *array) {
+      const auto value = element.value<double>();
+      if (!value) return std::unexpected(error_at(&element, name, "expected an array of numbers"));
+      if (*value < min || *value > max)
+        return std::unexpected(error_at(&element, name, "has " + format(*value) + "; expected values from " + format(min) +
+                                                             " to " + format(max)));
+      values.push_back(*value);
+    }
+    out = std::move(values);
+    return {};
+  }
+
+  Status get(const std::string& name, std::vector<unsigned>& out) {
+    const toml::node* n = node(name);
+    if (!n) return {};
+    const toml::array* array = n->as_array();
+    if (!array) return std::unexpected(error_at(n, name, "expected an array of whole numbers"));
+    std::vector<unsigned> values;
+    for (const auto& element : *array) {
+      const auto value = element.value<std::int64_t>();
+      if (!element.is_integer() || !value || *value < 0)
+        return std::unexpected(error_at(&element, name, "expected whole numbers, 0 or more"));
+      values.push_back(static_cast<unsigned>(*value));
+    }
+    out = std::move(values);
+    return {};
+  }
+
+  // A sub-table, or nullptr when absent; an error when `name` is not a table.
+  Result<const toml::table*> table(const std::string& name) {
+    const toml::node* n = node(name);
+    if (!n) return nullptr;
+    if (!n->is_table()) return std::unexpected(error_at(n, name, "expected a table ([" + key(name) + "])"));
+    return n->as_table();
+  }
+
+  void finish() const {
+    if (!table_ || !warnings_) return;
+    for (const auto& [name, value] : *table_) {
+      const std::string k(name.str());
+      if (known_.contains(k)) continue;
+      std::string nearest;
+      std::size_t best = 3;  // only suggest close spellings
+      for (const auto& known : known_)
+        if (const std::size_t d = distance(k, known); d < best) best = d, nearest = known;
+      std::ostringstream line;
+      line << file_.string() << ":" << name.source().begin.line << ":" << name.source().begin.column << ": " << key(k)
+           << ": unknown key, ignored" << (nearest.empty() ? "" : " (did you mean '" + key(nearest) + "'?)");
+      warnings_->push_back(line.str());
+    }
+  }
+
+  [[nodiscard]] const toml::node* find(const std::string& name) const { return table_ ? table_->get(name) : nullptr; }
+
+ private:
+  static std::string format(double value) {
+    std::ostringstream s;
+    s << value;
+    return s.str();
+  }
+
+  const toml::table* table_;
+  std::string path_;
+  fs::path file_;
+  std::vector<std::string>* warnings_;
+  std::set<std::string> known_;
+};
+
+#define PSRIG_TRY(expression)                                     \
+  do {                                                            \
+    if (auto status_ = (expression); !status_) return std::unexpected(status_.error()); \
+  } while (false)
+
+constexpr double kNoMax = 1e308;
+
+Result<RigConfig> read(const toml::table& root, const fs::path& file, std::vector<std::string>* warnings) {
+  RigConfig c;
+  c.source = file;
+  Section top(&root, "", file, warnings);
+  const auto sub = [&](Section& parent, const std::string& name) -> Result<Section> {
+    auto table = parent.table(name);
+    if (!table) return std::unexpected(table.error());
+    return Section(*table, parent.key(name), file, warnings);
+  };
+
+  auto geometry = sub(top, "geometry");
+  if (!geometry) return std::unexpected(geometry.error());
+  PSRIG_TRY(geometry->get("slant_deg", c.geometry.slant_deg, 0, 89, true));
+  PSRIG_TRY(geometry->get("tilts_deg", c.geometry.tilts_deg, -360, 360));
+  PSRIG_TRY(geometry->get("working_distance_mm", c.geometry.working_distance_mm, 0, kNoMax, true));
+  double pixel_size = 0;
+  if (geometry->find("pixel_size_mm")) {
+    PSRIG_TRY(geometry->get("pixel_size_mm", pixel_size, 0, kNoMax, true));
+    c.geometry.pixel_size_mm = pixel_size;
+  } else {
+    geometry->node("pixel_size_mm");
+  }
+  geometry->finish();
+
+  auto lights = sub(top, "lights");
+  if (!lights) return std::unexpected(lights.error());
+  PSRIG_TRY(lights->get("backend", c.lights.backend, {"gpiod", "usb", "modbus", "sim"}));
+  PSRIG_TRY(lights->get("channels", c.lights.channels, 3, 16));
+  PSRIG_TRY(lights->get("intensity", c.lights.intensity, 0, 1));
+  PSRIG_TRY(lights->get("max_on_ms", c.lights.max_on_ms, 1, 600000));
+  {
+    auto gpiod = sub(*lights, "gpiod");
+    if (!gpiod) return std::unexpected(gpiod.error());
+    PSRIG_TRY(gpiod->get("chip", c.lights.gpiod.chip));
+    PSRIG_TRY(gpiod->get("lines", c.lights.gpiod.lines));
+    PSRIG_TRY(gpiod->get("active_low", c.lights.gpiod.active_low));
+    PSRIG_TRY(gpiod->get("consumer", c.lights.gpiod.consumer));
+    gpiod->finish();
+    if (c.lights.backend == "gpiod" && c.lights.gpiod.lines.size() != static_cast<std::size_t>(c.lights.channels))
+      return std::unexpected(gpiod->error_at(gpiod->find("lines"), "lines",
+                                             "gives " + std::to_string(c.lights.gpiod.lines.size()) +
+                                                 " line offsets for " + std::to_string(c.lights.channels) +
+                                                 " channels; list one GPIO line per LED (see `gpioinfo`)"));
+
+    auto usb = sub(*lights, "usb");
+    if (!usb) return std::unexpected(usb.error());
+    int vendor = c.lights.usb.vendor_id, product = c.lights.usb.product_id;
+    PSRIG_TRY(usb->get("vendor_id", vendor, 0, 0xFFFF));
+    PSRIG_TRY(usb->get("product_id", product, 0, 0xFFFF));
+    c.lights.usb.vendor_id = static_cast<std::uint16_t>(vendor);
+    c.lights.usb.product_id = static_cast<std::uint16_t>(product);
+    PSRIG_TRY(usb->get("serial", c.lights.usb.serial));
+    PSRIG_TRY(usb->get("timeout_ms", c.lights.usb.timeout_ms, 1, 60000));
+    PSRIG_TRY(usb->get("watchdog_ms", c.lights.usb.watchdog_ms, 10, 60000));
+    usb->finish();
+
+    auto modbus = sub(*lights, "modbus");
+    if (!modbus) return std::unexpected(modbus.error());
+    auto& m = c.lights.modbus;
+    PSRIG_TRY(modbus->get("transport", m.transport, {"tcp", "rtu"}));
+    PSRIG_TRY(modbus->get("device", m.device));
+    PSRIG_TRY(modbus->get("baud", m.baud, 300, 4000000));
+    std::string parity(1, m.parity);
+    PSRIG_TRY(modbus->get("parity", parity, {"N", "E", "O"}));
+    m.parity = parity[0];
+    PSRIG_TRY(modbus->get("data_bits", m.data_bits, 5, 8));
+    PSRIG_TRY(modbus->get("stop_bits", m.stop_bits, 1, 2));
+    PSRIG_TRY(modbus->get("host", m.host));
+    PSRIG_TRY(modbus->get("port", m.port, 1, 65535));
+    PSRIG_TRY(modbus->get("slave", m.slave, 0, 247));
+    PSRIG_TRY(modbus->get("timeout_ms", m.timeout_ms, 1, 60000));
+    PSRIG_TRY(modbus->get("retries", m.retries, 0, 10));
+    {
+      auto registers = sub(*modbus, "registers");
+      if (!registers) return std::unexpected(registers.error());
+      PSRIG_TRY(registers->get("enable_coil", m.registers.enable_coil, 0, 65535));
+      PSRIG_TRY(registers->get("intensity_register", m.registers.intensity_register, 0, 65535));
+      PSRIG_TRY(registers->get("intensity_full_scale", m.registers.intensity_full_scale, 1, 65535));
+      PSRIG_TRY(registers->get("status_register", m.registers.status_register, 0, 65535));
+      registers->finish();
+    }
+    modbus->finish();
+  }
+  lights->finish();
+  if (!c.lights.intensity.empty() && c.lights.intensity.size() != static_cast<std::size_t>(c.lights.channels))
+    return std::unexpected(lights->error_at(lights->find("intensity"), "intensity",
+                                            "gives " + std::to_string(c.lights.intensity.size()) + " values for " +
+                                                std::to_string(c.lights.channels) + " channels"));
+  if (geometry->find("tilts_deg") && c.geometry.tilts_deg.size() != static_cast<std::size_t>(c.lights.channels))
+    return std::unexpected(geometry->error_at(geometry->find("tilts_deg"), "tilts_deg",
+                                              "gives " + std::to_string(c.geometry.tilts_deg.size()) + " tilts for " +
+                                                  std::to_string(c.lights.channels) + " lights (lights.channels)"));
+  if (!geometry->find("tilts_deg") && c.lights.channels != 3) {
+    c.geometry.tilts_deg.clear();  // evenly spread, one per channel
+    for (int k = 0; k < c.lights.channels; ++k) c.geometry.tilts_deg.push_back(360.0 * k / c.lights.channels);
+  }
+
+  auto camera = sub(top, "camera");
+  if (!camera) return std::unexpected(camera.error());
+  auto& cam = c.camera;
+  PSRIG_TRY(camera->get("backend", cam.backend, {"v4l2", "libcamera", "sim"}));
+  PSRIG_TRY(camera->get("device", cam.device));
+  PSRIG_TRY(camera->get("format", cam.format));
+  PSRIG_TRY(camera->get("width", cam.width, 0, 65535));
+  PSRIG_TRY(camera->get("height", cam.height, 0, 65535));
+  PSRIG_TRY(camera->get("exposure_us", cam.exposure_us, 1, 60000000));
+  PSRIG_TRY(camera->get("gain", cam.gain, 0, 1000, true));
+  PSRIG_TRY(camera->get("frames_average", cam.frames_average, 1, 64));
+  PSRIG_TRY(camera->get("frames_discard", cam.frames_discard, 0, 64));
+  PSRIG_TRY(camera->get("timeout_ms", cam.timeout_ms, 1, 600000));
+  camera->finish();
+
+  auto capture = sub(top, "capture");
+  if (!capture) return std::unexpected(capture.error());
+  PSRIG_TRY(capture->get("dark_frame", c.capture.dark_frame));
+  PSRIG_TRY(capture->get("settle_ms", c.capture.settle_ms, 0, 60000));
+  PSRIG_TRY(capture->get("process", c.capture.process));
+  capture->finish();
+
+  auto storage = sub(top, "storage");
+  if (!storage) return std::unexpected(storage.error());
+  std::string storage_root = c.storage.root.string();
+  PSRIG_TRY(storage->get("root", storage_root));
+  // Relative to the configuration file, not to wherever psrig was started.
+  c.storage.root = fs::path(storage_root).is_absolute() ? fs::path(storage_root)
+                                                        : (file.parent_path() / storage_root).lexically_normal();
+  storage->finish();
+
+  auto sim = sub(top, "sim");
+  if (!sim) return std::unexpected(sim.error());
+  auto& s = c.sim;
+  PSRIG_TRY(sim->get("pattern", s.pattern, {"jersey", "rib", "garter", "plain", "twill"}));
+  PSRIG_TRY(sim->get("seed", s.seed));
+  PSRIG_TRY(sim->get("width", s.width, 8, 16384));
+  PSRIG_TRY(sim->get("height", s.height, 8, 16384));
+  PSRIG_TRY(sim->get("pixel_size_mm", s.pixel_size_mm, 0, 1, true));
+  PSRIG_TRY(sim->get("bit_depth", s.bit_depth, 8, 16));
+  PSRIG_TRY(sim->get("full_well", s.full_well, 1, 1e7));
+  PSRIG_TRY(sim->get("read_noise", s.read_noise, 0, 1000));
+  PSRIG_TRY(sim->get("black_level", s.black_level, 0, 65535));
+  PSRIG_TRY(sim->get("ambient", s.ambient, 0, 10));
+  PSRIG_TRY(sim->get("vignetting", s.vignetting, 0, 0.9));
+  PSRIG_TRY(sim->get("led_irradiance", s.led_irradiance, 0, 100));
+  PSRIG_TRY(sim->get("readout_us", s.readout_us, 0, 10000000));
+  PSRIG_TRY(sim->get("frame_interval_us", s.frame_interval_us, 0, 60000000));
+  sim->finish();
+  if (s.black_level >= (1 << s.bit_depth) - 1)
+    return std::unexpected(sim->error_at(sim->find("black_level"), "black_level",
+                                         "must be below the " + std::to_string(s.bit_depth) + "-bit full scale (" +
+                                             std::to_string((1 << s.bit_depth) - 1) + ")"));
+  if (c.camera.backend == "sim" && c.geometry.pixel_size_mm == std::nullopt) c.geometry.pixel_size_mm = s.pixel_size_mm;
+
+  top.finish();
+  return c;
+}
+
+}  // namespace
+
+Result<RigConfig> parse_config(std::string_view text, const fs::path& source, std::vector<std::string>* warnings) {
+  try {
+    const toml::table root = toml::parse(text, source.string());
+    return read(root, source, warnings);
+  } catch (const toml::parse_error& e) {
+    Error error = processing::bad_input(source, "", std::string("malformed TOML: ") + std::string(e.description()));
+    error.line = static_cast<int>(e.source().begin.line);
+    error.column = static_cast<int>(e.source().begin.column);
+    return std::unexpected(error);
+  } catch (const std::exception& e) {
+    return std::unexpected(processing::internal_error(source.string() + ": reading the configuration failed: " + e.what()));
+  }
+}
+
+Result<RigConfig> load_config(const fs::path& file, std::vector<std::string>* warnings) {
+  std::ifstream stream(file);
+  std::error_code ec;
+  if (!fs::exists(file, ec))
+    return std::unexpected(processing::bad_input(file, "", "no such configuration file (see config/rig.example.toml)"));
+  if (!stream) return std::unexpected(processing::bad_input(file, "", "cannot open for reading"));
+  std::stringstream text;
+  text << stream.rdbuf();
+  return parse_config(text.str(), fs::absolute(file, ec), warnings);
+}
+
+}  // namespace psrig::config

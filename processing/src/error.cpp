@@ -11,7 +11,7 @@ std::string Error::describe() const {
     if (line > 0) text += ":" + std::to_string(line) + ":" + std::to_string(column);
     text += ": ";
   }
-  if (!key.empty()) text += "key '" + key + "': ";
+  if (!key.empty()) text += key + ": ";
   text += message;
   return text;
 }

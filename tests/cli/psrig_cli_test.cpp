@@ -64,7 +64,7 @@ const BadScan kBadScans[] = {
      [](const fs::path& s) {
        edit_json(s, [](auto& d) { d["lights"][1]["direction"] = {0, 0, 0}; });
      }},
-    {"two lights", "'lights'",
+    {"two lights", "scan.json: lights:",
      [](const fs::path& s) { edit_json(s, [](auto& d) { d["lights"].erase(2); }); }},
     {"coplanar lights", "condition number",
      [](const fs::path& s) {

@@ -1,1 +1,121 @@
-// placeholder
+// rig.toml: the shipped files load clean, every mistake names its place.
+
+#include <gtest/gtest.h>
+
+#include "psrig/config/config_loader.h"
+#include "test_support.h"
+
+namespace psrig::config {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path config_dir() { return fs::path(PSRIG_SOURCE_DIR) / "config"; }
+
+processing::Error expect_error(const std::string& text, const std::string& key, int line) {
+  auto config = parse_config(text, "/etc/psrig/rig.toml");
+  EXPECT_FALSE(config) << text;
+  if (config) return {};
+  EXPECT_EQ(config.error().kind, processing::ErrorKind::bad_input);
+  EXPECT_EQ(config.error().key, key) << config.error().describe();
+  EXPECT_EQ(config.error().line, line) << config.error().describe();
+  EXPECT_EQ(config.error().file, fs::path("/etc/psrig/rig.toml"));
+  return config.error();
+}
+
+TEST(Config, ShippedFilesLoadWithoutWarnings) {
+  for (const char* name : {"sim.toml", "rig.example.toml"}) {
+    std::vector<std::string> warnings;
+    auto config = load_config(config_dir() / name, &warnings);
+    ASSERT_TRUE(config) << name << ": " << config.error().describe();
+    EXPECT_TRUE(warnings.empty()) << name << ": " << warnings.front();
+  }
+  auto sim = load_config(config_dir() / "sim.toml");
+  EXPECT_EQ(sim->lights.backend, "sim");
+  EXPECT_EQ(sim->camera.backend, "sim");
+  EXPECT_EQ(sim->storage.root, (config_dir() / ".." / "out" / "scans").lexically_normal());
+  EXPECT_EQ(sim->geometry.pixel_size_mm, 0.025);  // the simulator's
+  auto example = load_config(config_dir() / "rig.example.toml");
+  EXPECT_EQ(example->lights.gpiod.lines, (std::vector<unsigned>{17, 27, 22}));
+  EXPECT_EQ(example->lights.modbus.parity, 'E');
+  EXPECT_EQ(example->lights.usb.vendor_id, 0x1209);
+}
+
+TEST(Config, EmptyFileGivesTheDefaults) {
+  auto config = parse_config("", "rig.toml");
+  ASSERT_TRUE(config);
+  EXPECT_EQ(config->lights.backend, "sim");
+  EXPECT_EQ(config->geometry.tilts_deg, (std::vector<double>{0, 120, 240}));
+  EXPECT_EQ(config->camera.frames_average, 2);
+}
+
+TEST(Config, MalformedTomlGivesLineAndColumn) {
+  const auto e = expect_error("[lights]\nbackend = \"sim\"\nchannels = = 3\n", "", 3);
+  EXPECT_GT(e.column, 0);
+  EXPECT_NE(e.describe().find("/etc/psrig/rig.toml:3:"), std::string::npos) << e.describe();
+}
+
+TEST(Config, WrongTypeNamesTheKey) {
+  const auto e = expect_error("[camera]\nexposure_us = \"fast\"\n", "camera.exposure_us", 2);
+  EXPECT_EQ(e.column, 15);
+  EXPECT_NE(e.describe().find("/etc/psrig/rig.toml:2:15: camera.exposure_us: expected a whole number"), std::string::npos)
+      << e.describe();
+}
+
+TEST(Config, OutOfRangeSaysWhatIsAllowed) {
+  const auto e = expect_error("[geometry]\nslant_deg = 95\n", "geometry.slant_deg", 2);
+  EXPECT_NE(e.message.find("95"), std::string::npos);
+  EXPECT_NE(e.message.find("89"), std::string::npos);
+}
+
+TEST(Config, UnknownBackendListsTheChoices) {
+  const auto e = expect_error("[lights]\nbackend = \"dmx\"\n", "lights.backend", 2);
+  EXPECT_NE(e.message.find("\"gpiod\""), std::string::npos) << e.message;
+}
+
+TEST(Config, UnknownKeysAreWarnedNotRejected) {
+  std::vector<std::string> warnings;
+  auto config = parse_config("[camera]\nexposure_ms = 20\n[vendor]\ncolour = \"blue\"\n", "rig.toml", &warnings);
+  ASSERT_TRUE(config);
+  ASSERT_EQ(warnings.size(), 2u);
+  EXPECT_NE(warnings[0].find("rig.toml:2:1: camera.exposure_ms: unknown key, ignored (did you mean 'camera.exposure_us'?)"),
+            std::string::npos)
+      << warnings[0];
+  EXPECT_NE(warnings[1].find("vendor"), std::string::npos);
+}
+
+TEST(Config, GpioLinesMustMatchTheChannels) {
+  const auto e = expect_error("[lights]\nbackend = \"gpiod\"\n[lights.gpiod]\nlines = [17, 27]\n", "lights.gpiod.lines", 4);
+  EXPECT_NE(e.message.find("gpioinfo"), std::string::npos);
+}
+
+TEST(Config, TiltsMustMatchTheChannels) {
+  expect_error("[geometry]\ntilts_deg = [0, 90]\n", "geometry.tilts_deg", 2);
+  // More channels without tilts: spread evenly.
+  auto four = parse_config("[lights]\nchannels = 4\n", "rig.toml");
+  ASSERT_TRUE(four);
+  EXPECT_EQ(four->geometry.tilts_deg, (std::vector<double>{0, 90, 180, 270}));
+}
+
+TEST(Config, ModbusParityAndRegisterMap) {
+  auto config = parse_config(
+      "[lights.modbus]\nparity = \"O\"\n[lights.modbus.registers]\nenable_coil = 16\nintensity_full_scale = 4095\n", "rig.toml");
+  ASSERT_TRUE(config) << config.error().describe();
+  EXPECT_EQ(config->lights.modbus.parity, 'O');
+  EXPECT_EQ(config->lights.modbus.registers.enable_coil, 16);
+  EXPECT_EQ(config->lights.modbus.registers.intensity_full_scale, 4095);
+  expect_error("[lights.modbus]\nparity = \"X\"\n", "lights.modbus.parity", 2);
+}
+
+TEST(Config, SectionThatIsNotATable) {
+  expect_error("camera = \"v4l2\"\n", "camera", 1);
+}
+
+TEST(Config, MissingFile) {
+  auto config = load_config("/nonexistent/rig.toml");
+  ASSERT_FALSE(config);
+  EXPECT_NE(config.error().describe().find("/nonexistent/rig.toml"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace psrig::config

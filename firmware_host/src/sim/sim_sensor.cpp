@@ -1,0 +1,74 @@
+#include "psrig/firmware_host/sim/sim_sensor.h"
+
+#include <opencv2/imgproc.hpp>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+
+namespace psrig::firmware_host {
+namespace {
+
+// The exposure at which `led_irradiance` is specified.
+constexpr double kReferenceExposureUs = 20000;
+
+// 1 at the centre, 1 - strength at the corners (a cos^4 fall-off, to second order).
+cv::Mat vignette(cv::Size size, double strength) {
+  cv::Mat v(size, CV_32F);
+  const double cx = (size.width - 1) / 2.0, cy = (size.height - 1) / 2.0;
+  const double corner = cx * cx + cy * cy;
+  for (int r = 0; r < size.height; ++r)
+    for (int c = 0; c < size.width; ++c)
+      v.at<float>(r, c) =
+          static_cast<float>(1 - strength * ((c - cx) * (c - cx) + (r - cy) * (r - cy)) / std::max(corner, 1.0));
+  return v;
+}
+
+}  // namespace
+
+SimSensor::SimSensor(const config::SimConfig& config, std::uint64_t seed)
+    : bit_depth_(std::clamp(config.bit_depth, 8, 16)),
+      full_well_(std::max(config.full_well, 1.0)),
+      read_noise_(std::max(config.read_noise, 0.0)),
+      black_level_(config.black_level),
+      vignetting_(std::clamp(config.vignetting, 0.0, 0.9)),
+      led_irradiance_(config.led_irradiance),
+      ambient_(config.ambient),
+      seed_(seed) {}
+
+cv::Mat SimSensor::expose(const SimWorld& world, Clock::time_point begin, const SensorSettings& settings,
+                          std::uint64_t frame_number) const {
+  const auto end = begin + std::chrono::microseconds(settings.exposure_us);
+  const std::vector<double> weights = world.exposure_weights(begin, end);
+  const double scale = settings.gain * settings.exposure_us / kReferenceExposureUs;
+
+  // Light reaching the sensor, as a fraction of full scale.
+  cv::Mat signal = world.ambient() * (ambient_ * led_irradiance_ * scale);
+  for (std::size_t k = 0; k < weights.size(); ++k)
+    if (weights[k] > 0) cv::scaleAdd(world.radiance(static_cast<int>(k)), weights[k] * led_irradiance_ * scale, signal, signal);
+  const cv::Mat fall_off = vignette(signal.size(), vignetting_);
+  cv::Mat fall_off3;
+  cv::merge(std::vector<cv::Mat>{fall_off, fall_off, fall_off}, fall_off3);
+  signal = signal.mul(fall_off3);
+  if (settings.channels == 1) cv::transform(signal, signal, cv::Matx13f(1.0f / 3, 1.0f / 3, 1.0f / 3));
+
+  // Electrons: fewer per code at higher gain, so gain raises the noise.
+  const double electrons_per_unit = full_well_ / settings.gain;
+  cv::Mat electrons = cv::max(signal * electrons_per_unit, 0.0);
+  cv::Mat sigma;
+  cv::sqrt(electrons + read_noise_ * read_noise_, sigma);
+  cv::Mat noise(signal.size(), signal.type());
+  cv::RNG random(seed_ * 0x9E3779B97F4A7C15ull + frame_number + 1);
+  random.fill(noise, cv::RNG::NORMAL, 0.0, 1.0);
+  electrons += noise.mul(sigma);
+
+  // To codes: black level plus the signal over the ADC's range.
+  const double white = white_level();
+  cv::Mat codes = electrons * ((white - black_level_) / electrons_per_unit) + black_level_;
+  cv::Mat frame;
+  codes.convertTo(frame, CV_16U);  // rounds, clips at 0
+  cv::min(frame, white, frame);    // and at the ADC's full scale
+  return frame;
+}
+
+}  // namespace psrig::firmware_host

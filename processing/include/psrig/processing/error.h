@@ -22,7 +22,7 @@ struct Error {
   int line = 0;                // 1-based position in `file`, when known
   int column = 0;
 
-  // "FILE:LINE:COL: key 'KEY': MESSAGE", leaving out the parts not known.
+  // "FILE:LINE:COL: KEY: MESSAGE", leaving out the parts not known.
   [[nodiscard]] std::string describe() const;
 };
 
