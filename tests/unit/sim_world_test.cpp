@@ -1,1 +1,161 @@
-// placeholder
+// The simulated world and sensor: what the camera records is what the LEDs
+// did during each exposure, with realistic noise.
+
+#include "psrig/firmware_host/sim/sim_world.h"
+
+#include <chrono>
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "psrig/firmware_host/sim/sim_sensor.h"
+
+namespace psrig::firmware_host {
+namespace {
+
+using namespace std::chrono_literals;
+
+// Mean over every channel (the jersey is red: its blue is dark).
+double brightness(const cv::Mat& m) {
+  const cv::Scalar per_channel = cv::mean(m);
+  return (per_channel[0] + per_channel[1] + per_channel[2]) / m.channels();
+}
+
+config::RigConfig small_world() {
+  config::RigConfig c;
+  c.sim.width = 64;
+  c.sim.height = 48;
+  return c;
+}
+
+TEST(SimWorld, ExposureWeightsFollowTheSwitches) {
+  SimWorld world(small_world());
+  const auto t0 = Clock::now();
+  world.set_led(1, true, 1.0, t0 + 10ms);
+  world.all_off(t0 + 20ms);
+  world.set_led(2, true, 0.5, t0 + 20ms);
+  const auto w = world.exposure_weights(t0, t0 + 40ms);
+  EXPECT_NEAR(w[0], 0.0, 1e-9);
+  EXPECT_NEAR(w[1], 0.25, 1e-6);  // on for 10 of 40 ms
+  EXPECT_NEAR(w[2], 0.25, 1e-6);  // on at half level for 20 of 40 ms
+  EXPECT_EQ(world.leds_on(), std::vector<int>{2});
+  const auto later = world.exposure_weights(t0 + 30ms, t0 + 40ms);
+  EXPECT_NEAR(later[2], 0.5, 1e-6);
+  EXPECT_FALSE(world.log().overlap());
+}
+
+TEST(SimWorld, LongRunsDoNotGrowTheHistory) {
+  SimWorld world(small_world());
+  auto t = Clock::now();
+  for (int i = 0; i < 20000; ++i) {
+    world.set_led(i % 3, true, 1.0, t);
+    t += 1ms;
+    world.all_off(t);
+    t += 1ms;
+  }
+  world.set_led(1, true, 1.0, t);
+  // The state survives the folding of old history.
+  EXPECT_EQ(world.leds_on(), std::vector<int>{1});
+  EXPECT_NEAR(world.exposure_weights(t, t + 10ms)[1], 1.0, 1e-6);
+}
+
+TEST(SimWorld, RadianceIsTheRenderedSwatch) {
+  SimWorld world(small_world());
+  ASSERT_EQ(world.channel_count(), 3);
+  EXPECT_EQ(world.radiance(0).size(), cv::Size(64, 48));
+  EXPECT_NEAR(world.light_directions()[1][1], std::sin(2 * CV_PI / 3) * std::sqrt(0.5), 1e-9);
+  EXPECT_GT(brightness(world.radiance(0)), 0.1);
+}
+
+class SimSensorTest : public ::testing::Test {
+ protected:
+  config::RigConfig config_ = small_world();
+  SimWorld world_{config_};
+  SimSensor sensor_{config_.sim, 7};
+};
+
+TEST_F(SimSensorTest, DarkFrameSitsAtTheBlackLevel) {
+  const cv::Mat dark = sensor_.expose(world_, Clock::now(), {}, 1);
+  EXPECT_EQ(dark.type(), CV_16UC3);
+  const double mean = brightness(dark);
+  EXPECT_GT(mean, config_.sim.black_level);       // plus a little room light
+  EXPECT_LT(mean, config_.sim.black_level + 40);  // but not much
+  double top = 0;
+  cv::minMaxLoc(dark.reshape(1), nullptr, &top);
+  EXPECT_LE(top, sensor_.white_level());
+}
+
+TEST_F(SimSensorTest, AnLedOnForTheExposureBrightensTheFrame) {
+  const auto t0 = Clock::now();
+  world_.set_led(0, true, 1.0, t0 - 1s);
+  const cv::Mat lit = sensor_.expose(world_, t0, {}, 2);
+  world_.all_off(t0 + 1s);
+  const cv::Mat dark = sensor_.expose(world_, t0 + 2s, {}, 3);
+  EXPECT_GT(brightness(lit), brightness(dark) + 300);
+  // Half the exposure under the LED: about half the signal above black.
+  world_.set_led(0, true, 1.0, t0 + 3s + 10ms);
+  const cv::Mat half = sensor_.expose(world_, t0 + 3s, {}, 4);
+  const double black = brightness(dark);
+  EXPECT_NEAR((brightness(half) - black) / (brightness(lit) - black), 0.5, 0.05);
+}
+
+TEST_F(SimSensorTest, ShotNoiseGrowsWithTheSignal) {
+  // Two frames of the same light: their difference is noise only. Its
+  // variance in electrons must match the mean signal (Poisson) plus read noise.
+  const auto t0 = Clock::now();
+  world_.set_led(1, true, 1.0, t0 - 1s);
+  const cv::Mat a = sensor_.expose(world_, t0, {}, 10), b = sensor_.expose(world_, t0, {}, 11);
+  cv::Mat a_f, b_f;
+  a.convertTo(a_f, CV_64F);
+  b.convertTo(b_f, CV_64F);
+  const double black = config_.sim.black_level, white = sensor_.white_level();
+  const double electrons_per_code = config_.sim.full_well / (white - black);
+  const double mean_electrons = (cv::mean(a_f)[0] - black) * electrons_per_code;
+  cv::Scalar mean, deviation;
+  cv::meanStdDev(a_f - b_f, mean, deviation);
+  const double noise_electrons = deviation[0] / std::sqrt(2.0) * electrons_per_code;
+  const double expected =
+      std::sqrt(mean_electrons + config_.sim.read_noise * config_.sim.read_noise);
+  EXPECT_NEAR(noise_electrons / expected, 1.0, 0.15);
+}
+
+TEST_F(SimSensorTest, SameFrameNumberSameFrame) {
+  const auto t0 = Clock::now();
+  world_.set_led(2, true, 1.0, t0 - 1s);
+  EXPECT_EQ(
+      cv::norm(sensor_.expose(world_, t0, {}, 5), sensor_.expose(world_, t0, {}, 5), cv::NORM_INF),
+      0);
+  EXPECT_GT(
+      cv::norm(sensor_.expose(world_, t0, {}, 5), sensor_.expose(world_, t0, {}, 6), cv::NORM_INF),
+      0);
+}
+
+TEST_F(SimSensorTest, ExposureAndGainScaleTheSignalAndVignettingDarkensCorners) {
+  const auto t0 = Clock::now();
+  world_.set_led(0, true, 1.0, t0 - 1s);
+  SensorSettings base;
+  SensorSettings longer = base;
+  longer.exposure_us *= 2;
+  SensorSettings grey = base;
+  grey.channels = 1;
+  const double black = config_.sim.black_level;
+  config::SimConfig dim = config_.sim;  // so that twice the exposure does not clip
+  dim.led_irradiance = 0.5;
+  const SimSensor dim_sensor(dim, 3);
+  const double one = brightness(dim_sensor.expose(world_, t0, base, 1)) - black;
+  const double two = brightness(dim_sensor.expose(world_, t0, longer, 2)) - black;
+  EXPECT_NEAR(two / one, 2.0, 0.1);
+  EXPECT_EQ(sensor_.expose(world_, t0, grey, 3).type(), CV_16UC1);
+  // A flat white world would show the fall-off directly; here compare the
+  // corners with the centre over many pixels.
+  config::RigConfig strong = small_world();
+  strong.sim.vignetting = 0.5;
+  SimSensor vignetted(strong.sim, 1);
+  const cv::Mat frame = vignetted.expose(world_, t0, base, 9);
+  const double centre = brightness(frame(cv::Rect(24, 16, 16, 16)));
+  const double corner = brightness(frame(cv::Rect(0, 0, 8, 8)));
+  EXPECT_LT(corner - black, 0.8 * (centre - black));
+}
+
+}  // namespace
+}  // namespace psrig::firmware_host

@@ -106,8 +106,8 @@ struct SimConfig {
   double black_level = 64;   // in the ADC's codes
   double ambient = 0.002;    // room light, fraction of an LED's irradiance
   double vignetting = 0.15;  // fractional fall-off at the image corners
-  double led_irradiance =
-      0.8;  // at normal incidence, fraction of full scale at gain 1 and exposure 20 ms
+  // A white facet facing the LED, as a fraction of full scale (gain 1, 20 ms).
+  double led_irradiance = 1.5;
   int readout_us = 15000;     // sensor readout after each exposure
   int frame_interval_us = 0;  // 0: exposure + readout
 };
