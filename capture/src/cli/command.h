@@ -2,11 +2,14 @@
 // One `psrig` subcommand: its CLI11 definition and what runs when chosen.
 
 #include <functional>
+#include <optional>
 #include <string>
 
 #include <CLI/CLI.hpp>
 
+#include "psrig/config/rig_config.h"
 #include "psrig/processing/error.h"
+#include "psrig/processing/pipeline.h"
 
 namespace psrig::capture::cli {
 
@@ -17,6 +20,23 @@ struct Command {
 
 Command add_process_command(CLI::App& parent);
 Command add_synth_command(CLI::App& parent);
+Command add_scan_command(CLI::App& parent);
+Command add_lights_command(CLI::App& parent);
+Command add_config_command(CLI::App& parent);
+Command add_devices_command(CLI::App& parent);
+
+// A command that drives lights polls firmware_host::stop_requested() and
+// winds down by itself on SIGINT/SIGTERM (after the lights are already off);
+// every other command ends at once.
+void stop_gracefully_on_signals();
+// What main's signal watcher asks: end at once, or leave it to the command?
+bool signals_end_at_once();
+
+// The maps summary `process` and `scan` print.
+void print_maps_summary(const processing::ProcessSummary& summary);
+
+// Loads --config, printing its warnings; errors as report_error would.
+std::optional<config::RigConfig> load_config_or_report(const std::string& command, const std::string& file, int& exit_code);
 
 // Prints "psrig COMMAND: error: ..." to stderr and returns the exit code.
 int report_error(const std::string& command, const processing::Error& error);

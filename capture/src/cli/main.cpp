@@ -1,12 +1,15 @@
 // psrig: the rig's command line. Errors become a message and an exit code
 // here: 0 done, 2 bad input or usage, 1 anything else.
 
+#include <unistd.h>
+
 #include <cstdio>
 #include <exception>
 #include <iostream>
 #include <vector>
 
 #include "command.h"
+#include "psrig/firmware_host/emergency_stop.h"
 #include "psrig/processing/log.h"
 
 namespace psrig::capture::cli {
@@ -20,12 +23,18 @@ int report_error(const std::string& command, const processing::Error& error) {
 
 int main(int argc, char** argv) {
   using namespace psrig::capture::cli;
+  // Before any thread exists: SIGINT/SIGTERM switch every LED off at once,
+  // then end the program or let the command wind down.
+  psrig::firmware_host::install_emergency_stop([](int signal) {
+    if (signals_end_at_once()) _exit(128 + signal);
+  });
   CLI::App app{"psrig: photometric-stereo capture rig for textile swatches"};
   app.require_subcommand(1);
   bool verbose = false;
   app.add_flag("-v,--verbose", verbose, "Log what each stage does");
 
-  const std::vector<Command> commands = {add_process_command(app), add_synth_command(app)};
+  const std::vector<Command> commands = {add_process_command(app), add_synth_command(app), add_scan_command(app),
+                                         add_lights_command(app),  add_config_command(app)};
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

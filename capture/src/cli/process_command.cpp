@@ -20,28 +20,6 @@ struct ProcessArgs {
   bool quiet = false;
 };
 
-void print_summary(const processing::ProcessSummary& summary) {
-  const auto& r = summary.report;
-  const auto& px = r["pixels"];
-  const double total = px["total"].get<double>();
-  const auto percent = [&](const char* key) { return 100.0 * px[key].get<double>() / total; };
-  std::printf("maps: %s\n", summary.maps_directory.string().c_str());
-  std::printf("valid pixels: %.1f %% (shadowed %.1f %%, saturated %.1f %%, low signal %.1f %%)\n",
-              percent("valid"), percent("shadowed"), percent("saturated"), percent("low_signal"));
-  std::printf("residual: mean %.5f of full scale\n", r["residual"]["mean"].get<double>());
-  if (r.contains("height"))
-    std::printf("height: range %.4f %s (%s)\n", r["height"]["range"].get<double>(),
-                r["height"]["units"].get<std::string>().c_str(),
-                r["options"]["integration"].get<std::string>().c_str());
-  if (r.contains("ground_truth") && r["ground_truth"].contains("angular_error_deg")) {
-    const auto& e = r["ground_truth"]["angular_error_deg"];
-    std::printf(
-        "ground truth: mean angular error %.3f deg (median %.3f, p95 %.3f) over valid pixels\n",
-        e["mean"].get<double>(), e["median"].get<double>(), e["p95"].get<double>());
-  }
-  std::printf("time: %.0f ms\n", r["timings_ms"]["total"].get<double>());
-}
-
 }  // namespace
 
 Command add_process_command(CLI::App& parent) {
@@ -69,7 +47,7 @@ Command add_process_command(CLI::App& parent) {
             options.solve.reject_outliers = args->reject;
             auto summary = processing::process_scan(args->scan, options);
             if (!summary) return report_error("process", summary.error());
-            if (!args->quiet) print_summary(*summary);
+            if (!args->quiet) print_maps_summary(*summary);
             return 0;
           }};
 }

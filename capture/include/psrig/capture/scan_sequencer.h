@@ -1,0 +1,85 @@
+#pragma once
+// One scan: an optional dark frame, then for each LED: on, settle, skip the
+// frames whose exposure began before the LED was on (stale) and the frames
+// to discard, average the next ones, off. The scan directory is written
+// atomically with its capture metadata, then processed into maps. Every
+// failure, and a stop request (SIGINT/SIGTERM), leaves all LEDs off and
+// says what failed.
+
+#include <atomic>
+#include <chrono>
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "psrig/capture/camera.h"
+#include "psrig/config/rig_config.h"
+#include "psrig/firmware_host/safe_lights.h"
+#include "psrig/processing/pipeline.h"
+#include "psrig/processing/scan.h"
+
+namespace psrig::capture {
+
+struct ScanRequest {
+  std::string sample_id;           // a technician's label; may be empty
+  std::string description;
+  std::filesystem::path directory;  // the scan to create; empty: storage.root/<time>-<sample id>
+  std::optional<bool> process;     // override capture.process
+  // The simulated world's answer, stored with the scan when given (only a
+  // simulated camera has one).
+  cv::Mat ground_truth_normal;
+  cv::Mat ground_truth_height;
+};
+
+struct ScanProgress {
+  std::string step;  // "dark", "light 1 of 3", "writing", "processing"
+  int done = 0;
+  int total = 0;
+};
+
+// Where the time of one acquisition went, for the scan-cycle benchmark.
+struct CaptureTiming {
+  std::chrono::duration<double, std::milli> total{};  // camera start to the last frame
+  int frames_kept = 0;
+  int frames_skipped = 0;  // stale or discarded
+};
+
+struct ScanOutcome {
+  std::filesystem::path directory;
+  std::optional<processing::ProcessSummary> maps;
+  CaptureTiming timing;
+};
+
+class ScanSequencer {
+ public:
+  ScanSequencer(const config::RigConfig& config, firmware_host::SafeLights& lights, Camera& camera);
+
+  // Frames only (no files): what capture() writes.
+  [[nodiscard]] Result<processing::Scan> acquire(const ScanRequest& request, CaptureTiming& timing,
+                                                 const std::function<void(const ScanProgress&)>& progress = {});
+
+  // acquire(), then the scan directory, then (if asked) the maps.
+  [[nodiscard]] Result<ScanOutcome> capture(const ScanRequest& request,
+                                            const std::function<void(const ScanProgress&)>& progress = {});
+
+  // Something else can ask the scan in progress to stop (the daemon's
+  // DELETE, a test); SIGINT/SIGTERM do it through emergency_stop.h.
+  void request_stop() { stop_ = true; }
+
+ private:
+  Result<Frame> next_valid_frame(Clock::time_point valid_from, int& skipped);
+  Result<cv::Mat> average(Clock::time_point valid_from, CaptureTiming& timing, Frame& first);
+
+  const config::RigConfig& config_;
+  firmware_host::SafeLights& lights_;
+  Camera& camera_;
+  std::atomic<bool> stop_{false};
+};
+
+// storage.root/<YYYYMMDD-HHMMSS>-<sample id>, with the id made safe as a name.
+[[nodiscard]] std::filesystem::path default_scan_directory(const config::RigConfig& config,
+                                                           const std::string& sample_id);
+
+}  // namespace psrig::capture

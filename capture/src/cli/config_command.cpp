@@ -1,0 +1,33 @@
+// psrig config check FILE: is this rig.toml right? Errors and warnings with
+// file, line, column and key; a summary of what it describes.
+
+#include <cstdio>
+#include <memory>
+
+#include "command.h"
+
+namespace psrig::capture::cli {
+
+Command add_config_command(CLI::App& parent) {
+  auto file = std::make_shared<std::string>();
+  CLI::App* app = parent.add_subcommand("config", "Work with rig configurations");
+  CLI::App* check = app->add_subcommand("check", "Check a rig.toml and say what it describes");
+  check->add_option("file", *file, "The configuration file")->required();
+  app->require_subcommand(1);
+
+  return {app, [file] {
+            int exit_code = 0;
+            auto config = load_config_or_report("config check", *file, exit_code);
+            if (!config) return exit_code;
+            std::printf("%s: ok\n", file->c_str());
+            std::printf("lights: %s, %d channels, slant %.1f deg\n", config->lights.backend.c_str(),
+                        config->lights.channels, config->geometry.slant_deg);
+            std::printf("camera: %s %s, exposure %d us, gain %.2f, %d frames averaged\n", config->camera.backend.c_str(),
+                        config->camera.backend == "sim" ? "" : config->camera.device.c_str(), config->camera.exposure_us,
+                        config->camera.gain, config->camera.frames_average);
+            std::printf("scans go to: %s\n", config->storage.root.string().c_str());
+            return 0;
+          }};
+}
+
+}  // namespace psrig::capture::cli

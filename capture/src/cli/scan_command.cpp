@@ -1,0 +1,72 @@
+// psrig scan --config FILE: one scan on the rig the file describes, written
+// to a scan directory and (unless --no-process) processed into maps.
+
+#include <chrono>
+#include <cstdio>
+#include <memory>
+
+#include "command.h"
+#include "psrig/capture/rig.h"
+#include "psrig/capture/scan_sequencer.h"
+#include "psrig/firmware_host/emergency_stop.h"
+#include "psrig/processing/parallel.h"
+
+namespace psrig::capture::cli {
+namespace {
+
+struct ScanArgs {
+  std::string config;
+  std::string out;
+  std::string sample_id;
+  std::string description;
+  bool no_process = false;
+  bool quiet = false;
+  int threads = 0;
+};
+
+}  // namespace
+
+Command add_scan_command(CLI::App& parent) {
+  auto args = std::make_shared<ScanArgs>();
+  CLI::App* app = parent.add_subcommand("scan", "Scan a swatch: one frame per LED, then the maps");
+  app->add_option("--config", args->config, "Rig configuration (e.g. config/sim.toml)")->required();
+  app->add_option("--out", args->out, "Scan directory to create (default: storage.root/<time>-<sample id>)");
+  app->add_option("--sample-id", args->sample_id, "The swatch's label, e.g. J-0042");
+  app->add_option("--description", args->description, "Free text about the swatch");
+  app->add_flag("--no-process", args->no_process, "Capture only; process later with `psrig process`");
+  app->add_option("--threads", args->threads, "Worker threads for processing (0: one per core)")
+      ->check(CLI::NonNegativeNumber);
+  app->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
+
+  return {app, [args] {
+            stop_gracefully_on_signals();
+            processing::set_thread_count(args->threads);
+            int exit_code = 0;
+            auto config = load_config_or_report("scan", args->config, exit_code);
+            if (!config) return exit_code;
+            auto rig = open_rig(*config);
+            if (!rig) return report_error("scan", rig.error());
+            ScanSequencer sequencer(*config, *rig->lights, *rig->camera);
+            ScanRequest request = rig->request(*config);
+            request.sample_id = args->sample_id;
+            request.description = args->description;
+            request.directory = args->out;
+            if (args->no_process) request.process = false;
+            auto outcome = sequencer.capture(request, [&](const ScanProgress& p) {
+              if (!args->quiet) std::fprintf(stderr, "psrig scan: %s\n", p.step.c_str());
+            });
+            if (!outcome) {
+              const int code = report_error("scan", outcome.error());
+              return firmware_host::stop_requested() ? 130 : code;
+            }
+            if (!args->quiet) {
+              std::printf("scan: %s (%d frames kept, %d skipped, %.0f ms capturing)\n",
+                          outcome->directory.string().c_str(), outcome->timing.frames_kept,
+                          outcome->timing.frames_skipped, outcome->timing.total.count());
+              if (outcome->maps) print_maps_summary(*outcome->maps);
+            }
+            return 0;
+          }};
+}
+
+}  // namespace psrig::capture::cli

@@ -1,0 +1,32 @@
+#include "psrig/capture/rig.h"
+
+#include <chrono>
+
+namespace psrig::capture {
+
+Result<Rig> open_rig(const config::RigConfig& config, bool with_camera) {
+  Rig rig;
+  if (config.lights.backend == "sim" || (with_camera && config.camera.backend == "sim"))
+    rig.world = std::make_shared<firmware_host::SimWorld>(config);
+  auto backend = firmware_host::open_lights(config, rig.world);
+  if (!backend) return std::unexpected(backend.error());
+  rig.lights = std::make_unique<firmware_host::SafeLights>(std::move(*backend),
+                                                           std::chrono::milliseconds(config.lights.max_on_ms));
+  if (with_camera) {
+    auto camera = open_camera(config, rig.world);
+    if (!camera) return std::unexpected(camera.error());
+    rig.camera = std::move(*camera);
+  }
+  return rig;
+}
+
+ScanRequest Rig::request(const config::RigConfig& config) const {
+  ScanRequest request;
+  if (world && config.camera.backend == "sim") {
+    request.ground_truth_normal = world->swatch().normal;
+    request.ground_truth_height = world->swatch().height_mm;
+  }
+  return request;
+}
+
+}  // namespace psrig::capture
