@@ -99,7 +99,8 @@ Result<cv::Mat> ScanSequencer::average(Clock::time_point valid_from, CaptureTimi
     cv::accumulate(frame->image, sum);
     ++timing.frames_kept;
   }
-  return sum / config_.camera.frames_average;
+  sum.convertTo(sum, CV_32F, 1.0 / config_.camera.frames_average);
+  return sum;
 }
 
 Result<processing::Scan> ScanSequencer::acquire(const ScanRequest& request, CaptureTiming& timing,

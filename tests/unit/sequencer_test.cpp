@@ -1,1 +1,262 @@
-// placeholder
+// The scan sequencer: a simulated scan recovers the swatch's normals, stale
+// frames never reach the scan, and every way a scan can fail leaves all LEDs
+// off, says what failed and leaves no scan directory behind.
+
+#include "psrig/capture/scan_sequencer.h"
+
+#include <chrono>
+#include <functional>
+#include <thread>
+
+#include <gtest/gtest.h>
+
+#include "psrig/capture/rig.h"
+#include "psrig/config/config_loader.h"
+#include "psrig/firmware_host/sim_lights.h"
+#include "psrig/processing/scan_reader.h"
+#include "test_support.h"
+
+namespace psrig::capture {
+namespace {
+
+using namespace std::chrono;
+using namespace std::chrono_literals;
+using firmware_host::SafeLights;
+
+// config/sim.toml, at a size a unit test can afford.
+config::RigConfig small_sim_config() {
+  auto config = config::load_config(std::filesystem::path(PSRIG_SOURCE_DIR) / "config/sim.toml");
+  EXPECT_TRUE(config.has_value()) << (config ? "" : config.error().describe());
+  config->sim.width = 256;
+  config->sim.height = 192;
+  return *config;
+}
+
+void expect_all_off_and_never_two_on(const SafeLights& lights) {
+  EXPECT_FALSE(lights.log().overlap()) << *lights.log().overlap();
+  EXPECT_TRUE(lights.log().on_now().empty());
+  EXPECT_FALSE(lights.lit());
+}
+
+TEST(ScanSequencer, SimulatedScanRecoversTheSwatchNormals) {
+  test::TempDir dir;
+  const auto config = small_sim_config();
+  auto rig = open_rig(config);
+  ASSERT_TRUE(rig) << rig.error().describe();
+  ScanSequencer sequencer(config, *rig->lights, *rig->camera);
+  auto request = rig->request(config);
+  request.directory = dir / "scan";
+  request.sample_id = "J-0001";
+  std::vector<std::string> steps;
+  auto outcome = sequencer.capture(request, [&](const ScanProgress& p) { steps.push_back(p.step); });
+  ASSERT_TRUE(outcome) << outcome.error().describe();
+
+  ASSERT_TRUE(outcome->maps);
+  const auto& report = outcome->maps->report;
+  ASSERT_TRUE(report["ground_truth"].contains("angular_error_deg")) << report.dump(2);
+  EXPECT_LE(report["ground_truth"]["angular_error_deg"]["mean"].get<double>(), 1.0);
+  EXPECT_GT(report["pixels"]["valid"].get<double>() / report["pixels"]["total"].get<double>(), 0.6);
+  EXPECT_EQ(steps, (std::vector<std::string>{"dark frame", "light 1 of 3", "light 2 of 3", "light 3 of 3",
+                                              "writing", "processing"}));
+  // Both sides of the switch agree: never two on, all off at the end.
+  expect_all_off_and_never_two_on(*rig->lights);
+  EXPECT_FALSE(rig->world->log().overlap());
+  EXPECT_TRUE(rig->world->leds_on().empty());
+
+  // The scan directory reads back with its capture record.
+  auto scan = processing::read_scan(request.directory);
+  ASSERT_TRUE(scan) << scan.error().describe();
+  EXPECT_EQ(scan->frames.size(), 3U);
+  EXPECT_FALSE(scan->dark.empty());
+  EXPECT_EQ(scan->description.sample_id, "J-0001");
+  EXPECT_EQ(scan->description.document["capture"]["frames_averaged"], 2);
+}
+
+// A camera whose frames say what lit them: frame value 1000 × (channel + 1)
+// when its exposure began after the LED was on, kStale when it began
+// before. The first `stale_frames` after each switch began before it, as on
+// a free-running sensor.
+class ScriptedCamera final : public Camera {
+ public:
+  static constexpr double kStale = 4000;
+
+  explicit ScriptedCamera(const SafeLights& lights) : lights_(lights) {}
+
+  int stale_frames = 2;
+  int frames_before_silence = -1;  // then every grab times out
+  std::function<void(int grabbed)> on_grab;
+
+  Status configure(const config::CameraConfig&) override { return {}; }
+  Status start() override { return {}; }
+  Status stop() override {
+    ++stops;
+    return {};
+  }
+  std::string describe() const override { return "scripted camera"; }
+
+  Result<Frame> grab(milliseconds timeout) override {
+    ++grabbed_;
+    if (on_grab) on_grab(grabbed_);
+    if (frames_before_silence >= 0 && grabbed_ > frames_before_silence)
+      return std::unexpected(processing::io_error("scripted camera", "no frame within " +
+                                                                         std::to_string(timeout.count()) + " ms"));
+    const auto lit = lights_.lit();
+    const int state = lit ? lit->first : -1;
+    if (state != last_state_) {
+      last_state_ = state;
+      stale_left_ = stale_frames;
+    }
+    Frame frame;
+    const auto now = Clock::now();
+    frame.exposure_start = stale_left_-- > 0 ? now - 1s : now;
+    frame.exposure_end = now;
+    frame.sequence = static_cast<std::uint64_t>(grabbed_);
+    frame.white_level = 4095;
+    const bool fresh = lit && frame.exposure_start >= lit->second;
+    const double value = !lit ? 64 : fresh ? 1000.0 * (lit->first + 1) : kStale;
+    frame.image = cv::Mat(8, 8, CV_16UC1, cv::Scalar(value));
+    return frame;
+  }
+
+  int stops = 0;
+
+ private:
+  const SafeLights& lights_;
+  int grabbed_ = 0;
+  int last_state_ = -2;
+  int stale_left_ = 0;
+};
+
+struct ScriptedRig {
+  config::RigConfig config = [] {
+    config::RigConfig c;
+    c.capture.dark_frame = false;
+    c.capture.settle_ms = 1;
+    c.capture.process = false;
+    c.camera.frames_average = 2;
+    c.camera.frames_discard = 1;
+    c.camera.timeout_ms = 50;
+    return c;
+  }();
+  std::shared_ptr<firmware_host::SimWorld> world = std::make_shared<firmware_host::SimWorld>([] {
+    config::RigConfig c;
+    c.sim.width = 8;
+    c.sim.height = 8;
+    return c;
+  }());
+  SafeLights lights{firmware_host::open_sim_lights(config.lights, world), 5s};
+  ScriptedCamera camera{lights};
+  ScanSequencer sequencer{config, lights, camera};
+};
+
+TEST(ScanSequencer, FramesExposedBeforeTheSwitchAreNeverUsed) {
+  ScriptedRig rig;
+  CaptureTiming timing;
+  auto scan = rig.sequencer.acquire({}, timing);
+  ASSERT_TRUE(scan) << scan.error().describe();
+  ASSERT_EQ(scan->frames.size(), 3U);
+  const double scale = std::floor(65535.0 / 4095);
+  for (int k = 0; k < 3; ++k) {
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(scan->frames[k], &lo, &hi);
+    EXPECT_EQ(lo, 1000.0 * (k + 1) * scale) << "LED " << k;
+    EXPECT_EQ(hi, 1000.0 * (k + 1) * scale) << "LED " << k;
+  }
+  EXPECT_EQ(timing.frames_kept, 6);
+  EXPECT_EQ(timing.frames_skipped, 3 * (2 + 1));  // two stale and one discarded per LED
+  EXPECT_EQ(scan->description.document["capture"]["frames_skipped_stale"], 6);
+  expect_all_off_and_never_two_on(rig.lights);
+}
+
+TEST(ScanSequencer, CameraTimeoutFailsTheScanWithAllLedsOffAndNoDirectory) {
+  test::TempDir dir;
+  ScriptedRig rig;
+  rig.camera.frames_before_silence = 4;  // silent during the second LED
+  ScanRequest request;
+  request.directory = dir / "scan";
+  auto outcome = rig.sequencer.capture(request);
+  ASSERT_FALSE(outcome);
+  EXPECT_NE(outcome.error().describe().find("no frame within 50 ms"), std::string::npos)
+      << outcome.error().describe();
+  EXPECT_NE(outcome.error().describe().find("scripted camera"), std::string::npos);
+  expect_all_off_and_never_two_on(rig.lights);
+  EXPECT_GE(rig.camera.stops, 1);
+  EXPECT_TRUE(test::list_directory(dir.path()).empty());
+}
+
+TEST(ScanSequencer, StopRequestEndsTheScanWithAllLedsOff) {
+  test::TempDir dir;
+  ScriptedRig rig;
+  rig.camera.on_grab = [&](int grabbed) {
+    if (grabbed == 7) rig.sequencer.request_stop();
+  };
+  ScanRequest request;
+  request.directory = dir / "scan";
+  auto outcome = rig.sequencer.capture(request);
+  ASSERT_FALSE(outcome);
+  EXPECT_NE(outcome.error().describe().find("interrupted"), std::string::npos) << outcome.error().describe();
+  expect_all_off_and_never_two_on(rig.lights);
+  EXPECT_TRUE(test::list_directory(dir.path()).empty());
+}
+
+// A backend that fails to switch one channel on.
+class FailingLights final : public firmware_host::LightController {
+ public:
+  int channel_count() const override { return 3; }
+  Status turn_on(int channel) override {
+    if (channel == 1) return std::unexpected(processing::io_error("test lights", "channel 1: line busy"));
+    log_.record(channel, true);
+    return {};
+  }
+  Status all_off() override {
+    log_.record(-1, false);
+    return {};
+  }
+  Status set_intensity(int, double) override { return {}; }
+  std::string describe() const override { return "test lights"; }
+};
+
+TEST(ScanSequencer, LightFailureEndsTheScanWithAllLedsOff) {
+  config::RigConfig config;
+  config.capture.dark_frame = false;
+  config.capture.settle_ms = 1;
+  SafeLights lights(std::make_unique<FailingLights>(), 5s);
+  ScriptedCamera camera(lights);
+  camera.stale_frames = 0;
+  ScanSequencer sequencer(config, lights, camera);
+  CaptureTiming timing;
+  auto scan = sequencer.acquire({}, timing);
+  ASSERT_FALSE(scan);
+  EXPECT_NE(scan.error().describe().find("channel 1: line busy"), std::string::npos) << scan.error().describe();
+  expect_all_off_and_never_two_on(lights);
+}
+
+TEST(ScanSequencer, WatchdogCuttingAnExposureShortFailsTheScan) {
+  ScriptedRig rig;
+  SafeLights short_fuse(firmware_host::open_sim_lights(rig.config.lights, rig.world), 20ms);
+  ScriptedCamera camera(short_fuse);
+  camera.on_grab = [](int) { std::this_thread::sleep_for(15ms); };
+  ScanSequencer sequencer(rig.config, short_fuse, camera);
+  CaptureTiming timing;
+  auto scan = sequencer.acquire({}, timing);
+  ASSERT_FALSE(scan);
+  EXPECT_NE(scan.error().describe().find("lights.max_on_ms"), std::string::npos) << scan.error().describe();
+  EXPECT_TRUE(short_fuse.timed_out());
+  expect_all_off_and_never_two_on(short_fuse);
+}
+
+TEST(ScanSequencer, DefaultDirectoryIsTimestampedAndSafe) {
+  config::RigConfig config;
+  test::TempDir dir;
+  config.storage.root = dir.path();
+  const auto path = default_scan_directory(config, "J 0001/../x");
+  EXPECT_EQ(path.parent_path(), dir.path());
+  const std::string name = path.filename().string();
+  EXPECT_EQ(name.size(), std::string("20261121-170500-J_0001_.._x").size()) << name;
+  EXPECT_EQ(name.substr(15), "-J_0001_.._x");
+  std::filesystem::create_directory(path);
+  EXPECT_NE(default_scan_directory(config, "J 0001/../x"), path);  // never reuses a name
+}
+
+}  // namespace
+}  // namespace psrig::capture

@@ -54,9 +54,12 @@ cv::Mat SimSensor::expose(const SimWorld& world, Clock::time_point begin, const 
 
   // Electrons: fewer per code at higher gain, so gain raises the noise.
   const double electrons_per_unit = full_well_ / settings.gain;
-  cv::Mat electrons = cv::max(signal * electrons_per_unit, 0.0);
+  cv::Mat electrons;
+  signal.convertTo(electrons, -1, electrons_per_unit);
+  cv::max(electrons, cv::Scalar::all(0), electrons);
   cv::Mat sigma;
-  cv::sqrt(electrons + read_noise_ * read_noise_, sigma);
+  electrons.convertTo(sigma, -1, 1.0, read_noise_ * read_noise_);
+  cv::sqrt(sigma, sigma);
   cv::Mat noise(signal.size(), signal.type());
   cv::RNG random(seed_ * 0x9E3779B97F4A7C15ull + frame_number + 1);
   random.fill(noise, cv::RNG::NORMAL, 0.0, 1.0);
@@ -64,9 +67,8 @@ cv::Mat SimSensor::expose(const SimWorld& world, Clock::time_point begin, const 
 
   // To codes: black level plus the signal over the ADC's range.
   const double white = white_level();
-  cv::Mat codes = electrons * ((white - black_level_) / electrons_per_unit) + black_level_;
   cv::Mat frame;
-  codes.convertTo(frame, CV_16U);  // rounds, clips at 0
+  electrons.convertTo(frame, CV_16U, (white - black_level_) / electrons_per_unit, black_level_);  // rounds, clips at 0
   cv::min(frame, white, frame);    // and at the ADC's full scale
   return frame;
 }
