@@ -59,46 +59,134 @@ struct RigGuard {
   }
 };
 
+// Slack on either side of a switch timed into the readout gap, for the
+// scheduler's jitter.
+constexpr auto kSwitchMargin = 1ms;
+
 }  // namespace
+
+// What the LEDs did over a stretch of time: `channel` (-1: all off) was
+// lit from at latest `since` until at earliest `until`.
+struct ScanSequencer::Lighting {
+  int channel = -1;
+  Clock::time_point since;
+  Clock::time_point until = Clock::time_point::max();
+};
+
+// One lighting state the scan records: dark or one LED.
+struct ScanSequencer::Phase {
+  int channel = -1;
+  std::string label;
+};
 
 ScanSequencer::ScanSequencer(const config::RigConfig& config, firmware_host::SafeLights& lights, Camera& camera)
     : config_(config), lights_(lights), camera_(camera) {}
 
-Result<Frame> ScanSequencer::next_valid_frame(Clock::time_point valid_from, int& skipped) {
-  for (int stale = 0;; ++stale) {
-    if (stop_ || firmware_host::stop_requested())
-      return std::unexpected(processing::internal_error("scan interrupted; all LEDs are off"));
-    auto frame = camera_.grab(milliseconds(config_.camera.timeout_ms));
-    if (!frame) return frame;
-    // A frame counts only if its exposure began after the LED was on and settled.
-    if (frame->exposure_start >= valid_from) return frame;
-    ++skipped;
-    if (stale >= kMaxStaleFrames)
-      return std::unexpected(processing::io_error(camera_.describe(),
-                                                  "every frame started exposing before the LED switched on: the "
-                                                  "camera's timestamps or queue are wrong"));
-  }
+Result<ScanSequencer::Lighting> ScanSequencer::switch_lights(int channel, Lighting& previous) {
+  const auto before = Clock::now();
+  if (auto ok = channel < 0 ? lights_.all_off() : lights_.turn_on(channel); !ok) return std::unexpected(ok.error());
+  const auto after = Clock::now();
+  switch_time_ = std::max(switch_time_, after - before);
+  previous.until = before;  // the old state may have ended as soon as the call began...
+  const auto lit = lights_.lit();
+  return Lighting{channel, channel < 0 || !lit ? after : lit->second};  // ...the new one began when it returned
 }
 
-Result<cv::Mat> ScanSequencer::average(Clock::time_point valid_from, CaptureTiming& timing, Frame& first) {
-  for (int i = 0; i < config_.camera.frames_discard; ++i) {
-    auto frame = next_valid_frame(valid_from, timing.frames_skipped);
-    if (!frame) return std::unexpected(frame.error());
-    ++timing.frames_skipped;
-  }
+Result<Frame> ScanSequencer::grab() {
+  if (stop_ || firmware_host::stop_requested())
+    return std::unexpected(processing::internal_error("scan interrupted; all LEDs are off"));
+  auto frame = camera_.grab(milliseconds(config_.camera.timeout_ms));
+  if (!frame) return frame;
+  // What the frames show beats what the camera says.
+  if (last_frame_ && frame->sequence > last_frame_->sequence && frame->exposure_start > last_frame_->exposure_start)
+    period_ = (frame->exposure_start - last_frame_->exposure_start) /
+              static_cast<std::int64_t>(frame->sequence - last_frame_->sequence);
+  else if (frame->frame_interval > Clock::duration::zero())
+    period_ = frame->frame_interval;
+  last_frame_ = *frame;
+  return frame;
+}
+
+// True when the frame now exposing is the next one grab() returns, it is
+// valid for `lighting`, and the gap after its exposure holds a switch and
+// the settling time before the following exposure starts.
+bool ScanSequencer::can_switch_during_readout(const Lighting& lighting) const {
+  if (!last_frame_ || !period_ || *period_ <= Clock::duration::zero()) return false;
+  const auto settle = milliseconds(config_.capture.settle_ms);
+  const auto exposure = last_frame_->exposure_end - last_frame_->exposure_start;
+  const auto next_start = last_frame_->exposure_start + *period_;
+  const auto next_end = next_start + exposure;
+  const auto following_start = next_start + *period_;
+  const auto now = Clock::now();
+  return now < next_end && next_start >= lighting.since + settle &&
+         next_end + kSwitchMargin + switch_time_ + settle + kSwitchMargin <= following_start;
+}
+
+Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Lighting& lighting,
+                                       CaptureTiming& timing, Frame& first) {
+  const auto settle = milliseconds(config_.capture.settle_ms);
+  const int needed = config_.camera.frames_discard + config_.camera.frames_average;
+  int kept = 0, stale = 0;
+  bool switch_early = next != nullptr;  // until a timed switch misses once
   cv::Mat sum;
-  for (int i = 0; i < config_.camera.frames_average; ++i) {
-    auto frame = next_valid_frame(valid_from, timing.frames_skipped);
-    if (!frame) return std::unexpected(frame.error());
-    if (sum.empty()) {
-      first = *frame;
-      sum = cv::Mat::zeros(frame->image.size(), CV_MAKETYPE(CV_32F, frame->image.channels()));
-    } else if (frame->image.size() != first.image.size() || frame->image.channels() != first.image.channels()) {
-      return std::unexpected(processing::io_error(camera_.describe(), "the frame size or format changed mid-scan"));
+  const auto still_lit = [&]() -> Status {
+    const auto lit = lights_.lit();
+    if (phase.channel >= 0 && (!lit || lit->first != phase.channel))
+      return std::unexpected(processing::internal_error(
+          "LED " + std::to_string(phase.channel) + " went off during its exposures (lights.max_on_ms is " +
+          std::to_string(config_.lights.max_on_ms) + " ms: raise it, or shorten the exposure)"));
+    return {};
+  };
+  while (kept < needed) {
+    std::optional<Lighting> switched;
+    if (switch_early && kept == needed - 1 && can_switch_during_readout(lighting)) {
+      // Switch to the next phase once the exposure in progress has ended.
+      std::this_thread::sleep_until(last_frame_->exposure_start + *period_ +
+                                    (last_frame_->exposure_end - last_frame_->exposure_start) + kSwitchMargin);
+      if (auto ok = still_lit(); !ok) return std::unexpected(ok.error());
+      auto now_lit = switch_lights(next->channel, lighting);
+      if (!now_lit) return std::unexpected(now_lit.error());
+      switched = *now_lit;
     }
-    cv::accumulate(frame->image, sum);
-    ++timing.frames_kept;
+    auto frame = grab();
+    if (!frame) return std::unexpected(frame.error());
+    // A frame counts only if the whole exposure saw this phase's lighting.
+    const bool valid = frame->exposure_start >= lighting.since + settle && frame->exposure_end <= lighting.until;
+    if (switched && !valid) {
+      // The camera's timing moved: back to this phase, and no more tricks.
+      switch_early = false;
+      auto again = switch_lights(phase.channel, *switched);
+      if (!again) return std::unexpected(again.error());
+      lighting = *again;
+      switched.reset();
+    }
+    if (!valid) {
+      ++timing.frames_skipped;
+      if (++stale > kMaxStaleFrames)
+        return std::unexpected(processing::io_error(
+            camera_.describe(), "no frame exposed wholly under " + phase.label +
+                                    ": the camera's timestamps or queue are wrong"));
+      continue;
+    }
+    if (++kept <= config_.camera.frames_discard) {
+      ++timing.frames_skipped;
+    } else {
+      if (sum.empty()) {
+        first = *frame;
+        sum = cv::Mat::zeros(frame->image.size(), CV_MAKETYPE(CV_32F, frame->image.channels()));
+      } else if (frame->image.size() != first.image.size() || frame->image.channels() != first.image.channels()) {
+        return std::unexpected(processing::io_error(camera_.describe(), "the frame size or format changed mid-scan"));
+      }
+      cv::accumulate(frame->image, sum);
+      ++timing.frames_kept;
+    }
+    if (switched) {
+      lighting = *switched;  // the next phase is already lit
+      break;
+    }
   }
+  if (lighting.channel == phase.channel)
+    if (auto ok = still_lit(); !ok) return std::unexpected(ok.error());
   sum.convertTo(sum, CV_32F, 1.0 / config_.camera.frames_average);
   return sum;
 }
@@ -106,16 +194,33 @@ Result<cv::Mat> ScanSequencer::average(Clock::time_point valid_from, CaptureTimi
 Result<processing::Scan> ScanSequencer::acquire(const ScanRequest& request, CaptureTiming& timing,
                                                 const std::function<void(const ScanProgress&)>& progress) {
   const int lights = lights_.channel_count();
-  const int steps = lights + (config_.capture.dark_frame ? 1 : 0);
-  int step = 0;
-  const auto report = [&](const std::string& what) {
-    if (progress) progress({what, step, steps});
-  };
-  const auto settle = milliseconds(config_.capture.settle_ms);
+  std::vector<Phase> phases;
+  if (config_.capture.dark_frame) phases.push_back({-1, "dark frame"});
+  for (int k = 0; k < lights; ++k)
+    phases.push_back({k, "light " + std::to_string(k + 1) + " of " + std::to_string(lights)});
+
   const std::string started = iso_time();
   RigGuard guard{lights_, camera_};
+  last_frame_.reset();
+  period_.reset();
+  std::vector<double> intensity = config_.lights.intensity;
+  intensity.resize(static_cast<std::size_t>(lights), 1.0);
+  for (int k = 0; k < lights; ++k)
+    if (auto ok = lights_.set_intensity(k, intensity[k]); !ok) return std::unexpected(ok.error());
+  Lighting lighting;
+  {
+    auto off = switch_lights(-1, lighting);
+    if (!off) return std::unexpected(off.error());
+    lighting = *off;
+  }
+  // Start with the first phase lit and settled, so the first frame counts.
+  if (phases.front().channel >= 0) {
+    auto on = switch_lights(phases.front().channel, lighting);
+    if (!on) return std::unexpected(on.error());
+    lighting = *on;
+  }
+  std::this_thread::sleep_until(lighting.since + milliseconds(config_.capture.settle_ms));
   const auto start = Clock::now();
-  if (auto ok = lights_.all_off(); !ok) return std::unexpected(ok.error());
   if (auto ok = camera_.start(); !ok) return std::unexpected(ok.error());
 
   // Frames are averaged in float and stored as 16-bit integers scaled up to
@@ -123,49 +228,33 @@ Result<processing::Scan> ScanSequencer::acquire(const ScanRequest& request, Capt
   processing::Scan scan;
   Frame reference;
   double scale = 1;
-  const auto store = [&](const cv::Mat& mean) {
-    cv::Mat stored;
-    mean.convertTo(stored, CV_16U, scale);
-    return stored;
-  };
-
-  if (config_.capture.dark_frame) {
-    report("dark frame");
-    const auto off_at = Clock::now();
-    std::this_thread::sleep_until(off_at + settle);
-    auto dark = average(off_at + settle, timing, reference);
-    if (!dark) return std::unexpected(dark.error());
-    scale = std::max(1.0, std::floor(65535.0 / reference.white_level));
-    scan.dark = store(*dark);
-    ++step;
-  }
-  std::vector<double> intensity = config_.lights.intensity;
-  intensity.resize(static_cast<std::size_t>(lights), 1.0);
-  for (int k = 0; k < lights; ++k) {
-    report("light " + std::to_string(k + 1) + " of " + std::to_string(lights));
-    if (auto ok = lights_.set_intensity(k, intensity[k]); !ok) return std::unexpected(ok.error());
-    if (auto ok = lights_.turn_on(k); !ok) return std::unexpected(ok.error());
-    const auto lit_since = lights_.lit()->second;
-    std::this_thread::sleep_until(lit_since + settle);
+  for (std::size_t p = 0; p < phases.size(); ++p) {
+    const Phase& phase = phases[p];
+    if (progress) progress({phase.label, static_cast<int>(p), static_cast<int>(phases.size())});
+    if (lighting.channel != phase.channel) {
+      auto now_lit = switch_lights(phase.channel, lighting);
+      if (!now_lit) return std::unexpected(now_lit.error());
+      lighting = *now_lit;
+    }
     Frame first;
-    auto mean = average(lit_since + settle, timing, first);
+    auto mean = collect(phase, p + 1 < phases.size() ? &phases[p + 1] : nullptr, lighting, timing, first);
     if (!mean) return std::unexpected(mean.error());
-    // The watchdog may have stepped in while we averaged.
-    const auto still = lights_.lit();
-    if (!still || still->first != k)
-      return std::unexpected(processing::internal_error(
-          "LED " + std::to_string(k) + " went off during its exposures (lights.max_on_ms is " +
-          std::to_string(config_.lights.max_on_ms) + " ms: raise it, or shorten the exposure)"));
-    if (auto ok = lights_.all_off(); !ok) return std::unexpected(ok.error());
     if (reference.image.empty()) {
       reference = first;
       scale = std::max(1.0, std::floor(65535.0 / reference.white_level));
     }
-    scan.frames.push_back(store(*mean));
-    scan.description.lights.push_back(
-        {"led" + std::to_string(k) + ".png", light_direction(config_, k), cv::Vec3d::all(intensity[k]), false});
-    ++step;
+    cv::Mat stored;
+    mean->convertTo(stored, CV_16U, scale);
+    if (phase.channel < 0) {
+      scan.dark = stored;
+    } else {
+      scan.frames.push_back(stored);
+      scan.description.lights.push_back({"led" + std::to_string(phase.channel) + ".png",
+                                         light_direction(config_, phase.channel),
+                                         cv::Vec3d::all(intensity[phase.channel]), false});
+    }
   }
+  if (auto ok = lights_.all_off(); !ok) return std::unexpected(ok.error());
   timing.total = Clock::now() - start;
 
   scan.ground_truth_normal = request.ground_truth_normal;
@@ -173,7 +262,7 @@ Result<processing::Scan> ScanSequencer::acquire(const ScanRequest& request, Capt
   auto& d = scan.description;
   d.sample_id = request.sample_id;
   d.sample_description = request.description;
-  d.encoding = processing::Encoding::linear;
+  d.encoding = reference.encoding;
   d.black_level = reference.black_level * scale;
   d.white_level = reference.white_level * scale;
   scan.white_level = *d.white_level;
@@ -185,7 +274,7 @@ Result<processing::Scan> ScanSequencer::acquire(const ScanRequest& request, Capt
                   {"gain", reference.gain},
                   {"frames_averaged", config_.camera.frames_average},
                   {"frames_discarded", config_.camera.frames_discard},
-                  {"frames_skipped_stale", timing.frames_skipped - config_.camera.frames_discard * steps},
+                  {"frames_skipped_stale", timing.frames_skipped - config_.camera.frames_discard * static_cast<int>(phases.size())},
                   {"settle_ms", config_.capture.settle_ms},
                   {"stored_scale", scale},
                   {"started", started},

@@ -64,6 +64,7 @@ class SimCamera final : public Camera {
     frame.exposure_start = t0_ + n * interval;
     frame.exposure_end = frame.exposure_start + exposure;
     frame.image = sensor_.expose(*world_, frame.exposure_start, settings_, static_cast<std::uint64_t>(n));
+    frame.frame_interval = interval;
     frame.sequence = static_cast<std::uint64_t>(n);
     frame.exposure_us = settings_.exposure_us;
     frame.gain = settings_.gain;

@@ -72,22 +72,30 @@ TEST(ScanSequencer, SimulatedScanRecoversTheSwatchNormals) {
   EXPECT_EQ(scan->description.document["capture"]["frames_averaged"], 2);
 }
 
-// A camera whose frames say what lit them: frame value 1000 × (channel + 1)
-// when its exposure began after the LED was on, kStale when it began
-// before. The first `stale_frames` after each switch began before it, as on
-// a free-running sensor.
+// A free-running camera whose frames say what lit them: 1000 × (channel +
+// 1) when one LED was on for the whole exposure, 64 when all were off, and
+// kMixed when the lighting changed during it. It reads the lighting from
+// the light controller's switch log, so it sees what the LEDs did, not what
+// the sequencer meant them to do.
 class ScriptedCamera final : public Camera {
  public:
-  static constexpr double kStale = 4000;
+  static constexpr double kMixed = 4000;
 
   explicit ScriptedCamera(const SafeLights& lights) : lights_(lights) {}
 
-  int stale_frames = 2;
-  int frames_before_silence = -1;  // then every grab times out
+  Clock::duration period = 10ms;
+  Clock::duration exposure = 6ms;
+  std::function<Clock::duration(int frame)> jitter;  // shifts a frame's exposure
+  int frames_before_silence = -1;                    // then every grab times out
   std::function<void(int grabbed)> on_grab;
+  int stops = 0;
 
   Status configure(const config::CameraConfig&) override { return {}; }
-  Status start() override { return {}; }
+  Status start() override {
+    t0_ = Clock::now();
+    next_ = 0;
+    return {};
+  }
   Status stop() override {
     ++stops;
     return {};
@@ -95,46 +103,50 @@ class ScriptedCamera final : public Camera {
   std::string describe() const override { return "scripted camera"; }
 
   Result<Frame> grab(milliseconds timeout) override {
-    ++grabbed_;
-    if (on_grab) on_grab(grabbed_);
-    if (frames_before_silence >= 0 && grabbed_ > frames_before_silence)
-      return std::unexpected(processing::io_error("scripted camera", "no frame within " +
-                                                                         std::to_string(timeout.count()) + " ms"));
-    const auto lit = lights_.lit();
-    const int state = lit ? lit->first : -1;
-    if (state != last_state_) {
-      last_state_ = state;
-      stale_left_ = stale_frames;
-    }
+    const int n = next_++;
+    if (on_grab) on_grab(n + 1);
+    if (frames_before_silence >= 0 && n >= frames_before_silence)
+      return std::unexpected(
+          processing::io_error("scripted camera", "no frame within " + std::to_string(timeout.count()) + " ms"));
     Frame frame;
-    const auto now = Clock::now();
-    frame.exposure_start = stale_left_-- > 0 ? now - 1s : now;
-    frame.exposure_end = now;
-    frame.sequence = static_cast<std::uint64_t>(grabbed_);
+    frame.exposure_start = t0_ + n * period + (jitter ? jitter(n) : Clock::duration{});
+    frame.exposure_end = frame.exposure_start + exposure;
+    std::this_thread::sleep_until(t0_ + (n + 1) * period);  // read out
+    frame.sequence = static_cast<std::uint64_t>(n);
     frame.white_level = 4095;
-    const bool fresh = lit && frame.exposure_start >= lit->second;
-    const double value = !lit ? 64 : fresh ? 1000.0 * (lit->first + 1) : kStale;
-    frame.image = cv::Mat(8, 8, CV_16UC1, cv::Scalar(value));
+    frame.exposure_us = static_cast<int>(duration_cast<microseconds>(exposure).count());
+    frame.image = cv::Mat(8, 8, CV_16UC1, cv::Scalar(lighting_value(frame)));
     return frame;
   }
 
-  int stops = 0;
-
  private:
+  // The LED lit at each switch, replayed over the exposure.
+  double lighting_value(const Frame& frame) const {
+    int state = -1;
+    bool changed_during = false;
+    for (const auto& event : lights_.log().events()) {
+      const int after = event.on ? event.channel : (event.channel == state || event.channel < 0 ? -1 : state);
+      if (event.time > frame.exposure_end) break;
+      if (event.time >= frame.exposure_start && after != state) changed_during = true;
+      state = after;
+    }
+    if (changed_during) return kMixed;
+    return state < 0 ? 64 : 1000.0 * (state + 1);
+  }
+
   const SafeLights& lights_;
-  int grabbed_ = 0;
-  int last_state_ = -2;
-  int stale_left_ = 0;
+  Clock::time_point t0_;
+  int next_ = 0;
 };
 
 struct ScriptedRig {
   config::RigConfig config = [] {
     config::RigConfig c;
-    c.capture.dark_frame = false;
+    c.capture.dark_frame = true;
     c.capture.settle_ms = 1;
     c.capture.process = false;
     c.camera.frames_average = 2;
-    c.camera.frames_discard = 1;
+    c.camera.frames_discard = 0;
     c.camera.timeout_ms = 50;
     return c;
   }();
@@ -149,29 +161,64 @@ struct ScriptedRig {
   ScanSequencer sequencer{config, lights, camera};
 };
 
-TEST(ScanSequencer, FramesExposedBeforeTheSwitchAreNeverUsed) {
+// Every stored frame holds only frames lit wholly by its own LED (or by none).
+void expect_pure_frames(const processing::Scan& scan) {
+  const double scale = std::floor(65535.0 / 4095);
+  const auto expect_value = [&](const cv::Mat& frame, double value, const std::string& what) {
+    double lo = 0, hi = 0;
+    cv::minMaxLoc(frame, &lo, &hi);
+    EXPECT_EQ(lo, value * scale) << what;
+    EXPECT_EQ(hi, value * scale) << what;
+  };
+  expect_value(scan.dark, 64, "dark frame");
+  ASSERT_EQ(scan.frames.size(), 3U);
+  for (int k = 0; k < 3; ++k) expect_value(scan.frames[k], 1000.0 * (k + 1), "LED " + std::to_string(k));
+}
+
+TEST(ScanSequencer, FramesExposedAcrossASwitchAreNeverUsed) {
   ScriptedRig rig;
+  rig.camera.exposure = 9500us;  // no room to switch between frames
   CaptureTiming timing;
   auto scan = rig.sequencer.acquire({}, timing);
   ASSERT_TRUE(scan) << scan.error().describe();
-  ASSERT_EQ(scan->frames.size(), 3U);
-  const double scale = std::floor(65535.0 / 4095);
-  for (int k = 0; k < 3; ++k) {
-    double lo = 0, hi = 0;
-    cv::minMaxLoc(scan->frames[k], &lo, &hi);
-    EXPECT_EQ(lo, 1000.0 * (k + 1) * scale) << "LED " << k;
-    EXPECT_EQ(hi, 1000.0 * (k + 1) * scale) << "LED " << k;
-  }
-  EXPECT_EQ(timing.frames_kept, 6);
-  EXPECT_EQ(timing.frames_skipped, 3 * (2 + 1));  // two stale and one discarded per LED
-  EXPECT_EQ(scan->description.document["capture"]["frames_skipped_stale"], 6);
+  expect_pure_frames(*scan);
+  EXPECT_EQ(timing.frames_kept, 8);
+  EXPECT_GE(timing.frames_skipped, 3);  // at least one straddles each switch
+  EXPECT_EQ(scan->description.document["capture"]["frames_skipped_stale"], timing.frames_skipped);
+  expect_all_off_and_never_two_on(rig.lights);
+}
+
+TEST(ScanSequencer, SwitchesInTheReadoutGapKeepFramesPure) {
+  ScriptedRig rig;
+  rig.camera.period = 20ms;
+  rig.camera.exposure = 5ms;
+  CaptureTiming timing;
+  auto scan = rig.sequencer.acquire({}, timing);
+  ASSERT_TRUE(scan) << scan.error().describe();
+  expect_pure_frames(*scan);
+  EXPECT_EQ(timing.frames_kept, 8);
+  expect_all_off_and_never_two_on(rig.lights);
+}
+
+TEST(ScanSequencer, CameraTimingThatDriftsIsCaught) {
+  ScriptedRig rig;
+  // Exposures start 4 ms later than the rhythm the sequencer learnt at
+  // frames 3, 5 and 7: the last each phase needs, the ones a switch in the
+  // readout gap is timed after.
+  rig.camera.jitter = [](int n) { return 4ms * ((n >= 3) + (n >= 5) + (n >= 7)); };
+  rig.camera.period = 12ms;
+  CaptureTiming timing;
+  auto scan = rig.sequencer.acquire({}, timing);
+  ASSERT_TRUE(scan) << scan.error().describe();
+  expect_pure_frames(*scan);
+  EXPECT_GE(timing.frames_skipped, 1);  // the first late frame saw both LEDs
   expect_all_off_and_never_two_on(rig.lights);
 }
 
 TEST(ScanSequencer, CameraTimeoutFailsTheScanWithAllLedsOffAndNoDirectory) {
   test::TempDir dir;
   ScriptedRig rig;
-  rig.camera.frames_before_silence = 4;  // silent during the second LED
+  rig.camera.frames_before_silence = 5;  // silent during the second LED
   ScanRequest request;
   request.directory = dir / "scan";
   auto outcome = rig.sequencer.capture(request);
@@ -222,7 +269,6 @@ TEST(ScanSequencer, LightFailureEndsTheScanWithAllLedsOff) {
   config.capture.settle_ms = 1;
   SafeLights lights(std::make_unique<FailingLights>(), 5s);
   ScriptedCamera camera(lights);
-  camera.stale_frames = 0;
   ScanSequencer sequencer(config, lights, camera);
   CaptureTiming timing;
   auto scan = sequencer.acquire({}, timing);

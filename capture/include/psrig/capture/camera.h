@@ -12,6 +12,7 @@
 #include "psrig/config/rig_config.h"
 #include "psrig/firmware_host/switch_log.h"
 #include "psrig/processing/error.h"
+#include "psrig/processing/scan.h"
 
 namespace psrig::firmware_host {
 class SimWorld;
@@ -28,11 +29,17 @@ struct Frame {
   cv::Mat image;                     // CV_8U or CV_16U, grey or BGR
   Clock::time_point exposure_start;  // on the same clock as the LED switch log
   Clock::time_point exposure_end;
+  // Exposure starts of a free-running camera are this far apart, when it
+  // says (zero: unknown; the sequencer then learns it from the frames).
+  Clock::duration frame_interval{};
   std::uint64_t sequence = 0;  // as the camera counts them; gaps mean dropped frames
   int exposure_us = 0;         // what the camera actually used
   double gain = 0;
   double white_level = 0;  // full scale of `image` (e.g. 4095 for 12-bit data in 16 bits)
   double black_level = 0;
+  // Sensor data is linear in the light; an ISP's RGB or a webcam's YUYV is
+  // gamma-encoded, and the scan must say so for processing to decode it.
+  processing::Encoding encoding = processing::Encoding::linear;
 };
 
 class Camera {

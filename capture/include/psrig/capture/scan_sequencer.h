@@ -1,7 +1,10 @@
 #pragma once
 // One scan: an optional dark frame, then for each LED: on, settle, skip the
-// frames whose exposure began before the LED was on (stale) and the frames
-// to discard, average the next ones, off. The scan directory is written
+// frames whose exposure began before the LED was on or ended after it went
+// off (stale) and the frames to discard, average the next ones, off. Once
+// the camera's frame period is known, the next LED switches in the readout
+// gap after the last exposure a phase needs, so no frame is wasted on the
+// switch. The scan directory is written
 // atomically with its capture metadata, then processed into maps. Every
 // failure, and a stop request (SIGINT/SIGTERM), leaves all LEDs off and
 // says what failed.
@@ -69,13 +72,25 @@ class ScanSequencer {
   void request_stop() { stop_ = true; }
 
  private:
-  Result<Frame> next_valid_frame(Clock::time_point valid_from, int& skipped);
-  Result<cv::Mat> average(Clock::time_point valid_from, CaptureTiming& timing, Frame& first);
+  struct Lighting;
+  struct Phase;
+  Result<Lighting> switch_lights(int channel, Lighting& previous);
+  Result<cv::Mat> collect(const Phase& phase, const Phase* next, Lighting& lighting, CaptureTiming& timing,
+                          Frame& first);
+  Result<Frame> grab();
+  [[nodiscard]] bool can_switch_during_readout(const Lighting& lighting) const;
 
   const config::RigConfig& config_;
   firmware_host::SafeLights& lights_;
   Camera& camera_;
   std::atomic<bool> stop_{false};
+
+  // The camera's rhythm, learnt from the frames: the last one seen and the
+  // frame period, so the next LED can switch in the gap between one
+  // exposure's end and the next one's start.
+  std::optional<Frame> last_frame_;
+  std::optional<Clock::duration> period_;
+  Clock::duration switch_time_{};  // the longest an LED switch has taken
 };
 
 // storage.root/<YYYYMMDD-HHMMSS>-<sample id>, with the id made safe as a name.

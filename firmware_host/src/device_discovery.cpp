@@ -1,0 +1,109 @@
+#include "psrig/firmware_host/device_discovery.h"
+
+#include <fcntl.h>
+#include <linux/serial.h>
+#include <sys/ioctl.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <memory>
+
+#include <gpiod.h>
+#include <libusb.h>
+
+namespace psrig::firmware_host {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string read_line(const fs::path& file) {
+  std::ifstream in(file);
+  std::string line;
+  std::getline(in, line);
+  return line;
+}
+
+// Device names sort as people read them: ttyS2 before ttyS10.
+bool natural_less(const FoundDevice& a, const FoundDevice& b) {
+  const auto split = [](const std::string& s) {
+    const auto digits = s.find_last_not_of("0123456789") + 1;
+    return std::pair{s.substr(0, digits), digits < s.size() ? std::stol(s.substr(digits)) : -1L};
+  };
+  return split(a.path) < split(b.path);
+}
+
+}  // namespace
+
+std::vector<FoundDevice> find_gpio_chips() {
+  std::vector<FoundDevice> found;
+  gpiod_chip_iter* chips = gpiod_chip_iter_new();
+  if (chips == nullptr) return found;  // no /dev/gpiochip* at all
+  for (gpiod_chip* chip = gpiod_chip_iter_next(chips); chip != nullptr; chip = gpiod_chip_iter_next(chips))
+    found.push_back({std::string("/dev/") + gpiod_chip_name(chip),
+                     std::string("label \"") + gpiod_chip_label(chip) + "\", " +
+                         std::to_string(gpiod_chip_num_lines(chip)) + " lines"});
+  gpiod_chip_iter_free(chips);
+  std::sort(found.begin(), found.end(), natural_less);
+  return found;
+}
+
+std::vector<FoundDevice> find_usb_strobe_controllers(std::uint16_t vendor_id, std::uint16_t product_id) {
+  std::vector<FoundDevice> found;
+  libusb_context* context = nullptr;
+  if (libusb_init(&context) != 0) return found;
+  libusb_device** list = nullptr;
+  const ssize_t count = libusb_get_device_list(context, &list);
+  for (ssize_t i = 0; i < count; ++i) {
+    libusb_device_descriptor descriptor{};
+    if (libusb_get_device_descriptor(list[i], &descriptor) != 0) continue;
+    if (descriptor.idVendor != vendor_id || descriptor.idProduct != product_id) continue;
+    char where[16];
+    std::snprintf(where, sizeof where, "%03u:%03u", libusb_get_bus_number(list[i]), libusb_get_device_address(list[i]));
+    std::string description = "strobe controller";
+    libusb_device_handle* handle = nullptr;
+    if (const int opened = libusb_open(list[i], &handle); opened == 0) {
+      unsigned char serial[128] = {};
+      if (descriptor.iSerialNumber != 0 &&
+          libusb_get_string_descriptor_ascii(handle, descriptor.iSerialNumber, serial, sizeof serial) > 0)
+        description += ", serial " + std::string(reinterpret_cast<const char*>(serial));
+      libusb_close(handle);
+    } else {
+      description += std::string(", cannot open: ") + libusb_strerror(opened) + " (the psrig user needs access to /dev/bus/usb)";
+    }
+    found.push_back({where, description});
+  }
+  if (count >= 0) libusb_free_device_list(list, 1);
+  libusb_exit(context);
+  return found;
+}
+
+std::vector<FoundDevice> find_serial_ports() {
+  std::vector<FoundDevice> found;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator("/sys/class/tty", ec)) {
+    const fs::path device = entry.path() / "device";
+    if (!fs::exists(device, ec)) continue;  // virtual terminals and the like
+    const std::string name = entry.path().filename().string();
+    const std::string driver = fs::read_symlink(device / "driver", ec).filename().string();
+    // The 8250 driver registers ports that are not there; ask the port.
+    if (driver == "serial8250") {
+      const int fd = ::open(("/dev/" + name).c_str(), O_RDWR | O_NONBLOCK | O_NOCTTY);
+      if (fd < 0) continue;
+      serial_struct info{};
+      const bool present = ioctl(fd, TIOCGSERIAL, &info) == 0 && info.type != PORT_UNKNOWN;
+      ::close(fd);
+      if (!present) continue;
+    }
+    std::string description = driver.empty() ? "serial port" : driver;
+    if (const std::string product = read_line(device / ".." / "product"); !product.empty())
+      description += ", \"" + product + "\"";
+    found.push_back({"/dev/" + name, description});
+  }
+  std::sort(found.begin(), found.end(), natural_less);
+  return found;
+}
+
+}  // namespace psrig::firmware_host
