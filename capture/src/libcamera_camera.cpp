@@ -39,7 +39,7 @@ Result<std::shared_ptr<lc::CameraManager>> camera_manager() {
   if (auto manager = shared.lock()) return manager;
   // libcamera logs every pipeline it probes; an engineer can still ask for
   // that through LIBCAMERA_LOG_LEVELS.
-  if (std::getenv("LIBCAMERA_LOG_LEVELS") == nullptr) lc::logSetLevel("*", "ERROR");
+  setenv("LIBCAMERA_LOG_LEVELS", "*:ERROR", /*overwrite=*/0);
   auto manager = std::make_shared<lc::CameraManager>();
   if (const int result = manager->start(); result < 0)
     return std::unexpected(processing::io_error(

@@ -285,9 +285,13 @@ Result<processing::Scan> ScanSequencer::acquire(const ScanRequest& request, Capt
 Result<ScanOutcome> ScanSequencer::capture(const ScanRequest& request,
                                            const std::function<void(const ScanProgress&)>& progress) {
   ScanOutcome outcome;
+  outcome.directory = request.directory.empty() ? default_scan_directory(config_, request.sample_id) : request.directory;
+  // Refused before the LEDs go on, not after (write_scan checks again).
+  if (std::error_code ec; fs::exists(outcome.directory, ec))
+    return std::unexpected(
+        processing::bad_input(outcome.directory, "", "already exists; a scan is never overwritten"));
   auto scan = acquire(request, outcome.timing, progress);
   if (!scan) return std::unexpected(scan.error());
-  outcome.directory = request.directory.empty() ? default_scan_directory(config_, request.sample_id) : request.directory;
   if (progress) progress({"writing", 0, 1});
   std::error_code ec;
   fs::create_directories(outcome.directory.parent_path(), ec);

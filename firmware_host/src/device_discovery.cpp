@@ -26,6 +26,19 @@ std::string read_line(const fs::path& file) {
   return line;
 }
 
+// The driver behind a tty's device: newer kernels put a serial-base "port"
+// device between the tty and its UART or USB adapter.
+std::string driver_name(const fs::path& device) {
+  std::error_code ec;
+  fs::path at = fs::canonical(device, ec);
+  for (int up = 0; up < 4 && !ec && at.has_relative_path(); ++up, at = at.parent_path()) {
+    const std::string name = fs::read_symlink(at / "driver", ec).filename().string();
+    ec.clear();
+    if (!name.empty() && name != "port" && name != "ctrl") return name;
+  }
+  return {};
+}
+
 // Device names sort as people read them: ttyS2 before ttyS10.
 bool natural_less(const FoundDevice& a, const FoundDevice& b) {
   const auto split = [](const std::string& s) {
@@ -87,9 +100,9 @@ std::vector<FoundDevice> find_serial_ports() {
     const fs::path device = entry.path() / "device";
     if (!fs::exists(device, ec)) continue;  // virtual terminals and the like
     const std::string name = entry.path().filename().string();
-    const std::string driver = fs::read_symlink(device / "driver", ec).filename().string();
-    // The 8250 driver registers ports that are not there; ask the port.
-    if (driver == "serial8250") {
+    const std::string driver = driver_name(device);
+    // 8250 UARTs register ports that are not there; ask the port.
+    if (name.starts_with("ttyS")) {
       const int fd = ::open(("/dev/" + name).c_str(), O_RDWR | O_NONBLOCK | O_NOCTTY);
       if (fd < 0) continue;
       serial_struct info{};

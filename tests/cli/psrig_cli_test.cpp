@@ -3,6 +3,7 @@
 
 #include <fstream>
 #include <functional>
+#include <iterator>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
@@ -129,6 +130,116 @@ TEST(PsrigCli, SynthRefusesToOverwrite) {
   auto again = run_program("psrig", {"synth", "--out", scan, "--size", "32x24"});
   EXPECT_EQ(again.exit_code, 2);
   EXPECT_TRUE(contains(again.err, "already exists")) << again.err;
+}
+
+// The simulated rig's configuration, at a size a test affords, written to
+// `directory` (scans go beside it).
+fs::path sim_config(const TempDir& temp, const std::string& extra = "") {
+  std::ifstream in(fs::path(PSRIG_SOURCE_DIR) / "config/sim.toml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    const auto at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  };
+  replace("width = 640", "width = 320");
+  replace("height = 480", "height = 240");
+  replace("root = \"../out/scans\"", "root = \"scans\"");
+  const fs::path file = temp / "rig.toml";
+  std::ofstream(file) << text << extra;
+  return file;
+}
+
+TEST(PsrigCli, ScanOnTheSimulatedRigRecoversTheSwatch) {
+  TempDir temp;
+  const auto config = sim_config(temp);
+  const auto scan = temp / "J-0001";
+  auto run = run_program("psrig", {"scan", "--config", config.string(), "--out", scan.string(), "--sample-id", "J-0001"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(contains(run.out, "0 skipped")) << run.out;  // every frame was lit by one LED only
+  std::ifstream report_file(scan / "maps/report.json");
+  ASSERT_TRUE(report_file) << run.out;
+  const auto report = nlohmann::json::parse(report_file);
+  EXPECT_LE(report["ground_truth"]["angular_error_deg"]["mean"].get<double>(), 1.0);
+  std::ifstream scan_file(scan / "scan.json");
+  const auto description = nlohmann::json::parse(scan_file);
+  EXPECT_EQ(description["sample"]["id"], "J-0001") << description.dump(2);
+  EXPECT_TRUE(contains(description["capture"]["camera"].get<std::string>(), "simulated camera"));
+}
+
+TEST(PsrigCli, ScanWithoutAnOutGoesToTheStorageRoot) {
+  TempDir temp;
+  const auto config = sim_config(temp);
+  auto run = run_program("psrig", {"scan", "--config", config.string(), "--no-process", "--sample-id", "R 7/2"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const auto scans = list_directory(temp / "scans");
+  ASSERT_EQ(scans.size(), 1U);
+  EXPECT_TRUE(scans[0].ends_with("-R_7_2")) << scans[0];
+  // scan.json, the dark frame, three LEDs and the simulator's ground truth
+  EXPECT_EQ(list_directory(temp / "scans" / scans[0]).size(), 7U);
+}
+
+TEST(PsrigCli, ScanRefusesAnExistingDirectoryAndTouchesNothing) {
+  TempDir temp;
+  const auto config = sim_config(temp);
+  fs::create_directory(temp / "taken");
+  std::ofstream(temp / "taken/notes.txt") << "keep me";
+  auto run = run_program("psrig", {"scan", "--config", config.string(), "--out", (temp / "taken").string()});
+  EXPECT_EQ(run.exit_code, 2) << run.out;
+  EXPECT_TRUE(contains(run.err, "taken")) << run.err;
+  EXPECT_FALSE(contains(run.err, "light 1 of 3")) << run.err;  // refused before any LED went on
+  EXPECT_EQ(list_directory(temp / "taken"), std::vector<std::string>{"notes.txt"});
+}
+
+TEST(PsrigCli, ConfigErrorsNameFileLineColumnAndKey) {
+  TempDir temp;
+  const fs::path file = temp / "rig.toml";
+  std::ofstream(file) << "[lights]\nbackend = \"gpoid\"\n";
+  for (const std::string command : {"scan", "lights"}) {
+    std::vector<std::string> args = {command, "--config", file.string()};
+    if (command == "lights") args.push_back("--cycle");
+    auto run = run_program("psrig", args);
+    EXPECT_EQ(run.exit_code, 2) << command;
+    EXPECT_TRUE(contains(run.err, file.string() + ":2:")) << run.err;
+    EXPECT_TRUE(contains(run.err, "lights.backend")) << run.err;
+    EXPECT_TRUE(contains(run.err, "gpiod")) << run.err;  // the fix
+  }
+  auto check = run_program("psrig", {"config", "check", file.string()});
+  EXPECT_EQ(check.exit_code, 2);
+  auto good = run_program("psrig", {"config", "check", (fs::path(PSRIG_SOURCE_DIR) / "config/rig.example.toml").string()});
+  EXPECT_EQ(good.exit_code, 0) << good.err;
+  EXPECT_TRUE(contains(good.out, "ok")) << good.out;
+}
+
+TEST(PsrigCli, MissingHardwareNamesTheDeviceAndTheKey) {
+  TempDir temp;
+  const auto config = sim_config(temp, "");
+  std::ifstream in(config);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text.replace(text.find("backend = \"sim\"\nexposure_us"), 15, "backend = \"v4l2\"\ndevice = \"/dev/video77\"");
+  std::ofstream(config) << text;
+  auto run = run_program("psrig", {"scan", "--config", config.string(), "--out", (temp / "scan").string()});
+  EXPECT_NE(run.exit_code, 0);
+  EXPECT_TRUE(contains(run.err, "/dev/video77")) << run.err;
+  EXPECT_TRUE(contains(run.err, "camera.device")) << run.err;
+  EXPECT_FALSE(fs::exists(temp / "scan"));
+}
+
+TEST(PsrigCli, LightsCycleBlinksEachLedOnce) {
+  TempDir temp;
+  auto run = run_program("psrig", {"lights", "--config", sim_config(temp).string(), "--cycle", "--on-ms", "20"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(contains(run.out, "LED 0 on (tilt 0 deg")) << run.out;
+  EXPECT_TRUE(contains(run.out, "LED 2 on (tilt 240 deg")) << run.out;
+  EXPECT_TRUE(contains(run.out, "all LEDs off")) << run.out;
+}
+
+TEST(PsrigCli, DevicesListsEveryKindEvenWhenNoneIsThere) {
+  auto run = run_program("psrig", {"devices"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  for (const char* section : {"cameras:", "GPIO chips", "USB strobe controllers 1209:5053", "serial ports"})
+    EXPECT_TRUE(contains(run.out, section)) << section << "\n" << run.out;
+  EXPECT_TRUE(run.err.empty()) << run.err;  // libcamera keeps quiet
 }
 
 }  // namespace
