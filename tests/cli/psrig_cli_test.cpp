@@ -156,7 +156,6 @@ TEST(PsrigCli, ScanOnTheSimulatedRigRecoversTheSwatch) {
   const auto scan = temp / "J-0001";
   auto run = run_program("psrig", {"scan", "--config", config.string(), "--out", scan.string(), "--sample-id", "J-0001"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  EXPECT_TRUE(contains(run.out, "0 skipped")) << run.out;  // every frame was lit by one LED only
   std::ifstream report_file(scan / "maps/report.json");
   ASSERT_TRUE(report_file) << run.out;
   const auto report = nlohmann::json::parse(report_file);
