@@ -48,17 +48,8 @@ Result<std::shared_ptr<lc::CameraManager>> camera_manager() {
   return manager;
 }
 
-// libcamera names formats as DRM does; the conversions go by V4L2's names.
 std::optional<V4l2PixelFormat> v4l2_equivalent(const lc::PixelFormat& format) {
-  std::string name = format.toString();
-  if (name.ends_with("_CSI2P")) name = name.substr(0, name.size() - 6) + "P";  // SRGGB10_CSI2P: MIPI packed
-  // DRM names colour formats by a little-endian word, V4L2 by bytes in memory.
-  static const std::map<std::string, std::string> renamed = {
-      {"R8", "GREY"}, {"R10", "Y10"}, {"R12", "Y12"}, {"R16", "Y16"}, {"RP", "Y10P"},
-      {"RGB888", "BGR24"}, {"BGR888", "RGB24"}};
-  if (const auto it = renamed.find(name); it != renamed.end()) name = it->second;
-  if (name == "R10P") name = "Y10P";
-  return find_v4l2_format(name);
+  return v4l2_format_for_libcamera(format.toString());
 }
 
 std::int64_t clock_ns(clockid_t clock) {
@@ -355,6 +346,18 @@ class LibcameraCamera final : public Camera {
 };
 
 }  // namespace
+
+// libcamera names formats as DRM does; the conversions go by V4L2's names.
+std::optional<V4l2PixelFormat> v4l2_format_for_libcamera(std::string name) {
+  if (name.ends_with("_CSI2P")) name = name.substr(0, name.size() - 6) + "P";  // SRGGB10_CSI2P: MIPI packed
+  // DRM names colour formats by a little-endian word, V4L2 by bytes in memory.
+  static const std::map<std::string, std::string> renamed = {{"R8", "GREY"},     {"R10", "Y10"},
+                                                             {"R12", "Y12"},     {"R16", "Y16"},
+                                                             {"R10P", "Y10P"},   {"RGB888", "BGR24"},
+                                                             {"BGR888", "RGB24"}};
+  if (const auto it = renamed.find(name); it != renamed.end()) name = it->second;
+  return find_v4l2_format(name);
+}
 
 Result<std::unique_ptr<Camera>> open_libcamera_camera(const config::CameraConfig& config) {
   auto manager = camera_manager();
