@@ -8,6 +8,7 @@
 #include <span>
 #include <sys/mman.h>
 #include <sys/stat.h>
+#include <thread>
 #include <unistd.h>
 #include <vector>
 
@@ -31,6 +32,8 @@ constexpr unsigned kBufferCount = 4;
 // With end-of-frame timestamps the readout time is unknown; it is at most a
 // frame interval. Drivers that do not say their interval get this bound.
 constexpr std::chrono::milliseconds kUnknownReadoutBound{100};
+// How long to wait before asking again when poll() said ready but no frame was.
+constexpr std::chrono::milliseconds kRetryPause{1};
 
 struct Offered {
   std::uint32_t fourcc;
@@ -87,7 +90,7 @@ class V4l2Camera final : public Camera {
   Result<V4l2PixelFormat> choose_format(const std::string& wanted,
                                         const std::vector<Offered>& offered) const;
   void release_buffers();
-  Error timeout_error(std::chrono::milliseconds timeout) const;
+  Error timeout_error(std::chrono::milliseconds timeout, bool lost_frames) const;
 
   std::string device_;
   int fd_ = -1;
@@ -108,6 +111,14 @@ class V4l2Camera final : public Camera {
 };
 
 Status V4l2Camera::open() {
+  // The node type by path, before opening, as V4L2's own capture example
+  // does: user-space device emulators (umockdev) fake it for stat() only.
+  struct stat st {};
+  if (::stat(device_.c_str(), &st) == 0 && !S_ISCHR(st.st_mode))
+    return std::unexpected(
+        config_error("camera.device",
+                     "is not a device node: set camera.device to a /dev/videoN (see "
+                     "`v4l2-ctl --list-devices`)"));
   // Non-blocking, so that DQBUF never waits: poll() does, with our timeout.
   fd_ = ::open(device_.c_str(), O_RDWR | O_NONBLOCK | O_CLOEXEC);
   if (fd_ < 0) {
@@ -125,12 +136,6 @@ Status V4l2Camera::open() {
     if (e == EBUSY) return std::unexpected(v4l2::busy_error(device_, "opening"));
     return std::unexpected(processing::io_error(device_, "cannot open: " + errno_text(e)));
   }
-  struct stat st {};
-  if (::fstat(fd_, &st) < 0 || !S_ISCHR(st.st_mode))
-    return std::unexpected(
-        config_error("camera.device",
-                     "is not a device node: set camera.device to a /dev/videoN (see "
-                     "`v4l2-ctl --list-devices`)"));
   v4l2_capability cap{};
   if (xioctl(fd_, VIDIOC_QUERYCAP, &cap) < 0) {
     const int e = errno;
@@ -369,11 +374,12 @@ Status V4l2Camera::start() {
   return {};
 }
 
-Error V4l2Camera::timeout_error(std::chrono::milliseconds timeout) const {
+Error V4l2Camera::timeout_error(std::chrono::milliseconds timeout, bool lost_frames) const {
   return processing::io_error(
-      device_, "no frame within " + std::to_string(timeout.count()) +
-                   " ms (camera.timeout_ms): check that the camera is connected and streaming "
-                   "and, if it is triggered, its trigger");
+      device_, "no frame within " + std::to_string(timeout.count()) + " ms (camera.timeout_ms)" +
+                   (lost_frames ? ", the driver reported lost frames (EIO)" : "") +
+                   ": check that the camera is connected and streaming and, if it is "
+                   "triggered, its trigger");
 }
 
 Result<Frame> V4l2Camera::grab(std::chrono::milliseconds timeout) {
@@ -381,6 +387,7 @@ Result<Frame> V4l2Camera::grab(std::chrono::milliseconds timeout) {
     return std::unexpected(processing::internal_error(device_ + ": grab() before start()"));
   if (vanished_) return std::unexpected(v4l2::vanished_error(device_, "grabbing a frame"));
   const auto deadline = Clock::now() + timeout;
+  bool lost_frames = false;
   for (;;) {
     const auto left = std::chrono::ceil<std::chrono::milliseconds>(deadline - Clock::now());
     pollfd p{fd_, POLLIN, 0};
@@ -389,7 +396,7 @@ Result<Frame> V4l2Camera::grab(std::chrono::milliseconds timeout) {
       if (errno == EINTR) continue;
       return std::unexpected(ioctl_error(device_, "waiting for a frame", errno));
     }
-    if (ready == 0) return std::unexpected(timeout_error(timeout));
+    if (ready == 0) return std::unexpected(timeout_error(timeout, lost_frames));
 
     v4l2_buffer buf{};
     buf.type = kCapture;
@@ -399,7 +406,12 @@ Result<Frame> V4l2Camera::grab(std::chrono::milliseconds timeout) {
       // EAGAIN: readiness without a frame; EIO: a lost frame (the driver may
       // still deliver the next). Both wait on, within the timeout.
       if (e == EAGAIN || e == EIO) {
-        if (Clock::now() >= deadline) return std::unexpected(timeout_error(timeout));
+        if (e == EIO) lost_frames = true;
+        const auto now = Clock::now();
+        if (now >= deadline) return std::unexpected(timeout_error(timeout, lost_frames));
+        // Readiness without a frame again at once would spin: a spurious
+        // wakeup, or a node that is always readable. Back off briefly.
+        std::this_thread::sleep_for(std::min<Clock::duration>(kRetryPause, deadline - now));
         continue;
       }
       if (e == ENODEV) vanished_ = true;

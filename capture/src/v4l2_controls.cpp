@@ -6,6 +6,8 @@
 #include <linux/videodev2.h>
 #include <optional>
 
+#include <spdlog/fmt/fmt.h>
+
 #include "psrig/processing/log.h"
 #include "v4l2_device.h"
 
@@ -32,14 +34,23 @@ std::int32_t fit(const v4l2_queryctrl& q, double wanted) {
   return static_cast<std::int32_t>(std::min(v, static_cast<double>(q.maximum)));
 }
 
-Result<std::int32_t> set_and_read(int fd, const std::string& device, const char* name,
-                                  std::uint32_t id, std::int32_t value) {
-  v4l2_control c{id, value};
-  if (xioctl(fd, VIDIOC_S_CTRL, &c) < 0)
-    return std::unexpected(ioctl_error(device, std::string("setting ") + name, errno));
+// Writes `value` to a control and reads back what the device took. Errors
+// name the control and the configuration key that asked for the value.
+Result<std::int32_t> set_and_read(int fd, const std::string& device, const std::string& key,
+                                  const char* name, const v4l2_queryctrl& q, std::int32_t value) {
+  v4l2_control c{q.id, value};
+  if (xioctl(fd, VIDIOC_S_CTRL, &c) < 0) {
+    const int e = errno;
+    if (e == EBUSY || e == ENODEV)
+      return std::unexpected(ioctl_error(device, std::string("setting ") + name, e));
+    return std::unexpected(processing::bad_input(
+        device, key,
+        fmt::format("the camera refuses {} = {} ({}; it takes {} to {} in steps of {})", name,
+                    value, errno_text(e), q.minimum, q.maximum, std::max(q.step, 1))));
+  }
   c.value = 0;
   if (xioctl(fd, VIDIOC_G_CTRL, &c) < 0)
-    return std::unexpected(ioctl_error(device, std::string("reading ") + name, errno));
+    return std::unexpected(ioctl_error(device, std::string("reading back ") + name, errno));
   return c.value;
 }
 
@@ -65,7 +76,8 @@ Result<int> set_exposure(int fd, const std::string& device, int exposure_us, int
     v4l2_control manual{V4L2_CID_EXPOSURE_AUTO, V4L2_EXPOSURE_MANUAL};
     if (xioctl(fd, VIDIOC_S_CTRL, &manual) < 0) {
       const int e = errno;
-      if (e == EBUSY || e == ENODEV) return std::unexpected(ioctl_error(device, "exposure", e));
+      if (e == EBUSY || e == ENODEV)
+        return std::unexpected(ioctl_error(device, "setting V4L2_CID_EXPOSURE_AUTO to manual", e));
       return std::unexpected(processing::bad_input(
           device, key,
           "the camera refuses manual exposure (V4L2_CID_EXPOSURE_AUTO = manual: " + errno_text(e) +
@@ -74,7 +86,8 @@ Result<int> set_exposure(int fd, const std::string& device, int exposure_us, int
     }
   }
   if (auto q = query(fd, V4L2_CID_EXPOSURE_ABSOLUTE)) {
-    auto got = set_and_read(fd, device, "exposure", q->id, fit(*q, exposure_us / 100.0));
+    auto got = set_and_read(fd, device, key, "V4L2_CID_EXPOSURE_ABSOLUTE", *q,
+                            fit(*q, exposure_us / 100.0));
     if (!got) return std::unexpected(got.error());
     return *got * 100;
   }
@@ -87,7 +100,8 @@ Result<int> set_exposure(int fd, const std::string& device, int exposure_us, int
           "driver does not say its line time (V4L2_CID_PIXEL_RATE, V4L2_CID_HBLANK): use "
           "camera.backend = \"libcamera\" for this sensor"));
     const double line_us = *line * 1e6;
-    auto got = set_and_read(fd, device, "exposure", q->id, fit(*q, exposure_us / line_us));
+    auto got =
+        set_and_read(fd, device, key, "V4L2_CID_EXPOSURE", *q, fit(*q, exposure_us / line_us));
     if (!got) return std::unexpected(got.error());
     return static_cast<int>(std::lround(*got * line_us));
   }
@@ -98,13 +112,19 @@ Result<int> set_exposure(int fd, const std::string& device, int exposure_us, int
 }
 
 Result<double> set_gain(int fd, const std::string& device, double gain) {
+  const std::string key = "camera.gain";
   if (auto q = query(fd, V4L2_CID_AUTOGAIN)) {
     v4l2_control off{V4L2_CID_AUTOGAIN, 0};
     if (xioctl(fd, VIDIOC_S_CTRL, &off) < 0)
-      return std::unexpected(ioctl_error(device, "turning automatic gain off", errno));
+      return std::unexpected(
+          ioctl_error(device, "turning automatic gain off (V4L2_CID_AUTOGAIN)", errno));
   }
+  const char* name = "V4L2_CID_ANALOGUE_GAIN";
   auto q = query(fd, V4L2_CID_ANALOGUE_GAIN);
-  if (!q) q = query(fd, V4L2_CID_GAIN);
+  if (!q) {
+    name = "V4L2_CID_GAIN";
+    q = query(fd, V4L2_CID_GAIN);
+  }
   if (!q) {
     if (std::abs(gain - 1.0) > 1e-9)
       processing::logger("camera")->warn(
@@ -119,12 +139,12 @@ Result<double> set_gain(int fd, const std::string& device, double gain) {
           "{}: the gain control's default is {}, so its unity is unknown: camera.gain = {} "
           "ignored, gain left at the default",
           device, q->default_value, gain);
-    auto got = set_and_read(fd, device, "gain", q->id, q->default_value);
+    auto got = set_and_read(fd, device, key, name, *q, q->default_value);
     if (!got) return std::unexpected(got.error());
     return 1.0;
   }
   const double unity = q->default_value;
-  auto got = set_and_read(fd, device, "gain", q->id, fit(*q, gain * unity));
+  auto got = set_and_read(fd, device, key, name, *q, fit(*q, gain * unity));
   if (!got) return std::unexpected(got.error());
   return *got / unity;
 }
