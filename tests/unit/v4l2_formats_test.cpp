@@ -5,6 +5,7 @@
 #include <cstdint>
 #include <linux/videodev2.h>
 #include <random>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -259,6 +260,33 @@ TEST(V4l2Formats, Raw12PackedUnpacksExtremeValues) {
     const cv::Mat bgr = convert(pack_raw12(values, width, height, stride), V4L2_PIX_FMT_SRGGB12P,
                                 width, height, stride);
     expect_uniform(bgr, v, v, v, "RAW12P value " + std::to_string(v));
+  }
+}
+
+TEST(V4l2Formats, PackedBayerKeepsEverySitesOwnSampleExactly) {
+  // Bilinear demosaicing leaves each site's own colour as it was read, so
+  // random samples check the unpacking at every position of every group,
+  // a partial last group included (14 pixels: 3 groups of 4 and a half).
+  const int width = 14, height = 6;
+  std::mt19937 random(11);
+  for (const auto& [fourcc, bits] :
+       {std::pair{V4L2_PIX_FMT_SGRBG10P, 10}, std::pair{V4L2_PIX_FMT_SGRBG12P, 12}}) {
+    std::vector<int> values(width * height);
+    for (auto& v : values)
+      v = static_cast<int>(random() % (1u << bits));
+    const std::size_t stride = v4l2_min_bytes_per_line(format(fourcc), width) + 3;
+    const Bytes data = bits == 10 ? pack_raw10(values, width, height, stride)
+                                  : pack_raw12(values, width, height, stride);
+    const cv::Mat bgr = convert(data, fourcc, width, height, stride);
+    ASSERT_EQ(bgr.type(), CV_16UC3);
+    for (int y = 1; y < height - 1; ++y)
+      for (int x = 1; x < width - 1; ++x) {
+        const char c = bayer_colour("GRBG", y, x);
+        const int channel = c == 'B' ? 0 : c == 'G' ? 1 : 2;
+        const int got = bgr.at<cv::Vec<std::uint16_t, 3>>(y, x)[channel];
+        ASSERT_EQ(got, values[y * width + x])
+            << fourcc_to_string(fourcc) << " at (" << x << ", " << y << ")";
+      }
   }
 }
 
