@@ -449,6 +449,8 @@ Result<Frame> V4l2Camera::grab(std::chrono::milliseconds timeout) {
     frame.gain = gain_;
     frame.white_level = format_.white_level();
     frame.black_level = 0;  // V4L2 does not report it: the dark frame measures it
+    frame.encoding = format_.linear ? processing::Encoding::linear : processing::Encoding::srgb;
+    frame.frame_interval = std::chrono::duration_cast<Clock::duration>(frame_interval_);
 
     // The driver's sequence is 32 bits; ours must not wrap.
     if (have_sequence_ && buf.sequence < last_sequence_) ++sequence_epoch_;

@@ -143,6 +143,10 @@ TEST(V4l2Hil, EveryFormatIsNegotiatedMappedAndConvertedToTheScene) {
     EXPECT_EQ(frame.image.channels(), c.channels);
     EXPECT_EQ(frame.image.depth(), c.bits == 8 ? CV_8U : CV_16U);
     EXPECT_EQ(frame.white_level, (1 << c.bits) - 1);
+    // An ISP's RGB and YUYV are gamma-encoded; sensor data is linear.
+    const bool encoded = c.fourcc == V4L2_PIX_FMT_RGB24 || c.fourcc == V4L2_PIX_FMT_BGR24 ||
+                         c.fourcc == V4L2_PIX_FMT_YUYV;
+    EXPECT_EQ(frame.encoding, encoded ? processing::Encoding::srgb : processing::Encoding::linear);
     EXPECT_NE(camera->describe().find(name), std::string::npos) << camera->describe();
 
     const int scale = 1 << (c.bits - 8);
@@ -248,6 +252,7 @@ TEST(V4l2Hil, SequenceAndStartOfExposureStampsAreTheDevicesAndMonotone) {
     EXPECT_LE(f.exposure_start, truth->exposure_start);
     EXPECT_GT(f.exposure_start, truth->exposure_start - 1us);
     EXPECT_EQ(f.exposure_end - f.exposure_start, 5000us);
+    EXPECT_EQ(f.frame_interval, 10ms);  // as VIDIOC_G_PARM says
     EXPECT_LE(f.exposure_end, Clock::now());
     if (i == 0) continue;
     EXPECT_GT(f.sequence, frames[i - 1].sequence);
