@@ -1,5 +1,6 @@
 #include "psrig/capture/camera.h"
 #include "psrig/capture/sim_camera.h"
+#include "psrig/capture/v4l2_camera.h"
 
 namespace psrig::capture {
 
@@ -7,11 +8,18 @@ Result<std::unique_ptr<Camera>> open_camera(const config::RigConfig& config,
                                             std::shared_ptr<firmware_host::SimWorld> world) {
   std::unique_ptr<Camera> camera;
   if (config.camera.backend == "sim") {
-    if (!world) return std::unexpected(processing::internal_error("camera.backend \"sim\" needs the simulated world"));
+    if (!world)
+      return std::unexpected(
+          processing::internal_error("camera.backend \"sim\" needs the simulated world"));
     camera = open_sim_camera(config, std::move(world));
+  } else if (config.camera.backend == "v4l2") {
+    auto v4l2 = open_v4l2_camera(config.camera);
+    if (!v4l2) return std::unexpected(v4l2.error());
+    camera = std::move(*v4l2);
   } else {
-    return std::unexpected(processing::bad_input(config.source, "camera.backend",
-                                                 "\"" + config.camera.backend + "\" is not built into this psrig"));
+    return std::unexpected(
+        processing::bad_input(config.source, "camera.backend",
+                              "\"" + config.camera.backend + "\" is not built into this psrig"));
   }
   if (auto ok = camera->configure(config.camera); !ok) return std::unexpected(ok.error());
   return camera;
