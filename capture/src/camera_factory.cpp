@@ -1,4 +1,5 @@
 #include "psrig/capture/camera.h"
+#include "psrig/capture/libcamera_camera.h"
 #include "psrig/capture/sim_camera.h"
 #include "psrig/capture/v4l2_camera.h"
 
@@ -16,6 +17,10 @@ Result<std::unique_ptr<Camera>> open_camera(const config::RigConfig& config,
     auto v4l2 = open_v4l2_camera(config.camera);
     if (!v4l2) return std::unexpected(v4l2.error());
     camera = std::move(*v4l2);
+  } else if (config.camera.backend == "libcamera") {
+    auto libcamera = open_libcamera_camera(config.camera);
+    if (!libcamera) return std::unexpected(libcamera.error());
+    camera = std::move(*libcamera);
   } else {
     return std::unexpected(
         processing::bad_input(config.source, "camera.backend",
