@@ -266,9 +266,12 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file, std::vecto
       auto registers = sub(*modbus, "registers");
       if (!registers) return std::unexpected(registers.error());
       PSRIG_TRY(registers->get("enable_coil", m.registers.enable_coil, 0, 65535));
+      PSRIG_TRY(registers->get("all_off_coil", m.registers.all_off_coil, -1, 65535));
       PSRIG_TRY(registers->get("intensity_register", m.registers.intensity_register, 0, 65535));
       PSRIG_TRY(registers->get("intensity_full_scale", m.registers.intensity_full_scale, 1, 65535));
       PSRIG_TRY(registers->get("status_register", m.registers.status_register, 0, 65535));
+      PSRIG_TRY(registers->get("id_register", m.registers.id_register, -1, 65534));
+      PSRIG_TRY(registers->get("device_id", m.registers.device_id, 0, 65535));
       registers->finish();
     }
     modbus->finish();

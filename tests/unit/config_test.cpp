@@ -107,6 +107,17 @@ TEST(Config, ModbusParityAndRegisterMap) {
   expect_error("[lights.modbus]\nparity = \"X\"\n", "lights.modbus.parity", 2);
 }
 
+TEST(Config, ModbusAllOffCoilAndDeviceId) {
+  auto config = parse_config(
+      "[lights.modbus.registers]\nall_off_coil = -1\nid_register = 7\ndevice_id = 0x1234\n", "rig.toml");
+  ASSERT_TRUE(config) << config.error().describe();
+  EXPECT_EQ(config->lights.modbus.registers.all_off_coil, -1);
+  EXPECT_EQ(config->lights.modbus.registers.id_register, 7);
+  EXPECT_EQ(config->lights.modbus.registers.device_id, 0x1234);
+  expect_error("[lights.modbus.registers]\nall_off_coil = -2\n", "lights.modbus.registers.all_off_coil", 2);
+  expect_error("[lights.modbus.registers]\ndevice_id = 65536\n", "lights.modbus.registers.device_id", 2);
+}
+
 TEST(Config, SectionThatIsNotATable) {
   expect_error("camera = \"v4l2\"\n", "camera", 1);
 }

@@ -39,9 +39,12 @@ struct UsbLights {
 // Registers of a Modbus LED driver; defaults documented in rig.example.toml.
 struct ModbusRegisters {
   int enable_coil = 0;           // coils enable_coil + channel: LED on/off
+  int all_off_coil = 32;         // coil: writing 1 turns every LED off (-1: clear the enable coils)
   int intensity_register = 100;  // holding registers intensity_register + channel
   int intensity_full_scale = 1000;
   int status_register = 0;  // input register: nonzero = driver fault
+  int id_register = 1;      // input registers: device id, then firmware version (-1: none)
+  int device_id = 0x4C44;   // what id_register must read, checked at open ("LD")
 };
 
 // A Modbus LED driver over RTU (serial) or TCP, through libmodbus.
