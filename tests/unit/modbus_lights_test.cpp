@@ -19,6 +19,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "psrig/firmware_host/safe_lights.h"
 #include "psrig/firmware_host/sim/modbus_driver.h"
 
 namespace psrig::firmware_host {
@@ -91,13 +92,30 @@ class ModbusLightsTest : public ::testing::TestWithParam<std::string> {
     return opened ? std::move(*opened) : nullptr;
   }
 
+  // From both sides: the host's log, the driver's own switch history and
+  // the world's view never show two LEDs on, and the host never even asked
+  // for it (the driver's interlock would have refused).
   void expect_never_two_on(const LightController& lights) const {
     EXPECT_EQ(lights.log().overlap(), std::nullopt);
     EXPECT_EQ(driver_->log().overlap(), std::nullopt);
     EXPECT_LE(world_.max_on(), 1u);
+    EXPECT_EQ(driver_->interlock_refusals(), 0);
   }
 
-  int coil_writes() const { return driver_->requests(MODBUS_FC_WRITE_MULTIPLE_COILS); }
+  // Enable coils written in one request, and the all-off coil.
+  int coil_writes() const {
+    return driver_->requests(MODBUS_FC_WRITE_MULTIPLE_COILS) +
+           driver_->requests(MODBUS_FC_WRITE_SINGLE_COIL);
+  }
+
+  // "tcp 127.0.0.1:PORT" or "rtu /dev/pts/N": the endpoint errors must name.
+  std::string endpoint() const {
+    return GetParam() == "tcp" ? "tcp 127.0.0.1:" + std::to_string(driver_->port())
+                               : "rtu " + driver_->device();
+  }
+  std::string endpoint_key() const {
+    return GetParam() == "tcp" ? "lights.modbus.host" : "lights.modbus.device";
+  }
 
   WorldProbe world_;
   std::unique_ptr<SimModbusDriver> driver_;
@@ -171,9 +189,13 @@ TEST_P(ModbusLightsTest, CustomRegisterMapWorks) {
   registers.intensity_register = 40;
   registers.intensity_full_scale = 255;
   registers.status_register = 7;
+  registers.all_off_coil = 40;
+  registers.id_register = 20;
+  registers.device_id = 0x1234;
   start_driver(registers);
   auto lights = open();
   ASSERT_TRUE(lights);
+  EXPECT_THAT(lights->describe(), HasSubstr("0x1234 firmware 1.2"));
   EXPECT_THAT(driver_->intensities(), ElementsAre(255, 255, 255));
   ASSERT_TRUE(lights->set_intensity(1, 0.2).has_value());
   EXPECT_EQ(driver_->intensities()[1], 51);
@@ -183,19 +205,92 @@ TEST_P(ModbusLightsTest, CustomRegisterMapWorks) {
   const auto faulted = lights->turn_on(2);
   ASSERT_FALSE(faulted.has_value());
   EXPECT_THAT(faulted.error().message, HasSubstr("status input register 7"));
+  EXPECT_EQ(faulted.error().key, "lights.modbus.registers.status_register");
   EXPECT_TRUE(driver_->leds_on().empty());
   expect_never_two_on(*lights);
 }
 
-TEST_P(ModbusLightsTest, RegisterMapMismatchIsRefusedByName) {
+TEST_P(ModbusLightsTest, RegisterMapMismatchIsRefusedAtOpenByName) {
   start_driver();                              // the default map
   config_.modbus.registers.enable_coil = 200;  // not the driver's
+  auto opened = open_modbus_lights(config_);
+  ASSERT_FALSE(opened.has_value());
+  EXPECT_THAT(opened.error().message,
+              AllOf(HasSubstr("refused reading back the enable coils (coils 200-202, "
+                              "lights.modbus.registers.enable_coil)"),
+                    HasSubstr("exception 2"), HasSubstr(endpoint())));
+  EXPECT_EQ(opened.error().key, "lights.modbus.registers.enable_coil");
+
+  config_.modbus.registers = {};
+  config_.modbus.registers.all_off_coil = 33;  // a gap in the driver's coils
+  opened = open_modbus_lights(config_);
+  ASSERT_FALSE(opened.has_value());
+  EXPECT_THAT(opened.error().message,
+              AllOf(HasSubstr("refused switching every LED off (writing coil 33"),
+                    HasSubstr("exception 2")));
+  EXPECT_EQ(opened.error().key, "lights.modbus.registers.all_off_coil");
+  EXPECT_TRUE(driver_->leds_on().empty());
+}
+
+TEST_P(ModbusLightsTest, ForeignDeviceIsNamedAndNeverWrittenTo) {
+  config::ModbusRegisters registers;
+  registers.device_id = 0x0BAD;  // some other Modbus device on that address
+  start_driver(registers);
+  config_.modbus.registers.device_id = 0x4C44;
   const auto opened = open_modbus_lights(config_);
   ASSERT_FALSE(opened.has_value());
   EXPECT_THAT(opened.error().message,
-              AllOf(HasSubstr("refused"), HasSubstr("enable coils 200-202"),
-                    HasSubstr("exception 2"), HasSubstr("lights.modbus.registers")));
+              AllOf(HasSubstr(endpoint()), HasSubstr("device id 0x0bad in input register 1"),
+                    HasSubstr("not 0x4c44"), HasSubstr("nothing was written")));
+  EXPECT_EQ(opened.error().key, "lights.modbus.registers.device_id");
+  EXPECT_EQ(driver_->requests(), 1);  // the identity read, and nothing else
+  EXPECT_EQ(driver_->requests(MODBUS_FC_READ_INPUT_REGISTERS), 1);
+}
+
+TEST_P(ModbusLightsTest, WithoutAnAllOffCoilTheEnableCoilsAreCleared) {
+  config::ModbusRegisters registers;
+  registers.all_off_coil = -1;
+  registers.id_register = -1;  // nor an identity to check
+  start_driver(registers);
+  auto lights = open();
+  ASSERT_TRUE(lights);
+  EXPECT_EQ(lights->describe().find("firmware"), std::string::npos);
+  ASSERT_TRUE(lights->turn_on(1).has_value());
+  EXPECT_THAT(driver_->leds_on(), ElementsAre(1));
+  ASSERT_TRUE(lights->all_off().has_value());
   EXPECT_TRUE(driver_->leds_on().empty());
+  EXPECT_EQ(driver_->requests(MODBUS_FC_WRITE_SINGLE_COIL), 0);
+  EXPECT_EQ(driver_->requests(MODBUS_FC_READ_INPUT_REGISTERS), 2);  // status at open, after on
+  expect_never_two_on(*lights);
+}
+
+TEST_P(ModbusLightsTest, AllOffCoilReachesLedsTheHostDoesNotKnow) {
+  SimModbusDriverOptions options;
+  options.transport = GetParam();
+  options.channels = 4;  // the driver has a fourth LED, the rig's config three
+  auto started = SimModbusDriver::start(options, world_.callback());
+  ASSERT_TRUE(started.has_value()) << started.error().describe();
+  driver_ = std::move(*started);
+  config_.modbus = driver_->host_config();
+  {
+    // Someone left LED 3 on.
+    const auto host = driver_->host_config();
+    modbus_t* raw = GetParam() == "tcp" ? modbus_new_tcp("127.0.0.1", host.port)
+                                        : modbus_new_rtu(host.device.c_str(), 19200, 'N', 8, 1);
+    ASSERT_NE(raw, nullptr);
+    modbus_set_slave(raw, 1);
+    ASSERT_EQ(modbus_connect(raw), 0);
+    EXPECT_EQ(modbus_write_bit(raw, 3, 1), 1);
+    modbus_close(raw);
+    modbus_free(raw);
+  }
+  EXPECT_THAT(driver_->leds_on(), ElementsAre(3));
+  auto lights = open();
+  ASSERT_TRUE(lights);
+  EXPECT_TRUE(driver_->leds_on().empty());
+  ASSERT_TRUE(lights->turn_on(0).has_value());
+  EXPECT_THAT(driver_->leds_on(), ElementsAre(0));
+  expect_never_two_on(*lights);
 }
 
 TEST_P(ModbusLightsTest, DriverFaultStatusIsAnErrorAndEverythingGoesOff) {
@@ -234,10 +329,13 @@ TEST_P(ModbusLightsTest, NoAnswerTimesOutAfterTheConfiguredRetries) {
   const auto result = lights->turn_on(1);
   const auto took = Clock::now() - began;
   ASSERT_FALSE(result.has_value());
-  EXPECT_THAT(result.error().message,
-              AllOf(HasSubstr("no answer switching LED 1 on"), HasSubstr("after 3 attempts"),
-                    HasSubstr("timeout 150 ms"), HasSubstr("slave 1"), HasSubstr("psrig devices"),
-                    HasSubstr("Every LED is off")));
+  EXPECT_THAT(
+      result.error().message,
+      AllOf(HasSubstr(endpoint()), HasSubstr("no answer switching LED 1 on"),
+            HasSubstr("coils 0-2, lights.modbus.registers.enable_coil"),
+            HasSubstr("after 3 attempts"), HasSubstr("timeout 150 ms"), HasSubstr("slave 1"),
+            HasSubstr("psrig devices"), HasSubstr("Every LED is off")));
+  EXPECT_EQ(result.error().key, endpoint_key());
   EXPECT_GE(took, milliseconds(3 * 150 - 10));
   EXPECT_LT(took, milliseconds(3 * 150 + 3000));
   // Three ignored attempts, then the all-off that got through.
@@ -286,6 +384,20 @@ TEST_P(ModbusLightsTest, LostReplyStillEndsWithEveryLedOff) {
   EXPECT_FALSE(events.back().on);
   EXPECT_TRUE(driver_->leds_on().empty());
   EXPECT_TRUE(world_.on().empty());
+  expect_never_two_on(*lights);
+}
+
+TEST_P(ModbusLightsTest, OneLostReplyIsRetriedAndTheSwitchGoesThrough) {
+  start_driver();
+  auto lights = open();
+  ASSERT_TRUE(lights);
+  ASSERT_TRUE(lights->turn_on(0).has_value());
+  const int writes = coil_writes();
+  driver_->inject(ModbusFault::lost_reply, 1);
+  ASSERT_TRUE(lights->turn_on(1).has_value());
+  EXPECT_EQ(coil_writes(), writes + 2);  // the write whose reply was lost, then the retry
+  EXPECT_THAT(driver_->leds_on(), ElementsAre(1));
+  EXPECT_THAT(lights->log().on_now(), ElementsAre(1));
   expect_never_two_on(*lights);
 }
 
@@ -357,6 +469,7 @@ TEST_P(ModbusLightsTest, SecondLedIsRefusedByTheDriverInterlock) {
   EXPECT_EQ(driver_->interlock_refusals(), 2);
   EXPECT_EQ(driver_->status(), kModbusStatusInterlock);
   EXPECT_EQ(driver_->log().overlap(), std::nullopt);
+  EXPECT_LE(world_.max_on(), 1u);
 
   // The backend's next switch sees the latched fault and turns all off,
   // which acknowledges it; then the driver is usable again.
@@ -367,7 +480,9 @@ TEST_P(ModbusLightsTest, SecondLedIsRefusedByTheDriverInterlock) {
   EXPECT_EQ(driver_->status(), 0);
   ASSERT_TRUE(lights->turn_on(1).has_value());
   EXPECT_THAT(driver_->leds_on(), ElementsAre(1));
-  expect_never_two_on(*lights);
+  EXPECT_EQ(lights->log().overlap(), std::nullopt);
+  EXPECT_EQ(driver_->log().overlap(), std::nullopt);
+  EXPECT_EQ(driver_->interlock_refusals(), 2);  // the careless client's, none of the backend's
 }
 
 TEST_P(ModbusLightsTest, ClosingTurnsEverythingOff) {
@@ -428,11 +543,85 @@ TEST_P(ModbusLightsTest, DescribesTransportAddressAndSlave) {
   auto lights = open();
   ASSERT_TRUE(lights);
   if (GetParam() == "tcp")
-    EXPECT_EQ(lights->describe(),
-              "modbus LED driver, tcp 127.0.0.1:" + std::to_string(driver_->port()) + ", slave 1");
+    EXPECT_EQ(lights->describe(), "modbus LED driver 0x4c44 firmware 1.2, tcp 127.0.0.1:" +
+                                      std::to_string(driver_->port()) + ", slave 1");
   else
-    EXPECT_EQ(lights->describe(),
-              "modbus LED driver, rtu " + driver_->device() + " 19200 8N1, slave 1");
+    EXPECT_EQ(lights->describe(), "modbus LED driver 0x4c44 firmware 1.2, rtu " +
+                                      driver_->device() + " 19200 8N1, slave 1");
+}
+
+// The safety layer on top: a failure half-way through a switch leaves
+// every LED off in the driver, even when the host never hears back.
+TEST_P(ModbusLightsTest, SafeLightsFailureLeavesEveryLedOff) {
+  start_driver();
+  config_.modbus.timeout_ms = 100;
+  auto lights = open();
+  ASSERT_TRUE(lights);
+  SafeLights safe(std::move(lights), milliseconds(5000));
+  ASSERT_TRUE(safe.turn_on(0).has_value());
+  EXPECT_THAT(driver_->leds_on(), ElementsAre(0));
+
+  // An LED fault shows in the status after the switch.
+  driver_->set_status(kModbusStatusDriverFault);
+  auto result = safe.turn_on(1);
+  ASSERT_FALSE(result.has_value());
+  EXPECT_THAT(result.error().message, HasSubstr("reports a fault"));
+  EXPECT_TRUE(driver_->leds_on().empty());
+  EXPECT_TRUE(world_.on().empty());
+  EXPECT_FALSE(safe.lit().has_value());
+  driver_->set_status(0);
+
+  // The driver carries every request out, but no reply comes back.
+  ASSERT_TRUE(safe.turn_on(2).has_value());
+  driver_->inject(ModbusFault::lost_reply);
+  result = safe.turn_on(0);
+  ASSERT_FALSE(result.has_value());
+  EXPECT_THAT(result.error().message, HasSubstr(endpoint()));
+  EXPECT_TRUE(driver_->leds_on().empty());
+  EXPECT_TRUE(world_.on().empty());
+  EXPECT_FALSE(safe.lit().has_value());
+  driver_->clear_fault();
+
+  EXPECT_EQ(safe.log().overlap(), std::nullopt);
+  EXPECT_EQ(driver_->log().overlap(), std::nullopt);
+  EXPECT_LE(world_.max_on(), 1u);
+  EXPECT_EQ(driver_->interlock_refusals(), 0);
+}
+
+TEST_P(ModbusLightsTest, SafeLightsWatchdogSwitchesTheDriverOff) {
+  start_driver();
+  auto lights = open();
+  ASSERT_TRUE(lights);
+  SafeLights safe(std::move(lights), milliseconds(100));
+  ASSERT_TRUE(safe.turn_on(2).has_value());
+  EXPECT_THAT(driver_->leds_on(), ElementsAre(2));
+  const auto deadline = Clock::now() + std::chrono::seconds(5);
+  while (!safe.timed_out() && Clock::now() < deadline)
+    std::this_thread::sleep_for(milliseconds(10));
+  EXPECT_TRUE(safe.timed_out());
+  EXPECT_TRUE(driver_->leds_on().empty());
+}
+
+// Chosen by lights.backend, as every backend is.
+TEST_P(ModbusLightsTest, FactoryOpensTheModbusBackend) {
+  start_driver();
+  config::RigConfig rig;
+  rig.source = "/etc/psrig/rig.toml";
+  rig.lights = config_;
+  rig.lights.backend = "modbus";
+  auto opened = open_lights(rig, nullptr);
+  ASSERT_TRUE(opened.has_value()) << opened.error().describe();
+  EXPECT_THAT((*opened)->describe(), HasSubstr(endpoint()));
+  ASSERT_TRUE((*opened)->turn_on(1).has_value());
+  EXPECT_THAT(driver_->leds_on(), ElementsAre(1));
+  opened->reset();
+  EXPECT_TRUE(driver_->leds_on().empty());
+
+  rig.lights.modbus.timeout_ms = 0;
+  opened = open_lights(rig, nullptr);
+  ASSERT_FALSE(opened.has_value());
+  EXPECT_EQ(opened.error().key, "lights.modbus.timeout_ms");
+  EXPECT_EQ(opened.error().file, rig.source);
 }
 
 INSTANTIATE_TEST_SUITE_P(Modbus, ModbusLightsTest, ::testing::Values("tcp", "rtu"),
@@ -489,6 +678,13 @@ TEST(ModbusLightsConfigTest, BadSettingsNameTheKey) {
   opened = open_modbus_lights(config);
   ASSERT_FALSE(opened.has_value());
   EXPECT_EQ(opened.error().key, "lights.modbus.registers.intensity_full_scale");
+
+  config.modbus.registers = {};
+  config.modbus.registers.all_off_coil = 2;  // one of the three enable coils
+  opened = open_modbus_lights(config);
+  ASSERT_FALSE(opened.has_value());
+  EXPECT_EQ(opened.error().key, "lights.modbus.registers.all_off_coil");
+  EXPECT_THAT(opened.error().message, HasSubstr("enable coils 0-2"));
 }
 
 TEST(ModbusLightsConfigTest, MissingSerialPortNamesTheDeviceAndTheFix) {

@@ -9,7 +9,7 @@
 #include <netinet/in.h>
 #include <optional>
 #include <poll.h>
-#include <pty.h>
+#include <stdlib.h>
 #include <sys/eventfd.h>
 #include <sys/socket.h>
 #include <termios.h>
@@ -29,6 +29,7 @@ struct SimModbusDriver::Link {
   int listen = -1;            // TCP
   int master = -1;            // RTU: our end of the pty
   int slave = -1;             // RTU: kept open so the master never sees a hang-up
+                              // when the host closes and reopens its end
   int capture[2] = {-1, -1};  // modbus_reply writes here; we decide what reaches the host
   std::vector<int> clients;   // TCP connections
 
@@ -124,11 +125,14 @@ Status SimModbusDriver::open() {
       return std::unexpected(internal_error(system_error("getsockname")));
     port_ = ntohs(address.sin_port);
   } else {
+    link.master = ::posix_openpt(O_RDWR | O_NOCTTY | O_CLOEXEC);
+    if (link.master < 0) return std::unexpected(internal_error(system_error("posix_openpt")));
     char name[256] = {};
-    if (::openpty(&link.master, &link.slave, name, nullptr, nullptr) != 0)
-      return std::unexpected(internal_error(system_error("openpty")));
-    for (const int fd : {link.master, link.slave})
-      ::fcntl(fd, F_SETFD, FD_CLOEXEC);
+    if (::grantpt(link.master) != 0 || ::unlockpt(link.master) != 0 ||
+        ::ptsname_r(link.master, name, sizeof name) != 0)
+      return std::unexpected(internal_error(system_error("pseudo-terminal set-up")));
+    link.slave = ::open(name, O_RDWR | O_NOCTTY | O_CLOEXEC);
+    if (link.slave < 0) return std::unexpected(internal_error(system_error(name)));
     // Raw from the start, so nothing is echoed before the host sets the line up.
     termios raw{};
     if (::tcgetattr(link.slave, &raw) == 0) {
@@ -144,15 +148,34 @@ Status SimModbusDriver::open() {
   // Requests arrive whole; a stalled one must not hold the server (or its stop) for long.
   modbus_set_byte_timeout(link.ctx, 0, 100'000);
 
+  // One contiguous block per table, spanning every register in the map;
+  // apply() refuses coil writes to the gaps.
   const auto& registers = options_.registers;
+  int last_coil = registers.enable_coil + options_.channels - 1;
+  first_coil_ = registers.enable_coil;
+  if (registers.all_off_coil >= 0) {
+    first_coil_ = std::min(first_coil_, registers.all_off_coil);
+    last_coil = std::max(last_coil, registers.all_off_coil);
+  }
+  first_input_ = registers.status_register;
+  int last_input = registers.status_register;
+  if (registers.id_register >= 0) {
+    first_input_ = std::min(first_input_, registers.id_register);
+    last_input = std::max(last_input, registers.id_register + 1);
+  }
   link.mapping = modbus_mapping_new_start_address(
-      static_cast<unsigned>(registers.enable_coil), static_cast<unsigned>(options_.channels), 0, 0,
+      static_cast<unsigned>(first_coil_), static_cast<unsigned>(last_coil - first_coil_ + 1), 0, 0,
       static_cast<unsigned>(registers.intensity_register), static_cast<unsigned>(options_.channels),
-      static_cast<unsigned>(registers.status_register), 1);
+      static_cast<unsigned>(first_input_), static_cast<unsigned>(last_input - first_input_ + 1));
   if (!link.mapping) return std::unexpected(internal_error(system_error("modbus_mapping_new")));
   for (int channel = 0; channel < options_.channels; ++channel)
     link.mapping->tab_registers[channel] =
         static_cast<std::uint16_t>(std::clamp(registers.intensity_full_scale, 0, 0xFFFF));
+  if (registers.id_register >= 0) {
+    const int id = registers.id_register - first_input_;
+    link.mapping->tab_input_registers[id] = static_cast<std::uint16_t>(registers.device_id);
+    link.mapping->tab_input_registers[id + 1] = options_.firmware;
+  }
   return {};
 }
 
@@ -180,7 +203,7 @@ std::vector<int> SimModbusDriver::leds_on() const {
   const std::scoped_lock lock(mutex_);
   std::vector<int> on;
   for (int channel = 0; channel < options_.channels; ++channel)
-    if (link_->mapping->tab_bits[channel]) on.push_back(channel);
+    if (coil_locked(channel)) on.push_back(channel);
   return on;
 }
 
@@ -191,12 +214,12 @@ std::vector<std::uint16_t> SimModbusDriver::intensities() const {
 
 std::uint16_t SimModbusDriver::status() const {
   const std::scoped_lock lock(mutex_);
-  return link_->mapping->tab_input_registers[0];
+  return status_locked();
 }
 
 void SimModbusDriver::set_status(std::uint16_t status) {
   const std::scoped_lock lock(mutex_);
-  link_->mapping->tab_input_registers[0] = status;
+  status_locked() = status;
 }
 
 void SimModbusDriver::inject(ModbusFault fault, int requests, int exception_code) {
@@ -223,6 +246,14 @@ int SimModbusDriver::interlock_refusals() const {
 int SimModbusDriver::connections() const {
   const std::scoped_lock lock(mutex_);
   return connections_;
+}
+
+std::uint8_t& SimModbusDriver::coil_locked(int channel) const {
+  return link_->mapping->tab_bits[options_.registers.enable_coil - first_coil_ + channel];
+}
+
+std::uint16_t& SimModbusDriver::status_locked() const {
+  return link_->mapping->tab_input_registers[options_.registers.status_register - first_input_];
 }
 
 double SimModbusDriver::level_locked(int channel) const {
@@ -342,38 +373,44 @@ std::vector<std::uint8_t> SimModbusDriver::apply(int fd, const std::uint8_t* que
   const int header = modbus_get_header_length(link.ctx);
   const int function = query[header];
   const int first = options_.registers.enable_coil;
+  const int all_off = options_.registers.all_off_coil;
   const int channels = options_.channels;
   std::vector<bool> before(static_cast<std::size_t>(channels));
   std::vector<std::uint16_t> levels_before(static_cast<std::size_t>(channels));
   for (int channel = 0; channel < channels; ++channel) {
-    before[channel] = link.mapping->tab_bits[channel] != 0;
+    before[channel] = coil_locked(channel) != 0;
     levels_before[channel] = link.mapping->tab_registers[channel];
   }
 
-  // What a coil write would leave on, when it is one we can serve.
-  std::optional<std::vector<bool>> after_write;
+  // A coil write, decoded: which coils, to what. Others go to libmodbus as they are.
+  std::vector<std::pair<int, bool>> coil_writes;
   const std::uint8_t* pdu = query + header;
   const int pdu_length = length - header;
   if (function == MODBUS_FC_WRITE_SINGLE_COIL && pdu_length >= 5) {
-    const int address = word(pdu + 1);
-    const int value = word(pdu + 3);
-    if (address >= first && address < first + channels && (value == 0xFF00 || value == 0)) {
-      after_write = before;
-      (*after_write)[address - first] = value == 0xFF00;
-    }
+    coil_writes.emplace_back(word(pdu + 1), word(pdu + 3) == 0xFF00);
   } else if (function == MODBUS_FC_WRITE_MULTIPLE_COILS && pdu_length >= 6) {
     const int address = word(pdu + 1);
     const int count = word(pdu + 3);
-    const int bytes = pdu[5];
-    if (count >= 1 && address >= first && address + count <= first + channels &&
-        bytes == (count + 7) / 8 && pdu_length >= 6 + bytes) {
-      after_write = before;
+    if (pdu_length >= 6 + pdu[5] && pdu[5] == (count + 7) / 8)
       for (int i = 0; i < count; ++i)
-        (*after_write)[address - first + i] = (pdu[6 + i / 8] >> (i % 8)) & 1;
+        coil_writes.emplace_back(address + i, (pdu[6 + i / 8] >> (i % 8)) & 1);
+  }
+  // What the write would leave on: refused when it touches a coil that is
+  // not in the map, or would light a second LED.
+  std::vector<bool> after = before;
+  bool all_off_requested = false;
+  for (const auto& [address, value] : coil_writes) {
+    if (address >= first && address < first + channels) {
+      after[address - first] = value;
+    } else if (address == all_off) {
+      all_off_requested = all_off_requested || value;
+    } else {
+      return capture_exception(fd, query, MODBUS_EXCEPTION_ILLEGAL_DATA_ADDRESS);
     }
   }
-  if (after_write && std::count(after_write->begin(), after_write->end(), true) > 1) {
-    link.mapping->tab_input_registers[0] |= kModbusStatusInterlock;
+  if (all_off_requested) std::fill(after.begin(), after.end(), false);
+  if (std::count(after.begin(), after.end(), true) > 1) {
+    status_locked() |= kModbusStatusInterlock;
     ++interlock_refusals_;
     return capture_exception(fd, query, MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE);
   }
@@ -382,25 +419,31 @@ std::vector<std::uint8_t> SimModbusDriver::apply(int fd, const std::uint8_t* que
   const bool replied = modbus_reply(link.ctx, query, length, link.mapping) >= 0;
   modbus_set_socket(link.ctx, fd);
   auto reply = replied ? read_captured(link.capture[1]) : std::vector<std::uint8_t>{};
+  if (all_off_requested) {
+    // The command coil acts and reads back 0, like a push button.
+    for (int channel = 0; channel < channels; ++channel)
+      coil_locked(channel) = 0;
+    link.mapping->tab_bits[all_off - first_coil_] = 0;
+  }
 
   // Offs before ons, so that no observer ever sees two LEDs on.
   bool any_on = false;
   for (int channel = 0; channel < channels; ++channel) {
-    const bool on = link.mapping->tab_bits[channel] != 0;
+    const bool on = coil_locked(channel) != 0;
     any_on = any_on || on;
     if (!before[channel] || on) continue;
     changes.push_back({channel, false, 0.0});
     log_.record(channel, false);
   }
   for (int channel = 0; channel < channels; ++channel) {
-    if (link.mapping->tab_bits[channel] == 0) continue;
+    if (coil_locked(channel) == 0) continue;
     if (!before[channel]) log_.record(channel, true);
     const bool level_changed = link.mapping->tab_registers[channel] != levels_before[channel];
     if (!before[channel] || level_changed)
       changes.push_back({channel, true, level_locked(channel)});
   }
   // The interlock bit latches until the host acknowledges with every LED off.
-  if (after_write && !any_on) link.mapping->tab_input_registers[0] &= ~kModbusStatusInterlock;
+  if (!coil_writes.empty() && !any_on) status_locked() &= ~kModbusStatusInterlock;
   return reply;
 }
 

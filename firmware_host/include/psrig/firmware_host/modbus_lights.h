@@ -8,7 +8,9 @@
 
 namespace psrig::firmware_host {
 
-// Connects to the driver, checks it answers, all off.
+// Connects to the driver, checks its device id (writing nothing to another
+// device), turns all off and confirms it, sets the configured intensities
+// and refuses a driver reporting a fault. Register map: firmware_host/README.md.
 [[nodiscard]] Result<std::unique_ptr<LightController>> open_modbus_lights(
     const config::LightsConfig& config);
 

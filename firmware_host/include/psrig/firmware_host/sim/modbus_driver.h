@@ -7,7 +7,9 @@
 //
 // Like a real driver it keeps at most one LED on: a write that would turn
 // on a second LED is refused (exception 3, illegal data value), changes
-// nothing, and sets the interlock bit in the status register.
+// nothing, and sets the interlock bit in the status register. Writing 1 to
+// the all-off coil clears every enable coil (and reads back 0); coil writes
+// outside the enable coils and the all-off coil are refused (exception 2).
 
 #include <atomic>
 #include <cstdint>
@@ -42,7 +44,8 @@ struct SimModbusDriverOptions {
   std::string transport = "tcp";  // "tcp": 127.0.0.1, ephemeral port; "rtu": a pty pair
   int slave = 1;                  // requests for other slaves go unanswered
   int channels = 3;
-  config::ModbusRegisters registers;
+  config::ModbusRegisters registers;  // registers.device_id is what the id register reads
+  std::uint16_t firmware = 0x0102;    // the version register: major << 8 | minor
 };
 
 class SimModbusDriver {
@@ -102,12 +105,17 @@ class SimModbusDriver {
   [[nodiscard]] std::vector<std::uint8_t> capture_exception(int fd, const std::uint8_t* query,
                                                             int code);
   [[nodiscard]] double level_locked(int channel) const;
+  // The mapping's cells for a channel's enable coil and for the status register.
+  [[nodiscard]] std::uint8_t& coil_locked(int channel) const;
+  [[nodiscard]] std::uint16_t& status_locked() const;
 
   SimModbusDriverOptions options_;
   SwitchCallback on_switch_;
   std::unique_ptr<Link> link_;
   std::string device_;
   int port_ = 0;
+  int first_coil_ = 0;   // the mapping's first coil address
+  int first_input_ = 0;  // the mapping's first input register address
   std::thread thread_;
   std::atomic<bool> stopping_{false};
 
