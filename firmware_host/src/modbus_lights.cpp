@@ -304,9 +304,9 @@ class ModbusLights final : public LightController {
              "lights.modbus.slave, lights.modbus.baud, lights.modbus.parity, "
              "lights.modbus.data_bits and lights.modbus.stop_bits match the driver's settings; "
              "`psrig devices` lists the serial ports found.";
-    return "Check the network cable and the driver's power, and that lights.modbus.host, "
-           "lights.modbus.port and lights.modbus.slave match the driver's settings; `psrig "
-           "devices` lists the devices found.";
+    return "Check the network cable and the driver's power (it should answer ping), and that "
+           "lights.modbus.host, lights.modbus.port and lights.modbus.slave match the driver's "
+           "settings.";
   }
 
   [[nodiscard]] Error with_key(Error error, std::string key) const {
