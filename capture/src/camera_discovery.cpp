@@ -1,13 +1,12 @@
 #include "psrig/capture/camera_discovery.h"
 
+#include <algorithm>
+#include <cerrno>
 #include <fcntl.h>
+#include <filesystem>
 #include <linux/videodev2.h>
 #include <sys/ioctl.h>
 #include <unistd.h>
-
-#include <algorithm>
-#include <cerrno>
-#include <filesystem>
 
 #include "psrig/capture/libcamera_camera.h"
 #include "psrig/capture/v4l2_formats.h"
@@ -19,7 +18,8 @@ namespace fs = std::filesystem;
 
 int xioctl(int fd, unsigned long request, void* arg) {
   int result = 0;
-  do result = ioctl(fd, request, arg);
+  do
+    result = ioctl(fd, request, arg);
   while (result < 0 && errno == EINTR);
   return result;
 }
@@ -37,7 +37,8 @@ std::optional<FoundCamera> describe_v4l2_node(const std::string& path) {
   v4l2_capability caps{};
   std::optional<FoundCamera> found;
   if (xioctl(fd, VIDIOC_QUERYCAP, &caps) == 0) {
-    const __u32 device_caps = caps.capabilities & V4L2_CAP_DEVICE_CAPS ? caps.device_caps : caps.capabilities;
+    const __u32 device_caps =
+        caps.capabilities & V4L2_CAP_DEVICE_CAPS ? caps.device_caps : caps.capabilities;
     if (device_caps & V4L2_CAP_VIDEO_CAPTURE) {
       std::string formats, other;
       v4l2_fmtdesc format{};
@@ -46,9 +47,10 @@ std::optional<FoundCamera> describe_v4l2_node(const std::string& path) {
         std::string& list = find_v4l2_format(format.pixelformat) ? formats : other;
         list += (list.empty() ? "" : " ") + fourcc_to_string(format.pixelformat);
       }
-      std::string description = text(caps.driver, sizeof caps.driver) + " \"" + text(caps.card, sizeof caps.card) +
-                                "\" (" + text(caps.bus_info, sizeof caps.bus_info) + "), formats psrig takes: " +
-                                (formats.empty() ? "none" : formats);
+      std::string description = text(caps.driver, sizeof caps.driver) + " \"" +
+                                text(caps.card, sizeof caps.card) + "\" (" +
+                                text(caps.bus_info, sizeof caps.bus_info) +
+                                "), formats psrig takes: " + (formats.empty() ? "none" : formats);
       if (!other.empty()) description += "; others: " + other;
       found = FoundCamera{"v4l2", path, description};
     }
@@ -64,7 +66,8 @@ std::vector<FoundCamera> find_cameras() {
   std::vector<std::string> nodes;
   std::error_code ec;
   for (const auto& entry : fs::directory_iterator("/dev", ec))
-    if (entry.path().filename().string().starts_with("video")) nodes.push_back(entry.path().string());
+    if (entry.path().filename().string().starts_with("video"))
+      nodes.push_back(entry.path().string());
   std::sort(nodes.begin(), nodes.end(), [](const std::string& a, const std::string& b) {
     return a.size() != b.size() ? a.size() < b.size() : a < b;  // video2 before video10
   });
@@ -74,7 +77,8 @@ std::vector<FoundCamera> find_cameras() {
   if (auto cameras = list_libcamera_cameras(); !cameras)
     found.push_back({"libcamera", "", "cannot look: " + cameras.error().describe()});
   else
-    for (const auto& camera : *cameras) found.push_back({"libcamera", camera.substr(0, camera.find(" (")), camera});
+    for (const auto& camera : *cameras)
+      found.push_back({"libcamera", camera.substr(0, camera.find(" (")), camera});
   return found;
 }
 

@@ -1,18 +1,16 @@
 #include "psrig/capture/libcamera_camera.h"
 
-#include <sys/mman.h>
-#include <time.h>
-
 #include <cerrno>
 #include <condition_variable>
 #include <cstdlib>
 #include <cstring>
 #include <deque>
+#include <libcamera/libcamera.h>
 #include <map>
 #include <mutex>
 #include <span>
-
-#include <libcamera/libcamera.h>
+#include <sys/mman.h>
+#include <time.h>
 
 #include "psrig/capture/v4l2_formats.h"
 #include "psrig/processing/log.h"
@@ -22,7 +20,8 @@
 //   below);
 // - ControlList::get() already returns std::optional from 0.0.1 on, as used.
 #define PSRIG_LIBCAMERA_AT_LEAST(major, minor) \
-  (LIBCAMERA_VERSION_MAJOR > (major) || (LIBCAMERA_VERSION_MAJOR == (major) && LIBCAMERA_VERSION_MINOR >= (minor)))
+  (LIBCAMERA_VERSION_MAJOR > (major) ||        \
+   (LIBCAMERA_VERSION_MAJOR == (major) && LIBCAMERA_VERSION_MINOR >= (minor)))
 
 namespace psrig::capture {
 namespace {
@@ -65,14 +64,16 @@ Clock::time_point on_steady_clock(std::int64_t sensor_ns) {
   const std::int64_t monotonic = clock_ns(CLOCK_MONOTONIC);
   const std::int64_t boot = clock_ns(CLOCK_BOOTTIME);
   const std::int64_t behind_monotonic = monotonic - sensor_ns, behind_boot = boot - sensor_ns;
-  const bool boot_based = behind_boot >= 0 && (behind_monotonic < 0 || behind_boot < behind_monotonic);
+  const bool boot_based =
+      behind_boot >= 0 && (behind_monotonic < 0 || behind_boot < behind_monotonic);
   const std::int64_t steady_ns = boot_based ? sensor_ns - (boot - monotonic) : sensor_ns;
   return Clock::time_point(duration_cast<Clock::duration>(nanoseconds(steady_ns)));
 }
 
 std::string camera_label(const std::shared_ptr<lc::Camera>& camera) {
   std::string label = camera->id();
-  if (const auto model = camera->properties().get(lc::properties::Model)) label += " (" + *model + ")";
+  if (const auto model = camera->properties().get(lc::properties::Model))
+    label += " (" + *model + ")";
   return label;
 }
 
@@ -99,7 +100,9 @@ class LibcameraCamera final : public Camera {
   }
 
   Status configure(const config::CameraConfig& settings) override {
-    if (running_) return std::unexpected(processing::internal_error(describe() + ": configure while streaming"));
+    if (running_)
+      return std::unexpected(
+          processing::internal_error(describe() + ": configure while streaming"));
     release_buffers();
     settings_ = settings;
 
@@ -108,35 +111,43 @@ class LibcameraCamera final : public Camera {
       wanted = find_v4l2_format(settings.format);
       if (!wanted)
         return std::unexpected(processing::bad_input(
-            settings.device, "camera.format", "\"" + settings.format + "\" is not a pixel format psrig converts"));
+            settings.device, "camera.format",
+            "\"" + settings.format + "\" is not a pixel format psrig converts"));
     }
     // Photometric stereo wants the sensor's raw, linear data; an ISP's
     // processed output only when asked for by name.
-    const lc::StreamRole role = !wanted || wanted->linear ? lc::StreamRole::Raw : lc::StreamRole::StillCapture;
+    const lc::StreamRole role =
+        !wanted || wanted->linear ? lc::StreamRole::Raw : lc::StreamRole::StillCapture;
     configuration_ = camera_->generateConfiguration({role});
     if (!configuration_ || configuration_->empty())
       return std::unexpected(processing::io_error(
-          label(), role == lc::StreamRole::Raw ? "offers no raw stream (camera.format)" : "offers no still stream"));
+          label(), role == lc::StreamRole::Raw ? "offers no raw stream (camera.format)"
+                                               : "offers no still stream"));
     lc::StreamConfiguration& stream = configuration_->at(0);
     if (settings.width > 0 && settings.height > 0)
-      stream.size = lc::Size(static_cast<unsigned>(settings.width), static_cast<unsigned>(settings.height));
+      stream.size =
+          lc::Size(static_cast<unsigned>(settings.width), static_cast<unsigned>(settings.height));
     auto chosen = choose_format(stream, wanted);
     if (!chosen) return std::unexpected(chosen.error());
     stream.pixelFormat = *chosen;
     stream.bufferCount = std::max(stream.bufferCount, 4U);
 
     if (configuration_->validate() == lc::CameraConfiguration::Invalid)
-      return std::unexpected(processing::io_error(label(), "refused the configuration " + stream.toString() +
-                                                               " (camera.width, camera.height, camera.format)"));
+      return std::unexpected(
+          processing::io_error(label(), "refused the configuration " + stream.toString() +
+                                            " (camera.width, camera.height, camera.format)"));
     if (stream.pixelFormat != *chosen)
-      return std::unexpected(processing::io_error(
-          label(), "cannot deliver " + chosen->toString() + " at " + stream.size.toString() + " (camera.format)"));
+      return std::unexpected(processing::io_error(label(), "cannot deliver " + chosen->toString() +
+                                                               " at " + stream.size.toString() +
+                                                               " (camera.format)"));
     if (settings.width > 0 && (stream.size.width != static_cast<unsigned>(settings.width) ||
                                stream.size.height != static_cast<unsigned>(settings.height)))
-      processing::logger("camera")->warn("{}: {}x{} adjusted to {} (camera.width, camera.height)", label(), settings.width,
-                             settings.height, stream.size.toString());
+      processing::logger("camera")->warn("{}: {}x{} adjusted to {} (camera.width, camera.height)",
+                                         label(), settings.width, settings.height,
+                                         stream.size.toString());
     if (const int result = camera_->configure(configuration_.get()); result < 0)
-      return std::unexpected(processing::io_error(label(), std::string("configure: ") + std::strerror(-result)));
+      return std::unexpected(
+          processing::io_error(label(), std::string("configure: ") + std::strerror(-result)));
 
     format_ = *v4l2_equivalent(stream.pixelFormat);
     width_ = static_cast<int>(stream.size.width);
@@ -147,14 +158,17 @@ class LibcameraCamera final : public Camera {
 
   Status start() override {
     if (running_) return {};
-    if (requests_.empty()) return std::unexpected(processing::internal_error(describe() + ": start before configure"));
-    if (vanished_) return std::unexpected(processing::io_error(label(), "the camera is gone (unplugged?)"));
+    if (requests_.empty())
+      return std::unexpected(processing::internal_error(describe() + ": start before configure"));
+    if (vanished_)
+      return std::unexpected(processing::io_error(label(), "the camera is gone (unplugged?)"));
     camera_->requestCompleted.connect(this, &LibcameraCamera::completed);
     lc::ControlList controls(lc::controls::controls);
     set_manual_controls(controls);
     if (const int result = camera_->start(&controls); result < 0) {
       camera_->requestCompleted.disconnect(this);
-      return std::unexpected(processing::io_error(label(), std::string("start: ") + std::strerror(-result)));
+      return std::unexpected(
+          processing::io_error(label(), std::string("start: ") + std::strerror(-result)));
     }
     running_ = true;
     for (auto& request : requests_) {
@@ -162,14 +176,16 @@ class LibcameraCamera final : public Camera {
       set_manual_controls(request->controls());
       if (const int result = camera_->queueRequest(request.get()); result < 0) {
         (void)stop();
-        return std::unexpected(processing::io_error(label(), std::string("queue a request: ") + std::strerror(-result)));
+        return std::unexpected(processing::io_error(
+            label(), std::string("queue a request: ") + std::strerror(-result)));
       }
     }
     return {};
   }
 
   Result<Frame> grab(milliseconds timeout) override {
-    if (!running_) return std::unexpected(processing::internal_error(describe() + ": grab before start"));
+    if (!running_)
+      return std::unexpected(processing::internal_error(describe() + ": grab before start"));
     const auto deadline = steady_clock::now() + timeout;
     for (;;) {
       lc::Request* request = nullptr;
@@ -177,8 +193,10 @@ class LibcameraCamera final : public Camera {
         std::unique_lock lock(mutex_);
         if (!ready_.wait_until(lock, deadline, [&] { return !completed_.empty() || vanished_; }))
           return std::unexpected(processing::io_error(
-              label(), "no frame within " + std::to_string(timeout.count()) + " ms (camera.timeout_ms)"));
-        if (vanished_) return std::unexpected(processing::io_error(label(), "the camera is gone (unplugged?)"));
+              label(),
+              "no frame within " + std::to_string(timeout.count()) + " ms (camera.timeout_ms)"));
+        if (vanished_)
+          return std::unexpected(processing::io_error(label(), "the camera is gone (unplugged?)"));
         request = completed_.front();
         completed_.pop_front();
       }
@@ -186,7 +204,8 @@ class LibcameraCamera final : public Camera {
       request->reuse(lc::Request::ReuseBuffers);
       set_manual_controls(request->controls());
       if (const int result = camera_->queueRequest(request); result < 0)
-        return std::unexpected(processing::io_error(label(), std::string("queue a request: ") + std::strerror(-result)));
+        return std::unexpected(processing::io_error(
+            label(), std::string("queue a request: ") + std::strerror(-result)));
       if (!frame) return std::unexpected(frame.error());
       if (*frame) return std::move(**frame);
       // else a dropped or damaged frame: wait for the next
@@ -201,13 +220,16 @@ class LibcameraCamera final : public Camera {
     std::lock_guard lock(mutex_);
     completed_.clear();
     if (result < 0 && !vanished_)
-      return std::unexpected(processing::io_error(label(), std::string("stop: ") + std::strerror(-result)));
+      return std::unexpected(
+          processing::io_error(label(), std::string("stop: ") + std::strerror(-result)));
     return {};
   }
 
   std::string describe() const override {
     std::string text = "libcamera " + label();
-    if (width_ > 0) text += ", " + std::to_string(width_) + "x" + std::to_string(height_) + " " + std::string(format_.name);
+    if (width_ > 0)
+      text += ", " + std::to_string(width_) + "x" + std::to_string(height_) + " " +
+              std::string(format_.name);
     return text;
   }
 
@@ -219,20 +241,25 @@ class LibcameraCamera final : public Camera {
     const std::vector<lc::PixelFormat> offered = stream.formats().pixelformats();
     if (wanted) {
       for (const auto& format : offered)
-        if (const auto equivalent = v4l2_equivalent(format); equivalent && equivalent->fourcc == wanted->fourcc)
+        if (const auto equivalent = v4l2_equivalent(format);
+            equivalent && equivalent->fourcc == wanted->fourcc)
           return format;
       return std::unexpected(processing::io_error(
-          label(), "does not offer " + std::string(wanted->name) + " (camera.format; `psrig devices` lists what it does)"));
+          label(), "does not offer " + std::string(wanted->name) +
+                       " (camera.format; `psrig devices` lists what it does)"));
     }
     // "auto": the best for photometry of what the camera offers.
     std::optional<lc::PixelFormat> best;
     int best_rank = -1;
     for (const auto& format : offered)
-      if (const auto equivalent = v4l2_equivalent(format); equivalent && equivalent->photometric_rank > best_rank) {
+      if (const auto equivalent = v4l2_equivalent(format);
+          equivalent && equivalent->photometric_rank > best_rank) {
         best = format;
         best_rank = equivalent->photometric_rank;
       }
-    if (!best) return std::unexpected(processing::io_error(label(), "offers no pixel format psrig converts"));
+    if (!best)
+      return std::unexpected(
+          processing::io_error(label(), "offers no pixel format psrig converts"));
     return *best;
   }
 
@@ -240,14 +267,16 @@ class LibcameraCamera final : public Camera {
     stream_ = stream;
     allocator_ = std::make_unique<lc::FrameBufferAllocator>(camera_);
     if (const int result = allocator_->allocate(stream); result < 0)
-      return std::unexpected(processing::io_error(label(), std::string("allocate buffers: ") + std::strerror(-result)));
+      return std::unexpected(processing::io_error(
+          label(), std::string("allocate buffers: ") + std::strerror(-result)));
     for (const auto& buffer : allocator_->buffers(stream)) {
       const lc::FrameBuffer::Plane& plane = buffer->planes().front();
       MappedBuffer mapped;
       mapped.length = plane.offset + plane.length;
       mapped.base = mmap(nullptr, mapped.length, PROT_READ, MAP_SHARED, plane.fd.get(), 0);
       if (mapped.base == MAP_FAILED)
-        return std::unexpected(processing::io_error(label(), std::string("map a buffer: ") + std::strerror(errno)));
+        return std::unexpected(
+            processing::io_error(label(), std::string("map a buffer: ") + std::strerror(errno)));
       mapped.plane = {static_cast<const std::uint8_t*>(mapped.base) + plane.offset, plane.length};
       mapped_[buffer.get()] = mapped;
       std::unique_ptr<lc::Request> request = camera_->createRequest();
@@ -260,7 +289,8 @@ class LibcameraCamera final : public Camera {
 
   void release_buffers() {
     requests_.clear();
-    for (auto& [buffer, mapped] : mapped_) munmap(mapped.base, mapped.length);
+    for (auto& [buffer, mapped] : mapped_)
+      munmap(mapped.base, mapped.length);
     mapped_.clear();
     if (allocator_ && stream_) allocator_->free(stream_);
     allocator_.reset();
@@ -302,19 +332,24 @@ class LibcameraCamera final : public Camera {
     const lc::FrameMetadata& meta = buffer->metadata();
     if (meta.status != lc::FrameMetadata::FrameSuccess) return std::nullopt;
     const MappedBuffer& mapped = mapped_.at(buffer);
-    auto image = convert_v4l2_frame(mapped.plane.first(std::min<std::size_t>(mapped.plane.size(), meta.planes()[0].bytesused)),
-                                    format_, width_, height_, stride_);
+    auto image = convert_v4l2_frame(
+        mapped.plane.first(std::min<std::size_t>(mapped.plane.size(), meta.planes()[0].bytesused)),
+        format_, width_, height_, stride_);
     if (!image) return std::unexpected(image.error());
 
     Frame frame;
     frame.image = std::move(*image);
     frame.sequence = meta.sequence;
-    frame.exposure_us = request.metadata().get(lc::controls::ExposureTime).value_or(settings_.exposure_us);
-    frame.gain = request.metadata().get(lc::controls::AnalogueGain).value_or(static_cast<float>(settings_.gain));
+    frame.exposure_us =
+        request.metadata().get(lc::controls::ExposureTime).value_or(settings_.exposure_us);
+    frame.gain = request.metadata()
+                     .get(lc::controls::AnalogueGain)
+                     .value_or(static_cast<float>(settings_.gain));
     // The stamp marks the first row's exposure, or on some pipelines the
     // start of its readout: assuming the latter dates a frame earlier, so a
     // frame that saw the old lighting is never taken for a fresh one.
-    const auto stamp = on_steady_clock(request.metadata().get(lc::controls::SensorTimestamp)
+    const auto stamp = on_steady_clock(request.metadata()
+                                           .get(lc::controls::SensorTimestamp)
                                            .value_or(static_cast<std::int64_t>(meta.timestamp)));
     frame.exposure_start = stamp - microseconds(frame.exposure_us);
     frame.exposure_end = stamp + microseconds(frame.exposure_us);
@@ -349,12 +384,12 @@ class LibcameraCamera final : public Camera {
 
 // libcamera names formats as DRM does; the conversions go by V4L2's names.
 std::optional<V4l2PixelFormat> v4l2_format_for_libcamera(std::string name) {
-  if (name.ends_with("_CSI2P")) name = name.substr(0, name.size() - 6) + "P";  // SRGGB10_CSI2P: MIPI packed
+  if (name.ends_with("_CSI2P"))
+    name = name.substr(0, name.size() - 6) + "P";  // SRGGB10_CSI2P: MIPI packed
   // DRM names colour formats by a little-endian word, V4L2 by bytes in memory.
-  static const std::map<std::string, std::string> renamed = {{"R8", "GREY"},     {"R10", "Y10"},
-                                                             {"R12", "Y12"},     {"R16", "Y16"},
-                                                             {"R10P", "Y10P"},   {"RGB888", "BGR24"},
-                                                             {"BGR888", "RGB24"}};
+  static const std::map<std::string, std::string> renamed = {
+      {"R8", "GREY"},   {"R10", "Y10"},      {"R12", "Y12"},     {"R16", "Y16"},
+      {"R10P", "Y10P"}, {"RGB888", "BGR24"}, {"BGR888", "RGB24"}};
   if (const auto it = renamed.find(name); it != renamed.end()) name = it->second;
   return find_v4l2_format(name);
 }
@@ -364,20 +399,23 @@ Result<std::unique_ptr<Camera>> open_libcamera_camera(const config::CameraConfig
   if (!manager) return std::unexpected(manager.error());
   const auto cameras = (*manager)->cameras();
   if (cameras.empty())
-    return std::unexpected(processing::io_error(
-        "libcamera", "no camera found (camera.backend = \"libcamera\"); `psrig devices` lists what is connected"));
+    return std::unexpected(processing::io_error("libcamera",
+                                                "no camera found (camera.backend = \"libcamera\"); "
+                                                "`psrig devices` lists what is connected"));
   // camera.device defaults to the V4L2 node, which means "the first" here.
   std::shared_ptr<lc::Camera> camera = config.device.empty() || config.device == "/dev/video0"
                                            ? cameras.front()
                                            : (*manager)->get(config.device);
   if (!camera) {
     std::string known;
-    for (const auto& c : cameras) known += (known.empty() ? "" : ", ") + c->id();
-    return std::unexpected(processing::bad_input(config.device, "camera.device",
-                                                 "no libcamera camera with this id; found: " + known));
+    for (const auto& c : cameras)
+      known += (known.empty() ? "" : ", ") + c->id();
+    return std::unexpected(processing::bad_input(
+        config.device, "camera.device", "no libcamera camera with this id; found: " + known));
   }
   if (camera->acquire() < 0)
-    return std::unexpected(processing::io_error(camera_label(camera), "is in use by another program"));
+    return std::unexpected(
+        processing::io_error(camera_label(camera), "is in use by another program"));
   return std::make_unique<LibcameraCamera>(std::move(*manager), std::move(camera));
 }
 
@@ -385,7 +423,8 @@ Result<std::vector<std::string>> list_libcamera_cameras() {
   auto manager = camera_manager();
   if (!manager) return std::unexpected(manager.error());
   std::vector<std::string> found;
-  for (const auto& camera : (*manager)->cameras()) found.push_back(camera_label(camera));
+  for (const auto& camera : (*manager)->cameras())
+    found.push_back(camera_label(camera));
   return found;
 }
 

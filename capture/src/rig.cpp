@@ -10,8 +10,8 @@ Result<Rig> open_rig(const config::RigConfig& config, bool with_camera) {
     rig.world = std::make_shared<firmware_host::SimWorld>(config);
   auto backend = firmware_host::open_lights(config, rig.world);
   if (!backend) return std::unexpected(backend.error());
-  rig.lights = std::make_unique<firmware_host::SafeLights>(std::move(*backend),
-                                                           std::chrono::milliseconds(config.lights.max_on_ms));
+  rig.lights = std::make_unique<firmware_host::SafeLights>(
+      std::move(*backend), std::chrono::milliseconds(config.lights.max_on_ms));
   if (with_camera) {
     auto camera = open_camera(config, rig.world);
     if (!camera) return std::unexpected(camera.error());

@@ -1,12 +1,12 @@
 #include "psrig/capture/scan_sequencer.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <cctype>
 #include <cmath>
 #include <ctime>
 #include <numbers>
 #include <thread>
+
+#include <opencv2/imgproc.hpp>
 
 #include "psrig/capture/scan_writer.h"
 #include "psrig/firmware_host/emergency_stop.h"
@@ -45,7 +45,8 @@ std::string compact_time() {
 
 cv::Vec3d light_direction(const config::RigConfig& config, int channel) {
   const double slant = config.geometry.slant_deg * std::numbers::pi / 180;
-  const double tilt = config.geometry.tilts_deg.at(static_cast<std::size_t>(channel)) * std::numbers::pi / 180;
+  const double tilt =
+      config.geometry.tilts_deg.at(static_cast<std::size_t>(channel)) * std::numbers::pi / 180;
   return {std::cos(tilt) * std::sin(slant), std::sin(tilt) * std::sin(slant), std::cos(slant)};
 }
 
@@ -79,17 +80,20 @@ struct ScanSequencer::Phase {
   std::string label;
 };
 
-ScanSequencer::ScanSequencer(const config::RigConfig& config, firmware_host::SafeLights& lights, Camera& camera)
+ScanSequencer::ScanSequencer(const config::RigConfig& config, firmware_host::SafeLights& lights,
+                             Camera& camera)
     : config_(config), lights_(lights), camera_(camera) {}
 
 Result<ScanSequencer::Lighting> ScanSequencer::switch_lights(int channel, Lighting& previous) {
   const auto before = Clock::now();
-  if (auto ok = channel < 0 ? lights_.all_off() : lights_.turn_on(channel); !ok) return std::unexpected(ok.error());
+  if (auto ok = channel < 0 ? lights_.all_off() : lights_.turn_on(channel); !ok)
+    return std::unexpected(ok.error());
   const auto after = Clock::now();
   switch_time_ = std::max(switch_time_, after - before);
   previous.until = before;  // the old state may have ended as soon as the call began...
   const auto lit = lights_.lit();
-  return Lighting{channel, channel < 0 || !lit ? after : lit->second};  // ...the new one began when it returned
+  return Lighting{
+      channel, channel < 0 || !lit ? after : lit->second};  // ...the new one began when it returned
 }
 
 Result<Frame> ScanSequencer::grab() {
@@ -98,7 +102,8 @@ Result<Frame> ScanSequencer::grab() {
   auto frame = camera_.grab(milliseconds(config_.camera.timeout_ms));
   if (!frame) return frame;
   // What the frames show beats what the camera says.
-  if (last_frame_ && frame->sequence > last_frame_->sequence && frame->exposure_start > last_frame_->exposure_start)
+  if (last_frame_ && frame->sequence > last_frame_->sequence &&
+      frame->exposure_start > last_frame_->exposure_start)
     period_ = (frame->exposure_start - last_frame_->exposure_start) /
               static_cast<std::int64_t>(frame->sequence - last_frame_->sequence);
   else if (frame->frame_interval > Clock::duration::zero())
@@ -133,7 +138,8 @@ Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Li
     const auto lit = lights_.lit();
     if (phase.channel >= 0 && (!lit || lit->first != phase.channel))
       return std::unexpected(processing::internal_error(
-          "LED " + std::to_string(phase.channel) + " went off during its exposures (lights.max_on_ms is " +
+          "LED " + std::to_string(phase.channel) +
+          " went off during its exposures (lights.max_on_ms is " +
           std::to_string(config_.lights.max_on_ms) + " ms: raise it, or shorten the exposure)"));
     return {};
   };
@@ -142,7 +148,8 @@ Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Li
     if (switch_early && kept == needed - 1 && can_switch_during_readout(lighting)) {
       // Switch to the next phase once the exposure in progress has ended.
       std::this_thread::sleep_until(last_frame_->exposure_start + *period_ +
-                                    (last_frame_->exposure_end - last_frame_->exposure_start) + kSwitchMargin);
+                                    (last_frame_->exposure_end - last_frame_->exposure_start) +
+                                    kSwitchMargin);
       if (auto ok = still_lit(); !ok) return std::unexpected(ok.error());
       auto now_lit = switch_lights(next->channel, lighting);
       if (!now_lit) return std::unexpected(now_lit.error());
@@ -151,7 +158,8 @@ Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Li
     auto frame = grab();
     if (!frame) return std::unexpected(frame.error());
     // A frame counts only if the whole exposure saw this phase's lighting.
-    const bool valid = frame->exposure_start >= lighting.since + settle && frame->exposure_end <= lighting.until;
+    const bool valid =
+        frame->exposure_start >= lighting.since + settle && frame->exposure_end <= lighting.until;
     if (switched && !valid) {
       // The camera's timing moved: back to this phase, and no more tricks.
       switch_early = false;
@@ -174,8 +182,10 @@ Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Li
       if (sum.empty()) {
         first = *frame;
         sum = cv::Mat::zeros(frame->image.size(), CV_MAKETYPE(CV_32F, frame->image.channels()));
-      } else if (frame->image.size() != first.image.size() || frame->image.channels() != first.image.channels()) {
-        return std::unexpected(processing::io_error(camera_.describe(), "the frame size or format changed mid-scan"));
+      } else if (frame->image.size() != first.image.size() ||
+                 frame->image.channels() != first.image.channels()) {
+        return std::unexpected(
+            processing::io_error(camera_.describe(), "the frame size or format changed mid-scan"));
       }
       cv::accumulate(frame->image, sum);
       ++timing.frames_kept;
@@ -191,8 +201,9 @@ Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Li
   return sum;
 }
 
-Result<processing::Scan> ScanSequencer::acquire(const ScanRequest& request, CaptureTiming& timing,
-                                                const std::function<void(const ScanProgress&)>& progress) {
+Result<processing::Scan> ScanSequencer::acquire(
+    const ScanRequest& request, CaptureTiming& timing,
+    const std::function<void(const ScanProgress&)>& progress) {
   const int lights = lights_.channel_count();
   std::vector<Phase> phases;
   if (config_.capture.dark_frame) phases.push_back({-1, "dark frame"});
@@ -237,7 +248,8 @@ Result<processing::Scan> ScanSequencer::acquire(const ScanRequest& request, Capt
       lighting = *now_lit;
     }
     Frame first;
-    auto mean = collect(phase, p + 1 < phases.size() ? &phases[p + 1] : nullptr, lighting, timing, first);
+    auto mean =
+        collect(phase, p + 1 < phases.size() ? &phases[p + 1] : nullptr, lighting, timing, first);
     if (!mean) return std::unexpected(mean.error());
     if (reference.image.empty()) {
       reference = first;
@@ -267,29 +279,32 @@ Result<processing::Scan> ScanSequencer::acquire(const ScanRequest& request, Capt
   d.white_level = reference.white_level * scale;
   scan.white_level = *d.white_level;
   d.pixel_size_mm = config_.geometry.pixel_size_mm;
-  d.document = {{"capture",
-                 {{"camera", camera_.describe()},
-                  {"lights", lights_.describe()},
-                  {"exposure_us", reference.exposure_us},
-                  {"gain", reference.gain},
-                  {"frames_averaged", config_.camera.frames_average},
-                  {"frames_discarded", config_.camera.frames_discard},
-                  {"frames_skipped_stale", timing.frames_skipped - config_.camera.frames_discard * static_cast<int>(phases.size())},
-                  {"settle_ms", config_.capture.settle_ms},
-                  {"stored_scale", scale},
-                  {"started", started},
-                  {"finished", iso_time()}}}};
+  d.document = {
+      {"capture",
+       {{"camera", camera_.describe()},
+        {"lights", lights_.describe()},
+        {"exposure_us", reference.exposure_us},
+        {"gain", reference.gain},
+        {"frames_averaged", config_.camera.frames_average},
+        {"frames_discarded", config_.camera.frames_discard},
+        {"frames_skipped_stale",
+         timing.frames_skipped - config_.camera.frames_discard * static_cast<int>(phases.size())},
+        {"settle_ms", config_.capture.settle_ms},
+        {"stored_scale", scale},
+        {"started", started},
+        {"finished", iso_time()}}}};
   return scan;
 }
 
-Result<ScanOutcome> ScanSequencer::capture(const ScanRequest& request,
-                                           const std::function<void(const ScanProgress&)>& progress) {
+Result<ScanOutcome> ScanSequencer::capture(
+    const ScanRequest& request, const std::function<void(const ScanProgress&)>& progress) {
   ScanOutcome outcome;
-  outcome.directory = request.directory.empty() ? default_scan_directory(config_, request.sample_id) : request.directory;
+  outcome.directory = request.directory.empty() ? default_scan_directory(config_, request.sample_id)
+                                                : request.directory;
   // Refused before the LEDs go on, not after (write_scan checks again).
   if (std::error_code ec; fs::exists(outcome.directory, ec))
-    return std::unexpected(
-        processing::bad_input(outcome.directory, "", "already exists; a scan is never overwritten"));
+    return std::unexpected(processing::bad_input(outcome.directory, "",
+                                                 "already exists; a scan is never overwritten"));
   auto scan = acquire(request, outcome.timing, progress);
   if (!scan) return std::unexpected(scan.error());
   if (progress) progress({"writing", 0, 1});
@@ -308,10 +323,12 @@ Result<ScanOutcome> ScanSequencer::capture(const ScanRequest& request,
 fs::path default_scan_directory(const config::RigConfig& config, const std::string& sample_id) {
   std::string name = compact_time() + "-";
   for (char c : sample_id.empty() ? std::string("scan") : sample_id)
-    name += (std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.') ? c : '_';
+    name +=
+        (std::isalnum(static_cast<unsigned char>(c)) || c == '-' || c == '_' || c == '.') ? c : '_';
   fs::path path = config.storage.root / name;
   std::error_code ec;
-  for (int n = 2; fs::exists(path, ec); ++n) path = config.storage.root / (name + "-" + std::to_string(n));
+  for (int n = 2; fs::exists(path, ec); ++n)
+    path = config.storage.root / (name + "-" + std::to_string(n));
   return path;
 }
 

@@ -22,11 +22,13 @@ class SimCamera final : public Camera {
       : config_(config), world_(std::move(world)), sensor_(config.sim, config.sim.seed) {}
 
   Status configure(const config::CameraConfig& settings) override {
-    if (running_) return std::unexpected(processing::internal_error("sim camera: configure while streaming"));
+    if (running_)
+      return std::unexpected(processing::internal_error("sim camera: configure while streaming"));
     if (settings.format != "auto" && settings.format != "GREY" && settings.format != "BGR3")
-      return std::unexpected(processing::bad_input(config_.source, "camera.format",
-                                                   "the simulated camera delivers \"BGR3\" (colour) or \"GREY\"; got \"" +
-                                                       settings.format + "\""));
+      return std::unexpected(processing::bad_input(
+          config_.source, "camera.format",
+          "the simulated camera delivers \"BGR3\" (colour) or \"GREY\"; got \"" + settings.format +
+              "\""));
     settings_.exposure_us = settings.exposure_us;
     settings_.gain = settings.gain;
     settings_.channels = settings.format == "GREY" ? 1 : 3;
@@ -41,7 +43,8 @@ class SimCamera final : public Camera {
   }
 
   Result<Frame> grab(milliseconds timeout) override {
-    if (!running_) return std::unexpected(processing::internal_error("sim camera: grab before start"));
+    if (!running_)
+      return std::unexpected(processing::internal_error("sim camera: grab before start"));
     const auto exposure = microseconds(settings_.exposure_us);
     const auto readout = microseconds(config_.sim.readout_us);
     const auto interval = std::max(microseconds(config_.sim.frame_interval_us), exposure + readout);
@@ -55,7 +58,8 @@ class SimCamera final : public Camera {
     } else if (ready(n) > now + timeout) {
       std::this_thread::sleep_for(timeout);
       return std::unexpected(processing::io_error(
-          "sim camera", "no frame within " + std::to_string(timeout.count()) + " ms (camera.timeout_ms)"));
+          "sim camera",
+          "no frame within " + std::to_string(timeout.count()) + " ms (camera.timeout_ms)"));
     } else {
       std::this_thread::sleep_until(ready(n));
     }
@@ -63,7 +67,8 @@ class SimCamera final : public Camera {
     Frame frame;
     frame.exposure_start = t0_ + n * interval;
     frame.exposure_end = frame.exposure_start + exposure;
-    frame.image = sensor_.expose(*world_, frame.exposure_start, settings_, static_cast<std::uint64_t>(n));
+    frame.image =
+        sensor_.expose(*world_, frame.exposure_start, settings_, static_cast<std::uint64_t>(n));
     frame.frame_interval = interval;
     frame.sequence = static_cast<std::uint64_t>(n);
     frame.exposure_us = settings_.exposure_us;
@@ -79,9 +84,10 @@ class SimCamera final : public Camera {
   }
 
   std::string describe() const override {
-    return "simulated camera " + std::to_string(config_.sim.width) + "x" + std::to_string(config_.sim.height) + " " +
-           std::to_string(config_.sim.bit_depth) + "-bit " + (settings_.channels == 1 ? "grey" : "colour") + ", " +
-           config_.sim.pattern + " swatch";
+    return "simulated camera " + std::to_string(config_.sim.width) + "x" +
+           std::to_string(config_.sim.height) + " " + std::to_string(config_.sim.bit_depth) +
+           "-bit " + (settings_.channels == 1 ? "grey" : "colour") + ", " + config_.sim.pattern +
+           " swatch";
   }
 
  private:

@@ -1,11 +1,10 @@
 #include "psrig/config/config_loader.h"
 
-#include <toml++/toml.h>
-
 #include <algorithm>
 #include <fstream>
 #include <set>
 #include <sstream>
+#include <toml++/toml.h>
 
 namespace psrig::config {
 namespace {
@@ -18,7 +17,8 @@ using processing::Status;
 // Levenshtein distance, for "did you mean" on unknown keys.
 std::size_t distance(const std::string& a, const std::string& b) {
   std::vector<std::size_t> row(b.size() + 1);
-  for (std::size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (std::size_t j = 0; j <= b.size(); ++j)
+    row[j] = j;
   for (std::size_t i = 1; i <= a.size(); ++i) {
     std::size_t previous = row[0];
     row[0] = i;
@@ -35,12 +35,16 @@ std::size_t distance(const std::string& a, const std::string& b) {
 // a key; finish() reports the keys left over as warnings.
 class Section {
  public:
-  Section(const toml::table* table, std::string path, const fs::path& file, std::vector<std::string>* warnings)
+  Section(const toml::table* table, std::string path, const fs::path& file,
+          std::vector<std::string>* warnings)
       : table_(table), path_(std::move(path)), file_(file), warnings_(warnings) {}
 
-  [[nodiscard]] std::string key(const std::string& name) const { return path_.empty() ? name : path_ + "." + name; }
+  [[nodiscard]] std::string key(const std::string& name) const {
+    return path_.empty() ? name : path_ + "." + name;
+  }
 
-  Error error_at(const toml::node* node, const std::string& name, const std::string& message) const {
+  Error error_at(const toml::node* node, const std::string& name,
+                 const std::string& message) const {
     Error e = processing::bad_input(file_, key(name), message);
     if (node) {
       e.line = static_cast<int>(node->source().begin.line);
@@ -54,14 +58,18 @@ class Section {
     return table_ ? table_->get(name) : nullptr;
   }
 
-  Status get(const std::string& name, double& out, double min, double max, bool exclusive_min = false) {
+  Status get(const std::string& name, double& out, double min, double max,
+             bool exclusive_min = false) {
     const toml::node* n = node(name);
     if (!n) return {};
     const auto value = n->value<double>();  // integers convert too
     if (!value) return std::unexpected(error_at(n, name, "expected a number"));
     if (*value < min || *value > max || (exclusive_min && *value == min))
-      return std::unexpected(error_at(n, name, "is " + format(*value) + "; expected " + (exclusive_min ? "more than " : "from ") +
-                                                   format(min) + (max < 1e300 ? (exclusive_min ? ", at most " : " to ") + format(max) : "")));
+      return std::unexpected(
+          error_at(n, name,
+                   "is " + format(*value) + "; expected " +
+                       (exclusive_min ? "more than " : "from ") + format(min) +
+                       (max < 1e300 ? (exclusive_min ? ", at most " : " to ") + format(max) : "")));
     out = *value;
     return {};
   }
@@ -70,10 +78,12 @@ class Section {
     const toml::node* n = node(name);
     if (!n) return {};
     const auto value = n->value<std::int64_t>();
-    if (!n->is_integer() || !value) return std::unexpected(error_at(n, name, "expected a whole number"));
+    if (!n->is_integer() || !value)
+      return std::unexpected(error_at(n, name, "expected a whole number"));
     if (*value < min || *value > max)
-      return std::unexpected(error_at(n, name, "is " + std::to_string(*value) + "; expected " + std::to_string(min) + " to " +
-                                                   std::to_string(max)));
+      return std::unexpected(error_at(n, name,
+                                      "is " + std::to_string(*value) + "; expected " +
+                                          std::to_string(min) + " to " + std::to_string(max)));
     out = static_cast<int>(*value);
     return {};
   }
@@ -82,7 +92,8 @@ class Section {
     const toml::node* n = node(name);
     if (!n) return {};
     const auto value = n->value<std::int64_t>();
-    if (!n->is_integer() || !value || *value < 0) return std::unexpected(error_at(n, name, "expected a whole number, 0 or more"));
+    if (!n->is_integer() || !value || *value < 0)
+      return std::unexpected(error_at(n, name, "expected a whole number, 0 or more"));
     out = static_cast<std::uint64_t>(*value);
     return {};
   }
@@ -95,14 +106,17 @@ class Section {
     return {};
   }
 
-  Status get(const std::string& name, std::string& out, std::initializer_list<const char*> allowed = {}) {
+  Status get(const std::string& name, std::string& out,
+             std::initializer_list<const char*> allowed = {}) {
     const toml::node* n = node(name);
     if (!n) return {};
     if (!n->is_string()) return std::unexpected(error_at(n, name, "expected a string"));
     const std::string value = *n->value<std::string>();
-    if (allowed.size() > 0 && std::none_of(allowed.begin(), allowed.end(), [&](const char* a) { return value == a; })) {
+    if (allowed.size() > 0 &&
+        std::none_of(allowed.begin(), allowed.end(), [&](const char* a) { return value == a; })) {
       std::string list;
-      for (const char* a : allowed) list += (list.empty() ? "\"" : ", \"") + std::string(a) + "\"";
+      for (const char* a : allowed)
+        list += (list.empty() ? "\"" : ", \"") + std::string(a) + "\"";
       return std::unexpected(error_at(n, name, "is \"" + value + "\"; expected one of " + list));
     }
     out = value;
@@ -119,8 +133,9 @@ class Section {
       const auto value = element.value<double>();
       if (!value) return std::unexpected(error_at(&element, name, "expected an array of numbers"));
       if (*value < min || *value > max)
-        return std::unexpected(error_at(&element, name, "has " + format(*value) + "; expected values from " + format(min) +
-                                                             " to " + format(max)));
+        return std::unexpected(error_at(&element, name,
+                                        "has " + format(*value) + "; expected values from " +
+                                            format(min) + " to " + format(max)));
       values.push_back(*value);
     }
     out = std::move(values);
@@ -147,7 +162,8 @@ class Section {
   Result<const toml::table*> table(const std::string& name) {
     const toml::node* n = node(name);
     if (!n) return nullptr;
-    if (!n->is_table()) return std::unexpected(error_at(n, name, "expected a table ([" + key(name) + "])"));
+    if (!n->is_table())
+      return std::unexpected(error_at(n, name, "expected a table ([" + key(name) + "])"));
     return n->as_table();
   }
 
@@ -161,13 +177,16 @@ class Section {
       for (const auto& known : known_)
         if (const std::size_t d = distance(k, known); d < best) best = d, nearest = known;
       std::ostringstream line;
-      line << file_.string() << ":" << name.source().begin.line << ":" << name.source().begin.column << ": " << key(k)
-           << ": unknown key, ignored" << (nearest.empty() ? "" : " (did you mean '" + key(nearest) + "'?)");
+      line << file_.string() << ":" << name.source().begin.line << ":" << name.source().begin.column
+           << ": " << key(k) << ": unknown key, ignored"
+           << (nearest.empty() ? "" : " (did you mean '" + key(nearest) + "'?)");
       warnings_->push_back(line.str());
     }
   }
 
-  [[nodiscard]] const toml::node* find(const std::string& name) const { return table_ ? table_->get(name) : nullptr; }
+  [[nodiscard]] const toml::node* find(const std::string& name) const {
+    return table_ ? table_->get(name) : nullptr;
+  }
 
  private:
   static std::string format(double value) {
@@ -183,14 +202,15 @@ class Section {
   std::set<std::string> known_;
 };
 
-#define PSRIG_TRY(expression)                                     \
-  do {                                                            \
+#define PSRIG_TRY(expression)                                                           \
+  do {                                                                                  \
     if (auto status_ = (expression); !status_) return std::unexpected(status_.error()); \
   } while (false)
 
 constexpr double kNoMax = 1e308;
 
-Result<RigConfig> read(const toml::table& root, const fs::path& file, std::vector<std::string>* warnings) {
+Result<RigConfig> read(const toml::table& root, const fs::path& file,
+                       std::vector<std::string>* warnings) {
   RigConfig c;
   c.source = file;
   Section top(&root, "", file, warnings);
@@ -228,11 +248,13 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file, std::vecto
     PSRIG_TRY(gpiod->get("active_low", c.lights.gpiod.active_low));
     PSRIG_TRY(gpiod->get("consumer", c.lights.gpiod.consumer));
     gpiod->finish();
-    if (c.lights.backend == "gpiod" && c.lights.gpiod.lines.size() != static_cast<std::size_t>(c.lights.channels))
-      return std::unexpected(gpiod->error_at(gpiod->find("lines"), "lines",
-                                             "gives " + std::to_string(c.lights.gpiod.lines.size()) +
-                                                 " line offsets for " + std::to_string(c.lights.channels) +
-                                                 " channels; list one GPIO line per LED (see `gpioinfo`)"));
+    if (c.lights.backend == "gpiod" &&
+        c.lights.gpiod.lines.size() != static_cast<std::size_t>(c.lights.channels))
+      return std::unexpected(
+          gpiod->error_at(gpiod->find("lines"), "lines",
+                          "gives " + std::to_string(c.lights.gpiod.lines.size()) +
+                              " line offsets for " + std::to_string(c.lights.channels) +
+                              " channels; list one GPIO line per LED (see `gpioinfo`)"));
 
     auto usb = sub(*lights, "usb");
     if (!usb) return std::unexpected(usb.error());
@@ -277,17 +299,22 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file, std::vecto
     modbus->finish();
   }
   lights->finish();
-  if (!c.lights.intensity.empty() && c.lights.intensity.size() != static_cast<std::size_t>(c.lights.channels))
+  if (!c.lights.intensity.empty() &&
+      c.lights.intensity.size() != static_cast<std::size_t>(c.lights.channels))
     return std::unexpected(lights->error_at(lights->find("intensity"), "intensity",
-                                            "gives " + std::to_string(c.lights.intensity.size()) + " values for " +
-                                                std::to_string(c.lights.channels) + " channels"));
-  if (geometry->find("tilts_deg") && c.geometry.tilts_deg.size() != static_cast<std::size_t>(c.lights.channels))
-    return std::unexpected(geometry->error_at(geometry->find("tilts_deg"), "tilts_deg",
-                                              "gives " + std::to_string(c.geometry.tilts_deg.size()) + " tilts for " +
-                                                  std::to_string(c.lights.channels) + " lights (lights.channels)"));
+                                            "gives " + std::to_string(c.lights.intensity.size()) +
+                                                " values for " + std::to_string(c.lights.channels) +
+                                                " channels"));
+  if (geometry->find("tilts_deg") &&
+      c.geometry.tilts_deg.size() != static_cast<std::size_t>(c.lights.channels))
+    return std::unexpected(
+        geometry->error_at(geometry->find("tilts_deg"), "tilts_deg",
+                           "gives " + std::to_string(c.geometry.tilts_deg.size()) + " tilts for " +
+                               std::to_string(c.lights.channels) + " lights (lights.channels)"));
   if (!geometry->find("tilts_deg") && c.lights.channels != 3) {
     c.geometry.tilts_deg.clear();  // evenly spread, one per channel
-    for (int k = 0; k < c.lights.channels; ++k) c.geometry.tilts_deg.push_back(360.0 * k / c.lights.channels);
+    for (int k = 0; k < c.lights.channels; ++k)
+      c.geometry.tilts_deg.push_back(360.0 * k / c.lights.channels);
   }
 
   auto camera = sub(top, "camera");
@@ -317,8 +344,9 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file, std::vecto
   std::string storage_root = c.storage.root.string();
   PSRIG_TRY(storage->get("root", storage_root));
   // Relative to the configuration file, not to wherever psrig was started.
-  c.storage.root = fs::path(storage_root).is_absolute() ? fs::path(storage_root)
-                                                        : (file.parent_path() / storage_root).lexically_normal();
+  c.storage.root = fs::path(storage_root).is_absolute()
+                       ? fs::path(storage_root)
+                       : (file.parent_path() / storage_root).lexically_normal();
   storage->finish();
 
   auto sim = sub(top, "sim");
@@ -341,9 +369,11 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file, std::vecto
   sim->finish();
   if (s.black_level >= (1 << s.bit_depth) - 1)
     return std::unexpected(sim->error_at(sim->find("black_level"), "black_level",
-                                         "must be below the " + std::to_string(s.bit_depth) + "-bit full scale (" +
+                                         "must be below the " + std::to_string(s.bit_depth) +
+                                             "-bit full scale (" +
                                              std::to_string((1 << s.bit_depth) - 1) + ")"));
-  if (c.camera.backend == "sim" && c.geometry.pixel_size_mm == std::nullopt) c.geometry.pixel_size_mm = s.pixel_size_mm;
+  if (c.camera.backend == "sim" && c.geometry.pixel_size_mm == std::nullopt)
+    c.geometry.pixel_size_mm = s.pixel_size_mm;
 
   top.finish();
   return c;
@@ -351,17 +381,20 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file, std::vecto
 
 }  // namespace
 
-Result<RigConfig> parse_config(std::string_view text, const fs::path& source, std::vector<std::string>* warnings) {
+Result<RigConfig> parse_config(std::string_view text, const fs::path& source,
+                               std::vector<std::string>* warnings) {
   try {
     const toml::table root = toml::parse(text, source.string());
     return read(root, source, warnings);
   } catch (const toml::parse_error& e) {
-    Error error = processing::bad_input(source, "", std::string("malformed TOML: ") + std::string(e.description()));
+    Error error = processing::bad_input(
+        source, "", std::string("malformed TOML: ") + std::string(e.description()));
     error.line = static_cast<int>(e.source().begin.line);
     error.column = static_cast<int>(e.source().begin.column);
     return std::unexpected(error);
   } catch (const std::exception& e) {
-    return std::unexpected(processing::internal_error(source.string() + ": reading the configuration failed: " + e.what()));
+    return std::unexpected(processing::internal_error(
+        source.string() + ": reading the configuration failed: " + e.what()));
   }
 }
 
@@ -369,7 +402,8 @@ Result<RigConfig> load_config(const fs::path& file, std::vector<std::string>* wa
   std::ifstream stream(file);
   std::error_code ec;
   if (!fs::exists(file, ec))
-    return std::unexpected(processing::bad_input(file, "", "no such configuration file (see config/rig.example.toml)"));
+    return std::unexpected(processing::bad_input(
+        file, "", "no such configuration file (see config/rig.example.toml)"));
   if (!stream) return std::unexpected(processing::bad_input(file, "", "cannot open for reading"));
   std::stringstream text;
   text << stream.rdbuf();

@@ -1,18 +1,16 @@
 #include "psrig/firmware_host/device_discovery.h"
 
-#include <fcntl.h>
-#include <linux/serial.h>
-#include <sys/ioctl.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cstdio>
+#include <fcntl.h>
 #include <filesystem>
 #include <fstream>
-#include <memory>
-
 #include <gpiod.h>
 #include <libusb.h>
+#include <linux/serial.h>
+#include <memory>
+#include <sys/ioctl.h>
+#include <unistd.h>
 
 namespace psrig::firmware_host {
 namespace {
@@ -54,7 +52,8 @@ std::vector<FoundDevice> find_gpio_chips() {
   std::vector<FoundDevice> found;
   gpiod_chip_iter* chips = gpiod_chip_iter_new();
   if (chips == nullptr) return found;  // no /dev/gpiochip* at all
-  for (gpiod_chip* chip = gpiod_chip_iter_next(chips); chip != nullptr; chip = gpiod_chip_iter_next(chips))
+  for (gpiod_chip* chip = gpiod_chip_iter_next(chips); chip != nullptr;
+       chip = gpiod_chip_iter_next(chips))
     found.push_back({std::string("/dev/") + gpiod_chip_name(chip),
                      std::string("label \"") + gpiod_chip_label(chip) + "\", " +
                          std::to_string(gpiod_chip_num_lines(chip)) + " lines"});
@@ -63,7 +62,8 @@ std::vector<FoundDevice> find_gpio_chips() {
   return found;
 }
 
-std::vector<FoundDevice> find_usb_strobe_controllers(std::uint16_t vendor_id, std::uint16_t product_id) {
+std::vector<FoundDevice> find_usb_strobe_controllers(std::uint16_t vendor_id,
+                                                     std::uint16_t product_id) {
   std::vector<FoundDevice> found;
   libusb_context* context = nullptr;
   if (libusb_init(&context) != 0) return found;
@@ -74,17 +74,20 @@ std::vector<FoundDevice> find_usb_strobe_controllers(std::uint16_t vendor_id, st
     if (libusb_get_device_descriptor(list[i], &descriptor) != 0) continue;
     if (descriptor.idVendor != vendor_id || descriptor.idProduct != product_id) continue;
     char where[16];
-    std::snprintf(where, sizeof where, "%03u:%03u", libusb_get_bus_number(list[i]), libusb_get_device_address(list[i]));
+    std::snprintf(where, sizeof where, "%03u:%03u", libusb_get_bus_number(list[i]),
+                  libusb_get_device_address(list[i]));
     std::string description = "strobe controller";
     libusb_device_handle* handle = nullptr;
     if (const int opened = libusb_open(list[i], &handle); opened == 0) {
       unsigned char serial[128] = {};
       if (descriptor.iSerialNumber != 0 &&
-          libusb_get_string_descriptor_ascii(handle, descriptor.iSerialNumber, serial, sizeof serial) > 0)
+          libusb_get_string_descriptor_ascii(handle, descriptor.iSerialNumber, serial,
+                                             sizeof serial) > 0)
         description += ", serial " + std::string(reinterpret_cast<const char*>(serial));
       libusb_close(handle);
     } else {
-      description += std::string(", cannot open: ") + libusb_strerror(opened) + " (the psrig user needs access to /dev/bus/usb)";
+      description += std::string(", cannot open: ") + libusb_strerror(opened) +
+                     " (the psrig user needs access to /dev/bus/usb)";
     }
     found.push_back({where, description});
   }

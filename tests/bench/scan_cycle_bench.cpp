@@ -19,7 +19,8 @@
 namespace {
 
 void BM_ScanCycle(benchmark::State& state, int exposure_us, int readout_us) {
-  auto config = psrig::config::load_config(std::filesystem::path(PSRIG_SOURCE_DIR) / "config/sim.toml");
+  auto config =
+      psrig::config::load_config(std::filesystem::path(PSRIG_SOURCE_DIR) / "config/sim.toml");
   if (!config) {
     state.SkipWithError(config.error().describe().c_str());
     return;
@@ -49,7 +50,11 @@ void BM_ScanCycle(benchmark::State& state, int exposure_us, int readout_us) {
   state.counters["frames_skipped"] = skipped / static_cast<double>(state.iterations());
 }
 
-BENCHMARK_CAPTURE(BM_ScanCycle, sim_toml, 20000, 15000)->Unit(benchmark::kMillisecond)->UseRealTime();
-BENCHMARK_CAPTURE(BM_ScanCycle, short_gap, 20000, 500)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(BM_ScanCycle, sim_toml, 20000, 15000)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
+BENCHMARK_CAPTURE(BM_ScanCycle, short_gap, 20000, 500)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 }  // namespace

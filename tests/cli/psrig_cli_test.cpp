@@ -154,7 +154,8 @@ TEST(PsrigCli, ScanOnTheSimulatedRigRecoversTheSwatch) {
   TempDir temp;
   const auto config = sim_config(temp);
   const auto scan = temp / "J-0001";
-  auto run = run_program("psrig", {"scan", "--config", config.string(), "--out", scan.string(), "--sample-id", "J-0001"});
+  auto run = run_program("psrig", {"scan", "--config", config.string(), "--out", scan.string(),
+                                   "--sample-id", "J-0001"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   std::ifstream report_file(scan / "maps/report.json");
   ASSERT_TRUE(report_file) << run.out;
@@ -169,7 +170,8 @@ TEST(PsrigCli, ScanOnTheSimulatedRigRecoversTheSwatch) {
 TEST(PsrigCli, ScanWithoutAnOutGoesToTheStorageRoot) {
   TempDir temp;
   const auto config = sim_config(temp);
-  auto run = run_program("psrig", {"scan", "--config", config.string(), "--no-process", "--sample-id", "R 7/2"});
+  auto run = run_program(
+      "psrig", {"scan", "--config", config.string(), "--no-process", "--sample-id", "R 7/2"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   const auto scans = list_directory(temp / "scans");
   ASSERT_EQ(scans.size(), 1U);
@@ -183,7 +185,8 @@ TEST(PsrigCli, ScanRefusesAnExistingDirectoryAndTouchesNothing) {
   const auto config = sim_config(temp);
   fs::create_directory(temp / "taken");
   std::ofstream(temp / "taken/notes.txt") << "keep me";
-  auto run = run_program("psrig", {"scan", "--config", config.string(), "--out", (temp / "taken").string()});
+  auto run = run_program("psrig",
+                         {"scan", "--config", config.string(), "--out", (temp / "taken").string()});
   EXPECT_EQ(run.exit_code, 2) << run.out;
   EXPECT_TRUE(contains(run.err, "taken")) << run.err;
   EXPECT_FALSE(contains(run.err, "light 1 of 3")) << run.err;  // refused before any LED went on
@@ -205,7 +208,9 @@ TEST(PsrigCli, ConfigErrorsNameFileLineColumnAndKey) {
   }
   auto check = run_program("psrig", {"config", "check", file.string()});
   EXPECT_EQ(check.exit_code, 2);
-  auto good = run_program("psrig", {"config", "check", (fs::path(PSRIG_SOURCE_DIR) / "config/rig.example.toml").string()});
+  auto good = run_program(
+      "psrig",
+      {"config", "check", (fs::path(PSRIG_SOURCE_DIR) / "config/rig.example.toml").string()});
   EXPECT_EQ(good.exit_code, 0) << good.err;
   EXPECT_TRUE(contains(good.out, "ok")) << good.out;
 }
@@ -215,9 +220,11 @@ TEST(PsrigCli, MissingHardwareNamesTheDeviceAndTheKey) {
   const auto config = sim_config(temp, "");
   std::ifstream in(config);
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  text.replace(text.find("backend = \"sim\"\nexposure_us"), 15, "backend = \"v4l2\"\ndevice = \"/dev/video77\"");
+  text.replace(text.find("backend = \"sim\"\nexposure_us"), 15,
+               "backend = \"v4l2\"\ndevice = \"/dev/video77\"");
   std::ofstream(config) << text;
-  auto run = run_program("psrig", {"scan", "--config", config.string(), "--out", (temp / "scan").string()});
+  auto run = run_program("psrig",
+                         {"scan", "--config", config.string(), "--out", (temp / "scan").string()});
   EXPECT_NE(run.exit_code, 0);
   EXPECT_TRUE(contains(run.err, "/dev/video77")) << run.err;
   EXPECT_TRUE(contains(run.err, "camera.device")) << run.err;
@@ -226,7 +233,8 @@ TEST(PsrigCli, MissingHardwareNamesTheDeviceAndTheKey) {
 
 TEST(PsrigCli, LightsCycleBlinksEachLedOnce) {
   TempDir temp;
-  auto run = run_program("psrig", {"lights", "--config", sim_config(temp).string(), "--cycle", "--on-ms", "20"});
+  auto run = run_program(
+      "psrig", {"lights", "--config", sim_config(temp).string(), "--cycle", "--on-ms", "20"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(contains(run.out, "LED 0 on (tilt 0 deg")) << run.out;
   EXPECT_TRUE(contains(run.out, "LED 2 on (tilt 240 deg")) << run.out;
@@ -236,7 +244,8 @@ TEST(PsrigCli, LightsCycleBlinksEachLedOnce) {
 TEST(PsrigCli, DevicesListsEveryKindEvenWhenNoneIsThere) {
   auto run = run_program("psrig", {"devices"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  for (const char* section : {"cameras:", "GPIO chips", "USB strobe controllers 1209:5053", "serial ports"})
+  for (const char* section :
+       {"cameras:", "GPIO chips", "USB strobe controllers 1209:5053", "serial ports"})
     EXPECT_TRUE(contains(run.out, section)) << section << "\n" << run.out;
   EXPECT_TRUE(run.err.empty()) << run.err;  // libcamera keeps quiet
 }

@@ -10,7 +10,9 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path config_dir() { return fs::path(PSRIG_SOURCE_DIR) / "config"; }
+fs::path config_dir() {
+  return fs::path(PSRIG_SOURCE_DIR) / "config";
+}
 
 processing::Error expect_error(const std::string& text, const std::string& key, int line) {
   auto config = parse_config(text, "/etc/psrig/rig.toml");
@@ -58,7 +60,9 @@ TEST(Config, MalformedTomlGivesLineAndColumn) {
 TEST(Config, WrongTypeNamesTheKey) {
   const auto e = expect_error("[camera]\nexposure_us = \"fast\"\n", "camera.exposure_us", 2);
   EXPECT_EQ(e.column, 15);
-  EXPECT_NE(e.describe().find("/etc/psrig/rig.toml:2:15: camera.exposure_us: expected a whole number"), std::string::npos)
+  EXPECT_NE(
+      e.describe().find("/etc/psrig/rig.toml:2:15: camera.exposure_us: expected a whole number"),
+      std::string::npos)
       << e.describe();
 }
 
@@ -75,17 +79,20 @@ TEST(Config, UnknownBackendListsTheChoices) {
 
 TEST(Config, UnknownKeysAreWarnedNotRejected) {
   std::vector<std::string> warnings;
-  auto config = parse_config("[camera]\nexposure_ms = 20\n[vendor]\ncolour = \"blue\"\n", "rig.toml", &warnings);
+  auto config = parse_config("[camera]\nexposure_ms = 20\n[vendor]\ncolour = \"blue\"\n",
+                             "rig.toml", &warnings);
   ASSERT_TRUE(config);
   ASSERT_EQ(warnings.size(), 2u);
-  EXPECT_NE(warnings[0].find("rig.toml:2:1: camera.exposure_ms: unknown key, ignored (did you mean 'camera.exposure_us'?)"),
+  EXPECT_NE(warnings[0].find("rig.toml:2:1: camera.exposure_ms: unknown key, ignored (did you mean "
+                             "'camera.exposure_us'?)"),
             std::string::npos)
       << warnings[0];
   EXPECT_NE(warnings[1].find("vendor"), std::string::npos);
 }
 
 TEST(Config, GpioLinesMustMatchTheChannels) {
-  const auto e = expect_error("[lights]\nbackend = \"gpiod\"\n[lights.gpiod]\nlines = [17, 27]\n", "lights.gpiod.lines", 4);
+  const auto e = expect_error("[lights]\nbackend = \"gpiod\"\n[lights.gpiod]\nlines = [17, 27]\n",
+                              "lights.gpiod.lines", 4);
   EXPECT_NE(e.message.find("gpioinfo"), std::string::npos);
 }
 
@@ -99,7 +106,9 @@ TEST(Config, TiltsMustMatchTheChannels) {
 
 TEST(Config, ModbusParityAndRegisterMap) {
   auto config = parse_config(
-      "[lights.modbus]\nparity = \"O\"\n[lights.modbus.registers]\nenable_coil = 16\nintensity_full_scale = 4095\n", "rig.toml");
+      "[lights.modbus]\nparity = \"O\"\n[lights.modbus.registers]\nenable_coil = "
+      "16\nintensity_full_scale = 4095\n",
+      "rig.toml");
   ASSERT_TRUE(config) << config.error().describe();
   EXPECT_EQ(config->lights.modbus.parity, 'O');
   EXPECT_EQ(config->lights.modbus.registers.enable_coil, 16);
@@ -109,13 +118,16 @@ TEST(Config, ModbusParityAndRegisterMap) {
 
 TEST(Config, ModbusAllOffCoilAndDeviceId) {
   auto config = parse_config(
-      "[lights.modbus.registers]\nall_off_coil = -1\nid_register = 7\ndevice_id = 0x1234\n", "rig.toml");
+      "[lights.modbus.registers]\nall_off_coil = -1\nid_register = 7\ndevice_id = 0x1234\n",
+      "rig.toml");
   ASSERT_TRUE(config) << config.error().describe();
   EXPECT_EQ(config->lights.modbus.registers.all_off_coil, -1);
   EXPECT_EQ(config->lights.modbus.registers.id_register, 7);
   EXPECT_EQ(config->lights.modbus.registers.device_id, 0x1234);
-  expect_error("[lights.modbus.registers]\nall_off_coil = -2\n", "lights.modbus.registers.all_off_coil", 2);
-  expect_error("[lights.modbus.registers]\ndevice_id = 65536\n", "lights.modbus.registers.device_id", 2);
+  expect_error("[lights.modbus.registers]\nall_off_coil = -2\n",
+               "lights.modbus.registers.all_off_coil", 2);
+  expect_error("[lights.modbus.registers]\ndevice_id = 65536\n",
+               "lights.modbus.registers.device_id", 2);
 }
 
 TEST(Config, SectionThatIsNotATable) {

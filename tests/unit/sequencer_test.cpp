@@ -2,8 +2,6 @@
 // frames never reach the scan, and every way a scan can fail leaves all LEDs
 // off, says what failed and leaves no scan directory behind.
 
-#include "psrig/capture/scan_sequencer.h"
-
 #include <chrono>
 #include <functional>
 #include <thread>
@@ -11,6 +9,7 @@
 #include <gtest/gtest.h>
 
 #include "psrig/capture/rig.h"
+#include "psrig/capture/scan_sequencer.h"
 #include "psrig/config/config_loader.h"
 #include "psrig/firmware_host/sim_lights.h"
 #include "psrig/processing/scan_reader.h"
@@ -48,7 +47,8 @@ TEST(ScanSequencer, SimulatedScanRecoversTheSwatchNormals) {
   request.directory = dir / "scan";
   request.sample_id = "J-0001";
   std::vector<std::string> steps;
-  auto outcome = sequencer.capture(request, [&](const ScanProgress& p) { steps.push_back(p.step); });
+  auto outcome =
+      sequencer.capture(request, [&](const ScanProgress& p) { steps.push_back(p.step); });
   ASSERT_TRUE(outcome) << outcome.error().describe();
 
   ASSERT_TRUE(outcome->maps);
@@ -56,8 +56,8 @@ TEST(ScanSequencer, SimulatedScanRecoversTheSwatchNormals) {
   ASSERT_TRUE(report["ground_truth"].contains("angular_error_deg")) << report.dump(2);
   EXPECT_LE(report["ground_truth"]["angular_error_deg"]["mean"].get<double>(), 1.0);
   EXPECT_GT(report["pixels"]["valid"].get<double>() / report["pixels"]["total"].get<double>(), 0.6);
-  EXPECT_EQ(steps, (std::vector<std::string>{"dark frame", "light 1 of 3", "light 2 of 3", "light 3 of 3",
-                                              "writing", "processing"}));
+  EXPECT_EQ(steps, (std::vector<std::string>{"dark frame", "light 1 of 3", "light 2 of 3",
+                                             "light 3 of 3", "writing", "processing"}));
   // Both sides of the switch agree: never two on, all off at the end.
   expect_all_off_and_never_two_on(*rig->lights);
   EXPECT_FALSE(rig->world->log().overlap());
@@ -106,8 +106,8 @@ class ScriptedCamera final : public Camera {
     const int n = next_++;
     if (on_grab) on_grab(n + 1);
     if (frames_before_silence >= 0 && n >= frames_before_silence)
-      return std::unexpected(
-          processing::io_error("scripted camera", "no frame within " + std::to_string(timeout.count()) + " ms"));
+      return std::unexpected(processing::io_error(
+          "scripted camera", "no frame within " + std::to_string(timeout.count()) + " ms"));
     Frame frame;
     frame.exposure_start = t0_ + n * period + (jitter ? jitter(n) : Clock::duration{});
     frame.exposure_end = frame.exposure_start + exposure;
@@ -125,7 +125,8 @@ class ScriptedCamera final : public Camera {
     int state = -1;
     bool changed_during = false;
     for (const auto& event : lights_.log().events()) {
-      const int after = event.on ? event.channel : (event.channel == state || event.channel < 0 ? -1 : state);
+      const int after =
+          event.on ? event.channel : (event.channel == state || event.channel < 0 ? -1 : state);
       if (event.time > frame.exposure_end) break;
       if (event.time >= frame.exposure_start && after != state) changed_during = true;
       state = after;
@@ -172,7 +173,8 @@ void expect_pure_frames(const processing::Scan& scan) {
   };
   expect_value(scan.dark, 64, "dark frame");
   ASSERT_EQ(scan.frames.size(), 3U);
-  for (int k = 0; k < 3; ++k) expect_value(scan.frames[k], 1000.0 * (k + 1), "LED " + std::to_string(k));
+  for (int k = 0; k < 3; ++k)
+    expect_value(scan.frames[k], 1000.0 * (k + 1), "LED " + std::to_string(k));
 }
 
 TEST(ScanSequencer, FramesExposedAcrossASwitchAreNeverUsed) {
@@ -241,7 +243,8 @@ TEST(ScanSequencer, StopRequestEndsTheScanWithAllLedsOff) {
   request.directory = dir / "scan";
   auto outcome = rig.sequencer.capture(request);
   ASSERT_FALSE(outcome);
-  EXPECT_NE(outcome.error().describe().find("interrupted"), std::string::npos) << outcome.error().describe();
+  EXPECT_NE(outcome.error().describe().find("interrupted"), std::string::npos)
+      << outcome.error().describe();
   expect_all_off_and_never_two_on(rig.lights);
   EXPECT_TRUE(test::list_directory(dir.path()).empty());
 }
@@ -251,7 +254,8 @@ class FailingLights final : public firmware_host::LightController {
  public:
   int channel_count() const override { return 3; }
   Status turn_on(int channel) override {
-    if (channel == 1) return std::unexpected(processing::io_error("test lights", "channel 1: line busy"));
+    if (channel == 1)
+      return std::unexpected(processing::io_error("test lights", "channel 1: line busy"));
     log_.record(channel, true);
     return {};
   }
@@ -273,7 +277,8 @@ TEST(ScanSequencer, LightFailureEndsTheScanWithAllLedsOff) {
   CaptureTiming timing;
   auto scan = sequencer.acquire({}, timing);
   ASSERT_FALSE(scan);
-  EXPECT_NE(scan.error().describe().find("channel 1: line busy"), std::string::npos) << scan.error().describe();
+  EXPECT_NE(scan.error().describe().find("channel 1: line busy"), std::string::npos)
+      << scan.error().describe();
   expect_all_off_and_never_two_on(lights);
 }
 
@@ -286,7 +291,8 @@ TEST(ScanSequencer, WatchdogCuttingAnExposureShortFailsTheScan) {
   CaptureTiming timing;
   auto scan = sequencer.acquire({}, timing);
   ASSERT_FALSE(scan);
-  EXPECT_NE(scan.error().describe().find("lights.max_on_ms"), std::string::npos) << scan.error().describe();
+  EXPECT_NE(scan.error().describe().find("lights.max_on_ms"), std::string::npos)
+      << scan.error().describe();
   EXPECT_TRUE(short_fuse.timed_out());
   expect_all_off_and_never_two_on(short_fuse);
 }

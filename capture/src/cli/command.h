@@ -36,7 +36,8 @@ bool signals_end_at_once();
 void print_maps_summary(const processing::ProcessSummary& summary);
 
 // Loads --config, printing its warnings; errors as report_error would.
-std::optional<config::RigConfig> load_config_or_report(const std::string& command, const std::string& file, int& exit_code);
+std::optional<config::RigConfig> load_config_or_report(const std::string& command,
+                                                       const std::string& file, int& exit_code);
 
 // Prints "psrig COMMAND: error: ..." to stderr and returns the exit code.
 int report_error(const std::string& command, const processing::Error& error);

@@ -14,9 +14,13 @@ namespace {
 std::atomic<bool> graceful{false};
 }
 
-void stop_gracefully_on_signals() { graceful = true; }
+void stop_gracefully_on_signals() {
+  graceful = true;
+}
 
-bool signals_end_at_once() { return !graceful; }
+bool signals_end_at_once() {
+  return !graceful;
+}
 
 void print_maps_summary(const processing::ProcessSummary& summary) {
   const auto& r = summary.report;
@@ -24,25 +28,28 @@ void print_maps_summary(const processing::ProcessSummary& summary) {
   const double total = px["total"].get<double>();
   const auto percent = [&](const char* key) { return 100.0 * px[key].get<double>() / total; };
   std::printf("maps: %s\n", summary.maps_directory.string().c_str());
-  std::printf("valid pixels: %.1f %% (shadowed %.1f %%, saturated %.1f %%, low signal %.1f %%)\n", percent("valid"),
-              percent("shadowed"), percent("saturated"), percent("low_signal"));
+  std::printf("valid pixels: %.1f %% (shadowed %.1f %%, saturated %.1f %%, low signal %.1f %%)\n",
+              percent("valid"), percent("shadowed"), percent("saturated"), percent("low_signal"));
   std::printf("residual: mean %.5f of full scale\n", r["residual"]["mean"].get<double>());
   if (r.contains("height"))
     std::printf("height: range %.4f %s (%s)\n", r["height"]["range"].get<double>(),
-                r["height"]["units"].get<std::string>().c_str(), r["options"]["integration"].get<std::string>().c_str());
+                r["height"]["units"].get<std::string>().c_str(),
+                r["options"]["integration"].get<std::string>().c_str());
   if (r.contains("ground_truth") && r["ground_truth"].contains("angular_error_deg")) {
     const auto& e = r["ground_truth"]["angular_error_deg"];
-    std::printf("ground truth: mean angular error %.3f deg (median %.3f, p95 %.3f) over valid pixels\n",
-                e["mean"].get<double>(), e["median"].get<double>(), e["p95"].get<double>());
+    std::printf(
+        "ground truth: mean angular error %.3f deg (median %.3f, p95 %.3f) over valid pixels\n",
+        e["mean"].get<double>(), e["median"].get<double>(), e["p95"].get<double>());
   }
   std::printf("time: %.0f ms\n", r["timings_ms"]["total"].get<double>());
 }
 
-std::optional<config::RigConfig> load_config_or_report(const std::string& command, const std::string& file,
-                                                       int& exit_code) {
+std::optional<config::RigConfig> load_config_or_report(const std::string& command,
+                                                       const std::string& file, int& exit_code) {
   std::vector<std::string> warnings;
   auto loaded = config::load_config(file, &warnings);
-  for (const auto& warning : warnings) std::cerr << "psrig " << command << ": warning: " << warning << '\n';
+  for (const auto& warning : warnings)
+    std::cerr << "psrig " << command << ": warning: " << warning << '\n';
   if (!loaded) {
     exit_code = report_error(command, loaded.error());
     return std::nullopt;

@@ -22,9 +22,11 @@ Command add_config_command(CLI::App& parent) {
             std::printf("%s: ok\n", file->c_str());
             std::printf("lights: %s, %d channels, slant %.1f deg\n", config->lights.backend.c_str(),
                         config->lights.channels, config->geometry.slant_deg);
-            std::printf("camera: %s %s, exposure %d us, gain %.2f, %d frames averaged\n", config->camera.backend.c_str(),
-                        config->camera.backend == "sim" ? "" : config->camera.device.c_str(), config->camera.exposure_us,
-                        config->camera.gain, config->camera.frames_average);
+            std::printf("camera: %s %s, exposure %d us, gain %.2f, %d frames averaged\n",
+                        config->camera.backend.c_str(),
+                        config->camera.backend == "sim" ? "" : config->camera.device.c_str(),
+                        config->camera.exposure_us, config->camera.gain,
+                        config->camera.frames_average);
             std::printf("scans go to: %s\n", config->storage.root.string().c_str());
             return 0;
           }};

@@ -25,13 +25,17 @@ struct LightsArgs {
 
 Command add_lights_command(CLI::App& parent) {
   auto args = std::make_shared<LightsArgs>();
-  CLI::App* app = parent.add_subcommand("lights", "Switch the rig's LEDs by hand, for wiring checks");
+  CLI::App* app =
+      parent.add_subcommand("lights", "Switch the rig's LEDs by hand, for wiring checks");
   app->add_option("--config", args->config, "Rig configuration")->required();
-  auto* cycle_flag = app->add_flag("--cycle", args->cycle, "Each LED on in turn, with its tilt printed");
+  auto* cycle_flag =
+      app->add_flag("--cycle", args->cycle, "Each LED on in turn, with its tilt printed");
   auto* off_flag = app->add_flag("--off", args->off, "Every LED off");
   cycle_flag->excludes(off_flag);
-  app->add_option("--on-ms", args->on_ms, "How long each LED stays on")->check(CLI::Range(1, 60000));
-  app->add_option("--rounds", args->rounds, "How many times to go round")->check(CLI::Range(1, 1000));
+  app->add_option("--on-ms", args->on_ms, "How long each LED stays on")
+      ->check(CLI::Range(1, 60000));
+  app->add_option("--rounds", args->rounds, "How many times to go round")
+      ->check(CLI::Range(1, 1000));
 
   return {app, [args] {
             if (!args->cycle && !args->off) {
@@ -47,13 +51,17 @@ Command add_lights_command(CLI::App& parent) {
             std::printf("lights: %s\n", rig->lights->describe().c_str());
             if (args->off) return rig->lights->all_off() ? 0 : 1;
             for (int round = 0; round < args->rounds && !firmware_host::stop_requested(); ++round) {
-              for (int k = 0; k < rig->lights->channel_count() && !firmware_host::stop_requested(); ++k) {
+              for (int k = 0; k < rig->lights->channel_count() && !firmware_host::stop_requested();
+                   ++k) {
                 const double tilt = config->geometry.tilts_deg.at(static_cast<std::size_t>(k));
-                std::printf("LED %d on (tilt %.0f deg, slant %.0f deg)\n", k, tilt, config->geometry.slant_deg);
+                std::printf("LED %d on (tilt %.0f deg, slant %.0f deg)\n", k, tilt,
+                            config->geometry.slant_deg);
                 std::fflush(stdout);
-                if (auto on = rig->lights->turn_on(k); !on) return report_error("lights", on.error());
+                if (auto on = rig->lights->turn_on(k); !on)
+                  return report_error("lights", on.error());
                 std::this_thread::sleep_for(std::chrono::milliseconds(args->on_ms));
-                if (auto off = rig->lights->all_off(); !off) return report_error("lights", off.error());
+                if (auto off = rig->lights->all_off(); !off)
+                  return report_error("lights", off.error());
               }
             }
             if (firmware_host::stop_requested()) {

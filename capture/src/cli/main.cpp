@@ -1,11 +1,10 @@
 // psrig: the rig's command line. Errors become a message and an exit code
 // here: 0 done, 2 bad input or usage, 1 anything else.
 
-#include <unistd.h>
-
 #include <cstdio>
 #include <exception>
 #include <iostream>
+#include <unistd.h>
 #include <vector>
 
 #include "command.h"
@@ -33,9 +32,9 @@ int main(int argc, char** argv) {
   bool verbose = false;
   app.add_flag("-v,--verbose", verbose, "Log what each stage does");
 
-  const std::vector<Command> commands = {add_process_command(app), add_synth_command(app), add_scan_command(app),
-                                         add_lights_command(app),  add_config_command(app),
-                                         add_devices_command(app)};
+  const std::vector<Command> commands = {add_process_command(app), add_synth_command(app),
+                                         add_scan_command(app),    add_lights_command(app),
+                                         add_config_command(app),  add_devices_command(app)};
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

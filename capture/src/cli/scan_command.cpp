@@ -30,10 +30,12 @@ Command add_scan_command(CLI::App& parent) {
   auto args = std::make_shared<ScanArgs>();
   CLI::App* app = parent.add_subcommand("scan", "Scan a swatch: one frame per LED, then the maps");
   app->add_option("--config", args->config, "Rig configuration (e.g. config/sim.toml)")->required();
-  app->add_option("--out", args->out, "Scan directory to create (default: storage.root/<time>-<sample id>)");
+  app->add_option("--out", args->out,
+                  "Scan directory to create (default: storage.root/<time>-<sample id>)");
   app->add_option("--sample-id", args->sample_id, "The swatch's label, e.g. J-0042");
   app->add_option("--description", args->description, "Free text about the swatch");
-  app->add_flag("--no-process", args->no_process, "Capture only; process later with `psrig process`");
+  app->add_flag("--no-process", args->no_process,
+                "Capture only; process later with `psrig process`");
   app->add_option("--threads", args->threads, "Worker threads for processing (0: one per core)")
       ->check(CLI::NonNegativeNumber);
   app->add_flag("-q,--quiet", args->quiet, "Print nothing on success");

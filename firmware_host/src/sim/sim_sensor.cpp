@@ -1,10 +1,10 @@
 #include "psrig/firmware_host/sim/sim_sensor.h"
 
-#include <opencv2/imgproc.hpp>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+
+#include <opencv2/imgproc.hpp>
 
 namespace psrig::firmware_host {
 namespace {
@@ -19,8 +19,8 @@ cv::Mat vignette(cv::Size size, double strength) {
   const double corner = cx * cx + cy * cy;
   for (int r = 0; r < size.height; ++r)
     for (int c = 0; c < size.width; ++c)
-      v.at<float>(r, c) =
-          static_cast<float>(1 - strength * ((c - cx) * (c - cx) + (r - cy) * (r - cy)) / std::max(corner, 1.0));
+      v.at<float>(r, c) = static_cast<float>(
+          1 - strength * ((c - cx) * (c - cx) + (r - cy) * (r - cy)) / std::max(corner, 1.0));
   return v;
 }
 
@@ -36,8 +36,8 @@ SimSensor::SimSensor(const config::SimConfig& config, std::uint64_t seed)
       ambient_(config.ambient),
       seed_(seed) {}
 
-cv::Mat SimSensor::expose(const SimWorld& world, Clock::time_point begin, const SensorSettings& settings,
-                          std::uint64_t frame_number) const {
+cv::Mat SimSensor::expose(const SimWorld& world, Clock::time_point begin,
+                          const SensorSettings& settings, std::uint64_t frame_number) const {
   const auto end = begin + std::chrono::microseconds(settings.exposure_us);
   const std::vector<double> weights = world.exposure_weights(begin, end);
   const double scale = settings.gain * settings.exposure_us / kReferenceExposureUs;
@@ -45,12 +45,15 @@ cv::Mat SimSensor::expose(const SimWorld& world, Clock::time_point begin, const 
   // Light reaching the sensor, as a fraction of full scale.
   cv::Mat signal = world.ambient() * (ambient_ * led_irradiance_ * scale);
   for (std::size_t k = 0; k < weights.size(); ++k)
-    if (weights[k] > 0) cv::scaleAdd(world.radiance(static_cast<int>(k)), weights[k] * led_irradiance_ * scale, signal, signal);
+    if (weights[k] > 0)
+      cv::scaleAdd(world.radiance(static_cast<int>(k)), weights[k] * led_irradiance_ * scale,
+                   signal, signal);
   const cv::Mat fall_off = vignette(signal.size(), vignetting_);
   cv::Mat fall_off3;
   cv::merge(std::vector<cv::Mat>{fall_off, fall_off, fall_off}, fall_off3);
   signal = signal.mul(fall_off3);
-  if (settings.channels == 1) cv::transform(signal, signal, cv::Matx13f(1.0f / 3, 1.0f / 3, 1.0f / 3));
+  if (settings.channels == 1)
+    cv::transform(signal, signal, cv::Matx13f(1.0f / 3, 1.0f / 3, 1.0f / 3));
 
   // Electrons: fewer per code at higher gain, so gain raises the noise.
   const double electrons_per_unit = full_well_ / settings.gain;
@@ -68,8 +71,9 @@ cv::Mat SimSensor::expose(const SimWorld& world, Clock::time_point begin, const 
   // To codes: black level plus the signal over the ADC's range.
   const double white = white_level();
   cv::Mat frame;
-  electrons.convertTo(frame, CV_16U, (white - black_level_) / electrons_per_unit, black_level_);  // rounds, clips at 0
-  cv::min(frame, white, frame);    // and at the ADC's full scale
+  electrons.convertTo(frame, CV_16U, (white - black_level_) / electrons_per_unit,
+                      black_level_);  // rounds, clips at 0
+  cv::min(frame, white, frame);       // and at the ADC's full scale
   return frame;
 }
 

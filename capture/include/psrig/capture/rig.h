@@ -16,7 +16,7 @@ namespace psrig::capture {
 struct Rig {
   std::shared_ptr<firmware_host::SimWorld> world;  // null on an all-hardware rig
   std::unique_ptr<firmware_host::SafeLights> lights;
-  std::unique_ptr<Camera> camera;                  // null when not asked for
+  std::unique_ptr<Camera> camera;  // null when not asked for
 
   // A scan request that carries the simulated world's answer when the
   // camera is simulated.

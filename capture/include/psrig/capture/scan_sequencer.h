@@ -26,10 +26,10 @@
 namespace psrig::capture {
 
 struct ScanRequest {
-  std::string sample_id;           // a technician's label; may be empty
+  std::string sample_id;  // a technician's label; may be empty
   std::string description;
   std::filesystem::path directory;  // the scan to create; empty: storage.root/<time>-<sample id>
-  std::optional<bool> process;     // override capture.process
+  std::optional<bool> process;      // override capture.process
   // The simulated world's answer, stored with the scan when given (only a
   // simulated camera has one).
   cv::Mat ground_truth_normal;
@@ -60,12 +60,13 @@ class ScanSequencer {
   ScanSequencer(const config::RigConfig& config, firmware_host::SafeLights& lights, Camera& camera);
 
   // Frames only (no files): what capture() writes.
-  [[nodiscard]] Result<processing::Scan> acquire(const ScanRequest& request, CaptureTiming& timing,
-                                                 const std::function<void(const ScanProgress&)>& progress = {});
+  [[nodiscard]] Result<processing::Scan> acquire(
+      const ScanRequest& request, CaptureTiming& timing,
+      const std::function<void(const ScanProgress&)>& progress = {});
 
   // acquire(), then the scan directory, then (if asked) the maps.
-  [[nodiscard]] Result<ScanOutcome> capture(const ScanRequest& request,
-                                            const std::function<void(const ScanProgress&)>& progress = {});
+  [[nodiscard]] Result<ScanOutcome> capture(
+      const ScanRequest& request, const std::function<void(const ScanProgress&)>& progress = {});
 
   // Something else can ask the scan in progress to stop (the daemon's
   // DELETE, a test); SIGINT/SIGTERM do it through emergency_stop.h.
@@ -75,8 +76,8 @@ class ScanSequencer {
   struct Lighting;
   struct Phase;
   Result<Lighting> switch_lights(int channel, Lighting& previous);
-  Result<cv::Mat> collect(const Phase& phase, const Phase* next, Lighting& lighting, CaptureTiming& timing,
-                          Frame& first);
+  Result<cv::Mat> collect(const Phase& phase, const Phase* next, Lighting& lighting,
+                          CaptureTiming& timing, Frame& first);
   Result<Frame> grab();
   [[nodiscard]] bool can_switch_during_readout(const Lighting& lighting) const;
 

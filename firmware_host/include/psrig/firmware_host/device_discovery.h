@@ -15,7 +15,8 @@ struct FoundDevice {
 };
 
 [[nodiscard]] std::vector<FoundDevice> find_gpio_chips();
-[[nodiscard]] std::vector<FoundDevice> find_usb_strobe_controllers(std::uint16_t vendor_id, std::uint16_t product_id);
+[[nodiscard]] std::vector<FoundDevice> find_usb_strobe_controllers(std::uint16_t vendor_id,
+                                                                   std::uint16_t product_id);
 [[nodiscard]] std::vector<FoundDevice> find_serial_ports();
 
 }  // namespace psrig::firmware_host
