@@ -52,6 +52,12 @@ std::string udev_rule(const config::UsbLights& usb) {
          "\", MODE=\"0660\", GROUP=\"plugdev\", TAG+=\"uaccess\"";
 }
 
+// A failure of the controller or of its link: the device node (bus and
+// address) as the file, the configuration section as the key.
+Error device_error(std::string node, std::string message) {
+  return {processing::ErrorKind::io, std::move(message), std::move(node), "lights.usb"};
+}
+
 Error not_found(const config::UsbLights& usb, const std::string& detail) {
   return {processing::ErrorKind::io,
           "no " + wanted(usb) + " found" + (detail.empty() ? "" : " (" + detail + ")") +
@@ -154,7 +160,7 @@ Status UsbStrobeLights::handshake() {
   if (!info) return std::unexpected(info.error());
   info_ = std::get<strobe::DeviceInfo>(info->result);
   if (info_.protocol_major != strobe::protocol_major) {
-    return std::unexpected(processing::io_error(
+    return std::unexpected(device_error(
         node_, name() + " speaks protocol " + std::to_string(info_.protocol_major) + "." +
                    std::to_string(info_.protocol_minor) + ", this psrig speaks " +
                    std::to_string(strobe::protocol_major) +
@@ -347,21 +353,20 @@ Error UsbStrobeLights::break_link(std::unique_lock<std::mutex>& link, const std:
     }
   }
   text += "; open the lights again to go on";
-  broken_ = processing::io_error(node_, text);
+  broken_ = device_error(node_, text);
   return *broken_;
 }
 
 Error UsbStrobeLights::refused(std::unique_lock<std::mutex>& link, Opcode opcode,
                                const std::string& what, StatusCode status) {
   if (status != StatusCode::faulted) {
-    return processing::io_error(node_, name() + " refused to " + what + " (" + to_string(opcode) +
-                                           ": " + to_string(status) +
-                                           "): psrig and its firmware disagree on PROTOCOL.md");
+    return device_error(node_, name() + " refused to " + what + " (" + to_string(opcode) + ": " +
+                                   to_string(status) +
+                                   "): psrig and its firmware disagree on PROTOCOL.md");
   }
   std::string text = name() + " refuses to " + what + ": fault latched";
   const auto status_reply = exchange(link, strobe::GetStatus{});
-  if (!status_reply || status_reply->status != StatusCode::ok)
-    return processing::io_error(node_, text);
+  if (!status_reply || status_reply->status != StatusCode::ok) return device_error(node_, text);
   const auto& s = std::get<strobe::DeviceStatus>(status_reply->result);
   text += ": " + strobe::describe_faults(s.faults);
   if (s.faults & strobe::fault::watchdog) {
@@ -381,7 +386,7 @@ Error UsbStrobeLights::refused(std::unique_lock<std::mutex>& link, Opcode opcode
     text += "; the driver is at " + std::string(temperature) + " °C, let it cool";
   }
   text += "; clear_faults() (or opening the lights again) clears it";
-  return processing::io_error(node_, text);
+  return device_error(node_, text);
 }
 
 void UsbStrobeLights::notice_offs(const strobe::Response& response) {
@@ -581,7 +586,7 @@ Result<std::unique_ptr<UsbStrobeLights>> open_usb_strobe(const config::LightsCon
       libusb_device_handle* handle = nullptr;
       if (const int code = libusb_open(device, &handle); code < 0) {
         if (code == LIBUSB_ERROR_ACCESS) {
-          open_error = processing::io_error(
+          open_error = device_error(
               node, "permission denied opening the usb strobe controller " + vid_pid(usb) +
                         ": install the udev rule (firmware_host/PROTOCOL.md) as "
                         "/etc/udev/rules.d/70-psrig.rules: " +
@@ -589,8 +594,8 @@ Result<std::unique_ptr<UsbStrobeLights>> open_usb_strobe(const config::LightsCon
                         ", then `udevadm control --reload && udevadm trigger` (or replug) and "
                         "make sure the user is in group plugdev");
         } else {
-          open_error = processing::io_error(node, "cannot open the usb strobe controller " +
-                                                      vid_pid(usb) + ": " + libusb_strerror(code));
+          open_error = device_error(node, "cannot open the usb strobe controller " + vid_pid(usb) +
+                                              ": " + libusb_strerror(code));
         }
         continue;
       }
@@ -623,11 +628,16 @@ Result<std::unique_ptr<UsbStrobeLights>> open_usb_strobe(const config::LightsCon
     }
     Match match = matches.front();
     matches.clear();
+    // The handle holds its device; the list must go while the context
+    // lives, and the lights below take the context with them on failure.
+    list.reset();
     if (const int code = libusb_claim_interface(match.handle, strobe::interface_number); code < 0) {
       libusb_close(match.handle);
-      return std::unexpected(processing::io_error(
+      return std::unexpected(device_error(
           match.node,
-          "cannot claim the usb strobe controller " + vid_pid(usb) + ": " + libusb_strerror(code) +
+          "cannot claim the usb strobe controller " + vid_pid(usb) +
+              (match.serial.empty() ? "" : " serial " + match.serial) + ": " +
+              libusb_strerror(code) +
               (code == LIBUSB_ERROR_BUSY ? " (another program has it: is psrigd already running?)"
                                          : "")));
     }
