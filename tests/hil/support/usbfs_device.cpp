@@ -9,7 +9,7 @@
 #include <linux/usb/ch9.h>
 #include <linux/usbdevice_fs.h>
 #include <optional>
-#include <sys/ioctl.h>
+#include <sys/ioctl.h>  // _IOR and friends: usbdevice_fs.h uses them, includes none
 
 namespace psrig::test {
 namespace {
@@ -62,8 +62,7 @@ UsbfsDevice::UsbfsDevice(UmockdevBed& bed, Description description, OnOut on_out
 
 UsbfsDevice::~UsbfsDevice() {
   bed_.detach(devnode());
-  const std::string syspath = "/sys/devices/psrig-usb/" + sysname();
-  if (plugged_) bed_.remove_device(syspath);
+  if (plugged()) bed_.remove_device(syspath());
   for (Urb& urb : waiting_)
     release(urb);
   for (Urb& urb : ready_)
@@ -75,6 +74,10 @@ std::string UsbfsDevice::devnode() const {
   std::snprintf(node, sizeof node, "/dev/bus/usb/%03d/%03d", description_.busnum,
                 description_.devnum);
   return node;
+}
+
+std::string UsbfsDevice::syspath() const {
+  return "/sys/devices/psrig-usb/" + sysname();
 }
 
 std::string UsbfsDevice::sysname() const {
@@ -142,7 +145,7 @@ std::string UsbfsDevice::description_text() const {
   char ids[64];
   std::snprintf(ids, sizeof ids, "%04x/%04x/%x", d.vendor_id, d.product_id, d.bcd_device);
   char number[8];
-  std::string text = "P: /devices/psrig-usb/" + sysname() + "\n";
+  std::string text = "P: " + syspath().substr(4) + "\n";  // without /sys
   text += "N: " + devnode().substr(5) + "\n";
   text += "E: SUBSYSTEM=usb\nE: DEVTYPE=usb_device\n";
   text += "E: DEVNAME=" + devnode().substr(5) + "\n";
@@ -191,9 +194,8 @@ void UsbfsDevice::unplug() {
         complete_locked(urb, -ESHUTDOWN, 0);
       waiting_.clear();
     }
-    const std::string syspath = "/sys/devices/psrig-usb/" + sysname();
-    umockdev_testbed_uevent(bed_.testbed(), syspath.c_str(), "remove");
-    bed_.remove_device(syspath);
+    umockdev_testbed_uevent(bed_.testbed(), syspath().c_str(), "remove");
+    bed_.remove_device(syspath());
   });
 }
 

@@ -98,6 +98,7 @@ class UsbfsDevice {
   bool halts_locked(Urb& urb);  // a stall or a halt ends it with -EPIPE
   static void release(Urb& urb);
   [[nodiscard]] std::vector<std::uint8_t> string_descriptor(int index) const;
+  [[nodiscard]] std::string syspath() const;
   [[nodiscard]] std::string description_text() const;  // umockdev's format
 
   UmockdevBed& bed_;
