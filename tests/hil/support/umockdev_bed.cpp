@@ -21,6 +21,10 @@ UmockdevBed::UmockdevBed() : bed_(umockdev_testbed_new()) {
   context_ = g_main_context_ref(g_main_context_default());
   loop_ = g_main_loop_new(context_, FALSE);
   thread_ = std::thread([this] { g_main_loop_run(loop_); });
+  // A quit before the run starts would be lost (run sets the loop running
+  // again) and the destructor would wait for ever.
+  while (!g_main_loop_is_running(loop_))
+    std::this_thread::yield();
 }
 
 UmockdevBed::~UmockdevBed() {
@@ -89,7 +93,9 @@ void UmockdevBed::add_bus_link(const std::string& bus, const std::string& syspat
   const fs::path devices = fs::path(root()) / "sys" / "bus" / bus / "devices";
   fs::create_directories(devices);
   const fs::path device = fs::path(syspath).lexically_relative("/sys");
-  fs::create_symlink(fs::path("../../..") / device, devices / device.filename());
+  const fs::path link = devices / device.filename();
+  if (fs::exists(fs::symlink_status(link))) return;  // newer umockdev makes it
+  fs::create_symlink(fs::path("../../..") / device, link);
 }
 
 gboolean UmockdevBed::dispatch_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* client,

@@ -42,8 +42,8 @@ class UmockdevBed {
   void add_from_string(const std::string& description);
   void remove_device(const std::string& syspath);
   // A /sys/bus/<bus>/devices/<name> link to a device at `syspath`
-  // ("/sys/devices/..."): umockdev makes these for usb and pci only, and
-  // libgpiod, for one, checks a chip there.
+  // ("/sys/devices/..."), unless umockdev made it already: libgpiod, for
+  // one, checks a chip there.
   void add_bus_link(const std::string& bus, const std::string& syspath);
 
   // Serves requests on `devnode` (e.g. "/dev/gpiochip0") with the handlers
