@@ -1,13 +1,12 @@
 #include "emulated_gpio_chip.h"
 
-#include <fcntl.h>
-#include <sys/stat.h>
-#include <unistd.h>
-
 #include <cerrno>
 #include <cstring>
+#include <fcntl.h>
 #include <filesystem>
 #include <fstream>
+#include <sys/stat.h>
+#include <unistd.h>
 
 // How a line handle gets a file descriptor. In the kernel,
 // GPIO_GET_LINEHANDLE_IOCTL creates an anonymous-inode fd and returns its
@@ -56,10 +55,11 @@ EmulatedGpioChip::EmulatedGpioChip(UmockdevBed& bed, Options options)
 
   bed_.attach(devnode_, [this](UMockdevIoctlClient* client) { return on_chip_ioctl(client); });
   // What libgpiod checks: the node is a character device whose major:minor
-  // match /sys/bus/gpio/devices/<name>/dev.
+  // match /sys/bus/gpio/devices/<name>/dev, newline and all (it drops the
+  // last character read; "\\n" is umockdev's escape for it).
   bed_.add_from_string("P: /devices/" + platform + "/" + options_.name + "\nN: " + options_.name +
                        "\nE: SUBSYSTEM=gpio\nE: DEVNAME=" + devnode_ + "\nA: dev=" +
-                       std::to_string(kGpioMajor) + ":" + std::to_string(options_.minor) + "\n");
+                       std::to_string(kGpioMajor) + ":" + std::to_string(options_.minor) + "\\n\n");
   bed_.add_bus_link("gpio", syspath_);
 }
 
@@ -67,9 +67,11 @@ EmulatedGpioChip::~EmulatedGpioChip() {
   std::vector<std::string> nodes{devnode_};
   {
     std::lock_guard lock(mutex_);
-    for (const auto& handle : handles_) nodes.push_back(handle.devnode);
+    for (const auto& handle : handles_)
+      nodes.push_back(handle.devnode);
   }
-  for (const auto& node : nodes) bed_.detach(node);
+  for (const auto& node : nodes)
+    bed_.detach(node);
 }
 
 void EmulatedGpioChip::set_listener(Listener listener) {
@@ -90,8 +92,10 @@ void EmulatedGpioChip::fail_sets(int count, int error) {
 
 void EmulatedGpioChip::vanish_after(int sets) {
   std::lock_guard lock(mutex_);
-  if (sets <= 0) vanish_locked();
-  else vanish_after_ = sets;
+  if (sets <= 0)
+    vanish_locked();
+  else
+    vanish_after_ = sets;
 }
 
 bool EmulatedGpioChip::vanished() const {
@@ -106,7 +110,8 @@ std::vector<int> EmulatedGpioChip::levels() const {
 
 std::vector<int> EmulatedGpioChip::levels_locked() const {
   std::vector<int> levels;
-  for (const auto& line : lines_) levels.push_back(line.level);
+  for (const auto& line : lines_)
+    levels.push_back(line.level);
   return levels;
 }
 
@@ -160,7 +165,8 @@ void EmulatedGpioChip::release_closed_handles() {
 
 void EmulatedGpioChip::change(const std::vector<int>& after) {
   const std::vector<int> before = levels_locked();
-  for (std::size_t i = 0; i < lines_.size(); ++i) lines_[i].level = after[i];
+  for (std::size_t i = 0; i < lines_.size(); ++i)
+    lines_[i].level = after[i];
   history_.push_back(after);
   if (listener_) listener_(before, after);
 }
@@ -249,11 +255,11 @@ bool EmulatedGpioChip::get_line_handle(UMockdevIoctlClient* client) {
   if (!request) return answer(client, -1, EFAULT);
   // The kernel's checks, in its order.
   const std::uint32_t flags = request->flags;
-  constexpr std::uint32_t known =
-      GPIOHANDLE_REQUEST_INPUT | GPIOHANDLE_REQUEST_OUTPUT | GPIOHANDLE_REQUEST_ACTIVE_LOW |
-      GPIOHANDLE_REQUEST_OPEN_DRAIN | GPIOHANDLE_REQUEST_OPEN_SOURCE |
-      GPIOHANDLE_REQUEST_BIAS_PULL_UP | GPIOHANDLE_REQUEST_BIAS_PULL_DOWN |
-      GPIOHANDLE_REQUEST_BIAS_DISABLE;
+  constexpr std::uint32_t known = GPIOHANDLE_REQUEST_INPUT | GPIOHANDLE_REQUEST_OUTPUT |
+                                  GPIOHANDLE_REQUEST_ACTIVE_LOW | GPIOHANDLE_REQUEST_OPEN_DRAIN |
+                                  GPIOHANDLE_REQUEST_OPEN_SOURCE | GPIOHANDLE_REQUEST_BIAS_PULL_UP |
+                                  GPIOHANDLE_REQUEST_BIAS_PULL_DOWN |
+                                  GPIOHANDLE_REQUEST_BIAS_DISABLE;
   const bool output = flags & GPIOHANDLE_REQUEST_OUTPUT;
   if (request->lines == 0 || request->lines > GPIOHANDLES_MAX || (flags & ~known) ||
       (output && (flags & GPIOHANDLE_REQUEST_INPUT)) ||
@@ -282,9 +288,8 @@ bool EmulatedGpioChip::get_line_handle(UMockdevIoctlClient* client) {
     const fs::path file = fs::path(bed_.root()) / ("." + handle.devnode);
     fs::create_directories(file.parent_path());
     std::ofstream{file};
-    bed_.attach(handle.devnode, [this, index](UMockdevIoctlClient* c) {
-      return on_handle_ioctl(index, c);
-    });
+    bed_.attach(handle.devnode,
+                [this, index](UMockdevIoctlClient* c) { return on_handle_ioctl(index, c); });
   } catch (const std::exception&) {
     return answer(client, -1, ENOMEM);
   }

@@ -8,15 +8,14 @@
 // own record of them. Faults: lines held by another consumer, value sets
 // that fail, the chip vanishing.
 
-#include <linux/gpio.h>
-#include <sys/stat.h>
-#include <sys/types.h>
-
 #include <cstdint>
 #include <functional>
+#include <linux/gpio.h>
 #include <mutex>
 #include <set>
 #include <string>
+#include <sys/stat.h>
+#include <sys/types.h>
 #include <vector>
 
 #include "umockdev_bed.h"
@@ -29,13 +28,14 @@ class EmulatedGpioChip {
     std::string name = "gpiochip0";  // also the /dev node
     std::string label = "psrig-sim";
     unsigned lines = 32;
-    unsigned minor = 0;         // device number 254:minor; one per chip in a bed
-    int initial_level = 0;      // every line's physical level before anyone drives it
+    unsigned minor = 0;     // device number 254:minor; one per chip in a bed
+    int initial_level = 0;  // every line's physical level before anyone drives it
   };
 
   // Physical levels of every line before and after a change; called on the
   // testbed's handler thread, under the chip's lock (do not call back).
-  using Listener = std::function<void(const std::vector<int>& before, const std::vector<int>& after)>;
+  using Listener =
+      std::function<void(const std::vector<int>& before, const std::vector<int>& after)>;
 
   // Adds the chip to `bed`, which must outlive it.
   EmulatedGpioChip(UmockdevBed& bed, Options options);
@@ -71,9 +71,9 @@ class EmulatedGpioChip {
 
  private:
   struct Line {
-    int level = 0;         // physical
-    std::string held_by;   // someone else's, set by hold()
-    int handle = -1;       // index into handles_, -1: free
+    int level = 0;        // physical
+    std::string held_by;  // someone else's, set by hold()
+    int handle = -1;      // index into handles_, -1: free
   };
   struct Handle {
     std::vector<unsigned> offsets;
