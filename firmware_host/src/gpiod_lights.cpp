@@ -15,18 +15,18 @@
 //   gpiod_line_value, still one ioctl for all lines), released with
 //   gpiod_line_request_release();
 // - line info comes from gpiod_chip_get_line_info() (gpiod_line_info_is_used,
-//   gpiod_line_info_get_consumer) and must be freed.
+//   gpiod_line_info_get_consumer) and must be freed;
+// - underneath, it speaks the v2 uAPI (GPIO_V2_GET_LINE_IOCTL and friends),
+//   so the HIL tests' emulated chip would have to answer those as well.
 
 #include "psrig/firmware_host/gpiod_lights.h"
 
-#include <dirent.h>
-#include <gpiod.h>
-
 #include <algorithm>
 #include <cerrno>
-#include <cmath>
 #include <cstring>
+#include <dirent.h>
 #include <filesystem>
+#include <gpiod.h>
 #include <memory>
 #include <string>
 #include <vector>
@@ -53,7 +53,8 @@ Error device_error(std::string key, std::filesystem::path node, std::string mess
 
 std::string join(const std::vector<unsigned>& values, const char* separator) {
   std::string text;
-  for (unsigned value : values) text += (text.empty() ? "" : separator) + std::to_string(value);
+  for (unsigned value : values)
+    text += (text.empty() ? "" : separator) + std::to_string(value);
   return text;
 }
 
@@ -130,8 +131,10 @@ std::string describe_chips(const std::vector<ChipEntry>& chips) {
     const auto& chip = chips[i];
     if (i) text += ", ";
     text += chip.name;
-    if (chip.open_error) text += " (cannot open: " + std::string(std::strerror(chip.open_error)) + ")";
-    else text += " [" + chip.label + "] " + std::to_string(chip.lines) + " lines";
+    if (chip.open_error)
+      text += " (cannot open: " + std::string(std::strerror(chip.open_error)) + ")";
+    else
+      text += " [" + chip.label + "] " + std::to_string(chip.lines) + " lines";
   }
   return text;
 }
@@ -144,10 +147,12 @@ Result<ChipPtr> find_chip(const std::string& spec) {
         {}, kChipKey, "no GPIO chip given; set it to a name (gpiochip0), a path or a label"));
 
   std::string path;
-  if (spec.front() == '/') path = spec;
+  if (spec.front() == '/')
+    path = spec;
   else if (std::all_of(spec.begin(), spec.end(), [](char c) { return c >= '0' && c <= '9'; }))
     path = "/dev/gpiochip" + spec;
-  else if (spec.rfind("gpiochip", 0) == 0) path = "/dev/" + spec;
+  else if (spec.rfind("gpiochip", 0) == 0)
+    path = "/dev/" + spec;
 
   if (!path.empty()) {
     if (ChipPtr chip{gpiod_chip_open(path.c_str())}) return chip;
@@ -156,9 +161,10 @@ Result<ChipPtr> find_chip(const std::string& spec) {
       return std::unexpected(
           device_error(kChipKey, path, "cannot open GPIO chip: " + explain_errno(error, path)));
     if (error == ENOTTY || error == ENODEV)
-      return std::unexpected(device_error(
-          kChipKey, path,
-          "not a GPIO character device; " + describe_chips(list_chips()) + "; `gpiodetect` lists them"));
+      return std::unexpected(device_error(kChipKey, path,
+                                          "not a GPIO character device; " +
+                                              describe_chips(list_chips()) +
+                                              "; `gpiodetect` lists them"));
     if (error != ENOENT)
       return std::unexpected(device_error(
           kChipKey, path, "cannot open GPIO chip: " + std::string(std::strerror(error))));
@@ -214,21 +220,23 @@ class GpiodLights final : public LightController {
     // (set_multiple); others set them one by one in our order, so a line
     // still on is switched off by a set of its own first.
     bool others_on = unknown_;
-    for (int i = 0; i < channel_count(); ++i) others_on = others_on || (on_[i] && i != channel);
+    for (int i = 0; i < channel_count(); ++i)
+      others_on = others_on || (on_[i] && i != channel);
     if (others_on) {
       if (auto off = all_off(); !off) return off;
     }
     std::vector<int> values(offsets_.size(), 0);
     values[channel] = enabled_[channel] ? 1 : 0;
-    if (auto set = set_values(values, "switching on LED " + std::to_string(channel)); !set)
+    if (auto set = set_values(values, "switching on LED " + std::to_string(channel) + " (line " +
+                                          std::to_string(offsets_[channel]) + ")");
+        !set)
       return set;
     if (enabled_[channel]) log_.record(channel, true);
     return {};
   }
 
   Status all_off() override {
-    if (auto set = set_values(std::vector<int>(offsets_.size(), 0), "switching all LEDs off");
-        !set)
+    if (auto set = set_values(std::vector<int>(offsets_.size(), 0), "switching all LEDs off"); !set)
       return set;
     log_.record(-1, false);
     return {};
@@ -257,9 +265,9 @@ class GpiodLights final : public LightController {
  private:
   Status check_channel(int channel) const {
     if (channel < 0 || channel >= channel_count())
-      return std::unexpected(processing::internal_error(
-          "gpiod lights: no channel " + std::to_string(channel) + " (" +
-          std::to_string(channel_count()) + " channels)"));
+      return std::unexpected(
+          processing::internal_error("gpiod lights: no channel " + std::to_string(channel) + " (" +
+                                     std::to_string(channel_count()) + " channels)"));
     return {};
   }
 
@@ -268,12 +276,13 @@ class GpiodLights final : public LightController {
     if (gpiod_line_set_value_bulk(&bulk_, values.data()) != 0) {
       const int error = errno;
       unknown_ = true;  // the lines may or may not have changed
-      return std::unexpected(device_error(
-          kChipKey, "/dev/" + name_,
-          what + " on " + name_ + " [" + label_ + "] lines " + join(offsets_, ",") +
-              " failed: " + explain_errno(error, "/dev/" + name_)));
+      return std::unexpected(device_error(kChipKey, "/dev/" + name_,
+                                          what + " on " + name_ + " [" + label_ + "] (lines " +
+                                              join(offsets_, ",") + ")" +
+                                              " failed: " + explain_errno(error, "/dev/" + name_)));
     }
-    for (std::size_t i = 0; i < values.size(); ++i) on_[i] = values[i] != 0;
+    for (std::size_t i = 0; i < values.size(); ++i)
+      on_[i] = values[i] != 0;
     unknown_ = false;
     return {};
   }
@@ -300,8 +309,7 @@ Error busy_error(const std::string& chip, const std::string& label, unsigned off
   std::string fix = consumer && our_consumer == consumer
                         ? "another psrig is running (stop psrigd, or the other `psrig lights`)"
                         : "stop the program or service holding it, or free it in the device tree";
-  return device_error(std::string(kLinesKey) + "[" + std::to_string(channel) + "]",
-                      "/dev/" + chip,
+  return device_error(std::string(kLinesKey) + "[" + std::to_string(channel) + "]", "/dev/" + chip,
                       "GPIO line " + std::to_string(offset) + " of " + chip + " [" + label +
                           "] is busy, held by " + holder(line) + "; " + fix +
                           ", or wire the LED to another line (`gpioinfo " + chip +
@@ -359,10 +367,10 @@ Result<std::unique_ptr<LightController>> open_gpiod_lights(const config::LightsC
               "); `gpioinfo " + name + "` lists them"));
     gpiod_line* line = gpiod_chip_get_line(raw, offset);  // reads the line's info
     if (!line)
-      return std::unexpected(device_error(
-          key, "/dev/" + name,
-          "cannot read line " + std::to_string(offset) + " of " + name + " [" + label +
-              "]: " + explain_errno(errno, "/dev/" + name)));
+      return std::unexpected(device_error(key, "/dev/" + name,
+                                          "cannot read line " + std::to_string(offset) + " of " +
+                                              name + " [" + label +
+                                              "]: " + explain_errno(errno, "/dev/" + name)));
     if (gpiod_line_is_used(line))
       return std::unexpected(busy_error(name, label, offset, i, line, gpio.consumer));
     gpiod_line_bulk_add(&bulk, line);
@@ -383,10 +391,10 @@ Result<std::unique_ptr<LightController>> open_gpiod_lights(const config::LightsC
           return std::unexpected(busy_error(name, label, gpio.lines[i], i, line, gpio.consumer));
       }
     }
-    return std::unexpected(device_error(
-        kLinesKey, "/dev/" + name,
-        "cannot request lines " + join(gpio.lines, ",") + " of " + name + " [" + label +
-            "] as outputs: " + explain_errno(error, "/dev/" + name)));
+    return std::unexpected(
+        device_error(kLinesKey, "/dev/" + name,
+                     "cannot request lines " + join(gpio.lines, ",") + " of " + name + " [" +
+                         label + "] as outputs: " + explain_errno(error, "/dev/" + name)));
   }
 
   auto lights = std::make_unique<GpiodLights>(std::move(*chip), gpio.lines, gpio.active_low, bulk);
