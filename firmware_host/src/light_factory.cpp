@@ -1,3 +1,4 @@
+#include "psrig/firmware_host/gpiod_lights.h"
 #include "psrig/firmware_host/light_controller.h"
 #include "psrig/firmware_host/modbus_lights.h"
 #include "psrig/firmware_host/sim_lights.h"
@@ -16,16 +17,20 @@ Result<std::unique_ptr<LightController>> from_file(Result<std::unique_ptr<LightC
 
 }  // namespace
 
-Result<std::unique_ptr<LightController>> open_lights(const config::RigConfig& config, std::shared_ptr<SimWorld> world) {
+Result<std::unique_ptr<LightController>> open_lights(const config::RigConfig& config,
+                                                     std::shared_ptr<SimWorld> world) {
   const auto& lights = config.lights;
   if (lights.backend == "sim") {
-    if (!world) return std::unexpected(processing::internal_error("lights.backend \"sim\" needs the simulated world"));
+    if (!world)
+      return std::unexpected(
+          processing::internal_error("lights.backend \"sim\" needs the simulated world"));
     return open_sim_lights(lights, std::move(world));
   }
-  if (lights.backend == "modbus") return from_file(open_modbus_lights(lights), config.source);
+  if (lights.backend == "gpiod") return from_file(open_gpiod_lights(lights), config.source);
   if (lights.backend == "usb") return from_file(open_usb_lights(lights), config.source);
-  return std::unexpected(
-      processing::bad_input(config.source, "lights.backend", "\"" + lights.backend + "\" is not built into this psrig"));
+  if (lights.backend == "modbus") return from_file(open_modbus_lights(lights), config.source);
+  return std::unexpected(processing::bad_input(config.source, "lights.backend",
+                                               "\"" + lights.backend + "\" is not one of gpiod, usb, modbus, sim"));
 }
 
 }  // namespace psrig::firmware_host

@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
+#include <filesystem>
 #include <stdexcept>
 
 namespace psrig::test {
@@ -20,13 +21,21 @@ UmockdevBed::UmockdevBed() : bed_(umockdev_testbed_new()) {
   context_ = g_main_context_ref(g_main_context_default());
   loop_ = g_main_loop_new(context_, FALSE);
   thread_ = std::thread([this] { g_main_loop_run(loop_); });
+  // A quit before the run starts would be lost (run sets the loop running
+  // again) and the destructor would wait for ever.
+  while (!g_main_loop_is_running(loop_))
+    std::this_thread::yield();
 }
 
 UmockdevBed::~UmockdevBed() {
-  for (auto& [devnode, attached] : attached_) {
-    umockdev_testbed_detach_ioctl(bed_, devnode.c_str(), nullptr);
-    g_object_unref(attached->base);
-    delete attached;
+  {
+    std::lock_guard lock(mutex_);
+    for (auto& [devnode, attached] : attached_) {
+      umockdev_testbed_detach_ioctl(bed_, devnode.c_str(), nullptr);
+      g_object_unref(attached->base);
+      delete attached;
+    }
+    attached_.clear();
   }
   g_main_loop_quit(loop_);
   if (thread_.joinable()) thread_.join();
@@ -79,6 +88,16 @@ void UmockdevBed::remove_device(const std::string& syspath) {
   umockdev_testbed_remove_device(bed_, syspath.c_str());
 }
 
+void UmockdevBed::add_bus_link(const std::string& bus, const std::string& syspath) {
+  namespace fs = std::filesystem;
+  const fs::path devices = fs::path(root()) / "sys" / "bus" / bus / "devices";
+  fs::create_directories(devices);
+  const fs::path device = fs::path(syspath).lexically_relative("/sys");
+  const fs::path link = devices / device.filename();
+  if (fs::exists(fs::symlink_status(link))) return;  // newer umockdev makes it
+  fs::create_symlink(fs::path("../../..") / device, link);
+}
+
 gboolean UmockdevBed::dispatch_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* client,
                                      gpointer attached) {
   auto* a = static_cast<Attached*>(attached);
@@ -118,10 +137,12 @@ void UmockdevBed::attach(const std::string& devnode, Handler on_ioctl, Handler o
     delete attached;
     throw std::runtime_error("umockdev: cannot attach to " + devnode + ": " + message);
   }
+  std::lock_guard lock(mutex_);
   attached_[devnode] = attached;
 }
 
 void UmockdevBed::detach(const std::string& devnode) {
+  std::lock_guard lock(mutex_);
   const auto it = attached_.find(devnode);
   if (it == attached_.end()) return;
   umockdev_testbed_detach_ioctl(bed_, devnode.c_str(), nullptr);

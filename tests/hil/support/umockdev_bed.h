@@ -9,6 +9,7 @@
 #include <cstring>
 #include <functional>
 #include <map>
+#include <mutex>
 #include <string>
 #include <thread>
 #include <umockdev.h>
@@ -40,10 +41,15 @@ class UmockdevBed {
   // emulation needs; attach the handler first.
   void add_from_string(const std::string& description);
   void remove_device(const std::string& syspath);
+  // A /sys/bus/<bus>/devices/<name> link to a device at `syspath`
+  // ("/sys/devices/..."), unless umockdev made it already: libgpiod, for
+  // one, checks a chip there.
+  void add_bus_link(const std::string& bus, const std::string& syspath);
 
   // Serves requests on `devnode` (e.g. "/dev/gpiochip0") with the handlers
   // given (any may be empty: then the request fails with ENOTTY / EIO).
-  // Attach before the device is added.
+  // Attach before the device is added. May be called from a handler (the
+  // emulated GPIO chip attaches a node per line handle it hands out).
   void attach(const std::string& devnode, Handler on_ioctl, Handler on_read = {},
               Handler on_write = {});
   void detach(const std::string& devnode);
@@ -66,6 +72,7 @@ class UmockdevBed {
   GMainContext* context_ = nullptr;
   GMainLoop* loop_ = nullptr;
   std::thread thread_;
+  std::mutex mutex_;  // attached_: handlers attach too
   std::map<std::string, Attached*> attached_;
 };
 
