@@ -12,6 +12,7 @@
 // transfer on real hardware (support/usbfs_device.h).
 
 #include <chrono>
+#include <memory>
 #include <string>
 #include <thread>
 #include <vector>
@@ -79,6 +80,23 @@ bool eventually(F done, std::chrono::milliseconds limit = 3s) {
   }
   return true;
 }
+
+// The controller on the bus and the backend opened on it, heartbeats running.
+class UsbHilOpened : public ::testing::Test {
+ protected:
+  void SetUp() override {
+    REQUIRE_UMOCKDEV();
+    bed_ = std::make_unique<UmockdevBed>();
+    controller_ = std::make_unique<EmulatedStrobeController>(*bed_);
+    auto opened = open_usb_strobe(usb_config());
+    ASSERT_TRUE(opened) << opened.error().describe();
+    lights_ = std::move(*opened);
+  }
+
+  std::unique_ptr<UmockdevBed> bed_;
+  std::unique_ptr<EmulatedStrobeController> controller_;
+  std::unique_ptr<firmware_host::UsbStrobeLights> lights_;  // last in, first out
+};
 
 TEST(UsbHil, OpensDescribesAndStartsAllOff) {
   REQUIRE_UMOCKDEV();
@@ -223,13 +241,9 @@ TEST(UsbHil, SilentHostTripsTheWatchdogAndTheFaultIsReported) {
   EXPECT_EQ(lights.log().overlap(), std::nullopt);
 }
 
-TEST(UsbHil, StalledOutEndpointIsClearedAndTheCommandRepeated) {
-  REQUIRE_UMOCKDEV();
-  UmockdevBed bed;
-  EmulatedStrobeController controller(bed);
-  auto opened = open_usb_strobe(usb_config());
-  ASSERT_TRUE(opened) << opened.error().describe();
-  auto& lights = **opened;
+TEST_F(UsbHilOpened, StalledOutEndpointIsClearedAndTheCommandRepeated) {
+  auto& controller = *controller_;
+  auto& lights = *lights_;
   lights.hold_heartbeat(true);  // only our commands on the wire
 
   controller.device().stall(strobe::endpoint_out);
@@ -241,13 +255,9 @@ TEST(UsbHil, StalledOutEndpointIsClearedAndTheCommandRepeated) {
   ASSERT_TRUE(lights.all_off());
 }
 
-TEST(UsbHil, StalledInEndpointIsClearedAndTheLateAnswerDropped) {
-  REQUIRE_UMOCKDEV();
-  UmockdevBed bed;
-  EmulatedStrobeController controller(bed);
-  auto opened = open_usb_strobe(usb_config());
-  ASSERT_TRUE(opened) << opened.error().describe();
-  auto& lights = **opened;
+TEST_F(UsbHilOpened, StalledInEndpointIsClearedAndTheLateAnswerDropped) {
+  auto& controller = *controller_;
+  auto& lights = *lights_;
   lights.hold_heartbeat(true);
 
   controller.device().stall(strobe::endpoint_in);
@@ -263,13 +273,9 @@ TEST(UsbHil, StalledInEndpointIsClearedAndTheLateAnswerDropped) {
   EXPECT_EQ(lights.log().overlap(), std::nullopt);
 }
 
-TEST(UsbHil, EndpointThatStallsAgainEndsInAClearErrorWithTheLightsOff) {
-  REQUIRE_UMOCKDEV();
-  UmockdevBed bed;
-  EmulatedStrobeController controller(bed);
-  auto opened = open_usb_strobe(usb_config());
-  ASSERT_TRUE(opened) << opened.error().describe();
-  auto& lights = **opened;
+TEST_F(UsbHilOpened, EndpointThatStallsAgainEndsInAClearErrorWithTheLightsOff) {
+  auto& controller = *controller_;
+  auto& lights = *lights_;
   lights.hold_heartbeat(true);
   ASSERT_TRUE(lights.turn_on(0));
 
@@ -295,13 +301,9 @@ TEST(UsbHil, EndpointThatStallsAgainEndsInAClearErrorWithTheLightsOff) {
   EXPECT_EQ(controller.firmware().handled(strobe::Opcode::all_off), commands);
 }
 
-TEST(UsbHil, SilentControllerTimesOutWithAClearError) {
-  REQUIRE_UMOCKDEV();
-  UmockdevBed bed;
-  EmulatedStrobeController controller(bed);
-  auto opened = open_usb_strobe(usb_config());
-  ASSERT_TRUE(opened) << opened.error().describe();
-  auto& lights = **opened;
+TEST_F(UsbHilOpened, SilentControllerTimesOutWithAClearError) {
+  auto& controller = *controller_;
+  auto& lights = *lights_;
   lights.hold_heartbeat(true);
   controller.set_wire([](auto, auto) { return std::nullopt; });  // commands arrive, answers do not
 
@@ -316,13 +318,9 @@ TEST(UsbHil, SilentControllerTimesOutWithAClearError) {
   EXPECT_EQ(lights.log().overlap(), std::nullopt);
 }
 
-TEST(UsbHil, UnplugMidUseIsAClearErrorAndTheControllerIsDark) {
-  REQUIRE_UMOCKDEV();
-  UmockdevBed bed;
-  EmulatedStrobeController controller(bed);
-  auto opened = open_usb_strobe(usb_config());
-  ASSERT_TRUE(opened) << opened.error().describe();
-  auto& lights = **opened;
+TEST_F(UsbHilOpened, UnplugMidUseIsAClearErrorAndTheControllerIsDark) {
+  auto& controller = *controller_;
+  auto& lights = *lights_;
   ASSERT_TRUE(lights.turn_on(0));
   // The cable comes out just after the controller took CHANNEL_ON 2.
   controller.set_wire([&](std::span<const std::uint8_t> command,
