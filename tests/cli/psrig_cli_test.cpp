@@ -1,14 +1,21 @@
 // The `psrig` program as a technician meets it: exit codes, messages, and
 // nothing half-written.
 
+#include <chrono>
+#include <fcntl.h>
 #include <fstream>
 #include <functional>
 #include <iterator>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <thread>
 #include <unistd.h>
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include "psrig/firmware_host/sim/modbus_driver.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -248,6 +255,53 @@ TEST(PsrigCli, DevicesListsEveryKindEvenWhenNoneIsThere) {
        {"cameras:", "GPIO chips", "USB strobe controllers 1209:5053", "serial ports"})
     EXPECT_TRUE(contains(run.out, section)) << section << "\n" << run.out;
   EXPECT_TRUE(run.err.empty()) << run.err;  // libcamera keeps quiet
+}
+
+// SIGTERM while an LED is lit, with the LEDs on a (simulated) Modbus driver
+// the test holds, so it sees what the LEDs did from outside psrig.
+TEST(PsrigCli, SignalMidScanTurnsEveryLedOffAndLeavesNoScan) {
+  TempDir temp;
+  auto driver = firmware_host::SimModbusDriver::start({});
+  ASSERT_TRUE(driver) << driver.error().describe();
+  const auto config = sim_config(temp, "");
+  std::ifstream in(config);
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  text.replace(text.find("backend = \"sim\"\nchannels"), 15,
+               "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", port = " +
+                   std::to_string((*driver)->port()) + " }\n");
+  text.replace(text.find("exposure_us = 20000"), 19, "exposure_us = 200000");  // a slow scan
+  std::ofstream(config) << text;
+
+  const std::string out = (temp / "scan").string(), err = (temp / "stderr.txt").string();
+  const std::string psrig = program("psrig").string();
+  std::vector<const char*> argv = {psrig.c_str(), "scan",      "--config", config.c_str(),
+                                   "--out",       out.c_str(), nullptr};
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  pid_t pid = 0;
+  ASSERT_EQ(posix_spawn(&pid, psrig.c_str(), &actions, nullptr,
+                        const_cast<char* const*>(argv.data()), environ),
+            0);
+  posix_spawn_file_actions_destroy(&actions);
+
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+  while ((*driver)->leds_on().empty() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  ASSERT_FALSE((*driver)->leds_on().empty()) << "no LED came on";
+  ::kill(pid, SIGTERM);
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 130);
+  std::ifstream err_file(err);
+  const std::string messages((std::istreambuf_iterator<char>(err_file)),
+                             std::istreambuf_iterator<char>());
+  EXPECT_TRUE(contains(messages, "interrupted")) << messages;
+  EXPECT_TRUE((*driver)->leds_on().empty());
+  EXPECT_FALSE((*driver)->log().overlap());
+  EXPECT_FALSE(fs::exists(temp / "scan"));
 }
 
 }  // namespace
