@@ -2,15 +2,17 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <cstring>
 #include <fcntl.h>
 #include <filesystem>
 #include <fstream>
-#include <gpiod.h>
 #include <libusb.h>
 #include <linux/serial.h>
 #include <memory>
 #include <sys/ioctl.h>
 #include <unistd.h>
+
+#include "psrig/firmware_host/gpiod_lights.h"
 
 namespace psrig::firmware_host {
 namespace {
@@ -50,15 +52,11 @@ bool natural_less(const FoundDevice& a, const FoundDevice& b) {
 
 std::vector<FoundDevice> find_gpio_chips() {
   std::vector<FoundDevice> found;
-  gpiod_chip_iter* chips = gpiod_chip_iter_new();
-  if (chips == nullptr) return found;  // no /dev/gpiochip* at all
-  for (gpiod_chip* chip = gpiod_chip_iter_next(chips); chip != nullptr;
-       chip = gpiod_chip_iter_next(chips))
-    found.push_back({std::string("/dev/") + gpiod_chip_name(chip),
-                     std::string("label \"") + gpiod_chip_label(chip) + "\", " +
-                         std::to_string(gpiod_chip_num_lines(chip)) + " lines"});
-  gpiod_chip_iter_free(chips);
-  std::sort(found.begin(), found.end(), natural_less);
+  for (const GpioChipEntry& chip : list_gpio_chips())
+    found.push_back({"/dev/" + chip.name,
+                     chip.open_error ? std::string("cannot open: ") + std::strerror(chip.open_error)
+                                     : "label \"" + chip.label + "\", " +
+                                           std::to_string(chip.lines) + " lines"});
   return found;
 }
 

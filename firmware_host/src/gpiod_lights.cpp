@@ -82,14 +82,6 @@ struct ChipCloser {
 };
 using ChipPtr = std::unique_ptr<gpiod_chip, ChipCloser>;
 
-// A GPIO chip in /dev, as far as we could look at it.
-struct ChipEntry {
-  std::string name;  // gpiochip0
-  std::string label;
-  unsigned lines = 0;
-  int open_error = 0;  // errno when it could not be opened
-};
-
 unsigned chip_number(const std::string& name) {
   unsigned number = 0;
   for (char c : name.substr(std::strlen("gpiochip")))
@@ -97,32 +89,7 @@ unsigned chip_number(const std::string& name) {
   return number;
 }
 
-// Every /dev/gpiochipN, in numeric order (opendir rather than
-// std::filesystem: umockdev redirects it, which the HIL tests rely on).
-std::vector<ChipEntry> list_chips() {
-  std::vector<ChipEntry> chips;
-  DIR* dir = ::opendir("/dev");
-  if (!dir) return chips;
-  while (const dirent* entry = ::readdir(dir)) {
-    const std::string name = entry->d_name;
-    if (name.rfind("gpiochip", 0) != 0) continue;
-    ChipEntry chip{name, {}, 0, 0};
-    if (ChipPtr open{gpiod_chip_open(("/dev/" + name).c_str())}) {
-      chip.label = gpiod_chip_label(open.get());
-      chip.lines = gpiod_chip_num_lines(open.get());
-    } else {
-      chip.open_error = errno;
-    }
-    chips.push_back(std::move(chip));
-  }
-  ::closedir(dir);
-  std::sort(chips.begin(), chips.end(), [](const ChipEntry& a, const ChipEntry& b) {
-    return chip_number(a.name) < chip_number(b.name);
-  });
-  return chips;
-}
-
-std::string describe_chips(const std::vector<ChipEntry>& chips) {
+std::string describe_chips(const std::vector<GpioChipEntry>& chips) {
   if (chips.empty())
     return "no GPIO chips found in /dev (is the GPIO controller's driver loaded, its device-tree "
            "overlay enabled, the expander plugged in?)";
@@ -163,26 +130,26 @@ Result<ChipPtr> find_chip(const std::string& spec) {
     if (error == ENOTTY || error == ENODEV)
       return std::unexpected(device_error(kChipKey, path,
                                           "not a GPIO character device; " +
-                                              describe_chips(list_chips()) +
+                                              describe_chips(list_gpio_chips()) +
                                               "; `gpiodetect` lists them"));
     if (error != ENOENT)
       return std::unexpected(device_error(
           kChipKey, path, "cannot open GPIO chip: " + std::string(std::strerror(error))));
     return std::unexpected(device_error(
         kChipKey, {},
-        "GPIO chip '" + spec + "' not found; " + describe_chips(list_chips()) +
+        "GPIO chip '" + spec + "' not found; " + describe_chips(list_gpio_chips()) +
             "; set lights.gpiod.chip to one of them (name, /dev path or label); `gpiodetect` lists "
             "the chips"));
   }
 
   // A label: look at every chip.
-  const auto chips = list_chips();
+  const auto chips = list_gpio_chips();
   for (const auto& chip : chips) {
     if (chip.open_error || chip.label != spec) continue;
     if (ChipPtr open{gpiod_chip_open(("/dev/" + chip.name).c_str())}) return open;
   }
   std::string message = "no GPIO chip labelled '" + spec + "'; " + describe_chips(chips);
-  if (std::any_of(chips.begin(), chips.end(), [](const ChipEntry& c) { return c.open_error; }))
+  if (std::any_of(chips.begin(), chips.end(), [](const GpioChipEntry& c) { return c.open_error; }))
     message += "; some could not be opened: " + std::string(kPermissionFix);
   return std::unexpected(
       device_error(kChipKey, {}, message + "; `gpiodetect` lists the chips and their labels"));
@@ -317,6 +284,31 @@ Error busy_error(const std::string& chip, const std::string& label, unsigned off
 }
 
 }  // namespace
+
+// Every /dev/gpiochipN, in numeric order (opendir rather than
+// std::filesystem: umockdev redirects it, which the HIL tests rely on).
+std::vector<GpioChipEntry> list_gpio_chips() {
+  std::vector<GpioChipEntry> chips;
+  DIR* dir = ::opendir("/dev");
+  if (!dir) return chips;
+  while (const dirent* entry = ::readdir(dir)) {
+    const std::string name = entry->d_name;
+    if (name.rfind("gpiochip", 0) != 0) continue;
+    GpioChipEntry chip{name, {}, 0, 0};
+    if (ChipPtr open{gpiod_chip_open(("/dev/" + name).c_str())}) {
+      chip.label = gpiod_chip_label(open.get());
+      chip.lines = gpiod_chip_num_lines(open.get());
+    } else {
+      chip.open_error = errno;
+    }
+    chips.push_back(std::move(chip));
+  }
+  ::closedir(dir);
+  std::sort(chips.begin(), chips.end(), [](const GpioChipEntry& a, const GpioChipEntry& b) {
+    return chip_number(a.name) < chip_number(b.name);
+  });
+  return chips;
+}
 
 Result<std::unique_ptr<LightController>> open_gpiod_lights(const config::LightsConfig& config) {
   const auto& gpio = config.gpiod;
