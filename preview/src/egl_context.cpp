@@ -1,0 +1,88 @@
+#include "psrig/preview/egl_context.h"
+
+#include <EGL/egl.h>
+#include <EGL/eglext.h>
+#include <GLES3/gl3.h>
+#include <cstring>
+
+namespace psrig::preview {
+namespace {
+
+std::string egl_error(const std::string& what) {
+  char code[16];
+  std::snprintf(code, sizeof code, "0x%04X", eglGetError());
+  return what + " failed (EGL error " + code + ")";
+}
+
+Error egl_failure(const std::string& what) {
+  return processing::io_error("EGL",
+                              egl_error(what) +
+                                  "; is Mesa's EGL installed (libegl-mesa0, libgl1-mesa-dri)? "
+                                  "scripts/install-deps installs it");
+}
+
+}  // namespace
+
+Result<std::unique_ptr<EglContext>> EglContext::open_surfaceless() {
+  const char* client_extensions = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
+  if (client_extensions == nullptr ||
+      std::strstr(client_extensions, "EGL_MESA_platform_surfaceless") == nullptr)
+    return std::unexpected(
+        processing::io_error("EGL",
+                             "EGL_MESA_platform_surfaceless is not offered; headless rendering "
+                             "needs Mesa's EGL (libegl-mesa0)"));
+  EGLDisplay display =
+      eglGetPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
+  if (display == EGL_NO_DISPLAY)
+    return std::unexpected(egl_failure("eglGetPlatformDisplay(surfaceless)"));
+  std::unique_ptr<EglContext> context(new EglContext);
+  context->display_ = display;
+  if (eglInitialize(display, nullptr, nullptr) != EGL_TRUE)
+    return std::unexpected(egl_failure("eglInitialize"));
+  if (eglBindAPI(EGL_OPENGL_ES_API) != EGL_TRUE)
+    return std::unexpected(egl_failure("eglBindAPI(GLES)"));
+  // Surfaceless: no config and no surface; everything draws into FBOs.
+  const EGLint attributes[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, 0,
+                               EGL_NONE};
+  EGLContext gl = eglCreateContext(display, EGL_NO_CONFIG_KHR, EGL_NO_CONTEXT, attributes);
+  if (gl == EGL_NO_CONTEXT)
+    return std::unexpected(egl_failure("eglCreateContext(GLES 3.0, no config)"));
+  context->context_ = gl;
+  if (eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, gl) != EGL_TRUE)
+    return std::unexpected(egl_failure("eglMakeCurrent(surfaceless)"));
+  glGetIntegerv(GL_MAJOR_VERSION, &context->major_);
+  glGetIntegerv(GL_MINOR_VERSION, &context->minor_);
+  if (context->major_ < 3)
+    return std::unexpected(processing::io_error(
+        "EGL",
+        "the context is GLES " + std::to_string(context->major_) + "; the preview needs GLES 3.0"));
+  GLint count = 0;
+  glGetIntegerv(GL_NUM_EXTENSIONS, &count);
+  context->extensions_ = " ";
+  for (GLint i = 0; i < count; ++i)
+    context->extensions_ +=
+        reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, static_cast<GLuint>(i))) +
+        std::string(" ");
+  return context;
+}
+
+EglContext::~EglContext() {
+  if (display_ == nullptr) return;
+  eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+  if (context_ != nullptr) eglDestroyContext(display_, context_);
+  eglTerminate(display_);
+}
+
+std::string EglContext::describe() const {
+  const auto text = [](GLenum name) {
+    const auto* value = reinterpret_cast<const char*>(glGetString(name));
+    return std::string(value ? value : "?");
+  };
+  return text(GL_RENDERER) + ", " + text(GL_VERSION);
+}
+
+bool EglContext::has_extension(std::string_view name) const {
+  return extensions_.find(" " + std::string(name) + " ") != std::string::npos;
+}
+
+}  // namespace psrig::preview
