@@ -3,13 +3,13 @@
 #include <cctype>
 #include <cmath>
 #include <ctime>
-#include <numbers>
 #include <thread>
 
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/capture/scan_writer.h"
 #include "psrig/firmware_host/emergency_stop.h"
+#include "psrig/processing/light_matrix.h"
 #include "psrig/processing/log.h"
 
 namespace psrig::capture {
@@ -41,13 +41,6 @@ std::string compact_time() {
   char text[32];
   std::strftime(text, sizeof text, "%Y%m%d-%H%M%S", &utc);
   return text;
-}
-
-cv::Vec3d light_direction(const config::RigConfig& config, int channel) {
-  const double slant = config.geometry.slant_deg * std::numbers::pi / 180;
-  const double tilt =
-      config.geometry.tilts_deg.at(static_cast<std::size_t>(channel)) * std::numbers::pi / 180;
-  return {std::cos(tilt) * std::sin(slant), std::sin(tilt) * std::sin(slant), std::cos(slant)};
 }
 
 // Turns the lights off and stops the camera however acquire() ends.
@@ -261,9 +254,12 @@ Result<processing::Scan> ScanSequencer::acquire(
       scan.dark = stored;
     } else {
       scan.frames.push_back(stored);
-      scan.description.lights.push_back({"led" + std::to_string(phase.channel) + ".png",
-                                         light_direction(config_, phase.channel),
-                                         cv::Vec3d::all(intensity[phase.channel]), false});
+      scan.description.lights.push_back(
+          {"led" + std::to_string(phase.channel) + ".png",
+           processing::light_direction(
+               config_.geometry.tilts_deg.at(static_cast<std::size_t>(phase.channel)),
+               config_.geometry.slant_deg),
+           cv::Vec3d::all(intensity[phase.channel]), false});
     }
   }
   if (auto ok = lights_.all_off(); !ok) return std::unexpected(ok.error());

@@ -1,10 +1,10 @@
 #include "psrig/capture/synthetic_scan.h"
 
 #include <cmath>
-#include <numbers>
 #include <string>
 
 #include "psrig/firmware_host/sim/lambertian_render.h"
+#include "psrig/processing/light_matrix.h"
 
 namespace psrig::capture {
 
@@ -12,7 +12,6 @@ processing::Scan make_synthetic_scan(const SyntheticScanParams& params) {
   namespace sim = firmware_host::sim;
   const sim::Swatch swatch = sim::make_swatch(params.swatch);
   const double full = params.depth == CV_8U ? 255.0 : 65535.0;
-  const double slant = params.slant_deg * std::numbers::pi / 180;
   cv::RNG random(params.swatch.seed * 0x9E3779B97F4A7C15ull + 1);
 
   processing::Scan scan;
@@ -31,9 +30,7 @@ processing::Scan make_synthetic_scan(const SyntheticScanParams& params) {
                   {"cast_shadows", params.cast_shadows}}}};
 
   for (int k = 0; k < 3; ++k) {
-    const double tilt = 2 * std::numbers::pi * k / 3;
-    const cv::Vec3d direction(std::cos(tilt) * std::sin(slant), std::sin(tilt) * std::sin(slant),
-                              std::cos(slant));
+    const cv::Vec3d direction = processing::light_direction(120.0 * k, params.slant_deg);
     d.lights.push_back({"led" + std::to_string(k) + ".png", direction, {1, 1, 1}, false});
     cv::Mat radiance = sim::render_lambertian(swatch, {direction, {1, 1, 1}}, params.cast_shadows);
     radiance *= params.exposure;

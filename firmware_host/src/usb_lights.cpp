@@ -195,19 +195,7 @@ Status UsbStrobeLights::handshake() {
     const double level = channel < static_cast<int>(intensity_.size())
                              ? intensity_[static_cast<std::size_t>(channel)]
                              : 1.0;
-    if (!std::isfinite(level) || level < 0 || level > 1) {
-      return std::unexpected(processing::bad_input({}, "lights.intensity",
-                                                   "channel " + std::to_string(channel) + ": " +
-                                                       std::to_string(level) +
-                                                       " is not within 0 to 1"));
-    }
-    const auto set =
-        command(link,
-                strobe::SetIntensity{
-                    static_cast<std::uint8_t>(channel),
-                    static_cast<std::uint16_t>(std::lround(level * strobe::intensity_full_scale))},
-                "set channel " + std::to_string(channel) + "'s intensity");
-    if (!set) return std::unexpected(set.error());
+    if (auto sent = send_intensity(link, channel, level); !sent) return sent;
   }
   const auto off = command(link, strobe::AllOff{}, "turn everything off");
   if (!off) return std::unexpected(off.error());
@@ -463,22 +451,27 @@ Status UsbStrobeLights::set_intensity(int channel, double level) {
                                                    "no channel " + std::to_string(channel) + " (" +
                                                        std::to_string(channels_) + " configured)"));
     }
-    if (!std::isfinite(level) || level < 0 || level > 1) {
-      return std::unexpected(processing::bad_input({}, "lights.intensity",
-                                                   "intensity " + std::to_string(level) +
-                                                       " of channel " + std::to_string(channel) +
-                                                       " is not within 0 to 1"));
-    }
     std::unique_lock link(link_);
-    const auto set =
-        command(link,
-                strobe::SetIntensity{
-                    static_cast<std::uint8_t>(channel),
-                    static_cast<std::uint16_t>(std::lround(level * strobe::intensity_full_scale))},
-                "set channel " + std::to_string(channel) + "'s intensity");
-    if (!set) return std::unexpected(set.error());
-    return {};
+    return send_intensity(link, channel, level);
   });
+}
+
+Status UsbStrobeLights::send_intensity(std::unique_lock<std::mutex>& link, int channel,
+                                       double level) {
+  if (!std::isfinite(level) || level < 0 || level > 1) {
+    return std::unexpected(processing::bad_input({}, "lights.intensity",
+                                                 "channel " + std::to_string(channel) + ": " +
+                                                     std::to_string(level) +
+                                                     " is not within 0 to 1"));
+  }
+  const auto set =
+      command(link,
+              strobe::SetIntensity{
+                  static_cast<std::uint8_t>(channel),
+                  static_cast<std::uint16_t>(std::lround(level * strobe::intensity_full_scale))},
+              "set channel " + std::to_string(channel) + "'s intensity");
+  if (!set) return std::unexpected(set.error());
+  return {};
 }
 
 Result<strobe::DeviceStatus> UsbStrobeLights::read_status() {

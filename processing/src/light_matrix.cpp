@@ -1,10 +1,17 @@
 #include "psrig/processing/light_matrix.h"
 
+#include <cmath>
 #include <limits>
+#include <numbers>
 
 #include <Eigen/Dense>
 
 namespace psrig::processing {
+
+cv::Vec3d light_direction(double tilt_deg, double slant_deg) {
+  const double tilt = tilt_deg * std::numbers::pi / 180, slant = slant_deg * std::numbers::pi / 180;
+  return {std::cos(tilt) * std::sin(slant), std::sin(tilt) * std::sin(slant), std::cos(slant)};
+}
 
 LightMatrix make_light_matrix(const std::vector<cv::Vec3d>& directions) {
   LightMatrix result;

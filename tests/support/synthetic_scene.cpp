@@ -4,16 +4,14 @@
 #include <numbers>
 #include <random>
 
+#include "psrig/processing/light_matrix.h"
+
 namespace psrig::test {
 
 std::vector<cv::Vec3d> ring_lights(int count, double slant_deg, double first_tilt_deg) {
   std::vector<cv::Vec3d> lights;
-  const double slant = slant_deg * std::numbers::pi / 180;
-  for (int k = 0; k < count; ++k) {
-    const double tilt = (first_tilt_deg + 360.0 * k / count) * std::numbers::pi / 180;
-    lights.emplace_back(std::cos(tilt) * std::sin(slant), std::sin(tilt) * std::sin(slant),
-                        std::cos(slant));
-  }
+  for (int k = 0; k < count; ++k)
+    lights.push_back(processing::light_direction(first_tilt_deg + 360.0 * k / count, slant_deg));
   return lights;
 }
 

@@ -15,6 +15,7 @@
 #include <opencv2/core.hpp>
 
 #include "psrig/firmware_host/sim/lambertian_render.h"
+#include "psrig/processing/light_matrix.h"
 
 namespace psrig::firmware_host::sim {
 namespace {
@@ -31,11 +32,7 @@ double radians(double degrees) {
   return degrees * std::numbers::pi / 180.0;
 }
 
-cv::Vec3d light_direction(double tilt_deg, double slant_deg) {
-  const double tilt = radians(tilt_deg);
-  const double slant = radians(slant_deg);
-  return {std::cos(tilt) * std::sin(slant), std::sin(tilt) * std::sin(slant), std::cos(slant)};
-}
+using processing::light_direction;
 
 Swatch swatch_of(SwatchPattern pattern, cv::Size size = {640, 480}, double px = 0.025,
                  std::uint64_t seed = 1) {

@@ -70,6 +70,8 @@ class UsbStrobeLights final : public LightController {
   [[nodiscard]] Result<strobe::Response> command(std::unique_lock<std::mutex>& link,
                                                  const strobe::Request& request,
                                                  const std::string& what);
+  // Checks `level` (0 to 1) and sends it as `channel`'s intensity.
+  [[nodiscard]] Status send_intensity(std::unique_lock<std::mutex>& link, int channel, double level);
   [[nodiscard]] std::string transport_message(strobe::Opcode opcode, int code,
                                               std::uint8_t endpoint, bool stalled_twice) const;
   // Marks the link broken (no more heartbeats), tries one ALL_OFF unless

@@ -10,6 +10,10 @@
 
 namespace psrig::processing {
 
+// The unit direction toward a light at `tilt_deg` (from +x toward +y) and
+// `slant_deg` (from +z, the camera's axis): DESIGN.md's axes.
+[[nodiscard]] cv::Vec3d light_direction(double tilt_deg, double slant_deg);
+
 struct LightMatrix {
   std::vector<cv::Vec3d> directions;  // unit rows of L
   double condition_number = 0;        // largest over smallest singular value of L
