@@ -105,19 +105,22 @@ Result<Frame> ScanSequencer::grab() {
   return frame;
 }
 
-// True when the frame now exposing is the next one grab() returns, it is
-// valid for `lighting`, and the gap after its exposure holds a switch and
-// the settling time before the following exposure starts.
-bool ScanSequencer::can_switch_during_readout(const Lighting& lighting) const {
-  if (!last_frame_ || !period_ || *period_ <= Clock::duration::zero()) return false;
+// When to switch to the next phase: just after the exposure now in
+// progress ends. Nothing unless that frame is the next one grab() returns,
+// it is valid for `lighting`, and the gap after its exposure holds a switch
+// and the settling time before the following exposure starts.
+std::optional<Clock::time_point> ScanSequencer::switch_time_in_readout_gap(
+    const Lighting& lighting) const {
+  if (!last_frame_ || !period_ || *period_ <= Clock::duration::zero()) return std::nullopt;
   const auto settle = milliseconds(config_.capture.settle_ms);
   const auto exposure = last_frame_->exposure_end - last_frame_->exposure_start;
   const auto next_start = last_frame_->exposure_start + *period_;
   const auto next_end = next_start + exposure;
   const auto following_start = next_start + *period_;
-  const auto now = Clock::now();
-  return now < next_end && next_start >= lighting.since + settle &&
-         next_end + kSwitchMargin + switch_time_ + settle + kSwitchMargin <= following_start;
+  if (Clock::now() < next_end && next_start >= lighting.since + settle &&
+      next_end + kSwitchMargin + switch_time_ + settle + kSwitchMargin <= following_start)
+    return next_end + kSwitchMargin;
+  return std::nullopt;
 }
 
 Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Lighting& lighting,
@@ -138,11 +141,10 @@ Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Li
   };
   while (kept < needed) {
     std::optional<Lighting> switched;
-    if (switch_early && kept == needed - 1 && can_switch_during_readout(lighting)) {
-      // Switch to the next phase once the exposure in progress has ended.
-      std::this_thread::sleep_until(last_frame_->exposure_start + *period_ +
-                                    (last_frame_->exposure_end - last_frame_->exposure_start) +
-                                    kSwitchMargin);
+    const auto switch_at =
+        switch_early && kept == needed - 1 ? switch_time_in_readout_gap(lighting) : std::nullopt;
+    if (switch_at) {
+      std::this_thread::sleep_until(*switch_at);
       if (auto ok = still_lit(); !ok) return std::unexpected(ok.error());
       auto now_lit = switch_lights(next->channel, lighting);
       if (!now_lit) return std::unexpected(now_lit.error());

@@ -139,9 +139,11 @@ TEST(PsrigCli, SynthRefusesToOverwrite) {
   EXPECT_TRUE(contains(again.err, "already exists")) << again.err;
 }
 
-// The simulated rig's configuration, at a size a test affords, written to
-// `directory` (scans go beside it).
-fs::path sim_config(const TempDir& temp, const std::string& extra = "") {
+using Edits = std::vector<std::pair<std::string, std::string>>;
+
+// config/sim.toml at a size a test affords, with scans going into `temp`
+// and `edits` (text to find, what replaces it) made, written to `temp`.
+fs::path sim_config(const TempDir& temp, const Edits& edits = {}) {
   std::ifstream in(fs::path(PSRIG_SOURCE_DIR) / "config/sim.toml");
   std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
   const auto replace = [&](const std::string& from, const std::string& to) {
@@ -152,8 +154,10 @@ fs::path sim_config(const TempDir& temp, const std::string& extra = "") {
   replace("width = 640", "width = 320");
   replace("height = 480", "height = 240");
   replace("root = \"../out/scans\"", "root = \"scans\"");
+  for (const auto& [from, to] : edits)
+    replace(from, to);
   const fs::path file = temp / "rig.toml";
-  std::ofstream(file) << text << extra;
+  std::ofstream(file) << text;
   return file;
 }
 
@@ -224,12 +228,9 @@ TEST(PsrigCli, ConfigErrorsNameFileLineColumnAndKey) {
 
 TEST(PsrigCli, MissingHardwareNamesTheDeviceAndTheKey) {
   TempDir temp;
-  const auto config = sim_config(temp, "");
-  std::ifstream in(config);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  text.replace(text.find("backend = \"sim\"\nexposure_us"), 15,
-               "backend = \"v4l2\"\ndevice = \"/dev/video77\"");
-  std::ofstream(config) << text;
+  const auto config =
+      sim_config(temp, {{"backend = \"sim\"\nexposure_us",
+                         "backend = \"v4l2\"\ndevice = \"/dev/video77\"\nexposure_us"}});
   auto run = run_program("psrig",
                          {"scan", "--config", config.string(), "--out", (temp / "scan").string()});
   EXPECT_NE(run.exit_code, 0);
@@ -263,14 +264,11 @@ TEST(PsrigCli, SignalMidScanTurnsEveryLedOffAndLeavesNoScan) {
   TempDir temp;
   auto driver = firmware_host::SimModbusDriver::start({});
   ASSERT_TRUE(driver) << driver.error().describe();
-  const auto config = sim_config(temp, "");
-  std::ifstream in(config);
-  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  text.replace(text.find("backend = \"sim\"\nchannels"), 15,
-               "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", port = " +
-                   std::to_string((*driver)->port()) + " }\n");
-  text.replace(text.find("exposure_us = 20000"), 19, "exposure_us = 200000");  // a slow scan
-  std::ofstream(config) << text;
+  const auto config =
+      sim_config(temp, {{"backend = \"sim\"\nchannels",
+                         "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", port = " +
+                             std::to_string((*driver)->port()) + " }\nchannels"},
+                        {"exposure_us = 20000", "exposure_us = 200000"}});  // a slow scan
 
   const std::string out = (temp / "scan").string(), err = (temp / "stderr.txt").string();
   const std::string psrig = program("psrig").string();

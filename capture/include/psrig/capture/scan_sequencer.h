@@ -79,7 +79,8 @@ class ScanSequencer {
   Result<cv::Mat> collect(const Phase& phase, const Phase* next, Lighting& lighting,
                           CaptureTiming& timing, Frame& first);
   Result<Frame> grab();
-  [[nodiscard]] bool can_switch_during_readout(const Lighting& lighting) const;
+  [[nodiscard]] std::optional<Clock::time_point> switch_time_in_readout_gap(
+      const Lighting& lighting) const;
 
   const config::RigConfig& config_;
   firmware_host::SafeLights& lights_;
