@@ -9,13 +9,14 @@ namespace psrig::preview {
 namespace {
 
 // A framebuffer with a colour and a depth renderbuffer of `samples` (0: plain).
-bool make_framebuffer(cv::Size size, int samples, unsigned& framebuffer, unsigned& colour,
-                      unsigned* depth) {
+bool make_framebuffer(cv::Size size, int samples, ColourStorage storage, unsigned& framebuffer,
+                      unsigned& colour, unsigned* depth) {
   glGenFramebuffers(1, &framebuffer);
   glBindFramebuffer(GL_FRAMEBUFFER, framebuffer);
   glGenRenderbuffers(1, &colour);
   glBindRenderbuffer(GL_RENDERBUFFER, colour);
-  glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, GL_RGBA8, size.width, size.height);
+  const GLenum format = storage == ColourStorage::srgb ? GL_SRGB8_ALPHA8 : GL_RGBA8;
+  glRenderbufferStorageMultisample(GL_RENDERBUFFER, samples, format, size.width, size.height);
   glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_RENDERBUFFER, colour);
   if (depth != nullptr) {
     glGenRenderbuffers(1, depth);
@@ -29,7 +30,8 @@ bool make_framebuffer(cv::Size size, int samples, unsigned& framebuffer, unsigne
 
 }  // namespace
 
-Result<std::unique_ptr<OffscreenTarget>> OffscreenTarget::create(cv::Size size, int samples) {
+Result<std::unique_ptr<OffscreenTarget>> OffscreenTarget::create(cv::Size size, int samples,
+                                                                 ColourStorage storage) {
   GLint max_size = 0, max_samples = 0;
   glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_size);
   glGetIntegerv(GL_MAX_SAMPLES, &max_samples);
@@ -42,11 +44,12 @@ Result<std::unique_ptr<OffscreenTarget>> OffscreenTarget::create(cv::Size size, 
   std::unique_ptr<OffscreenTarget> target(new OffscreenTarget);
   target->size_ = size;
   target->samples_ = std::clamp(samples, 0, max_samples);
-  if (!make_framebuffer(size, target->samples_, target->framebuffer_, target->colour_,
+  target->storage_ = storage;
+  if (!make_framebuffer(size, target->samples_, storage, target->framebuffer_, target->colour_,
                         &target->depth_))
     return std::unexpected(processing::io_error("GLES", "the offscreen framebuffer is incomplete"));
-  if (target->samples_ > 0 &&
-      !make_framebuffer(size, 0, target->resolve_framebuffer_, target->resolve_colour_, nullptr))
+  if (target->samples_ > 0 && !make_framebuffer(size, 0, storage, target->resolve_framebuffer_,
+                                                target->resolve_colour_, nullptr))
     return std::unexpected(processing::io_error("GLES", "the resolve framebuffer is incomplete"));
   return target;
 }

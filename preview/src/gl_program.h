@@ -1,0 +1,33 @@
+#pragma once
+// A linked GLSL program from two embedded shaders; compile and link
+// errors come back with the shader's file name and GL's log.
+
+#include <string>
+#include <unordered_map>
+
+#include "psrig/processing/error.h"
+#include "shader_sources.h"
+
+namespace psrig::preview {
+
+class GlProgram {
+ public:
+  [[nodiscard]] static processing::Result<GlProgram> build(const shaders::ShaderSource& vertex,
+                                                           const shaders::ShaderSource& fragment);
+  GlProgram(GlProgram&& other) noexcept;
+  GlProgram& operator=(GlProgram&& other) noexcept;
+  GlProgram(const GlProgram&) = delete;
+  GlProgram& operator=(const GlProgram&) = delete;
+  ~GlProgram();
+
+  void use() const;
+  // -1 when the program has no such active uniform (GL then ignores the set).
+  [[nodiscard]] int uniform(const std::string& name) const;
+
+ private:
+  GlProgram() = default;
+  unsigned id_ = 0;
+  mutable std::unordered_map<std::string, int> locations_;
+};
+
+}  // namespace psrig::preview

@@ -1,0 +1,120 @@
+#include "psrig/preview/scene_view.h"
+
+#include <cmath>
+#include <numbers>
+
+#include <Eigen/Geometry>
+
+#include "psrig/processing/light_matrix.h"
+
+namespace psrig::preview {
+namespace {
+
+float radians(double degrees) {
+  return static_cast<float>(degrees * std::numbers::pi / 180.0);
+}
+
+Eigen::Matrix4f rotation(const Eigen::Matrix3f& turn) {
+  Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
+  m.topLeftCorner<3, 3>() = turn;
+  return m;
+}
+
+Eigen::Matrix3f yaw_pitch(double yaw_deg, double pitch_deg) {
+  return (Eigen::AngleAxisf(radians(yaw_deg), Eigen::Vector3f::UnitY()) *
+          Eigen::AngleAxisf(radians(pitch_deg), Eigen::Vector3f::UnitX()))
+      .toRotationMatrix();
+}
+
+Eigen::Matrix4f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& up) {
+  const Eigen::Vector3f back = eye.normalized();  // camera +z, away from the target
+  const Eigen::Vector3f right = up.cross(back).normalized();
+  const Eigen::Vector3f true_up = back.cross(right);
+  Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
+  m.block<1, 3>(0, 0) = right.transpose();
+  m.block<1, 3>(1, 0) = true_up.transpose();
+  m.block<1, 3>(2, 0) = back.transpose();
+  m(0, 3) = -right.dot(eye);
+  m(1, 3) = -true_up.dot(eye);
+  m(2, 3) = -back.dot(eye);
+  return m;
+}
+
+Eigen::Matrix4f orthographic(float half_width, float half_height, float near, float far) {
+  Eigen::Matrix4f m = Eigen::Matrix4f::Zero();
+  m(0, 0) = 1 / half_width;
+  m(1, 1) = 1 / half_height;
+  m(2, 2) = -2 / (far - near);
+  m(2, 3) = -(far + near) / (far - near);
+  m(3, 3) = 1;
+  return m;
+}
+
+Eigen::Matrix4f perspective(float fov_y, float aspect, float near, float far) {
+  const float f = 1 / std::tan(fov_y / 2);
+  Eigen::Matrix4f m = Eigen::Matrix4f::Zero();
+  m(0, 0) = f / aspect;
+  m(1, 1) = f;
+  m(2, 2) = (far + near) / (near - far);
+  m(2, 3) = 2 * far * near / (near - far);
+  m(3, 2) = -1;
+  return m;
+}
+
+}  // namespace
+
+FrameSetup frame_setup(cv::Size2d swatch_extent, const SceneView& view, cv::Size viewport) {
+  FrameSetup setup;
+  const bool flat = view.kind == ViewKind::flat;
+  setup.shape = flat ? PatchShape::flat : PatchShape::draped;
+  const double tiles = flat ? 1.0 : std::max(view.tiles, 1);
+  setup.patch_extent = {swatch_extent.width * tiles, swatch_extent.height * tiles};
+  const auto diagonal =
+      static_cast<float>(std::hypot(setup.patch_extent.width, setup.patch_extent.height));
+
+  setup.model = rotation(yaw_pitch(view.model_yaw_deg, view.model_pitch_deg));
+  const Eigen::Matrix3f orbit = yaw_pitch(view.camera_yaw_deg, -view.camera_pitch_deg);
+  const float aspect = static_cast<float>(viewport.width) / static_cast<float>(viewport.height);
+  const float zoom = static_cast<float>(std::max(view.zoom, 1e-3));
+  const Eigen::Vector3f back = orbit * Eigen::Vector3f::UnitZ();
+  const Eigen::Vector3f up = orbit * Eigen::Vector3f::UnitY();
+  if (flat) {
+    // Orthographic, the swatch (plus margin) fitted to the frame.
+    const auto border = static_cast<float>(1 + 2 * view.margin);
+    float half_width = static_cast<float>(setup.patch_extent.width) / 2 * border;
+    float half_height = static_cast<float>(setup.patch_extent.height) / 2 * border;
+    if (half_width / half_height < aspect)
+      half_width = half_height * aspect;
+    else
+      half_height = half_width / aspect;
+    const Eigen::Vector3f eye = back * (2 * diagonal);
+    setup.view = look_at(eye, up);
+    setup.projection =
+        orthographic(half_width / zoom, half_height / zoom, 0.01f * diagonal, 4 * diagonal);
+    setup.eye << back, 0;
+  } else {
+    const float fov_y = radians(30);
+    // Far enough back for the patch's bounding sphere to fit either way.
+    const float fit = (diagonal / 2) / std::sin(fov_y / 2) / std::min(aspect, 1.0f);
+    const Eigen::Vector3f eye = back * (fit / zoom);
+    setup.view = look_at(eye, up);
+    setup.projection = perspective(fov_y, aspect, 0.02f * fit, 4 * fit);
+    setup.eye << eye, 1;
+  }
+
+  const cv::Vec3d l = processing::light_direction(view.light.tilt_deg, view.light.slant_deg);
+  const Eigen::Vector3f toward(static_cast<float>(l[0]), static_cast<float>(l[1]),
+                               static_cast<float>(l[2]));
+  setup.marker_radius = 0.03f * diagonal;
+  if (view.light.kind == LightKind::point) {
+    setup.light_reference_distance = static_cast<float>(view.light.distance) * diagonal;
+    setup.marker_centre = toward * setup.light_reference_distance;
+    setup.light << setup.marker_centre, 1;
+  } else {
+    setup.marker_centre = toward * (0.6f * diagonal);
+    setup.light << toward, 0;
+  }
+  return setup;
+}
+
+}  // namespace psrig::preview

@@ -1,0 +1,18 @@
+#pragma once
+// The GLSL of preview/shaders, embedded at build time (cmake/embed_shaders.cmake).
+
+#include <string_view>
+
+namespace psrig::preview::shaders {
+
+struct ShaderSource {
+  std::string_view name;  // the file's name, for error messages
+  std::string_view text;
+};
+
+extern const ShaderSource swatch_vert;
+extern const ShaderSource swatch_frag;
+extern const ShaderSource light_marker_vert;
+extern const ShaderSource light_marker_frag;
+
+}  // namespace psrig::preview::shaders
