@@ -30,7 +30,9 @@ vec3 srgb_encode(vec3 linear) {
 
 void main() {
   vec4 albedo = texture(u_albedo_alpha, v_uv);
+#ifdef ALPHA_MAP  // only then: a shader that may discard is slower everywhere
   if (albedo.a < 0.5 / 255.0) discard;  // trimmed away
+#endif
   vec4 normal_gloss = texture(u_normal_gloss, v_uv);
   vec3 to_light = v_to_light;
   vec3 to_eye = v_to_eye;

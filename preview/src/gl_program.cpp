@@ -21,11 +21,18 @@ std::string info_log(GLuint object, bool is_program) {
   return log;
 }
 
-processing::Result<GLuint> compile(GLenum stage, const shaders::ShaderSource& source) {
+processing::Result<GLuint> compile(GLenum stage, const shaders::ShaderSource& source,
+                                   std::string_view defines) {
   const GLuint shader = glCreateShader(stage);
-  const char* text = source.text.data();
-  const auto length = static_cast<GLint>(source.text.size());
-  glShaderSource(shader, 1, &text, &length);
+  // After the first line: GLSL ES wants #version before anything else.
+  const std::size_t first_line = source.text.find('\n') + 1;
+  std::string text(source.text.substr(0, first_line));
+  text += defines;
+  text += "#line 2\n";  // keep the compiler's line numbers the file's
+  text += source.text.substr(first_line);
+  const char* data = text.data();
+  const auto length = static_cast<GLint>(text.size());
+  glShaderSource(shader, 1, &data, &length);
   glCompileShader(shader);
   GLint ok = GL_FALSE;
   glGetShaderiv(shader, GL_COMPILE_STATUS, &ok);
@@ -39,10 +46,11 @@ processing::Result<GLuint> compile(GLenum stage, const shaders::ShaderSource& so
 }  // namespace
 
 processing::Result<GlProgram> GlProgram::build(const shaders::ShaderSource& vertex,
-                                               const shaders::ShaderSource& fragment) {
-  auto vertex_shader = compile(GL_VERTEX_SHADER, vertex);
+                                               const shaders::ShaderSource& fragment,
+                                               std::string_view defines) {
+  auto vertex_shader = compile(GL_VERTEX_SHADER, vertex, defines);
   if (!vertex_shader) return std::unexpected(vertex_shader.error());
-  auto fragment_shader = compile(GL_FRAGMENT_SHADER, fragment);
+  auto fragment_shader = compile(GL_FRAGMENT_SHADER, fragment, defines);
   if (!fragment_shader) {
     glDeleteShader(*vertex_shader);
     return std::unexpected(fragment_shader.error());

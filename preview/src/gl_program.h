@@ -3,6 +3,7 @@
 // errors come back with the shader's file name and GL's log.
 
 #include <string>
+#include <string_view>
 #include <unordered_map>
 
 #include "psrig/processing/error.h"
@@ -12,8 +13,11 @@ namespace psrig::preview {
 
 class GlProgram {
  public:
+  // `defines` ("#define NAME 1\n" lines) go into both shaders right after
+  // their #version line.
   [[nodiscard]] static processing::Result<GlProgram> build(const shaders::ShaderSource& vertex,
-                                                           const shaders::ShaderSource& fragment);
+                                                           const shaders::ShaderSource& fragment,
+                                                           std::string_view defines = {});
   GlProgram(GlProgram&& other) noexcept;
   GlProgram& operator=(GlProgram&& other) noexcept;
   GlProgram(const GlProgram&) = delete;

@@ -123,6 +123,7 @@ struct SwatchRenderer::Gl {
   GLuint albedo = 0, normal = 0;
   Mesh patches[2];  // indexed by PatchShape
   Mesh sphere;
+  bool blend = false;  // only with an alpha map: opaque swatches skip it
   ~Gl() {
     glDeleteTextures(1, &albedo);
     glDeleteTextures(1, &normal);
@@ -139,7 +140,8 @@ Result<std::unique_ptr<SwatchRenderer>> SwatchRenderer::create(const SwatchMaps&
   renderer->extent_ = maps.extent();
   renderer->gl_ = std::make_unique<Gl>();
   Gl& gl = *renderer->gl_;
-  auto swatch = GlProgram::build(shaders::swatch_vert, shaders::swatch_frag);
+  auto swatch = GlProgram::build(shaders::swatch_vert, shaders::swatch_frag,
+                                 maps.alpha.empty() ? "" : "#define ALPHA_MAP 1\n");
   if (!swatch) return std::unexpected(swatch.error());
   gl.swatch.emplace(std::move(*swatch));
   auto marker = GlProgram::build(shaders::light_marker_vert, shaders::light_marker_frag);
@@ -151,6 +153,7 @@ Result<std::unique_ptr<SwatchRenderer>> SwatchRenderer::create(const SwatchMaps&
   const TextureLevels levels =
       build_texture_levels(maps, options.shading.default_gloss, std::max(max_size, 64));
   renderer->levels_ = static_cast<int>(levels.albedo_alpha.size());
+  gl.blend = !maps.alpha.empty();
   glGenTextures(1, &gl.albedo);
   upload_levels(gl.albedo, levels.albedo_alpha, GL_SRGB8_ALPHA8, GL_UNSIGNED_BYTE, options);
   glGenTextures(1, &gl.normal);
@@ -185,8 +188,12 @@ void SwatchRenderer::draw(const SceneView& view, cv::Size viewport) {
   glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
   glEnable(GL_DEPTH_TEST);
   glDisable(GL_CULL_FACE);  // the draped sheet shows its back
-  glEnable(GL_BLEND);
-  glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+  if (gl_->blend) {
+    glEnable(GL_BLEND);
+    glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+  } else {
+    glDisable(GL_BLEND);
+  }
 
   const GlProgram& swatch = *gl_->swatch;
   const ShadingParams& shading = options_.shading;

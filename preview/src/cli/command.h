@@ -1,0 +1,53 @@
+#pragma once
+// One `psrig-preview` subcommand, and what the subcommands share: frame
+// size parsing, the view and light options, and error reporting.
+
+#include <functional>
+#include <memory>
+#include <string>
+
+#include <CLI/CLI.hpp>
+#include <opencv2/core.hpp>
+
+#include "psrig/preview/egl_context.h"
+#include "psrig/preview/scene_view.h"
+#include "psrig/preview/swatch_renderer.h"
+
+namespace psrig::preview::cli {
+
+struct Command {
+  CLI::App* app = nullptr;
+  std::function<int()> run;  // returns the exit code
+};
+
+Command add_render_command(CLI::App& parent);
+Command add_kiosk_command(CLI::App& parent);
+Command add_bench_command(CLI::App& parent);
+
+// The options that place the light and the view (render, bench).
+struct ViewArgs {
+  std::string view = "patch";
+  std::string light = "directional";
+  double light_tilt = 45;
+  double light_slant = 45;
+  double yaw = 0;
+  double pitch = 0;
+  bool no_light_sphere = false;
+};
+void add_view_options(CLI::App& app, ViewArgs& args);
+[[nodiscard]] SceneView scene_view(const ViewArgs& args);
+
+// "1920x1080" -> the size; errors name the option.
+[[nodiscard]] Result<cv::Size> parse_size(const std::string& text, const std::string& option);
+
+// The renderer's defaults for this context: anisotropic filtering where the
+// context offers it.
+[[nodiscard]] RendererOptions renderer_options(const EglContext& context);
+
+// Prints "psrig-preview COMMAND: error: ..." to stderr and returns the exit code.
+int report_error(const std::string& command, const processing::Error& error);
+
+// The multisampling the preview draws with unless told otherwise.
+inline constexpr int kDefaultSamples = 4;
+
+}  // namespace psrig::preview::cli

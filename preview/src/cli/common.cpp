@@ -1,0 +1,74 @@
+#include <GLES3/gl3.h>
+#include <charconv>
+#include <iostream>
+
+#include "command.h"
+
+namespace psrig::preview::cli {
+
+void add_view_options(CLI::App& app, ViewArgs& args) {
+  app.add_option("--view", args.view,
+                 "flat: the swatch head-on as scanned; patch: a draped sheet in perspective")
+      ->check(CLI::IsMember({"flat", "patch"}))
+      ->capture_default_str();
+  app.add_option("--light", args.light, "Light kind")
+      ->check(CLI::IsMember({"directional", "point"}))
+      ->capture_default_str();
+  app.add_option("--light-tilt", args.light_tilt,
+                 "Light tilt in degrees, in the swatch plane from +x (right) toward +y (up)")
+      ->capture_default_str();
+  app.add_option("--light-slant", args.light_slant, "Light slant in degrees from the swatch normal")
+      ->check(CLI::Range(0.0, 90.0))
+      ->capture_default_str();
+  app.add_option("--yaw", args.yaw, "Model yaw in degrees (about the vertical)")
+      ->capture_default_str();
+  app.add_option("--pitch", args.pitch, "Model pitch in degrees (about the horizontal)")
+      ->capture_default_str();
+  app.add_flag("--no-light-sphere", args.no_light_sphere, "Do not draw the light as a sphere");
+}
+
+SceneView scene_view(const ViewArgs& args) {
+  SceneView view;
+  view.kind = args.view == "flat" ? ViewKind::flat : ViewKind::patch;
+  view.light.kind = args.light == "point" ? LightKind::point : LightKind::directional;
+  view.light.tilt_deg = args.light_tilt;
+  view.light.slant_deg = args.light_slant;
+  view.model_yaw_deg = args.yaw;
+  view.model_pitch_deg = args.pitch;
+  view.show_light = !args.no_light_sphere;
+  if (view.kind == ViewKind::patch) {  // a three-quarter view from above
+    view.camera_yaw_deg = 15;
+    view.camera_pitch_deg = 30;
+  }
+  return view;
+}
+
+Result<cv::Size> parse_size(const std::string& text, const std::string& option) {
+  const auto x = text.find('x');
+  int width = 0, height = 0;
+  const char* end = text.data() + text.size();
+  if (x != std::string::npos &&
+      std::from_chars(text.data(), text.data() + x, width).ptr == text.data() + x &&
+      std::from_chars(text.data() + x + 1, end, height).ptr == end && width > 0 && height > 0)
+    return cv::Size(width, height);
+  return std::unexpected(
+      processing::bad_input("", option, "\"" + text + "\" is not a size like 1920x1080"));
+}
+
+RendererOptions renderer_options(const EglContext& context) {
+  RendererOptions options;
+  if (context.has_extension("GL_EXT_texture_filter_anisotropic")) {
+    constexpr GLenum kMaxTextureMaxAnisotropy = 0x84FF;
+    GLfloat most = 1;
+    glGetFloatv(kMaxTextureMaxAnisotropy, &most);
+    options.max_anisotropy = std::min(most, 8.0f);
+  }
+  return options;
+}
+
+int report_error(const std::string& command, const processing::Error& error) {
+  std::cerr << "psrig-preview " << command << ": error: " << error.describe() << '\n';
+  return processing::exit_code(error);
+}
+
+}  // namespace psrig::preview::cli

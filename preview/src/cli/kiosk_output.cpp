@@ -1,0 +1,67 @@
+#include "kiosk_output.h"
+
+#include <GLES3/gl3.h>
+#include <cstdio>
+
+#include "psrig/preview/offscreen_target.h"
+#include "psrig/processing/image_io.h"
+
+namespace psrig::preview::cli {
+namespace {
+
+class HeadlessOutput final : public KioskOutput {
+ public:
+  HeadlessOutput(std::unique_ptr<EglContext> context, std::unique_ptr<OffscreenTarget> target,
+                 std::filesystem::path out_dir)
+      : context_(std::move(context)), target_(std::move(target)), out_dir_(std::move(out_dir)) {}
+
+  std::string describe() const override {
+    return "headless " + std::to_string(size().width) + "x" + std::to_string(size().height) +
+           " into " + out_dir_.string() + ", " + context_->describe();
+  }
+  cv::Size size() const override { return target_->size(); }
+  RendererOptions renderer_options() const override { return cli::renderer_options(*context_); }
+  void begin_frame() override { target_->bind(); }
+  Status end_frame(long frame) override {
+    char name[32];
+    std::snprintf(name, sizeof name, "frame_%06ld.png", frame);
+    return processing::write_image(out_dir_ / name, target_->read());
+  }
+
+ private:
+  std::unique_ptr<EglContext> context_;
+  std::unique_ptr<OffscreenTarget> target_;
+  std::filesystem::path out_dir_;
+};
+
+}  // namespace
+
+void add_kms_options(CLI::App& app, KmsArgs& args) {
+  app.add_option("--device", args.device, "DRM device (default: the first with a display)");
+  app.add_option("--connector", args.connector, "Display connector, e.g. HDMI-A-1");
+  app.add_option("--mode", args.mode, "Display mode WxH or WxH@HZ (default: preferred)");
+}
+
+Result<std::unique_ptr<KioskOutput>> open_headless_output(const std::string& size, int samples,
+                                                          const std::filesystem::path& out_dir) {
+  auto parsed = parse_size(size, "--size");
+  if (!parsed) return std::unexpected(parsed.error());
+  std::error_code error;
+  std::filesystem::create_directories(out_dir, error);
+  if (error)
+    return std::unexpected(processing::io_error(out_dir, "cannot create: " + error.message()));
+  auto context = EglContext::open_surfaceless();
+  if (!context) return std::unexpected(context.error());
+  auto target = OffscreenTarget::create(*parsed, samples, ColourStorage::srgb);
+  if (!target) return std::unexpected(target.error());
+  return std::make_unique<HeadlessOutput>(std::move(*context), std::move(*target), out_dir);
+}
+
+void clear_to(cv::Vec3f linear, bool encode_srgb, cv::Size size) {
+  const auto channel = [&](int c) { return encode_srgb ? srgb_encode(linear[c]) : linear[c]; };
+  glViewport(0, 0, size.width, size.height);
+  glClearColor(channel(0), channel(1), channel(2), 1);
+  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+}
+
+}  // namespace psrig::preview::cli
