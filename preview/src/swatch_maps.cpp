@@ -38,8 +38,8 @@ Result<cv::Mat> read_albedo(const fs::path& directory) {
   if (png->depth() != CV_8U && png->depth() != CV_16U)
     return std::unexpected(bad_input(directory / map_files::kAlbedoPng, "albedo",
                                      "expected an 8- or 16-bit sRGB image"));
-  const int bits = png->depth() == CV_8U ? 8 : 16;
-  const processing::CodeLineariser srgb(processing::Encoding::srgb, 0, (1 << bits) - 1, bits);
+  const double full = png->depth() == CV_8U ? 255 : 65535;
+  const processing::CodeLineariser srgb(processing::Encoding::srgb, 0, full, png->depth());
   cv::Mat linear(png->size(), CV_32FC(png->channels()));
   for (int row = 0; row < png->rows; ++row)
     srgb.convert(png->ptr(row), png->cols * png->channels(), linear.ptr<float>(row));

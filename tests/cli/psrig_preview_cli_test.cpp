@@ -1,0 +1,180 @@
+// `psrig-preview` as a technician and a kiosk meet it: preview images of
+// the right size, clear errors, a kiosk that follows new scans and keeps
+// going past a broken one.
+
+#include <chrono>
+#include <fcntl.h>
+#include <fstream>
+#include <iterator>
+#include <signal.h>
+#include <spawn.h>
+#include <sys/wait.h>
+#include <thread>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <opencv2/imgcodecs.hpp>
+
+#include "test_support.h"
+
+namespace psrig::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+// A real maps directory: a simulated scan of `pattern`, processed.
+fs::path make_maps(const TempDir& temp, const std::string& name, const std::string& pattern) {
+  const fs::path scan = temp / name;
+  const auto synth = run_program(
+      "psrig", {"synth", "--out", scan.string(), "--pattern", pattern, "--size", "64x48"});
+  EXPECT_EQ(synth.exit_code, 0) << synth.err;
+  const auto process = run_program("psrig", {"process", scan.string(), "--quiet"});
+  EXPECT_EQ(process.exit_code, 0) << process.err;
+  return scan / "maps";
+}
+
+TEST(PsrigPreviewCli, RenderWritesAPreviewOfTheAskedSize) {
+  TempDir temp;
+  const fs::path maps = make_maps(temp, "scan", "jersey");
+  const auto patch =
+      run_program("psrig-preview", {"render", maps.string(), "--out", (temp / "patch.png").string(),
+                                    "--size", "160x120", "--light", "point", "--yaw", "20"});
+  ASSERT_EQ(patch.exit_code, 0) << patch.err;
+  const cv::Mat image = cv::imread((temp / "patch.png").string());
+  ASSERT_EQ(image.size(), cv::Size(160, 120));
+  cv::Scalar mean, deviation;
+  cv::meanStdDev(image, mean, deviation);
+  EXPECT_GT(deviation[1], 10) << "a swatch, not a blank frame";
+
+  // The flat view defaults to the maps' own size, one pixel per texel.
+  const auto flat = run_program("psrig-preview", {"render", maps.string(), "--out",
+                                                  (temp / "flat.png").string(), "--view", "flat"});
+  ASSERT_EQ(flat.exit_code, 0) << flat.err;
+  EXPECT_EQ(cv::imread((temp / "flat.png").string()).size(), cv::Size(64, 48));
+}
+
+TEST(PsrigPreviewCli, BadInputIsAClearErrorAndWritesNothing) {
+  TempDir temp;
+  const auto missing = run_program(
+      "psrig-preview", {"render", (temp / "nowhere").string(), "--out", (temp / "p.png").string()});
+  EXPECT_EQ(missing.exit_code, 2);
+  EXPECT_TRUE(contains(missing.err, "nowhere")) << missing.err;
+  const fs::path maps = make_maps(temp, "scan", "rib");
+  const auto bad_size = run_program("psrig-preview", {"render", maps.string(), "--out",
+                                                      (temp / "p.png").string(), "--size", "big"});
+  EXPECT_EQ(bad_size.exit_code, 2);
+  EXPECT_TRUE(contains(bad_size.err, "--size")) << bad_size.err;
+  fs::remove(maps / "normal.png");
+  const auto broken =
+      run_program("psrig-preview", {"render", maps.string(), "--out", (temp / "p.png").string()});
+  EXPECT_NE(broken.exit_code, 0);
+  EXPECT_TRUE(contains(broken.err, "normal.png")) << broken.err;
+  EXPECT_FALSE(fs::exists(temp / "p.png"));
+}
+
+TEST(PsrigPreviewCli, HeadlessKioskOrbitsTheLight) {
+  TempDir temp;
+  const fs::path maps = make_maps(temp, "scan", "jersey");
+  const auto kiosk = run_program(
+      "psrig-preview", {"kiosk", maps.string(), "--headless", "--frames", "4", "--size", "96x72",
+                        "--fps", "4", "--out-dir", (temp / "frames").string()});
+  ASSERT_EQ(kiosk.exit_code, 0) << kiosk.err;
+  EXPECT_TRUE(contains(kiosk.out, "showing " + maps.string())) << kiosk.out;
+  ASSERT_EQ(list_directory(temp / "frames").size(), 4u);
+  cv::Mat previous;
+  for (int frame = 0; frame < 4; ++frame) {
+    const cv::Mat image =
+        cv::imread((temp / "frames" / ("frame_00000" + std::to_string(frame) + ".png")).string());
+    ASSERT_EQ(image.size(), cv::Size(96, 72));
+    if (!previous.empty()) {
+      cv::Mat diff;
+      cv::absdiff(image, previous, diff);
+      EXPECT_GT(cv::mean(diff)[1], 1.0) << "frame " << frame << " moved on";
+    }
+    previous = image;
+  }
+}
+
+// Reads what a background process has written so far.
+std::string read_file(const fs::path& file) {
+  std::ifstream in(file);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+bool wait_for(const fs::path& file, const std::string& text) {
+  const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+  while (std::chrono::steady_clock::now() < deadline) {
+    if (contains(read_file(file), text)) return true;
+    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  return false;
+}
+
+TEST(PsrigPreviewCli, KioskFollowsNewScansAndSkipsABrokenOne) {
+  TempDir temp;
+  const fs::path catalogue = temp / "catalogue";
+  fs::create_directories(catalogue);
+  // Scans are made beside the catalogue and moved in whole, as the rig does.
+  make_maps(temp, "first", "jersey");
+  fs::rename(temp / "first", catalogue / "first");
+
+  const std::string out = (temp / "stdout.txt").string();
+  const std::string preview = program("psrig-preview").string();
+  const std::string catalogue_arg = catalogue.string(), frames = (temp / "frames").string();
+  std::vector<const char*> argv = {
+      preview.c_str(), "kiosk",  "--catalogue", catalogue_arg.c_str(), "--headless", "--frames",
+      "20000",         "--size", "48x36",       "--samples",           "0",          "--out-dir",
+      frames.c_str(),  nullptr};
+  posix_spawn_file_actions_t actions;
+  posix_spawn_file_actions_init(&actions);
+  posix_spawn_file_actions_addopen(&actions, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+  pid_t pid = 0;
+  ASSERT_EQ(posix_spawn(&pid, preview.c_str(), &actions, nullptr,
+                        const_cast<char* const*>(argv.data()), environ),
+            0);
+  posix_spawn_file_actions_destroy(&actions);
+  const auto stop = [&] {
+    ::kill(pid, SIGTERM);
+    int status = 0;
+    ::waitpid(pid, &status, 0);
+    return status;
+  };
+
+  EXPECT_TRUE(wait_for(out, "showing " + (catalogue / "first" / "maps").string()))
+      << read_file(out);
+  // A scan whose maps are broken: reported, and the first one stays up.
+  make_maps(temp, "broken", "rib");
+  fs::resize_file(temp / "broken" / "maps" / "normal.png", 100);
+  fs::rename(temp / "broken", catalogue / "broken");
+  EXPECT_TRUE(wait_for(out, "cannot show " + (catalogue / "broken" / "maps").string()))
+      << read_file(out);
+  // The next good scan is shown.
+  make_maps(temp, "third", "garter");
+  fs::rename(temp / "third", catalogue / "third");
+  EXPECT_TRUE(wait_for(out, "showing " + (catalogue / "third" / "maps").string()))
+      << read_file(out);
+
+  const int status = stop();
+  ASSERT_TRUE(WIFEXITED(status)) << "the kiosk ends cleanly on SIGTERM";
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_TRUE(contains(read_file(out), "kiosk: stopped"));
+}
+
+TEST(PsrigPreviewCli, BenchPrintsFramesPerSecond) {
+  TempDir temp;
+  const fs::path maps = make_maps(temp, "scan", "jersey");
+  const auto bench = run_program("psrig-preview", {"bench", maps.string(), "--size", "64x48",
+                                                   "--frames", "5", "--warmup", "1"});
+  ASSERT_EQ(bench.exit_code, 0) << bench.err;
+  const auto report = nlohmann::json::parse(bench.out);
+  EXPECT_GT(report["fps"].get<double>(), 0);
+  EXPECT_LE(report["frame_ms"]["p50"].get<double>(), report["frame_ms"]["max"].get<double>());
+  EXPECT_EQ(report["size"], nlohmann::json::array({64, 48}));
+}
+
+}  // namespace
+}  // namespace psrig::test
