@@ -40,9 +40,12 @@ void add_view_options(CLI::App& app, ViewArgs& args);
 // "1920x1080" -> the size; errors name the option.
 [[nodiscard]] Result<cv::Size> parse_size(const std::string& text, const std::string& option);
 
-// The renderer's defaults for this context: anisotropic filtering where the
-// context offers it.
-[[nodiscard]] RendererOptions renderer_options(const EglContext& context);
+// The renderer's defaults for the current context: anisotropic filtering
+// where it offers GL_EXT_texture_filter_anisotropic.
+[[nodiscard]] RendererOptions renderer_options(bool offers_anisotropy);
+[[nodiscard]] inline RendererOptions renderer_options(const EglContext& context) {
+  return renderer_options(context.has_extension("GL_EXT_texture_filter_anisotropic"));
+}
 
 // Prints "psrig-preview COMMAND: error: ..." to stderr and returns the exit code.
 int report_error(const std::string& command, const processing::Error& error);

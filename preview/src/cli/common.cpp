@@ -55,9 +55,9 @@ Result<cv::Size> parse_size(const std::string& text, const std::string& option) 
       processing::bad_input("", option, "\"" + text + "\" is not a size like 1920x1080"));
 }
 
-RendererOptions renderer_options(const EglContext& context) {
+RendererOptions renderer_options(bool offers_anisotropy) {
   RendererOptions options;
-  if (context.has_extension("GL_EXT_texture_filter_anisotropic")) {
+  if (offers_anisotropy) {
     constexpr GLenum kMaxTextureMaxAnisotropy = 0x84FF;
     GLfloat most = 1;
     glGetFloatv(kMaxTextureMaxAnisotropy, &most);
