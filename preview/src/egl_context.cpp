@@ -5,14 +5,10 @@
 #include <GLES3/gl3.h>
 #include <cstring>
 
+#include "gl_context_facts.h"
+
 namespace psrig::preview {
 namespace {
-
-std::string egl_error(const std::string& what) {
-  char code[16];
-  std::snprintf(code, sizeof code, "0x%04X", eglGetError());
-  return what + " failed (EGL error " + code + ")";
-}
 
 Error egl_failure(const std::string& what) {
   return processing::io_error("EGL",
@@ -56,13 +52,7 @@ Result<std::unique_ptr<EglContext>> EglContext::open_surfaceless() {
     return std::unexpected(processing::io_error(
         "EGL",
         "the context is GLES " + std::to_string(context->major_) + "; the preview needs GLES 3.0"));
-  GLint count = 0;
-  glGetIntegerv(GL_NUM_EXTENSIONS, &count);
-  context->extensions_ = " ";
-  for (GLint i = 0; i < count; ++i)
-    context->extensions_ +=
-        reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, static_cast<GLuint>(i))) +
-        std::string(" ");
+  context->extensions_ = gl_extension_list();
   return context;
 }
 
@@ -74,15 +64,11 @@ EglContext::~EglContext() {
 }
 
 std::string EglContext::describe() const {
-  const auto text = [](GLenum name) {
-    const auto* value = reinterpret_cast<const char*>(glGetString(name));
-    return std::string(value ? value : "?");
-  };
-  return text(GL_RENDERER) + ", " + text(GL_VERSION);
+  return gl_description();
 }
 
 bool EglContext::has_extension(std::string_view name) const {
-  return extensions_.find(" " + std::string(name) + " ") != std::string::npos;
+  return extension_listed(extensions_, name);
 }
 
 }  // namespace psrig::preview

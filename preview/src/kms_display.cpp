@@ -6,7 +6,6 @@
 #include <algorithm>
 #include <cerrno>
 #include <chrono>
-#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <drm_fourcc.h>
@@ -20,6 +19,8 @@
 #include <vector>
 #include <xf86drm.h>
 #include <xf86drmMode.h>
+
+#include "gl_context_facts.h"
 
 namespace psrig::preview {
 namespace {
@@ -43,12 +44,6 @@ using DrmVersion = std::unique_ptr<drmVersion, DrmFree<drmFreeVersion>>;
 // libdrm's mode calls return -errno.
 std::string drm_error(int ret) {
   return std::strerror(ret < 0 ? -ret : errno);
-}
-
-std::string egl_error(const std::string& what) {
-  char code[16];
-  std::snprintf(code, sizeof code, "0x%04X", eglGetError());
-  return what + " failed (EGL error " + code + ")";
 }
 
 // A space-separated extension list holds `name` as a whole word.
@@ -129,7 +124,7 @@ struct KmsDisplay::Impl {
   EGLContext context = EGL_NO_CONTEXT;
   EGLSurface window = EGL_NO_SURFACE;
   bool srgb = false;
-  std::string renderer, version, extensions;
+  std::string description, extensions;  // the GL context's
 
   bool mode_set = false;      // the first present() sets the CRTC, later ones flip
   gbm_bo* shown = nullptr;    // scanned out now
@@ -316,19 +311,8 @@ Status KmsDisplay::Impl::start_egl(int samples) {
   if (major < 3)
     return std::unexpected(
         failure("the context is GLES " + std::to_string(major) + "; the preview needs GLES 3.0"));
-  const auto text = [](GLenum name) {
-    const auto* value = reinterpret_cast<const char*>(glGetString(name));
-    return std::string(value ? value : "?");
-  };
-  renderer = text(GL_RENDERER);
-  version = text(GL_VERSION);
-  GLint count = 0;
-  glGetIntegerv(GL_NUM_EXTENSIONS, &count);
-  extensions = " ";
-  for (GLint i = 0; i < count; ++i)
-    extensions +=
-        reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, static_cast<GLuint>(i))) +
-        std::string(" ");
+  description = gl_description();
+  extensions = gl_extension_list();
   // Asked is not granted: the framebuffer says what encoding it really has.
   if (asked_srgb) {
     GLint encoding = GL_LINEAR;
@@ -481,7 +465,7 @@ cv::Size KmsDisplay::size() const {
 
 std::string KmsDisplay::describe() const {
   return impl_->device + " " + impl_->connector + " " + describe_mode(impl_->mode_info) + ", " +
-         impl_->renderer + ", " + impl_->version;
+         impl_->description;
 }
 
 bool KmsDisplay::srgb_surface() const {
@@ -489,8 +473,7 @@ bool KmsDisplay::srgb_surface() const {
 }
 
 bool KmsDisplay::has_extension(std::string_view name) const {
-  return !name.empty() &&
-         impl_->extensions.find(" " + std::string(name) + " ") != std::string::npos;
+  return extension_listed(impl_->extensions, name);
 }
 
 Status KmsDisplay::present() {

@@ -67,7 +67,7 @@ FrameSetup frame_setup(cv::Size2d swatch_extent, const SceneView& view, cv::Size
   FrameSetup setup;
   const bool flat = view.kind == ViewKind::flat;
   setup.shape = flat ? PatchShape::flat : PatchShape::draped;
-  const double tiles = flat ? 1.0 : std::max(view.tiles, 1);
+  const double tiles = flat ? 1.0 : kDrapedTiles;
   setup.patch_extent = {swatch_extent.width * tiles, swatch_extent.height * tiles};
   const auto diagonal =
       static_cast<float>(std::hypot(setup.patch_extent.width, setup.patch_extent.height));

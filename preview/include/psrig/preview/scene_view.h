@@ -36,8 +36,10 @@ struct SceneView {
   LightSetup light;
   bool show_light = true;  // the light drawn as a small sphere
   double margin = 0;       // flat: frame border, a fraction of the swatch
-  int tiles = 2;           // patch: the sheet is this many swatches wide and high
 };
+
+// The draped sheet is this many swatches wide and high (the maps tile).
+inline constexpr int kDrapedTiles = 2;
 
 struct FrameSetup {
   PatchShape shape = PatchShape::flat;

@@ -1,0 +1,37 @@
+#include "gl_context_facts.h"
+
+#include <EGL/egl.h>
+#include <GLES3/gl3.h>
+#include <cstdio>
+
+namespace psrig::preview {
+
+std::string egl_error(const std::string& what) {
+  char code[16];
+  std::snprintf(code, sizeof code, "0x%04X", eglGetError());
+  return what + " failed (EGL error " + code + ")";
+}
+
+std::string gl_description() {
+  const auto text = [](GLenum name) {
+    const auto* value = reinterpret_cast<const char*>(glGetString(name));
+    return std::string(value ? value : "?");
+  };
+  return text(GL_RENDERER) + ", " + text(GL_VERSION);
+}
+
+std::string gl_extension_list() {
+  GLint count = 0;
+  glGetIntegerv(GL_NUM_EXTENSIONS, &count);
+  std::string list = " ";
+  for (GLint i = 0; i < count; ++i)
+    list += reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, static_cast<GLuint>(i))) +
+            std::string(" ");
+  return list;
+}
+
+bool extension_listed(const std::string& list, std::string_view name) {
+  return !name.empty() && list.find(" " + std::string(name) + " ") != std::string::npos;
+}
+
+}  // namespace psrig::preview
