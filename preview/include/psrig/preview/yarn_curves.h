@@ -1,0 +1,54 @@
+#pragma once
+// Yarn centrelines: what the knit and woven geometry hands the yarn renderer.
+// Axes are the scan's (DESIGN.md): the cloth's front faces +z when flat,
+// courses run along +x, wales along +y (row 0 at the bottom). Millimetres.
+
+#include <vector>
+
+#include <Eigen/Core>
+#include <Eigen/Geometry>
+
+namespace psrig::preview {
+
+// How a yarn looks, the same for every yarn of a fabric.
+struct YarnStyle {
+  float radius_mm = 0.6f;         // the yarn's radius (half its width as drawn)
+  int plies = 2;                  // plies twisted together, at least 1
+  float twist_pitch_mm = 2.5f;    // yarn length per full turn of the plies
+  Eigen::Vector3f colour{0.55f, 0.18f, 0.12f};  // linear RGB, when a curve has none
+};
+
+// One yarn, sampled densely enough to draw as straight pieces.
+struct YarnCurve {
+  std::vector<Eigen::Vector3f> points;   // centreline, in order along the yarn
+  std::vector<Eigen::Vector3f> normals;  // unit normal of the cloth's front at each point
+  // Signed offset of each point from the cloth's middle surface along
+  // normals, in yarn radii: about +1 where the yarn lies on the front of a
+  // crossing, -1 behind one, 0 where it passes between the layers.
+  std::vector<float> lift;
+  std::vector<Eigen::Vector3f> colours;  // linear RGB per point; empty: the style's colour
+};
+
+struct YarnSet {
+  std::vector<YarnCurve> curves;
+  YarnStyle style;
+
+  // Every point's bounding box, grown by the yarn radius.
+  [[nodiscard]] Eigen::AlignedBox3f bounds() const {
+    Eigen::AlignedBox3f box;
+    for (const YarnCurve& curve : curves)
+      for (const Eigen::Vector3f& point : curve.points) box.extend(point);
+    if (!box.isEmpty()) {
+      box.min().array() -= style.radius_mm;
+      box.max().array() += style.radius_mm;
+    }
+    return box;
+  }
+  [[nodiscard]] std::size_t point_count() const {
+    std::size_t count = 0;
+    for (const YarnCurve& curve : curves) count += curve.points.size();
+    return count;
+  }
+};
+
+}  // namespace psrig::preview
