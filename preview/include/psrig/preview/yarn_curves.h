@@ -12,9 +12,9 @@ namespace psrig::preview {
 
 // How a yarn looks, the same for every yarn of a fabric.
 struct YarnStyle {
-  float radius_mm = 0.6f;         // the yarn's radius (half its width as drawn)
-  int plies = 2;                  // plies twisted together, at least 1
-  float twist_pitch_mm = 2.5f;    // yarn length per full turn of the plies
+  float radius_mm = 0.6f;                       // the yarn's radius (half its width as drawn)
+  int plies = 2;                                // plies twisted together, at least 1
+  float twist_pitch_mm = 2.5f;                  // yarn length per full turn of the plies
   Eigen::Vector3f colour{0.55f, 0.18f, 0.12f};  // linear RGB, when a curve has none
 };
 
@@ -37,7 +37,8 @@ struct YarnSet {
   [[nodiscard]] Eigen::AlignedBox3f bounds() const {
     Eigen::AlignedBox3f box;
     for (const YarnCurve& curve : curves)
-      for (const Eigen::Vector3f& point : curve.points) box.extend(point);
+      for (const Eigen::Vector3f& point : curve.points)
+        box.extend(point);
     if (!box.isEmpty()) {
       box.min().array() -= style.radius_mm;
       box.max().array() += style.radius_mm;
@@ -46,7 +47,8 @@ struct YarnSet {
   }
   [[nodiscard]] std::size_t point_count() const {
     std::size_t count = 0;
-    for (const YarnCurve& curve : curves) count += curve.points.size();
+    for (const YarnCurve& curve : curves)
+      count += curve.points.size();
     return count;
   }
 };
