@@ -1,0 +1,148 @@
+// Weave matrices: the shipped weaves have the structure their names
+// promise, the first row is the first weft, the repeat tiles, and mistakes
+// are reported at their line.
+
+#include "psrig/preview/weave_matrix.h"
+
+#include <gtest/gtest.h>
+
+#include "test_support.h"
+
+namespace psrig::preview {
+namespace {
+
+namespace fs = std::filesystem;
+
+fs::path patterns() {
+  return fs::path(PSRIG_SOURCE_DIR) / "config" / "patterns";
+}
+
+WeaveMatrix shipped(const std::string& file) {
+  auto matrix = load_weave_matrix(patterns() / file);
+  EXPECT_TRUE(matrix) << matrix.error().describe();
+  return matrix ? *matrix : WeaveMatrix{};
+}
+
+TEST(WeaveMatrix, EveryShippedWeaveLoads) {
+  int weaves = 0;
+  for (const fs::directory_entry& entry : fs::directory_iterator(patterns())) {
+    if (!looks_like_weave(entry.path())) continue;
+    ++weaves;
+    auto matrix = load_weave_matrix(entry.path());
+    ASSERT_TRUE(matrix) << matrix.error().describe();
+    EXPECT_GT(matrix->warps, 0);
+    EXPECT_GT(matrix->wefts, 0);
+    EXPECT_EQ(matrix->cells.size(), static_cast<std::size_t>(matrix->warps * matrix->wefts));
+    EXPECT_FALSE(matrix->name.empty());
+  }
+  EXPECT_EQ(weaves, 3);
+}
+
+TEST(WeaveMatrix, PlainIsACheckerboard) {
+  const WeaveMatrix plain = shipped("plain.weave");
+  for (int weft = 0; weft < plain.wefts; ++weft)
+    for (int warp = 0; warp < plain.warps; ++warp) {
+      EXPECT_NE(plain.warp_over(warp, weft), plain.warp_over(warp + 1, weft));
+      EXPECT_NE(plain.warp_over(warp, weft), plain.warp_over(warp, weft + 1));
+    }
+}
+
+TEST(WeaveMatrix, TwillShiftsOneWarpPerWeft) {
+  const WeaveMatrix twill = shipped("twill-2x2.weave");
+  ASSERT_EQ(twill.warps, 4);
+  ASSERT_EQ(twill.wefts, 4);
+  for (int weft = 0; weft < twill.wefts; ++weft) {
+    int over = 0;
+    for (int warp = 0; warp < twill.warps; ++warp) {
+      EXPECT_EQ(twill.warp_over(warp, weft + 1), twill.warp_over(warp - 1, weft))
+          << warp << ", " << weft;
+      over += twill.warp_over(warp, weft) ? 1 : 0;
+    }
+    EXPECT_EQ(over, 2) << "2/2: two warps over, two under";
+  }
+}
+
+TEST(WeaveMatrix, SatinCrossingsAreAloneInRowColumnAndNeighbourhood) {
+  const WeaveMatrix satin = shipped("satin-5.weave");
+  ASSERT_EQ(satin.warps, 5);
+  ASSERT_EQ(satin.wefts, 5);
+  for (int i = 0; i < 5; ++i) {
+    int in_weft = 0, in_warp = 0;
+    for (int j = 0; j < 5; ++j) {
+      in_weft += satin.warp_over(j, i) ? 1 : 0;
+      in_warp += satin.warp_over(i, j) ? 1 : 0;
+    }
+    EXPECT_EQ(in_weft, 1) << "weft " << i;
+    EXPECT_EQ(in_warp, 1) << "warp " << i;
+  }
+  for (int weft = 0; weft < 5; ++weft)
+    for (int warp = 0; warp < 5; ++warp) {
+      if (!satin.warp_over(warp, weft)) continue;
+      EXPECT_FALSE(satin.warp_over(warp + 1, weft));
+      EXPECT_FALSE(satin.warp_over(warp - 1, weft));
+      EXPECT_FALSE(satin.warp_over(warp, weft + 1));
+      EXPECT_FALSE(satin.warp_over(warp, weft - 1));
+    }
+}
+
+TEST(WeaveMatrix, FirstRowIsTheFirstWeftAndTheRepeatTiles) {
+  auto matrix = parse_weave_matrix("name: test weave\n1 1 0  # weft 0\n\n000\r\n", "t.weave");
+  ASSERT_TRUE(matrix) << matrix.error().describe();
+  EXPECT_EQ(matrix->name, "test weave");
+  ASSERT_EQ(matrix->warps, 3);
+  ASSERT_EQ(matrix->wefts, 2);
+  EXPECT_TRUE(matrix->warp_over(0, 0));
+  EXPECT_FALSE(matrix->warp_over(0, 1));
+  EXPECT_TRUE(matrix->warp_over(-2, -2));
+  EXPECT_FALSE(matrix->warp_over(-1, 0));
+  EXPECT_FALSE(matrix->warp_over(-3, -1));
+  EXPECT_TRUE(matrix->warp_over(4, 6));
+  EXPECT_EQ(parse_weave_matrix("1\n", "dir/plain.weave")->name, "plain");
+}
+
+TEST(WeaveMatrix, ErrorsNameTheFileLineAndColumn) {
+  struct Bad {
+    const char* text;
+    int line;
+    int column;
+    const char* says;
+  };
+  const Bad cases[] = {
+      {"# twill\n1100\n011\n", 3, 1, "row 1 has 3 crossings, expected 4"},
+      {"1 0\n0 x\n", 2, 3, "unknown symbol 'x'"},
+      {"1 0\n0 K\n", 2, 3, "unknown symbol 'K'"},
+      {"name: a\nname: b\n1\n", 2, 1, "second `name:`"},
+  };
+  for (const Bad& bad : cases) {
+    auto matrix = parse_weave_matrix(bad.text, "bad.weave");
+    ASSERT_FALSE(matrix) << bad.text;
+    EXPECT_EQ(matrix.error().kind, processing::ErrorKind::bad_input);
+    EXPECT_EQ(matrix.error().line, bad.line) << bad.text;
+    EXPECT_EQ(matrix.error().column, bad.column) << bad.text;
+    const std::string where = "bad.weave:" + std::to_string(bad.line) + ":";
+    EXPECT_TRUE(matrix.error().describe().starts_with(where)) << matrix.error().describe();
+    EXPECT_NE(matrix.error().describe().find(bad.says), std::string::npos)
+        << matrix.error().describe();
+  }
+  auto empty = parse_weave_matrix("# nothing\n\n", "empty.weave");
+  ASSERT_FALSE(empty);
+  EXPECT_EQ(processing::exit_code(empty.error()), 2);
+  EXPECT_NE(empty.error().describe().find("empty.weave"), std::string::npos);
+  EXPECT_NE(empty.error().describe().find("no rows"), std::string::npos);
+
+  const test::TempDir temp;
+  auto absent = load_weave_matrix(temp / "absent.weave");
+  ASSERT_FALSE(absent);
+  EXPECT_EQ(absent.error().kind, processing::ErrorKind::io);
+  EXPECT_NE(absent.error().describe().find("absent.weave"), std::string::npos);
+}
+
+TEST(WeaveMatrix, LooksLikeWeaveByExtension) {
+  EXPECT_TRUE(looks_like_weave("config/patterns/plain.weave"));
+  EXPECT_TRUE(looks_like_weave("TWILL.WEAVE"));
+  EXPECT_FALSE(looks_like_weave("config/patterns/seed.chart"));
+  EXPECT_FALSE(looks_like_weave("weave"));
+}
+
+}  // namespace
+}  // namespace psrig::preview
