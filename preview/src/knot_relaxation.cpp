@@ -26,20 +26,38 @@ struct Residuals {
   }
 };
 
-std::array<ChainPoint, 5> chain(const KnotPlacement& knot, KnotState state, const KnotPass& pass) {
-  const float c = std::cos(state.theta), s = std::sin(state.theta);
-  const Eigen::Vector3f d = c * knot.frame.e1 + s * knot.frame.e2;
-  const Eigen::Vector3f d_perp = -s * knot.frame.e1 + c * knot.frame.e2;  // d by theta
-  const Eigen::Vector3f b = s * knot.frame.e1 - c * knot.frame.e2;        // d x n; by theta: d
-  const float l = state.half_length, r = knot.radius;
-  const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
+// The knot's in-plane directions for one state, shared by its passes.
+struct Directions {
+  Eigen::Vector3f d, d_perp, b;  // d_perp: d by theta; b = d x n, whose derivative by theta is d
+
+  Directions(const KnotPlacement& knot, KnotState state) {
+    const float c = std::cos(state.theta), s = std::sin(state.theta);
+    d = c * knot.frame.e1 + s * knot.frame.e2;
+    d_perp = -s * knot.frame.e1 + c * knot.frame.e2;
+    b = s * knot.frame.e1 - c * knot.frame.e2;
+  }
+};
+
+std::array<Eigen::Vector3f, 5> chain_points(const KnotPlacement& knot, const Directions& axes,
+                                            float half_length, const KnotPass& pass) {
+  const float r = knot.radius;
   const Eigen::Vector3f& n = knot.frame.normal;
+  return {pass.before, knot.centre - half_length * axes.d + pass.lift_enter * r * n,
+          knot.centre + pass.side * r * axes.b,
+          knot.centre + half_length * axes.d + pass.lift_leave * r * n, pass.after};
+}
+
+std::array<ChainPoint, 5> chain(const KnotPlacement& knot, const Directions& axes,
+                                float half_length, const KnotPass& pass) {
+  const std::array<Eigen::Vector3f, 5> x = chain_points(knot, axes, half_length, pass);
+  const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
+  const float l = half_length;
   return {{
-      {pass.before, zero, zero},
-      {knot.centre - l * d + pass.lift_enter * r * n, -l * d_perp, -d},
-      {knot.centre + pass.side * r * b, pass.side * r * d, zero},
-      {knot.centre + l * d + pass.lift_leave * r * n, l * d_perp, d},
-      {pass.after, zero, zero},
+      {x[0], zero, zero},
+      {x[1], -l * axes.d_perp, -axes.d},
+      {x[2], pass.side * knot.radius * axes.d, zero},
+      {x[3], l * axes.d_perp, axes.d},
+      {x[4], zero, zero},
   }};
 }
 
@@ -47,9 +65,9 @@ Eigen::Vector2f derivative(const ChainPoint& point, const Eigen::Vector3f& by_po
   return {by_point.dot(point.by_theta), by_point.dot(point.by_length)};
 }
 
-void add_pass(Residuals& residuals, const KnotPlacement& knot, KnotState state,
-              const KnotPass& pass, float angle_scale, float length_scale) {
-  const std::array<ChainPoint, 5> points = chain(knot, state, pass);
+void add_pass(Residuals& residuals, const KnotPlacement& knot, const Directions& axes,
+              float half_length, const KnotPass& pass, float angle_scale, float length_scale) {
+  const std::array<ChainPoint, 5> points = chain(knot, axes, half_length, pass);
   std::array<Eigen::Vector3f, 4> unit;
   std::array<float, 4> length;
   for (std::size_t i = 0; i < 4; ++i) {
@@ -79,16 +97,41 @@ Residuals evaluate(const KnotPlacement& knot, KnotState state, std::span<const K
                    KnotWeights weights) {
   Residuals residuals;
   const float angle_scale = std::sqrt(weights.angle), length_scale = std::sqrt(weights.length);
+  const Directions axes(knot, state);
   for (const KnotPass& pass : passes)
-    add_pass(residuals, knot, state, pass, angle_scale, length_scale);
+    add_pass(residuals, knot, axes, state.half_length, pass, angle_scale, length_scale);
   return residuals;
+}
+
+// The energy alone, for the step control: no derivatives.
+float energy_only(const KnotPlacement& knot, KnotState state, std::span<const KnotPass> passes,
+                  KnotWeights weights) {
+  const Directions axes(knot, state);
+  float energy = 0;
+  for (const KnotPass& pass : passes) {
+    const std::array<Eigen::Vector3f, 5> x = chain_points(knot, axes, state.half_length, pass);
+    std::array<Eigen::Vector3f, 4> unit;
+    for (std::size_t i = 0; i < 4; ++i) {
+      const Eigen::Vector3f edge = x[i + 1] - x[i];
+      const float length = std::max(edge.norm(), 1e-6f);
+      unit[i] = edge / length;
+      const float stretch = length / std::max(pass.rest_length[i], 1e-6f) - 1;
+      energy += weights.length * stretch * stretch;
+    }
+    for (std::size_t i = 0; i < 3; ++i) {
+      const float bend = unit[i].dot(unit[i + 1]) - pass.rest_cosine[i];
+      energy += weights.angle * bend * bend;
+    }
+  }
+  return energy;
 }
 
 }  // namespace
 
 KnotPoints knot_points(const KnotPlacement& knot, KnotState state, const KnotPass& pass) {
-  const std::array<ChainPoint, 5> points = chain(knot, state, pass);
-  return {points[1].x, points[2].x, points[3].x};
+  const std::array<Eigen::Vector3f, 5> x =
+      chain_points(knot, Directions(knot, state), state.half_length, pass);
+  return {x[1], x[2], x[3]};
 }
 
 void record_rest_shape(KnotPass& pass, const KnotPoints& points) {
@@ -106,30 +149,34 @@ void record_rest_shape(KnotPass& pass, const KnotPoints& points) {
 
 float knot_energy(const KnotPlacement& knot, KnotState state, std::span<const KnotPass> passes,
                   KnotWeights weights) {
-  return evaluate(knot, state, passes, weights).energy;
+  return energy_only(knot, state, passes, weights);
 }
 
 KnotState relax_knot(const KnotPlacement& knot, KnotState state, std::span<const KnotPass> passes,
                      int iterations, KnotWeights weights) {
   if (passes.empty()) return state;
   const float shortest = 0.1f * knot.radius;
+  Residuals residuals = evaluate(knot, state, passes, weights);
   for (int iteration = 0; iteration < iterations; ++iteration) {
-    const Residuals residuals = evaluate(knot, state, passes, weights);
     // A touch of damping keeps the 2x2 solve well posed when one parameter
     // barely moves the residuals (e.g. a straight, unstretched pass).
     Eigen::Matrix2f system = residuals.normal_matrix;
-    const float damping = 1e-6f + 1e-4f * system.trace();
-    system.diagonal().array() += damping;
+    system.diagonal().array() += 1e-6f + 1e-4f * system.trace();
     const Eigen::Vector2f step = system.ldlt().solve(-residuals.gradient);
     KnotState next{state.theta + step.x(), std::max(state.half_length + step.y(), shortest)};
     // Gauss-Newton may overshoot on these non-quadratic energies: halve the
-    // step until the energy does not rise.
-    for (int halving = 0; halving < 4; ++halving) {
-      if (knot_energy(knot, next, passes, weights) <= residuals.energy) break;
-      next = {0.5f * (state.theta + next.theta), 0.5f * (state.half_length + next.half_length)};
+    // step until the energy does not rise, or keep the state.
+    bool lower = false;
+    for (int halving = 0; halving < 3 && !lower; ++halving) {
+      lower = energy_only(knot, next, passes, weights) <= residuals.energy;
+      if (!lower)
+        next = {0.5f * (state.theta + next.theta), 0.5f * (state.half_length + next.half_length)};
     }
-    if (knot_energy(knot, next, passes, weights) > residuals.energy) break;
+    if (!lower) break;
     state = next;
+    // Converged (a thousandth of a degree, a micrometre): the rest is noise.
+    if (std::abs(step.x()) < 2e-5f && std::abs(step.y()) < 1e-3f * knot.radius) break;
+    if (iteration + 1 < iterations) residuals = evaluate(knot, state, passes, weights);
   }
   return state;
 }
