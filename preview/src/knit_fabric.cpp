@@ -4,6 +4,7 @@
 #include <numbers>
 #include <random>
 
+#include "psrig/preview/yarn_spline.h"
 #include "psrig/processing/parallel.h"
 
 namespace psrig::preview {
@@ -25,21 +26,20 @@ float loop_sign(const KnitLayout& layout, int column, int row) {
   return layout.is_purl(column, row) ? -1.0f : 1.0f;  // knit: +1
 }
 
-Eigen::Vector3f catmull_rom(const Eigen::Vector3f& p0, const Eigen::Vector3f& p1,
-                            const Eigen::Vector3f& p2, const Eigen::Vector3f& p3, float t) {
-  const float t2 = t * t, t3 = t2 * t;
-  return 0.5f * ((2 * p1) + (p2 - p0) * t + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t2 +
-                 (3 * p1 - p0 - 3 * p2 + p3) * t3);
-}
-
-// A control point of a course's yarn, ready to be splined.
-struct ControlPoint {
-  Eigen::Vector3f position, normal;
-  float lift = 0;
-  int column = 0;  // whose colour
-};
-
 }  // namespace
+
+KnitLayout tile_chart(const StitchChart& chart, int columns, int rows) {
+  KnitLayout layout{columns, rows, {}, {}};
+  layout.purl.reserve(static_cast<std::size_t>(columns * rows));
+  for (int row = 0; row < rows; ++row)
+    for (int column = 0; column < columns; ++column) {
+      layout.purl.push_back(chart.at(column, row) == Stitch::purl ? 1 : 0);
+      if (!chart.palette.empty())
+        layout.colours.push_back(
+            chart.palette[static_cast<std::size_t>(chart.colour_at(column, row))]);
+    }
+  return layout;
+}
 
 KnitFabric KnitFabric::build(const KnitLayout& layout, const KnitParameters& parameters) {
   KnitFabric fabric;
@@ -213,12 +213,18 @@ void KnitFabric::sample(const StitchMesh& mesh, YarnSet& yarns) const {
   yarns.curves.resize(static_cast<std::size_t>(rows));
   const int per_span = std::max(parameters_.samples_per_span, 1);
   processing::parallel_chunks(rows, 4, [&](int begin, int end) {
-    std::vector<ControlPoint> control;
+    std::vector<YarnControlPoint> control;
     for (int row = begin; row < end; ++row) {
       control.clear();
+      const auto colour = [&](int column) -> Eigen::Vector3f {
+        return layout_.colours.empty()
+                   ? Eigen::Vector3f::Zero()
+                   : layout_.colours[static_cast<std::size_t>(row * columns + column)];
+      };
       const auto fixed = [&](const FixedPoint& point, int column) {
         control.push_back({fixed_position(mesh, point),
-                           mesh.frame(point.column, point.face_row).normal, point.lift, column});
+                           mesh.frame(point.column, point.face_row).normal, point.lift,
+                           colour(column)});
       };
       const auto knot = [&](int column, int face_row, bool right) {
         const auto k = static_cast<std::size_t>(knot_index(column, face_row, right));
@@ -226,9 +232,9 @@ void KnitFabric::sample(const StitchMesh& mesh, YarnSet& yarns) const {
         const KnotPass& pass = rest.passes[rest.pass_course[0] == row ? 0 : 1];
         const KnotPoints points = knot_points(placements_[k], states_[k], pass);
         const Eigen::Vector3f& normal = placements_[k].frame.normal;
-        control.push_back({points.enter, normal, pass.lift_enter, column});
-        control.push_back({points.beside, normal, 0.0f, column});
-        control.push_back({points.leave, normal, pass.lift_leave, column});
+        control.push_back({points.enter, normal, pass.lift_enter, colour(column)});
+        control.push_back({points.beside, normal, 0.0f, colour(column)});
+        control.push_back({points.leave, normal, pass.lift_leave, colour(column)});
       };
       for (int column = 0; column < columns; ++column) {
         fixed(sinkers_[static_cast<std::size_t>(row * (columns + 1) + column)], column);
@@ -240,38 +246,8 @@ void KnitFabric::sample(const StitchMesh& mesh, YarnSet& yarns) const {
       }
       fixed(sinkers_[static_cast<std::size_t>(row * (columns + 1) + columns)], columns - 1);
 
-      YarnCurve& curve = yarns.curves[static_cast<std::size_t>(row)];
-      const std::size_t spans = control.size() - 1;
-      const std::size_t samples = spans * static_cast<std::size_t>(per_span) + 1;
-      curve.points.resize(samples);
-      curve.normals.resize(samples);
-      curve.lift.resize(samples);
-      if (layout_.colours.empty())
-        curve.colours.clear();
-      else
-        curve.colours.resize(samples);
-      std::size_t out = 0;
-      for (std::size_t i = 0; i < spans; ++i) {
-        const ControlPoint& p0 = control[i == 0 ? 0 : i - 1];
-        const ControlPoint& p1 = control[i];
-        const ControlPoint& p2 = control[i + 1];
-        const ControlPoint& p3 = control[std::min(i + 2, spans)];
-        for (int j = 0; j < per_span; ++j, ++out) {
-          const float t = static_cast<float>(j) / static_cast<float>(per_span);
-          curve.points[out] = catmull_rom(p0.position, p1.position, p2.position, p3.position, t);
-          curve.normals[out] = ((1 - t) * p1.normal + t * p2.normal).normalized();
-          curve.lift[out] = (1 - t) * p1.lift + t * p2.lift;
-          if (!curve.colours.empty())
-            curve.colours[out] =
-                layout_.colours[static_cast<std::size_t>(row * columns + p1.column)];
-        }
-      }
-      const ControlPoint& last = control.back();
-      curve.points[out] = last.position;
-      curve.normals[out] = last.normal;
-      curve.lift[out] = last.lift;
-      if (!curve.colours.empty())
-        curve.colours[out] = layout_.colours[static_cast<std::size_t>(row * columns + last.column)];
+      sample_yarn(control, per_span, !layout_.colours.empty(),
+                  yarns.curves[static_cast<std::size_t>(row)]);
     }
   });
 }

@@ -125,7 +125,7 @@ TEST(KnitGeometry, PurlIsKnitSeenFromTheBack) {
   EXPECT_GT(depth, 0.5f * knit.style.radius_mm);  // the mirror is not of a flat thing
 }
 
-TEST(KnitGeometry, RibAndGarterDifferFrontToBack) {
+TEST(KnitGeometry, RibColumnsAlternateFrontAndBack) {
   // A knit loop shows its legs in front and hides its head and sinkers
   // behind, a purl loop the other way round: in a 1x1 rib the yarn's mean
   // depth per column alternates in sign.

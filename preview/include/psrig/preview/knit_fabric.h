@@ -23,6 +23,7 @@
 #include <Eigen/Core>
 
 #include "psrig/preview/knot_relaxation.h"
+#include "psrig/preview/stitch_chart.h"
 #include "psrig/preview/stitch_mesh.h"
 #include "psrig/preview/yarn_curves.h"
 
@@ -38,6 +39,10 @@ struct KnitLayout {
     return purl[static_cast<std::size_t>(row * columns + column)] != 0;
   }
 };
+
+// The chart's repeat tiled over columns x rows, its first row the first
+// course; colours from its palette when it has one.
+[[nodiscard]] KnitLayout tile_chart(const StitchChart& chart, int columns, int rows);
 
 struct KnitParameters {
   YarnStyle style;
