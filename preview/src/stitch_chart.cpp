@@ -1,11 +1,10 @@
 #include "psrig/preview/stitch_chart.h"
 
 #include <cctype>
-#include <charconv>
 #include <optional>
 
 #include "pattern_text.h"
-#include "psrig/preview/shading.h"
+#include "psrig/preview/srgb_hex.h"
 
 namespace psrig::preview {
 namespace {
@@ -56,24 +55,6 @@ std::vector<Symbol> symbols_of(const Line& line, std::string_view code) {
   return symbols;
 }
 
-bool is_hex(std::string_view text) {
-  for (const char c : text)
-    if (!std::isxdigit(static_cast<unsigned char>(c))) return false;
-  return true;
-}
-
-// "#RRGGBB" (sRGB) -> linear RGB.
-Eigen::Vector3f decode_hex(std::string_view hex) {
-  Eigen::Vector3f linear;
-  for (int channel = 0; channel < 3; ++channel) {
-    const char* first = hex.data() + 1 + 2 * channel;
-    unsigned value = 0;
-    std::from_chars(first, first + 2, value, 16);
-    linear[channel] = srgb_decode(static_cast<float>(value) / 255.0f);
-  }
-  return linear;
-}
-
 // `colour A #RRGGBB`: the `#` of the value is not a comment, so this line
 // is read before comments are stripped.
 processing::Status read_palette_line(const fs::path& source, const Line& line,
@@ -105,7 +86,8 @@ processing::Status read_palette_line(const fs::path& source, const Line& line,
     return std::unexpected(error_at(
         source, line.number, line.column_of(rest),
         std::string("colour '") + letter + "' has no value: expected #RRGGBB (sRGB, hexadecimal)"));
-  if (hex.size() != 7 || hex.front() != '#' || !is_hex(hex.substr(1)))
+  const std::optional<Eigen::Vector3f> colour = parse_srgb_hex(hex);
+  if (!colour)
     return std::unexpected(error_at(
         source, line.number, line.column_of(hex),
         "malformed colour '" + std::string(hex) + "': expected #RRGGBB (sRGB, hexadecimal)"));
@@ -114,7 +96,7 @@ processing::Status read_palette_line(const fs::path& source, const Line& line,
     return std::unexpected(error_at(
         source, line.number, line.column_of(after),
         "unexpected '" + std::string(after) + "' after the colour (comments start with #)"));
-  chart.palette.push_back({letter, line.number, decode_hex(hex)});
+  chart.palette.push_back({letter, line.number, *colour});
   return {};
 }
 
