@@ -27,7 +27,11 @@ struct YarnRendererOptions {
   int shadow_map_size = 2048;  // texels a side, at most what the context allows
   // Level of detail from the yarn's projected width (2 radii) in pixels:
   // lines only up to `lines_up_to_px`, tubes only from `tubes_from_px`,
-  // between them both, blended by the tube weight.
+  // between them both, blended by the tube weight. A line is a flat ribbon
+  // at least a pixel wide, shaded as the tube's middle with the fibre
+  // detail averaged (triangles: llvmpipe's multisampled GL lines lose
+  // pieces shorter than a pixel); one narrower than a pixel is drawn that
+  // much transparent. Yarn shadows fade out with the tubes.
   float lines_up_to_px = 1.0f;
   float tubes_from_px = 3.0f;
   // Where the points along a yarn are closer than this on screen, only
