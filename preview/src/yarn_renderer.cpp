@@ -117,13 +117,12 @@ Result<std::unique_ptr<YarnRenderer>> YarnRenderer::create(const YarnRendererOpt
   GLint previous_framebuffer = 0;
   glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &previous_framebuffer);
   glGenFramebuffers(1, &gl.shadow_framebuffer);
-  glBindFramebuffer(GL_FRAMEBUFFER, gl.shadow_framebuffer);
-  glFramebufferTexture2D(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, gl.shadow_map, 0);
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, gl.shadow_framebuffer);
+  glFramebufferTexture2D(GL_DRAW_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_TEXTURE_2D, gl.shadow_map, 0);
   const GLenum none = GL_NONE;
   glDrawBuffers(1, &none);
-  glReadBuffer(GL_NONE);
-  const bool complete = glCheckFramebufferStatus(GL_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE;
-  glBindFramebuffer(GL_FRAMEBUFFER, static_cast<GLuint>(previous_framebuffer));
+  const bool complete = glCheckFramebufferStatus(GL_DRAW_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE;
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(previous_framebuffer));
   if (!complete)
     return std::unexpected(
         processing::internal_error("the yarn shadow map's framebuffer is incomplete"));
@@ -194,21 +193,24 @@ void YarnRenderer::update(const YarnSet& yarns) {
 namespace {
 
 // Each curve as one strip through every step-th point: the attributes
-// point at the curve's first point, one step apart.
+// point at the curve's first point, one step apart. A strip needs three
+// vertices, so a short curve takes a smaller step (and one of two points
+// is not drawn at all).
 void draw_curves(const std::vector<CurveRange>& curves, int step) {
   constexpr std::size_t size = sizeof(PackedPoint);
-  const auto stride = static_cast<GLsizei>(step * size);
   const auto at = [](std::size_t offset) { return reinterpret_cast<const void*>(offset); };
   for (const CurveRange& curve : curves) {
+    const int own_step = std::max(1, std::min(step, (curve.count - 1) / 2));
+    const auto stride = static_cast<GLsizei>(own_step * size);
     const std::size_t base = curve.first * size;
-    glVertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, stride, at(base - step * size));
+    glVertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, stride, at(base - own_step * size));
     glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, stride, at(base));
-    glVertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, stride, at(base + step * size));
+    glVertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, stride, at(base + own_step * size));
     glVertexAttribPointer(3, 4, GL_SHORT, GL_TRUE, stride,
                           at(base + offsetof(PackedPoint, normal_lift)));
     glVertexAttribPointer(4, 3, GL_UNSIGNED_SHORT, GL_TRUE, stride,
                           at(base + offsetof(PackedPoint, colour)));
-    glDrawArrays(GL_TRIANGLE_STRIP, 0, (curve.count - 1) / step + 1);
+    glDrawArrays(GL_TRIANGLE_STRIP, 0, (curve.count - 1) / own_step + 1);
   }
 }
 
@@ -249,7 +251,7 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
   const int shadow_extent = std::clamp(
       static_cast<int>(std::ceil(frame.shadow_depth_range * pixels_per_mm)), 256, gl.shadow_size);
   if (shadows) {
-    glBindFramebuffer(GL_FRAMEBUFFER, gl.shadow_framebuffer);
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, gl.shadow_framebuffer);
     glViewport(0, 0, shadow_extent, shadow_extent);
     glEnable(GL_SCISSOR_TEST);
     glScissor(0, 0, shadow_extent, shadow_extent);
@@ -264,7 +266,7 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
     glUniform1f(depth.uniform("u_radius"), radius);
     const float texels_per_mm = static_cast<float>(shadow_extent) / frame.shadow_depth_range;
     draw_curves(packed_->curves, point_step(packed_->mean_spacing_mm, texels_per_mm, 3));
-    glBindFramebuffer(GL_FRAMEBUFFER, static_cast<GLuint>(target));
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(target));
   }
 
   const auto& background = view.background;

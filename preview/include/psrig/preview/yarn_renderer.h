@@ -49,7 +49,8 @@ class YarnRenderer {
 
   // Uploads the centrelines (every frame while the cloth moves): one packed
   // vertex per point, rewritten in place while the point count stays.
-  // Missing normals are +z, missing lifts 1, missing colours the style's.
+  // Missing normals are +z, missing lifts 1, missing colours the style's;
+  // a curve of fewer than three points is not drawn (a strip needs three).
   void update(const YarnSet& yarns);
 
   // Clears and draws one frame into the bound framebuffer of `viewport`
