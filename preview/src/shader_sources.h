@@ -14,5 +14,8 @@ extern const ShaderSource swatch_vert;
 extern const ShaderSource swatch_frag;
 extern const ShaderSource light_marker_vert;
 extern const ShaderSource light_marker_frag;
+extern const ShaderSource yarn_vert;
+extern const ShaderSource yarn_frag;
+extern const ShaderSource yarn_depth_frag;
 
 }  // namespace psrig::preview::shaders
