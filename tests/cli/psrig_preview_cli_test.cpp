@@ -14,6 +14,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "test_support.h"
 
@@ -174,6 +175,84 @@ TEST(PsrigPreviewCli, BenchPrintsFramesPerSecond) {
   EXPECT_GT(report["fps"].get<double>(), 0);
   EXPECT_LE(report["frame_ms"]["p50"].get<double>(), report["frame_ms"]["max"].get<double>());
   EXPECT_EQ(report["size"], nlohmann::json::array({64, 48}));
+}
+
+fs::path pattern(const std::string& name) {
+  return fs::path(PSRIG_SOURCE_DIR) / "config/patterns" / name;
+}
+
+// Of the pixels inside the cloth's bounding box, the share that is yarn.
+double yarn_share(const cv::Mat& image) {
+  cv::Mat grey, yarn;
+  cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+  cv::threshold(grey, yarn, 40, 255, cv::THRESH_BINARY);
+  const cv::Rect box = cv::boundingRect(yarn);
+  return box.area() == 0 ? 0.0 : cv::countNonZero(yarn(box)) / static_cast<double>(box.area());
+}
+
+TEST(PsrigPreviewCli, KnitDrawsYarnsAndStretchOpensGaps) {
+  TempDir temp;
+  const auto knit = [&](const std::string& name, std::vector<std::string> extra) {
+    std::vector<std::string> args = {"knit",          pattern("stockinette.chart").string(),
+                                     "--out",         (temp / name).string(),
+                                     "--size",        "320x240",
+                                     "--stitches",    "8",
+                                     "--rows",        "6",
+                                     "--distance",    "80",
+                                     "--light-slant", "0"};
+    args.insert(args.end(), extra.begin(), extra.end());
+    const auto run = run_program("psrig-preview", args);
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    return cv::imread((temp / name).string());
+  };
+  const cv::Mat rest = knit("rest.png", {});
+  const cv::Mat stretched = knit("stretched.png", {"--stretch", "1.5"});
+  ASSERT_EQ(rest.size(), cv::Size(320, 240));
+  EXPECT_GT(yarn_share(rest), 0.4) << "a knitted cloth, not a blank frame";
+  EXPECT_LT(yarn_share(stretched), yarn_share(rest) - 0.05) << "stretched loops open gaps";
+  const cv::Mat coloured = knit("green.png", {"--yarn-color", "#20C040"});
+  const cv::Scalar mean = cv::mean(coloured);
+  EXPECT_GT(mean[1], mean[2] + 5) << "green yarn";  // BGR
+
+  const auto woven = run_program("psrig-preview", {"knit", pattern("satin-5.weave").string(),
+                                                   "--out", (temp / "satin.png").string(), "--size",
+                                                   "160x120", "--stitches", "20", "--rows", "20"});
+  ASSERT_EQ(woven.exit_code, 0) << woven.err;
+  EXPECT_GT(yarn_share(cv::imread((temp / "satin.png").string())), 0.5);
+}
+
+TEST(PsrigPreviewCli, KnitBadInputNamesTheFileAndLine) {
+  TempDir temp;
+  const fs::path ragged = temp / "ragged.chart";
+  std::ofstream(ragged) << "KKPP\nKKP\n";
+  const auto bad =
+      run_program("psrig-preview", {"knit", ragged.string(), "--out", (temp / "k.png").string()});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_TRUE(contains(bad.err, "ragged.chart:2")) << bad.err;
+  const auto colour =
+      run_program("psrig-preview", {"knit", pattern("seed.chart").string(), "--out",
+                                    (temp / "k.png").string(), "--yarn-color", "red"});
+  EXPECT_EQ(colour.exit_code, 2);
+  EXPECT_TRUE(contains(colour.err, "--yarn-color")) << colour.err;
+  const auto missing = run_program("psrig-preview", {"knit", (temp / "none.chart").string(),
+                                                     "--out", (temp / "k.png").string()});
+  EXPECT_NE(missing.exit_code, 0);
+  EXPECT_TRUE(contains(missing.err, "none.chart")) << missing.err;
+  EXPECT_FALSE(fs::exists(temp / "k.png"));
+}
+
+TEST(PsrigPreviewCli, KnitBenchTimesThreeSizes) {
+  const auto bench =
+      run_program("psrig-preview", {"knit", pattern("stockinette.chart").string(), "--bench",
+                                    "--size", "160x120", "--frames", "1"});
+  ASSERT_EQ(bench.exit_code, 0) << bench.err;
+  const auto report = nlohmann::json::parse(bench.out);
+  ASSERT_EQ(report["runs"].size(), 3U);
+  EXPECT_EQ(report["runs"][1]["stitches"], 10000);
+  for (const auto& run : report["runs"]) {
+    EXPECT_GT(run["yarn_update_ms"].get<double>(), 0);
+    EXPECT_GT(run["fps"].get<double>(), 0);
+  }
 }
 
 }  // namespace

@@ -17,7 +17,7 @@ int main(int argc, char** argv) {
   bool verbose = false;
   app.add_flag("-v,--verbose", verbose, "Log what each stage does");
   const std::vector<Command> commands = {add_render_command(app), add_kiosk_command(app),
-                                         add_bench_command(app)};
+                                         add_bench_command(app), add_knit_command(app)};
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

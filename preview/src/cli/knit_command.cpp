@@ -1,0 +1,207 @@
+// psrig-preview knit CHART_OR_WEAVE --out FILE.png: knitted (or woven) cloth
+// at yarn level, headless; --bench times the yarn update and the frames at
+// 1 K, 10 K and 50 K stitches.
+
+#include <GLES3/gl3.h>
+#include <chrono>
+#include <cmath>
+#include <iostream>
+#include <optional>
+
+#include <opencv2/core.hpp>
+
+#include "cloth_model.h"
+#include "command.h"
+#include "psrig/preview/offscreen_target.h"
+#include "psrig/preview/srgb_hex.h"
+#include "psrig/preview/yarn_renderer.h"
+#include "psrig/processing/image_io.h"
+
+namespace psrig::preview::cli {
+namespace {
+
+struct KnitArgs {
+  std::string pattern;
+  std::string out;
+  std::string size = "1280x960";
+  int stitches = 24;
+  int rows = 20;
+  float stretch = 1;
+  float shear = 0;
+  std::string yarn_colour;
+  std::string from_scan;
+  double yaw = 0, pitch = 0, distance = 0;
+  double light_tilt = 45, light_slant = 45;
+  int samples = kDefaultSamples;
+  bool bench = false;
+  int frames = 30;
+};
+
+using Clock = std::chrono::steady_clock;
+
+double milliseconds(Clock::duration duration) {
+  return std::chrono::duration<double, std::milli>(duration).count();
+}
+
+// The yarn's colour: given, the scan's mean albedo, or none (the chart's).
+Result<std::optional<Eigen::Vector3f>> yarn_colour(const KnitArgs& args) {
+  if (!args.yarn_colour.empty()) {
+    const auto colour = parse_srgb_hex(args.yarn_colour);
+    if (!colour)
+      return std::unexpected(processing::bad_input(
+          {}, "--yarn-color", "'" + args.yarn_colour + "' is not #RRGGBB (sRGB, hexadecimal)"));
+    return colour;
+  }
+  if (!args.from_scan.empty()) {
+    auto maps = load_swatch_maps(args.from_scan);
+    if (!maps) return std::unexpected(maps.error());
+    const cv::Scalar mean = cv::mean(maps->albedo);
+    return Eigen::Vector3f(static_cast<float>(mean[0]), static_cast<float>(mean[1]),
+                           static_cast<float>(mean[2]));
+  }
+  return std::optional<Eigen::Vector3f>{};
+}
+
+KnitView knit_view(const KnitArgs& args) {
+  KnitView view;
+  view.yaw_deg = args.yaw;
+  view.pitch_deg = args.pitch;
+  view.distance_mm = args.distance;
+  view.light.tilt_deg = args.light_tilt;
+  view.light.slant_deg = args.light_slant;
+  return view;
+}
+
+int render(const KnitArgs& args) {
+  auto size = parse_size(args.size, "--size");
+  if (!size) return report_error("knit", size.error());
+  auto colour = yarn_colour(args);
+  if (!colour) return report_error("knit", colour.error());
+  auto cloth = ClothModel::load(args.pattern, args.stitches, args.rows, *colour);
+  if (!cloth) return report_error("knit", cloth.error());
+  YarnSet yarns;
+  cloth->update({args.stretch, args.shear}, yarns);
+
+  auto context = EglContext::open_surfaceless();
+  if (!context) return report_error("knit", context.error());
+  auto target = OffscreenTarget::create(*size, args.samples, ColourStorage::srgb);
+  if (!target) return report_error("knit", target.error());
+  auto renderer = YarnRenderer::create();
+  if (!renderer) return report_error("knit", renderer.error());
+  (*renderer)->update(yarns);
+  (*target)->bind();
+  (*renderer)->render(knit_view(args), *size);
+  if (auto ok = processing::write_image(args.out, (*target)->read()); !ok)
+    return report_error("knit", ok.error());
+  std::cout << "knit: " << args.out << " (" << size->width << "x" << size->height << ", "
+            << args.stitches << "x" << args.rows << (cloth->woven() ? " threads" : " stitches")
+            << ", " << yarns.point_count() << " yarn points, stretch " << args.stretch << ", shear "
+            << args.shear << ")\n";
+  return 0;
+}
+
+// Per size: the yarn update (deformation changing every frame), then the
+// frames drawn with that update, at 1920x1080 unless --size says otherwise.
+int bench(const KnitArgs& args) {
+  auto size = parse_size(args.size == "1280x960" ? "1920x1080" : args.size, "--size");
+  if (!size) return report_error("knit", size.error());
+  auto context = EglContext::open_surfaceless();
+  if (!context) return report_error("knit", context.error());
+  auto target = OffscreenTarget::create(*size, args.samples, ColourStorage::srgb);
+  if (!target) return report_error("knit", target.error());
+  auto renderer = YarnRenderer::create();
+  if (!renderer) return report_error("knit", renderer.error());
+  std::cout << "{\"renderer\": \"" << (*context)->describe() << "\", \"size\": [" << size->width
+            << ", " << size->height << "], \"samples\": " << args.samples << ", \"runs\": [";
+  bool first = true;
+  for (const int stitches : {1000, 10000, 50000}) {
+    const int side = static_cast<int>(std::lround(std::sqrt(stitches)));
+    auto cloth = ClothModel::load(args.pattern, side, side, std::nullopt);
+    if (!cloth) return report_error("knit", cloth.error());
+    YarnSet yarns;
+    double update_ms = 0, frame_ms = 0;
+    for (int frame = -2; frame < args.frames; ++frame) {  // two untimed warm-up frames
+      const float phase = 0.2f * static_cast<float>(frame);
+      const auto start = Clock::now();
+      cloth->update({1.15f + 0.1f * std::sin(phase), 0.1f * std::cos(phase)}, yarns);
+      const auto updated = Clock::now();
+      (*renderer)->update(yarns);
+      (*target)->bind();
+      (*renderer)->render(knit_view(args), *size);
+      glFinish();  // the frame is done, as before a page flip
+      const auto drawn = Clock::now();
+      if (frame < 0) continue;
+      update_ms += milliseconds(updated - start);
+      frame_ms += milliseconds(drawn - start);
+    }
+    const double frames = args.frames;
+    std::cout << (first ? "" : ", ") << "{\"stitches\": " << side * side
+              << ", \"yarn_points\": " << yarns.point_count()
+              << ", \"yarn_update_ms\": " << update_ms / frames
+              << ", \"frame_ms\": " << frame_ms / frames
+              << ", \"fps\": " << 1000.0 * frames / frame_ms << "}";
+    first = false;
+  }
+  std::cout << "]}\n";
+  return 0;
+}
+
+}  // namespace
+
+Command add_knit_command(CLI::App& parent) {
+  auto args = std::make_shared<KnitArgs>();
+  CLI::App* app = parent.add_subcommand(
+      "knit", "Draw knitted (.chart) or woven (.weave) cloth at yarn level to a PNG, or time it");
+  app->add_option("pattern", args->pattern, "Stitch chart (.chart) or weave matrix (.weave)")
+      ->required();
+  auto* out = app->add_option("--out", args->out, "PNG file to write");
+  app->add_option("--size", args->size, "Frame size WxH (--bench: 1920x1080)")
+      ->capture_default_str();
+  app->add_option("--stitches", args->stitches, "Stitches per course (woven: warp threads)")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  app->add_option("--rows", args->rows, "Courses (woven: weft threads)")
+      ->check(CLI::Range(1, 1000))
+      ->capture_default_str();
+  app->add_option("--stretch", args->stretch, "Width factor along the courses (1.2: 20 % wider)")
+      ->check(CLI::Range(0.3, 3.0))
+      ->capture_default_str();
+  app->add_option("--shear", args->shear, "Sideways lean of the wales, mm per mm")
+      ->check(CLI::Range(-1.5, 1.5))
+      ->capture_default_str();
+  auto* colour = app->add_option("--yarn-color", args->yarn_colour, "Yarn colour #RRGGBB (sRGB)");
+  app->add_option("--from-scan", args->from_scan,
+                  "Yarn colour from a scan's maps directory (mean albedo)")
+      ->excludes(colour);
+  app->add_option("--yaw", args->yaw, "Camera yaw in degrees (180: the back)")
+      ->capture_default_str();
+  app->add_option("--pitch", args->pitch, "Camera pitch in degrees")->capture_default_str();
+  app->add_option("--distance", args->distance, "Camera distance in mm (0: fit the cloth)")
+      ->check(CLI::NonNegativeNumber)
+      ->capture_default_str();
+  app->add_option("--light-tilt", args->light_tilt, "Light tilt in degrees from +x toward +y")
+      ->capture_default_str();
+  app->add_option("--light-slant", args->light_slant, "Light slant in degrees from the normal")
+      ->check(CLI::Range(0.0, 90.0))
+      ->capture_default_str();
+  app->add_option("--samples", args->samples, "Multisampling (0: off)")
+      ->check(CLI::Range(0, 16))
+      ->capture_default_str();
+  auto* timed = app->add_flag(
+      "--bench", args->bench,
+      "Time the yarn update and the frames at 1 K, 10 K and 50 K stitches; prints JSON");
+  app->add_option("--frames", args->frames, "Frames timed per size (--bench)")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  out->excludes(timed);
+  return {app, [args, out] {
+            if (args->bench) return bench(*args);
+            if (out->count() == 0) {
+              std::cerr << "psrig-preview knit: error: --out FILE.png is required (or --bench)\n";
+              return 2;
+            }
+            return render(*args);
+          }};
+}
+
+}  // namespace psrig::preview::cli
