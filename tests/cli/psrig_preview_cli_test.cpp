@@ -210,6 +210,9 @@ TEST(PsrigPreviewCli, KnitDrawsYarnsAndStretchOpensGaps) {
   ASSERT_EQ(rest.size(), cv::Size(320, 240));
   EXPECT_GT(yarn_share(rest), 0.4) << "a knitted cloth, not a blank frame";
   EXPECT_LT(yarn_share(stretched), yarn_share(rest) - 0.05) << "stretched loops open gaps";
+  const cv::Mat draped = knit("draped.png", {"--draped", "--pitch", "30"});
+  EXPECT_GT(cv::norm(draped, rest, cv::NORM_L1), 0.0) << "the cloth laid over the patch";
+  EXPECT_GT(yarn_share(draped), 0.2);
   const cv::Mat coloured = knit("green.png", {"--yarn-color", "#20C040"});
   const cv::Scalar mean = cv::mean(coloured);
   EXPECT_GT(mean[1], mean[2] + 5) << "green yarn";  // BGR

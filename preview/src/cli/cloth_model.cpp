@@ -3,11 +3,12 @@
 namespace psrig::preview::cli {
 
 Result<ClothModel> ClothModel::load(const std::filesystem::path& pattern, int columns, int rows,
-                                    std::optional<Eigen::Vector3f> colour) {
+                                    std::optional<Eigen::Vector3f> colour, ClothShape shape) {
   if (looks_like_weave(pattern)) {
     auto weave = load_weave_matrix(pattern);
     if (!weave) return std::unexpected(weave.error());
     Woven woven{std::move(*weave), {}, columns, rows};
+    woven.parameters.shape = shape;
     if (colour) woven.parameters.style.colour = *colour;
     return ClothModel(std::move(woven));
   }
@@ -15,6 +16,7 @@ Result<ClothModel> ClothModel::load(const std::filesystem::path& pattern, int co
   if (!chart) return std::unexpected(chart.error());
   KnitLayout layout = tile_chart(*chart, columns, rows);
   KnitParameters parameters;
+  parameters.shape = shape;
   if (colour) {
     layout.colours.clear();
     parameters.style.colour = *colour;

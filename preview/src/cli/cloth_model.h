@@ -14,10 +14,11 @@ namespace psrig::preview::cli {
 
 class ClothModel {
  public:
-  // columns x rows stitches (or warps x wefts); `colour`, when given,
-  // replaces the chart's palette and the style's colour.
+  // columns x rows stitches (or warps x wefts) on `shape`; `colour`, when
+  // given, replaces the chart's palette and the style's colour.
   [[nodiscard]] static Result<ClothModel> load(const std::filesystem::path& pattern, int columns,
-                                               int rows, std::optional<Eigen::Vector3f> colour);
+                                               int rows, std::optional<Eigen::Vector3f> colour,
+                                               ClothShape shape = ClothShape::flat);
 
   // This deformation's yarns into `yarns` (storage reused).
   void update(ClothDeformation deformation, YarnSet& yarns);

@@ -34,6 +34,7 @@ struct KnitArgs {
   double light_tilt = 45, light_slant = 45;
   int samples = kDefaultSamples;
   bool bench = false;
+  bool draped = false;
   int frames = 30;
 };
 
@@ -77,7 +78,8 @@ int render(const KnitArgs& args) {
   if (!size) return report_error("knit", size.error());
   auto colour = yarn_colour(args);
   if (!colour) return report_error("knit", colour.error());
-  auto cloth = ClothModel::load(args.pattern, args.stitches, args.rows, *colour);
+  auto cloth = ClothModel::load(args.pattern, args.stitches, args.rows, *colour,
+                                args.draped ? ClothShape::draped : ClothShape::flat);
   if (!cloth) return report_error("knit", cloth.error());
   YarnSet yarns;
   cloth->update({args.stretch, args.shear}, yarns);
@@ -187,6 +189,8 @@ Command add_knit_command(CLI::App& parent) {
   app->add_option("--samples", args->samples, "Multisampling (0: off)")
       ->check(CLI::Range(0, 16))
       ->capture_default_str();
+  app->add_flag("--draped", args->draped,
+                "Lay the cloth over the swatch preview's draped Bezier patch instead of flat");
   auto* timed = app->add_flag(
       "--bench", args->bench,
       "Time the yarn update and the frames at 1 K, 10 K and 50 K stitches; prints JSON");
