@@ -4,53 +4,10 @@
 #include <cmath>
 #include <numbers>
 
+#include "camera_matrices.h"
 #include "psrig/processing/light_matrix.h"
 
 namespace psrig::preview {
-namespace {
-
-float radians(double degrees) {
-  return static_cast<float>(degrees * std::numbers::pi / 180.0);
-}
-
-Eigen::Matrix4f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& target,
-                        const Eigen::Vector3f& up) {
-  const Eigen::Vector3f back = (eye - target).normalized();  // camera +z
-  const Eigen::Vector3f right = up.cross(back).normalized();
-  const Eigen::Vector3f true_up = back.cross(right);
-  Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
-  m.block<1, 3>(0, 0) = right.transpose();
-  m.block<1, 3>(1, 0) = true_up.transpose();
-  m.block<1, 3>(2, 0) = back.transpose();
-  m(0, 3) = -right.dot(eye);
-  m(1, 3) = -true_up.dot(eye);
-  m(2, 3) = -back.dot(eye);
-  return m;
-}
-
-Eigen::Matrix4f perspective(float fov_y, float aspect, float near, float far) {
-  const float f = 1 / std::tan(fov_y / 2);
-  Eigen::Matrix4f m = Eigen::Matrix4f::Zero();
-  m(0, 0) = f / aspect;
-  m(1, 1) = f;
-  m(2, 2) = (far + near) / (near - far);
-  m(2, 3) = 2 * far * near / (near - far);
-  m(3, 2) = -1;
-  return m;
-}
-
-Eigen::Matrix4f orthographic(float half_size, float near, float far) {
-  Eigen::Matrix4f m = Eigen::Matrix4f::Zero();
-  m(0, 0) = 1 / half_size;
-  m(1, 1) = 1 / half_size;
-  m(2, 2) = -2 / (far - near);
-  m(2, 3) = -(far + near) / (far - near);
-  m(3, 3) = 1;
-  return m;
-}
-
-}  // namespace
-
 Eigen::Vector2f KnitFrame::project(const Eigen::Vector3f& point, cv::Size viewport) const {
   const Eigen::Vector4f clip = projection * view * point.homogeneous();
   return {(clip.x() / clip.w() + 1) / 2 * static_cast<float>(viewport.width),
@@ -63,10 +20,7 @@ KnitFrame knit_frame(const Eigen::AlignedBox3f& bounds, const KnitView& view, cv
   frame.centre = empty ? Eigen::Vector3f::Zero().eval() : bounds.center().eval();
   const float radius = empty ? 1.0f : std::max(bounds.diagonal().norm() / 2, 1e-3f);
 
-  const Eigen::Matrix3f orbit =
-      (Eigen::AngleAxisf(radians(view.yaw_deg), Eigen::Vector3f::UnitY()) *
-       Eigen::AngleAxisf(radians(-view.pitch_deg), Eigen::Vector3f::UnitX()))
-          .toRotationMatrix();
+  const Eigen::Matrix3f orbit = yaw_pitch(view.yaw_deg, -view.pitch_deg);
   const float aspect = static_cast<float>(viewport.width) / static_cast<float>(viewport.height);
   const float fov_y = radians(std::clamp(view.fov_y_deg, 1.0, 150.0));
   // Fitting: the bounding sphere inside the narrower of the two angles.
@@ -92,7 +46,7 @@ KnitFrame knit_frame(const Eigen::AlignedBox3f& bounds, const KnitView& view, cv
   frame.toward_shadow_light = toward;
   const Eigen::Vector3f up =
       std::abs(toward.z()) < 0.9f ? Eigen::Vector3f::UnitZ() : Eigen::Vector3f::UnitY();
-  frame.shadow_view_projection = orthographic(radius, radius, 3 * radius) *
+  frame.shadow_view_projection = orthographic(radius, radius, radius, 3 * radius) *
                                  look_at(frame.centre + toward * 2 * radius, frame.centre, up);
   frame.shadow_depth_range = 2 * radius;
   return frame;

@@ -5,59 +5,15 @@
 
 #include <Eigen/Geometry>
 
+#include "camera_matrices.h"
 #include "psrig/processing/light_matrix.h"
 
 namespace psrig::preview {
 namespace {
 
-float radians(double degrees) {
-  return static_cast<float>(degrees * std::numbers::pi / 180.0);
-}
-
 Eigen::Matrix4f rotation(const Eigen::Matrix3f& turn) {
   Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
   m.topLeftCorner<3, 3>() = turn;
-  return m;
-}
-
-Eigen::Matrix3f yaw_pitch(double yaw_deg, double pitch_deg) {
-  return (Eigen::AngleAxisf(radians(yaw_deg), Eigen::Vector3f::UnitY()) *
-          Eigen::AngleAxisf(radians(pitch_deg), Eigen::Vector3f::UnitX()))
-      .toRotationMatrix();
-}
-
-Eigen::Matrix4f look_at(const Eigen::Vector3f& eye, const Eigen::Vector3f& up) {
-  const Eigen::Vector3f back = eye.normalized();  // camera +z, away from the target
-  const Eigen::Vector3f right = up.cross(back).normalized();
-  const Eigen::Vector3f true_up = back.cross(right);
-  Eigen::Matrix4f m = Eigen::Matrix4f::Identity();
-  m.block<1, 3>(0, 0) = right.transpose();
-  m.block<1, 3>(1, 0) = true_up.transpose();
-  m.block<1, 3>(2, 0) = back.transpose();
-  m(0, 3) = -right.dot(eye);
-  m(1, 3) = -true_up.dot(eye);
-  m(2, 3) = -back.dot(eye);
-  return m;
-}
-
-Eigen::Matrix4f orthographic(float half_width, float half_height, float near, float far) {
-  Eigen::Matrix4f m = Eigen::Matrix4f::Zero();
-  m(0, 0) = 1 / half_width;
-  m(1, 1) = 1 / half_height;
-  m(2, 2) = -2 / (far - near);
-  m(2, 3) = -(far + near) / (far - near);
-  m(3, 3) = 1;
-  return m;
-}
-
-Eigen::Matrix4f perspective(float fov_y, float aspect, float near, float far) {
-  const float f = 1 / std::tan(fov_y / 2);
-  Eigen::Matrix4f m = Eigen::Matrix4f::Zero();
-  m(0, 0) = f / aspect;
-  m(1, 1) = f;
-  m(2, 2) = (far + near) / (near - far);
-  m(2, 3) = 2 * far * near / (near - far);
-  m(3, 2) = -1;
   return m;
 }
 
@@ -88,7 +44,7 @@ FrameSetup frame_setup(cv::Size2d swatch_extent, const SceneView& view, cv::Size
     else
       half_height = half_width / aspect;
     const Eigen::Vector3f eye = back * (2 * diagonal);
-    setup.view = look_at(eye, up);
+    setup.view = look_at(eye, Eigen::Vector3f::Zero(), up);
     setup.projection =
         orthographic(half_width / zoom, half_height / zoom, 0.01f * diagonal, 4 * diagonal);
     setup.eye << back, 0;
@@ -97,7 +53,7 @@ FrameSetup frame_setup(cv::Size2d swatch_extent, const SceneView& view, cv::Size
     // Far enough back for the patch's bounding sphere to fit either way.
     const float fit = (diagonal / 2) / std::sin(fov_y / 2) / std::min(aspect, 1.0f);
     const Eigen::Vector3f eye = back * (fit / zoom);
-    setup.view = look_at(eye, up);
+    setup.view = look_at(eye, Eigen::Vector3f::Zero(), up);
     setup.projection = perspective(fov_y, aspect, 0.02f * fit, 4 * fit);
     setup.eye << eye, 1;
   }

@@ -240,8 +240,8 @@ TEST(StitchMesh, DeformationGradientOfAStretchAndShear) {
   EXPECT_NEAR(gradient(0, 1), 0.25f, 1e-5f);
   EXPECT_NEAR(gradient(1, 0), 0.0f, 1e-5f);
   EXPECT_NEAR(gradient(1, 1), 1.0f, 1e-5f);
+  // Laid on the draped patch, the cloth leaves the plane.
   const StitchMesh draped = make_stitch_mesh(8, 6, 5, 4, ClothShape::draped);
-  EXPECT_GT(draped.vertex(4, 3).z() - draped.vertex(0, 3).z(), 0.0f - 1e9f);  // laid on the patch
   float depth = 0;
   for (const Eigen::Vector3f& v : draped.vertices)
     depth = std::max(depth, std::abs(v.z()));

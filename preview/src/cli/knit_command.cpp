@@ -23,7 +23,7 @@ namespace {
 struct KnitArgs {
   std::string pattern;
   std::string out;
-  std::string size = "1280x960";
+  std::string size;  // default: 1280x960, --bench 1920x1080
   int stitches = 24;
   int rows = 20;
   float stretch = 1;
@@ -73,27 +73,47 @@ KnitView knit_view(const KnitArgs& args) {
   return view;
 }
 
+ClothShape cloth_shape(const KnitArgs& args) {
+  return args.draped ? ClothShape::draped : ClothShape::flat;
+}
+
+// What both render and bench draw with.
+struct YarnCanvas {
+  std::unique_ptr<EglContext> context;
+  std::unique_ptr<OffscreenTarget> target;
+  std::unique_ptr<YarnRenderer> renderer;
+};
+
+Result<YarnCanvas> open_canvas(cv::Size size, int samples) {
+  YarnCanvas canvas;
+  auto context = EglContext::open_surfaceless();
+  if (!context) return std::unexpected(context.error());
+  canvas.context = std::move(*context);
+  auto target = OffscreenTarget::create(size, samples, ColourStorage::srgb);
+  if (!target) return std::unexpected(target.error());
+  canvas.target = std::move(*target);
+  auto renderer = YarnRenderer::create();
+  if (!renderer) return std::unexpected(renderer.error());
+  canvas.renderer = std::move(*renderer);
+  return canvas;
+}
+
 int render(const KnitArgs& args) {
-  auto size = parse_size(args.size, "--size");
+  auto size = parse_size(args.size.empty() ? "1280x960" : args.size, "--size");
   if (!size) return report_error("knit", size.error());
   auto colour = yarn_colour(args);
   if (!colour) return report_error("knit", colour.error());
-  auto cloth = ClothModel::load(args.pattern, args.stitches, args.rows, *colour,
-                                args.draped ? ClothShape::draped : ClothShape::flat);
+  auto cloth = ClothModel::load(args.pattern, args.stitches, args.rows, *colour, cloth_shape(args));
   if (!cloth) return report_error("knit", cloth.error());
   YarnSet yarns;
   cloth->update({args.stretch, args.shear}, yarns);
 
-  auto context = EglContext::open_surfaceless();
-  if (!context) return report_error("knit", context.error());
-  auto target = OffscreenTarget::create(*size, args.samples, ColourStorage::srgb);
-  if (!target) return report_error("knit", target.error());
-  auto renderer = YarnRenderer::create();
-  if (!renderer) return report_error("knit", renderer.error());
-  (*renderer)->update(yarns);
-  (*target)->bind();
-  (*renderer)->render(knit_view(args), *size);
-  if (auto ok = processing::write_image(args.out, (*target)->read()); !ok)
+  auto canvas = open_canvas(*size, args.samples);
+  if (!canvas) return report_error("knit", canvas.error());
+  canvas->renderer->update(yarns);
+  canvas->target->bind();
+  canvas->renderer->render(knit_view(args), *size);
+  if (auto ok = processing::write_image(args.out, canvas->target->read()); !ok)
     return report_error("knit", ok.error());
   std::cout << "knit: " << args.out << " (" << size->width << "x" << size->height << ", "
             << args.stitches << "x" << args.rows << (cloth->woven() ? " threads" : " stitches")
@@ -105,20 +125,17 @@ int render(const KnitArgs& args) {
 // Per size: the yarn update (deformation changing every frame), then the
 // frames drawn with that update, at 1920x1080 unless --size says otherwise.
 int bench(const KnitArgs& args) {
-  auto size = parse_size(args.size == "1280x960" ? "1920x1080" : args.size, "--size");
+  auto size = parse_size(args.size.empty() ? "1920x1080" : args.size, "--size");
   if (!size) return report_error("knit", size.error());
-  auto context = EglContext::open_surfaceless();
-  if (!context) return report_error("knit", context.error());
-  auto target = OffscreenTarget::create(*size, args.samples, ColourStorage::srgb);
-  if (!target) return report_error("knit", target.error());
-  auto renderer = YarnRenderer::create();
-  if (!renderer) return report_error("knit", renderer.error());
-  std::cout << "{\"renderer\": \"" << (*context)->describe() << "\", \"size\": [" << size->width
-            << ", " << size->height << "], \"samples\": " << args.samples << ", \"runs\": [";
+  auto canvas = open_canvas(*size, args.samples);
+  if (!canvas) return report_error("knit", canvas.error());
+  std::cout << "{\"renderer\": \"" << canvas->context->describe() << "\", \"size\": ["
+            << size->width << ", " << size->height << "], \"samples\": " << args.samples
+            << ", \"runs\": [";
   bool first = true;
   for (const int stitches : {1000, 10000, 50000}) {
     const int side = static_cast<int>(std::lround(std::sqrt(stitches)));
-    auto cloth = ClothModel::load(args.pattern, side, side, std::nullopt);
+    auto cloth = ClothModel::load(args.pattern, side, side, std::nullopt, cloth_shape(args));
     if (!cloth) return report_error("knit", cloth.error());
     YarnSet yarns;
     double update_ms = 0, frame_ms = 0;
@@ -127,9 +144,9 @@ int bench(const KnitArgs& args) {
       const auto start = Clock::now();
       cloth->update({1.15f + 0.1f * std::sin(phase), 0.1f * std::cos(phase)}, yarns);
       const auto updated = Clock::now();
-      (*renderer)->update(yarns);
-      (*target)->bind();
-      (*renderer)->render(knit_view(args), *size);
+      canvas->renderer->update(yarns);
+      canvas->target->bind();
+      canvas->renderer->render(knit_view(args), *size);
       glFinish();  // the frame is done, as before a page flip
       const auto drawn = Clock::now();
       if (frame < 0) continue;
@@ -157,8 +174,7 @@ Command add_knit_command(CLI::App& parent) {
   app->add_option("pattern", args->pattern, "Stitch chart (.chart) or weave matrix (.weave)")
       ->required();
   auto* out = app->add_option("--out", args->out, "PNG file to write");
-  app->add_option("--size", args->size, "Frame size WxH (--bench: 1920x1080)")
-      ->capture_default_str();
+  app->add_option("--size", args->size, "Frame size WxH (default 1280x960; --bench: 1920x1080)");
   app->add_option("--stitches", args->stitches, "Stitches per course (woven: warp threads)")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
