@@ -1,0 +1,77 @@
+#pragma once
+// What the daemon's front ends (the HTTP API, the PLC's Modbus server, the
+// systemd status line) see of the scanning service: its state, and the two
+// things they may ask of it. One scan runs at a time; submissions queue.
+
+#include <chrono>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "psrig/processing/error.h"
+
+namespace psrig::capture {
+
+using processing::Result;
+using processing::Status;
+
+// Numbered because the PLC reads them as register values: never renumber.
+enum class DaemonState : std::uint16_t {
+  starting = 0,
+  idle = 1,
+  scanning = 2,    // LEDs and camera in use
+  processing = 3,  // frames written, maps being computed
+  error = 4,       // the last scan failed; the next submission clears it
+  stopping = 5,
+};
+
+// Why the last scan failed, as the PLC reads it. Never renumber.
+enum class ScanErrorCode : std::uint16_t {
+  none = 0,
+  camera = 1,      // no frame, timeout, device gone
+  lights = 2,      // LED backend failed
+  storage = 3,     // disk full, permission, catalogue write
+  processing = 4,  // frames could not be turned into maps
+  aborted = 5,     // stopped by DELETE, SIGTERM or lights-off
+  queue_full = 6,  // a submission refused
+  config = 7,      // the configuration cannot drive the rig
+  internal = 8,
+};
+
+[[nodiscard]] const char* to_string(DaemonState state);
+[[nodiscard]] const char* to_string(ScanErrorCode code);
+
+struct ScanSubmission {
+  std::string sample_id;  // may be empty
+  std::string description;
+  std::vector<std::string> tags;
+  std::string source;  // "http", "modbus", "cli": for the log and the catalogue
+};
+
+struct DaemonStatus {
+  DaemonState state = DaemonState::starting;
+  std::string step;          // the running scan's step, e.g. "light 2 of 3"
+  int progress_percent = 0;  // of the running scan, 0..100
+  std::optional<std::int64_t> current_scan;  // catalogue id of the running scan
+  std::optional<std::int64_t> last_scan;     // catalogue id of the last finished (or failed) one
+  ScanErrorCode last_error_code = ScanErrorCode::none;
+  std::string last_error;  // message of the last failure, empty if none
+  std::uint64_t scans_completed = 0;  // since start-up
+  std::uint64_t scans_failed = 0;
+  std::size_t queue_length = 0;  // waiting, not counting the running scan
+  std::chrono::steady_clock::duration uptime{};
+};
+
+class ScanControl {
+ public:
+  virtual ~ScanControl() = default;
+  [[nodiscard]] virtual DaemonStatus status() const = 0;
+  // Queues a scan; its catalogue id at once (the row exists, status
+  // "queued"), or an error (queue full, stopping).
+  [[nodiscard]] virtual Result<std::int64_t> submit(ScanSubmission submission) = 0;
+  // Aborts the running scan (if any) and turns every LED off.
+  [[nodiscard]] virtual Status lights_off() = 0;
+};
+
+}  // namespace psrig::capture
