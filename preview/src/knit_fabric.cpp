@@ -125,7 +125,8 @@ std::span<const KnotPass> KnitFabric::passes(int knot) const {
 }
 
 Eigen::Vector3f KnitFabric::fixed_position(const StitchMesh& mesh, const FixedPoint& point) const {
-  const FaceFrame frame = mesh.frame(point.column, point.face_row);
+  // The face's frame as place() found it this update: both knots of a face share it.
+  const FaceFrame& frame = face_frame(point.column, point.face_row);
   return mesh.point(point.column, point.face_row, point.u, point.v) +
          point.lift * parameters_.style.radius_mm * frame.normal;
 }
@@ -140,7 +141,7 @@ void KnitFabric::place(const StitchMesh& mesh) {
     for (int face_row = begin; face_row < end; ++face_row)
       for (int column = 0; column < columns; ++column) {
         const FaceFrame frame = mesh.frame(column, face_row);
-        const Eigen::Matrix2f gradient = mesh.deformation_gradient(column, face_row);
+        const Eigen::Matrix2f gradient = mesh.deformation_gradient(column, face_row, frame);
         for (const bool right : {false, true}) {
           const auto k = static_cast<std::size_t>(knot_index(column, face_row, right));
           const RestKnot& rest = knots_[k];
@@ -223,7 +224,7 @@ void KnitFabric::sample(const StitchMesh& mesh, YarnSet& yarns) const {
       };
       const auto fixed = [&](const FixedPoint& point, int column) {
         control.push_back({fixed_position(mesh, point),
-                           mesh.frame(point.column, point.face_row).normal, point.lift,
+                           face_frame(point.column, point.face_row).normal, point.lift,
                            colour(column)});
       };
       const auto knot = [&](int column, int face_row, bool right) {

@@ -8,130 +8,156 @@
 namespace psrig::preview {
 namespace {
 
-// A chain point and its derivatives by theta and l.
-struct ChainPoint {
-  Eigen::Vector3f x, by_theta, by_length;
+// Everything below works in the knot's own frame (e1, e2, n) about its
+// centre: there the three moving points are short closed forms of
+// (cos theta, sin theta, l), and every derivative lies in the plane (the
+// lifts along n do not move), so a Jacobian row is two 2-vector dots. The
+// fixed neighbours are brought into that frame once per relaxation.
+struct LocalPass {
+  std::array<Eigen::Vector3f, 2> fixed;  // before, after
+  float side = 1, lift_enter = 0, lift_leave = 0;
+  std::array<float, 4> inverse_rest_length{};
+  std::array<float, 3> rest_cosine{};
 };
 
+LocalPass to_local(const KnotPlacement& knot, const KnotPass& pass) {
+  const auto local = [&](const Eigen::Vector3f& world) {
+    const Eigen::Vector3f offset = world - knot.centre;
+    return Eigen::Vector3f(offset.dot(knot.frame.e1), offset.dot(knot.frame.e2),
+                           offset.dot(knot.frame.normal));
+  };
+  LocalPass out{{local(pass.before), local(pass.after)}, pass.side, pass.lift_enter * knot.radius,
+                pass.lift_leave * knot.radius,           {},        pass.rest_cosine};
+  for (std::size_t i = 0; i < 4; ++i)
+    out.inverse_rest_length[i] = 1 / std::max(pass.rest_length[i], 1e-6f);
+  return out;
+}
+
+// Energy and, when asked, the Gauss-Newton normal equations (A = J^T J,
+// g = J^T r; A symmetric, so three numbers).
 struct Residuals {
-  // Up to 4 length and 3 angle residuals per pass.
   float energy = 0;
-  Eigen::Matrix2f normal_matrix = Eigen::Matrix2f::Zero();
-  Eigen::Vector2f gradient = Eigen::Vector2f::Zero();
+  float a_tt = 0, a_tl = 0, a_ll = 0;
+  float g_t = 0, g_l = 0;
 
-  void add(float residual, const Eigen::Vector2f& jacobian) {
+  void add(float residual, float by_theta, float by_length) {
     energy += residual * residual;
-    normal_matrix += jacobian * jacobian.transpose();
-    gradient += jacobian * residual;
+    a_tt += by_theta * by_theta;
+    a_tl += by_theta * by_length;
+    a_ll += by_length * by_length;
+    g_t += by_theta * residual;
+    g_l += by_length * residual;
   }
 };
 
-// The knot's in-plane directions for one state, shared by its passes.
-struct Directions {
-  Eigen::Vector3f d, d_perp, b;  // d_perp: d by theta; b = d x n, whose derivative by theta is d
-
-  Directions(const KnotPlacement& knot, KnotState state) {
-    const float c = std::cos(state.theta), s = std::sin(state.theta);
-    d = c * knot.frame.e1 + s * knot.frame.e2;
-    d_perp = -s * knot.frame.e1 + c * knot.frame.e2;
-    b = s * knot.frame.e1 - c * knot.frame.e2;
-  }
+struct Vec2 {
+  float x, y;
+  [[nodiscard]] float dot(Vec2 other) const { return x * other.x + y * other.y; }
 };
 
-std::array<Eigen::Vector3f, 5> chain_points(const KnotPlacement& knot, const Directions& axes,
-                                            float half_length, const KnotPass& pass) {
-  const float r = knot.radius;
-  const Eigen::Vector3f& n = knot.frame.normal;
-  return {pass.before, knot.centre - half_length * axes.d + pass.lift_enter * r * n,
-          knot.centre + pass.side * r * axes.b,
-          knot.centre + half_length * axes.d + pass.lift_leave * r * n, pass.after};
-}
+// An edge of the chain: its direction and length, and how it moves with
+// theta and l (in-plane vectors: the lifts along n are fixed).
+struct Edge {
+  Eigen::Vector3f unit;
+  float length;
+  Vec2 by_theta, by_length;
+};
 
-std::array<ChainPoint, 5> chain(const KnotPlacement& knot, const Directions& axes,
-                                float half_length, const KnotPass& pass) {
-  const std::array<Eigen::Vector3f, 5> x = chain_points(knot, axes, half_length, pass);
-  const Eigen::Vector3f zero = Eigen::Vector3f::Zero();
-  const float l = half_length;
-  return {{
-      {x[0], zero, zero},
-      {x[1], -l * axes.d_perp, -axes.d},
-      {x[2], pass.side * knot.radius * axes.d, zero},
-      {x[3], l * axes.d_perp, axes.d},
-      {x[4], zero, zero},
-  }};
-}
-
-Eigen::Vector2f derivative(const ChainPoint& point, const Eigen::Vector3f& by_point) {
-  return {by_point.dot(point.by_theta), by_point.dot(point.by_length)};
-}
-
-void add_pass(Residuals& residuals, const KnotPlacement& knot, const Directions& axes,
-              float half_length, const KnotPass& pass, float angle_scale, float length_scale) {
-  const std::array<ChainPoint, 5> points = chain(knot, axes, half_length, pass);
-  std::array<Eigen::Vector3f, 4> unit;
-  std::array<float, 4> length;
+template <bool with_jacobian>
+void add_pass(Residuals& residuals, const LocalPass& pass, float c, float s, float l, float r,
+              float angle_scale, float length_scale) {
+  // The chain before, enter, beside, leave, after. The enter point moves by
+  // (l s, -l c) with theta and (-c, -s) with l; the leave point by the
+  // opposite; the beside point by side r (c, s) with theta only.
+  const float sr = pass.side * r;
+  const Eigen::Vector3f enter(-l * c, -l * s, pass.lift_enter);
+  const Eigen::Vector3f beside(sr * s, -sr * c, 0);
+  const Eigen::Vector3f leave(l * c, l * s, pass.lift_leave);
+  const Vec2 enter_t{l * s, -l * c}, enter_l{-c, -s}, beside_t{sr * c, sr * s};
+  const std::array<Eigen::Vector3f, 4> vectors{enter - pass.fixed[0], beside - enter,
+                                               leave - beside, pass.fixed[1] - leave};
+  const std::array<Vec2, 4> by_theta{enter_t,
+                                     {beside_t.x - enter_t.x, beside_t.y - enter_t.y},
+                                     {-enter_t.x - beside_t.x, -enter_t.y - beside_t.y},
+                                     enter_t};
+  const std::array<Vec2, 4> by_length{
+      enter_l, {-enter_l.x, -enter_l.y}, {-enter_l.x, -enter_l.y}, enter_l};
+  std::array<Edge, 4> edges;
   for (std::size_t i = 0; i < 4; ++i) {
-    const Eigen::Vector3f edge = points[i + 1].x - points[i].x;
-    length[i] = std::max(edge.norm(), 1e-6f);
-    unit[i] = edge / length[i];
-    // Stretching, relative to the rest length: d|e|/dx_{i+1} = unit.
-    const float rest = std::max(pass.rest_length[i], 1e-6f);
-    const Eigen::Vector2f jacobian =
-        (derivative(points[i + 1], unit[i]) - derivative(points[i], unit[i])) / rest;
-    residuals.add(length_scale * (length[i] / rest - 1), length_scale * jacobian);
+    const float length = std::max(vectors[i].norm(), 1e-6f);
+    edges[i] = {vectors[i] * (1 / length), length, by_theta[i], by_length[i]};
+    // Stretching, relative to the rest length: d|e|/de = unit.
+    const float stretch = length * pass.inverse_rest_length[i] - 1;
+    if constexpr (with_jacobian) {
+      const Vec2 unit{edges[i].unit.x(), edges[i].unit.y()};
+      const float scale = length_scale * pass.inverse_rest_length[i];
+      residuals.add(length_scale * stretch, scale * unit.dot(by_theta[i]),
+                    scale * unit.dot(by_length[i]));
+    } else {
+      residuals.energy += length_scale * length_scale * stretch * stretch;
+    }
   }
   for (std::size_t i = 0; i < 3; ++i) {
     // Bending: the cosine between consecutive edges against its rest value.
-    const float cosine = unit[i].dot(unit[i + 1]);
-    // d(u0 . u1)/d e0 = (u1 - cos u0) / |e0|, and likewise for e1.
-    const Eigen::Vector3f by_edge0 = (unit[i + 1] - cosine * unit[i]) / length[i];
-    const Eigen::Vector3f by_edge1 = (unit[i] - cosine * unit[i + 1]) / length[i + 1];
-    const Eigen::Vector2f jacobian =
-        derivative(points[i + 1], by_edge0) - derivative(points[i], by_edge0) +
-        derivative(points[i + 2], by_edge1) - derivative(points[i + 1], by_edge1);
-    residuals.add(angle_scale * (cosine - pass.rest_cosine[i]), angle_scale * jacobian);
+    const Edge& e0 = edges[i];
+    const Edge& e1 = edges[i + 1];
+    const float cosine = e0.unit.dot(e1.unit);
+    const float bend = cosine - pass.rest_cosine[i];
+    if constexpr (with_jacobian) {
+      // d(u0 . u1)/d e0 = (u1 - cos u0) / |e0|, and likewise for e1.
+      const float inverse0 = 1 / e0.length, inverse1 = 1 / e1.length;
+      const Vec2 by_edge0{(e1.unit.x() - cosine * e0.unit.x()) * inverse0,
+                          (e1.unit.y() - cosine * e0.unit.y()) * inverse0};
+      const Vec2 by_edge1{(e0.unit.x() - cosine * e1.unit.x()) * inverse1,
+                          (e0.unit.y() - cosine * e1.unit.y()) * inverse1};
+      residuals.add(angle_scale * bend,
+                    angle_scale * (by_edge0.dot(e0.by_theta) + by_edge1.dot(e1.by_theta)),
+                    angle_scale * (by_edge0.dot(e0.by_length) + by_edge1.dot(e1.by_length)));
+    } else {
+      residuals.energy += angle_scale * angle_scale * bend * bend;
+    }
   }
 }
 
-Residuals evaluate(const KnotPlacement& knot, KnotState state, std::span<const KnotPass> passes,
-                   KnotWeights weights) {
-  Residuals residuals;
-  const float angle_scale = std::sqrt(weights.angle), length_scale = std::sqrt(weights.length);
-  const Directions axes(knot, state);
-  for (const KnotPass& pass : passes)
-    add_pass(residuals, knot, axes, state.half_length, pass, angle_scale, length_scale);
-  return residuals;
-}
+// A knot holds two yarns; a woven crossing or a test may hand it a few more.
+constexpr std::size_t kMaxPasses = 4;
 
-// The energy alone, for the step control: no derivatives.
-float energy_only(const KnotPlacement& knot, KnotState state, std::span<const KnotPass> passes,
-                  KnotWeights weights) {
-  const Directions axes(knot, state);
-  float energy = 0;
-  for (const KnotPass& pass : passes) {
-    const std::array<Eigen::Vector3f, 5> x = chain_points(knot, axes, state.half_length, pass);
-    std::array<Eigen::Vector3f, 4> unit;
-    for (std::size_t i = 0; i < 4; ++i) {
-      const Eigen::Vector3f edge = x[i + 1] - x[i];
-      const float length = std::max(edge.norm(), 1e-6f);
-      unit[i] = edge / length;
-      const float stretch = length / std::max(pass.rest_length[i], 1e-6f) - 1;
-      energy += weights.length * stretch * stretch;
-    }
-    for (std::size_t i = 0; i < 3; ++i) {
-      const float bend = unit[i].dot(unit[i + 1]) - pass.rest_cosine[i];
-      energy += weights.angle * bend * bend;
-    }
+struct LocalKnot {
+  std::array<LocalPass, kMaxPasses> passes;
+  std::size_t count = 0;
+  float radius = 0;
+  float angle_scale = 0, length_scale = 0;
+
+  LocalKnot(const KnotPlacement& knot, std::span<const KnotPass> world, KnotWeights weights)
+      : count(std::min(world.size(), kMaxPasses)),
+        radius(knot.radius),
+        angle_scale(std::sqrt(weights.angle)),
+        length_scale(std::sqrt(weights.length)) {
+    for (std::size_t p = 0; p < count; ++p)
+      passes[p] = to_local(knot, world[p]);
   }
-  return energy;
-}
+
+  template <bool with_jacobian>
+  [[nodiscard]] Residuals evaluate(KnotState state) const {
+    Residuals residuals;
+    const float c = std::cos(state.theta), s = std::sin(state.theta);
+    for (std::size_t p = 0; p < count; ++p)
+      add_pass<with_jacobian>(residuals, passes[p], c, s, state.half_length, radius, angle_scale,
+                              length_scale);
+    return residuals;
+  }
+};
 
 }  // namespace
 
 KnotPoints knot_points(const KnotPlacement& knot, KnotState state, const KnotPass& pass) {
-  const std::array<Eigen::Vector3f, 5> x =
-      chain_points(knot, Directions(knot, state), state.half_length, pass);
-  return {x[1], x[2], x[3]};
+  const float c = std::cos(state.theta), s = std::sin(state.theta);
+  const Eigen::Vector3f d = c * knot.frame.e1 + s * knot.frame.e2;
+  const Eigen::Vector3f b = s * knot.frame.e1 - c * knot.frame.e2;  // d x n
+  const Eigen::Vector3f& n = knot.frame.normal;
+  const float r = knot.radius, l = state.half_length;
+  return {knot.centre - l * d + pass.lift_enter * r * n, knot.centre + pass.side * r * b,
+          knot.centre + l * d + pass.lift_leave * r * n};
 }
 
 void record_rest_shape(KnotPass& pass, const KnotPoints& points) {
@@ -149,34 +175,43 @@ void record_rest_shape(KnotPass& pass, const KnotPoints& points) {
 
 float knot_energy(const KnotPlacement& knot, KnotState state, std::span<const KnotPass> passes,
                   KnotWeights weights) {
-  return energy_only(knot, state, passes, weights);
+  return LocalKnot(knot, passes, weights).evaluate<false>(state).energy;
 }
 
 KnotState relax_knot(const KnotPlacement& knot, KnotState state, std::span<const KnotPass> passes,
                      int iterations, KnotWeights weights) {
   if (passes.empty()) return state;
+  const LocalKnot local(knot, passes, weights);
   const float shortest = 0.1f * knot.radius;
-  Residuals residuals = evaluate(knot, state, passes, weights);
+  Residuals residuals = local.evaluate<true>(state);
   for (int iteration = 0; iteration < iterations; ++iteration) {
     // A touch of damping keeps the 2x2 solve well posed when one parameter
     // barely moves the residuals (e.g. a straight, unstretched pass).
-    Eigen::Matrix2f system = residuals.normal_matrix;
-    system.diagonal().array() += 1e-6f + 1e-4f * system.trace();
-    const Eigen::Vector2f step = system.ldlt().solve(-residuals.gradient);
+    const float damping = 1e-6f + 1e-4f * (residuals.a_tt + residuals.a_ll);
+    const float a = residuals.a_tt + damping, b = residuals.a_tl, d = residuals.a_ll + damping;
+    const float determinant = a * d - b * b;
+    if (!(determinant > 0)) break;
+    const Eigen::Vector2f step((b * residuals.g_l - d * residuals.g_t) / determinant,
+                               (b * residuals.g_t - a * residuals.g_l) / determinant);
     KnotState next{state.theta + step.x(), std::max(state.half_length + step.y(), shortest)};
     // Gauss-Newton may overshoot on these non-quadratic energies: halve the
-    // step until the energy does not rise, or keep the state.
+    // step until the energy does not rise, or keep the state. The last
+    // iteration needs only the energy; the others get the next iteration's
+    // normal equations from the same evaluation.
+    const bool last = iteration + 1 == iterations;
     bool lower = false;
+    Residuals at_next;
     for (int halving = 0; halving < 3 && !lower; ++halving) {
-      lower = energy_only(knot, next, passes, weights) <= residuals.energy;
+      at_next = last ? local.evaluate<false>(next) : local.evaluate<true>(next);
+      lower = at_next.energy <= residuals.energy;
       if (!lower)
         next = {0.5f * (state.theta + next.theta), 0.5f * (state.half_length + next.half_length)};
     }
     if (!lower) break;
     state = next;
+    residuals = at_next;
     // Converged (a thousandth of a degree, a micrometre): the rest is noise.
     if (std::abs(step.x()) < 2e-5f && std::abs(step.y()) < 1e-3f * knot.radius) break;
-    if (iteration + 1 < iterations) residuals = evaluate(knot, state, passes, weights);
   }
   return state;
 }

@@ -29,7 +29,10 @@ FaceFrame StitchMesh::frame(int column, int row) const {
 }
 
 Eigen::Matrix2f StitchMesh::deformation_gradient(int column, int row) const {
-  const FaceFrame f = frame(column, row);
+  return deformation_gradient(column, row, frame(column, row));
+}
+
+Eigen::Matrix2f StitchMesh::deformation_gradient(int column, int row, const FaceFrame& f) const {
   const Eigen::Vector3f du = 0.5f *
                              ((vertex(column + 1, row) - vertex(column, row)) +
                               (vertex(column + 1, row + 1) - vertex(column, row + 1))) /

@@ -1,15 +1,18 @@
 #include "psrig/preview/yarn_spline.h"
 
 #include <algorithm>
+#include <cmath>
+#include <vector>
 
 namespace psrig::preview {
 namespace {
 
-Eigen::Vector3f catmull_rom(const Eigen::Vector3f& p0, const Eigen::Vector3f& p1,
-                            const Eigen::Vector3f& p2, const Eigen::Vector3f& p3, float t) {
+// Catmull-Rom's weights of p0..p3 at t; the same handful of t for every
+// span, so they are worked out once per call.
+Eigen::Vector4f catmull_rom_weights(float t) {
   const float t2 = t * t, t3 = t2 * t;
-  return 0.5f * ((2 * p1) + (p2 - p0) * t + (2 * p0 - 5 * p1 + 4 * p2 - p3) * t2 +
-                 (3 * p1 - p0 - 3 * p2 + p3) * t3);
+  return 0.5f *
+         Eigen::Vector4f(-t + 2 * t2 - t3, 2 - 5 * t2 + 3 * t3, t + 4 * t2 - 3 * t3, -t2 + t3);
 }
 
 }  // namespace
@@ -23,6 +26,10 @@ void sample_yarn(std::span<const YarnControlPoint> control, int samples_per_span
   curve.normals.resize(samples);
   curve.lift.resize(samples);
   curve.colours.resize(coloured ? samples : 0);
+  const float step = 1.0f / static_cast<float>(per_span);
+  std::vector<Eigen::Vector4f> weights(static_cast<std::size_t>(per_span));
+  for (int j = 0; j < per_span; ++j)
+    weights[static_cast<std::size_t>(j)] = catmull_rom_weights(static_cast<float>(j) * step);
   std::size_t out = 0;
   for (std::size_t i = 0; i < spans; ++i) {
     // The ends repeat themselves as their outer neighbours.
@@ -31,9 +38,12 @@ void sample_yarn(std::span<const YarnControlPoint> control, int samples_per_span
     const YarnControlPoint& p2 = control[i + 1];
     const YarnControlPoint& p3 = control[std::min(i + 2, spans)];
     for (int j = 0; j < per_span; ++j, ++out) {
-      const float t = static_cast<float>(j) / static_cast<float>(per_span);
-      curve.points[out] = catmull_rom(p0.position, p1.position, p2.position, p3.position, t);
-      curve.normals[out] = ((1 - t) * p1.normal + t * p2.normal).normalized();
+      const Eigen::Vector4f& w = weights[static_cast<std::size_t>(j)];
+      const float t = static_cast<float>(j) * step;
+      curve.points[out] =
+          w.x() * p0.position + w.y() * p1.position + w.z() * p2.position + w.w() * p3.position;
+      const Eigen::Vector3f normal = (1 - t) * p1.normal + t * p2.normal;
+      curve.normals[out] = normal * (1 / std::sqrt(std::max(normal.squaredNorm(), 1e-12f)));
       curve.lift[out] = (1 - t) * p1.lift + t * p2.lift;
       if (coloured) curve.colours[out] = (1 - t) * p1.colour + t * p2.colour;
     }

@@ -99,6 +99,9 @@ class KnitFabric {
   void sample(const StitchMesh& mesh, YarnSet& yarns) const;
   [[nodiscard]] Eigen::Vector3f fixed_position(const StitchMesh& mesh,
                                                const FixedPoint& point) const;
+  [[nodiscard]] const FaceFrame& face_frame(int column, int face_row) const {
+    return placements_[static_cast<std::size_t>(knot_index(column, face_row, false))].frame;
+  }
 
   KnitLayout layout_;
   KnitParameters parameters_;

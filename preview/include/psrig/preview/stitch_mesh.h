@@ -42,6 +42,9 @@ struct StitchMesh {
   // The face's 2-D deformation gradient in its own frame: rest face
   // coordinates in millimetres to (e1, e2) millimetres.
   [[nodiscard]] Eigen::Matrix2f deformation_gradient(int column, int row) const;
+  // The same, given the face's frame when it is already at hand.
+  [[nodiscard]] Eigen::Matrix2f deformation_gradient(int column, int row,
+                                                     const FaceFrame& frame) const;
 };
 
 // A mesh of columns x rows faces, each face_width x face_height mm at rest,
