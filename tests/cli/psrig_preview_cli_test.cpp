@@ -192,14 +192,15 @@ double yarn_share(const cv::Mat& image) {
 
 TEST(PsrigPreviewCli, KnitDrawsYarnsAndStretchOpensGaps) {
   TempDir temp;
-  const auto knit = [&](const std::string& name, std::vector<std::string> extra) {
+  const auto knit = [&](const std::string& name, std::vector<std::string> extra,
+                        const std::string& light_slant = "0") {
     std::vector<std::string> args = {"knit",          pattern("stockinette.chart").string(),
                                      "--out",         (temp / name).string(),
                                      "--size",        "320x240",
                                      "--stitches",    "8",
                                      "--rows",        "6",
                                      "--distance",    "80",
-                                     "--light-slant", "0"};
+                                     "--light-slant", light_slant};
     args.insert(args.end(), extra.begin(), extra.end());
     const auto run = run_program("psrig-preview", args);
     EXPECT_EQ(run.exit_code, 0) << run.err;
@@ -216,6 +217,14 @@ TEST(PsrigPreviewCli, KnitDrawsYarnsAndStretchOpensGaps) {
   const cv::Mat coloured = knit("green.png", {"--yarn-color", "#20C040"});
   const cv::Scalar mean = cv::mean(coloured);
   EXPECT_GT(mean[1], mean[2] + 5) << "green yarn";  // BGR
+  // Under a grazing light, yarns shadow the yarns beside them: without the
+  // shadow map the same cloth is brighter.
+  const cv::Mat grazing = knit("grazing.png", {}, "70");
+  const cv::Mat unshadowed = knit("unshadowed.png", {"--no-shadows"}, "70");
+  EXPECT_GT(cv::mean(unshadowed)[2], cv::mean(grazing)[2] + 1) << "--no-shadows drops the shadows";
+  const cv::Mat plain = knit("plain.png", {"--plain-fibres"});
+  EXPECT_GT(cv::norm(plain, rest, cv::NORM_L1) / static_cast<double>(rest.total()), 0.5)
+      << "--plain-fibres drops the ply grooves";
 
   const auto woven = run_program("psrig-preview", {"knit", pattern("satin-5.weave").string(),
                                                    "--out", (temp / "satin.png").string(), "--size",

@@ -35,6 +35,8 @@ struct KnitArgs {
   int samples = kDefaultSamples;
   bool bench = false;
   bool draped = false;
+  bool no_shadows = false;
+  bool plain_fibres = false;
   int frames = 30;
 };
 
@@ -70,6 +72,8 @@ KnitView knit_view(const KnitArgs& args) {
   view.distance_mm = args.distance;
   view.light.tilt_deg = args.light_tilt;
   view.light.slant_deg = args.light_slant;
+  view.shadows = !args.no_shadows;
+  view.fibre_detail = !args.plain_fibres;
   return view;
 }
 
@@ -205,6 +209,10 @@ Command add_knit_command(CLI::App& parent) {
   app->add_option("--samples", args->samples, "Multisampling (0: off)")
       ->check(CLI::Range(0, 16))
       ->capture_default_str();
+  app->add_flag("--no-shadows", args->no_shadows,
+                "No yarn-on-yarn shadows (no shadow map: cheaper on a weak GPU)");
+  app->add_flag("--plain-fibres", args->plain_fibres,
+                "No ply grooves or fibre striation (cheaper on a weak GPU)");
   app->add_flag("--draped", args->draped,
                 "Lay the cloth over the swatch preview's draped Bezier patch instead of flat");
   auto* timed = app->add_flag(
