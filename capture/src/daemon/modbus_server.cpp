@@ -110,9 +110,9 @@ struct ModbusServer::Impl {
   std::mutex stop_mutex;  // one stop() joins
   std::atomic<bool> stopping = false;
 
-  // The PLC's own view, touched by the server thread only.
-  std::optional<ScanErrorCode>
-      refused;  // the last command failed: latched until a trigger is accepted
+  // The PLC's own view, touched by the server thread only. `refused`: the
+  // PLC's last command failed, latched until a trigger is accepted.
+  std::optional<ScanErrorCode> refused;
   std::int64_t triggered_scan = 0;
 
   mutable std::mutex counters_mutex;
@@ -127,9 +127,9 @@ Status ModbusServer::Impl::open() {
                                          "\" is not an IPv4 address to listen on (e.g. "
                                          "127.0.0.1, or 0.0.0.0 for every interface)"));
   if (options.port < 0 || options.port > 65535)
-    return std::unexpected(
-        bad_input({}, "daemon.modbus_port",
-                  std::to_string(options.port) + " is not a TCP port (1 to 65535)"));
+    return std::unexpected(bad_input(
+        {}, "daemon.modbus_port",
+        std::to_string(options.port) + " is not a TCP port (1 to 65535; 0: any free one)"));
   if (options.max_clients < 1)
     return std::unexpected(internal_error("Modbus server: max_clients must be at least 1"));
 
