@@ -407,8 +407,9 @@ Result<CatalogueRecovery> Catalogue::recover() {
   std::vector<std::pair<std::int64_t, std::string>> unfinished;
   {
     std::lock_guard lock(mutex_);
-    auto select = Statement::prepare(
-        db_, "SELECT id, coalesce(scan_path, '') FROM scans WHERE status IN ('queued', 'running')");
+    auto select = Statement::prepare(db_,
+                                     "SELECT id, coalesce(scan_path, '') FROM scans WHERE status "
+                                     "IN ('queued', 'running') ORDER BY id");
     if (!select) return std::unexpected(select.error());
     for (;;) {
       auto row = select->step();
