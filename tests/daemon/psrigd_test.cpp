@@ -200,7 +200,15 @@ std::pair<int, std::string> raw_http(int port, const std::string& request) {
   (void)!::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
   std::string answer;
   char buffer[4096];
-  for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
+  // Until the server closes, or the body its Content-Length announces is in
+  // (httplib holds a refused connection open until its read timeout).
+  const auto complete = [&] {
+    const auto end = answer.find("\r\n\r\n");
+    const auto length = answer.find("Content-Length: ");
+    if (end == std::string::npos || length == std::string::npos || length > end) return false;
+    return answer.size() >= end + 4 + std::stoul(answer.substr(length + 16));
+  };
+  for (ssize_t n; !complete() && (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
     answer.append(buffer, static_cast<std::size_t>(n));
   ::close(fd);
   int status = -1;

@@ -165,17 +165,25 @@ struct HttpApi::Impl {
 void HttpApi::Impl::routes() {
   auto log = processing::logger("http");
   const std::string token = options.token;
-  server.set_pre_routing_handler([token](const httplib::Request& req, httplib::Response& res) {
-    if (token.empty()) return httplib::Server::HandlerResponse::Unhandled;
-    if (constant_time_equal(req.get_header_value("Authorization"), "Bearer " + token))
-      return httplib::Server::HandlerResponse::Unhandled;
-    res.set_header("WWW-Authenticate", "Bearer");
-    refuse(res, 401, "missing or wrong bearer token (Authorization: Bearer TOKEN)");
-    return httplib::Server::HandlerResponse::Handled;
-  });
+  const std::size_t max_body = options.max_body_bytes;
+  server.set_pre_routing_handler(
+      [token, max_body](const httplib::Request& req, httplib::Response& res) {
+        // Refused from the headers: httplib would first read (or wait for) a
+        // body it is going to refuse, holding a thread for its read timeout.
+        if (req.get_header_value<std::uint64_t>("Content-Length") > max_body) {
+          res.set_header("Connection", "close");
+          refuse(res, 413, "request body larger than " + std::to_string(max_body) + " bytes");
+          return httplib::Server::HandlerResponse::Handled;
+        }
+        if (token.empty()) return httplib::Server::HandlerResponse::Unhandled;
+        if (constant_time_equal(req.get_header_value("Authorization"), "Bearer " + token))
+          return httplib::Server::HandlerResponse::Unhandled;
+        res.set_header("WWW-Authenticate", "Bearer");
+        refuse(res, 401, "missing or wrong bearer token (Authorization: Bearer TOKEN)");
+        return httplib::Server::HandlerResponse::Handled;
+      });
   // Whatever httplib refuses by itself (no route, body too large, bad
   // request line) still answers in JSON.
-  const std::size_t max_body = options.max_body_bytes;
   server.set_error_handler(httplib::Server::HandlerWithResponse(
       [max_body](const httplib::Request&, httplib::Response& res) {
         if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
