@@ -640,6 +640,67 @@ TEST(Psrigd, KilledWhileSavingThenRestartedLeavesNoHalfScan) {
   EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
 }
 
+// A fault fails its scan, names the device, and leaves the daemon serving:
+// the next scan opens the rig again.
+TEST(Psrigd, AnLedDriverFaultFailsTheScanNotTheDaemon) {
+  TempDir temp;
+  auto driver = firmware_host::SimModbusDriver::start({});
+  ASSERT_TRUE(driver) << driver.error().describe();
+  const int port = free_port();
+  const auto config =
+      daemon_config(temp, port,
+                    {{"backend = \"sim\"\nchannels",
+                      "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", "
+                      "port = " +
+                          std::to_string((*driver)->port()) + ", retries = 0 }\nchannels"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  (*driver)->inject(firmware_host::ModbusFault::exception);
+  const auto failed = daemon.wait_finished(daemon.submit({{"sample_id", "F-1"}}));
+  EXPECT_EQ(failed["status"], "failed") << failed.dump();
+  EXPECT_EQ(failed["error"]["code"], 2) << failed.dump();  // lights, as the PLC reads it
+  const auto status = daemon.get("/v1/status");
+  EXPECT_EQ(status["state"], "error") << status.dump();
+  EXPECT_EQ(status["last_error"]["code_name"], "lights") << status.dump();
+  EXPECT_TRUE((*driver)->leds_on().empty());
+
+  (*driver)->clear_fault();
+  const auto next = daemon.wait_finished(daemon.submit({{"sample_id", "F-2"}}));
+  EXPECT_EQ(next["status"], "done") << next.dump() << daemon.log();
+  EXPECT_EQ(daemon.get("/v1/status")["state"], "idle");
+  EXPECT_FALSE((*driver)->log().overlap());
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+TEST(Psrigd, AMissingCameraFailsEachScanUntilAReloadFixesIt) {
+  TempDir temp;
+  const int port = free_port();
+  const auto config = daemon_config(temp, port);
+  const std::string good = read_file(config);
+  std::string broken = good;
+  broken.replace(broken.find("backend = \"sim\"\nexposure_us"), 28,
+                 "backend = \"v4l2\"\ndevice = \"/dev/video77\"\nexposure_us");
+  std::ofstream(config) << broken;
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto devices = daemon.get("/v1/status")["devices"];
+  EXPECT_FALSE(devices["open"].get<bool>());
+  EXPECT_TRUE(contains(devices["error"].get<std::string>(), "/dev/video77")) << devices.dump();
+  for (int attempt = 0; attempt < 2; ++attempt) {
+    const auto failed = daemon.wait_finished(daemon.submit({{"sample_id", "C"}}));
+    EXPECT_EQ(failed["status"], "failed") << failed.dump();
+    EXPECT_EQ(failed["error"]["code_name"], "camera") << failed.dump();
+    EXPECT_TRUE(contains(failed["error"]["message"].get<std::string>(), "camera.device"))
+        << failed.dump();
+  }
+  std::ofstream(config) << good;
+  ::kill(daemon.pid(), SIGHUP);
+  ASSERT_TRUE(daemon.wait_status([](const json& s) { return s["devices"]["open"] == true; }))
+      << daemon.log();
+  EXPECT_EQ(daemon.wait_finished(daemon.submit({{"sample_id", "C"}}))["status"], "done");
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
 TEST(Psrigd, PsrigStatusAndRemoteScan) {
   TempDir temp;
   const int port = free_port();
@@ -677,6 +738,29 @@ TEST(Psrigd, PsrigStatusAndRemoteScan) {
   EXPECT_TRUE(contains(gone.err, "cannot reach psrigd")) << gone.err;
   auto nowhere = run_program("psrig", {"scan", "--remote", daemon.url()});
   EXPECT_EQ(nowhere.exit_code, 1);
+}
+
+// Ctrl-C on `psrig scan --remote` cancels the scan on the daemon.
+TEST(Psrigd, InterruptingARemoteScanCancelsIt) {
+  TempDir temp;
+  const int port = free_port();
+  Daemon daemon(daemon_config(temp, port, {{"exposure_us = 20000", "exposure_us = 200000"}}), port,
+                temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const std::string psrig = program("psrig").string(), url = daemon.url();
+  std::vector<const char*> argv = {psrig.c_str(), "scan", "--remote", url.c_str(), "-q", nullptr};
+  pid_t pid = 0;
+  ASSERT_EQ(posix_spawn(&pid, psrig.c_str(), nullptr, nullptr,
+                        const_cast<char* const*>(argv.data()), environ),
+            0);
+  ASSERT_TRUE(daemon.wait_status([](const json& s) { return s["state"] == "scanning"; }));
+  ::kill(pid, SIGINT);
+  int status = 0;
+  ASSERT_EQ(::waitpid(pid, &status, 0), pid);
+  ASSERT_TRUE(WIFEXITED(status));
+  EXPECT_EQ(WEXITSTATUS(status), 130);
+  EXPECT_EQ(daemon.wait_finished(1)["status"], "aborted");
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
 }
 
 }  // namespace
