@@ -128,11 +128,12 @@ Status ScanService::lights_off() {
 }
 
 Result<ScanRemoval> ScanService::remove(std::int64_t id) {
-  bool was_queued = false;
+  bool was_queued = false, was_running = false;
   {
     std::lock_guard lock(mutex_);
     if (status_.current_scan == id) {
       request_abort_locked();
+      was_running = true;
     } else {
       const auto queued =
           std::find_if(queue_.begin(), queue_.end(), [&](const Job& job) { return job.id == id; });
@@ -143,7 +144,7 @@ Result<ScanRemoval> ScanService::remove(std::int64_t id) {
     }
   }
   auto log = processing::logger("daemon");
-  if (!was_queued && status().current_scan == id) {
+  if (was_running) {
     log->info("scan {}: abort requested", id);
     if (auto ok = switch_lights_off(); !ok) return std::unexpected(ok.error());
     return ScanRemoval::aborting;
