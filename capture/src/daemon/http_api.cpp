@@ -168,6 +168,15 @@ void HttpApi::Impl::routes() {
   const std::size_t max_body = options.max_body_bytes;
   server.set_pre_routing_handler(
       [token, max_body](const httplib::Request& req, httplib::Response& res) {
+        // Both refusals close the connection: a body left unread must not
+        // be taken for the next request.
+        if (!token.empty() &&
+            !constant_time_equal(req.get_header_value("Authorization"), "Bearer " + token)) {
+          res.set_header("WWW-Authenticate", "Bearer");
+          res.set_header("Connection", "close");
+          refuse(res, 401, "missing or wrong bearer token (Authorization: Bearer TOKEN)");
+          return httplib::Server::HandlerResponse::Handled;
+        }
         // Refused from the headers: httplib would first read (or wait for) a
         // body it is going to refuse, holding a thread for its read timeout.
         if (req.get_header_value<std::uint64_t>("Content-Length") > max_body) {
@@ -175,12 +184,7 @@ void HttpApi::Impl::routes() {
           refuse(res, 413, "request body larger than " + std::to_string(max_body) + " bytes");
           return httplib::Server::HandlerResponse::Handled;
         }
-        if (token.empty()) return httplib::Server::HandlerResponse::Unhandled;
-        if (constant_time_equal(req.get_header_value("Authorization"), "Bearer " + token))
-          return httplib::Server::HandlerResponse::Unhandled;
-        res.set_header("WWW-Authenticate", "Bearer");
-        refuse(res, 401, "missing or wrong bearer token (Authorization: Bearer TOKEN)");
-        return httplib::Server::HandlerResponse::Handled;
+        return httplib::Server::HandlerResponse::Unhandled;
       });
   // Whatever httplib refuses by itself (no route, body too large, bad
   // request line) still answers in JSON.
