@@ -375,6 +375,37 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   if (c.camera.backend == "sim" && c.geometry.pixel_size_mm == std::nullopt)
     c.geometry.pixel_size_mm = s.pixel_size_mm;
 
+  auto daemon = sub(top, "daemon");
+  if (!daemon) return std::unexpected(daemon.error());
+  auto& d = c.daemon;
+  PSRIG_TRY(daemon->get("listen_address", d.listen_address));
+  PSRIG_TRY(daemon->get("port", d.port, 1, 65535));
+  PSRIG_TRY(daemon->get("token", d.token));
+  PSRIG_TRY(daemon->get("queue_limit", d.queue_limit, 1, 10000));
+  PSRIG_TRY(daemon->get("modbus_address", d.modbus_address));
+  PSRIG_TRY(daemon->get("modbus_port", d.modbus_port, 0, 65535));
+  daemon->finish();
+  for (const auto& [key, value] :
+       {std::pair<const char*, const std::string&>{"listen_address", d.listen_address},
+        {"modbus_address", d.modbus_address}})
+    if (value.empty())
+      return std::unexpected(daemon->error_at(daemon->find(key), key,
+                                              "is empty; give an address such as \"127.0.0.1\""));
+  // Anyone who can reach the port could drive the rig: off this machine,
+  // only with a token worth guessing.
+  constexpr std::size_t kMinTokenLength = 16;
+  if (!d.token.empty() && d.token.size() < kMinTokenLength)
+    return std::unexpected(daemon->error_at(
+        daemon->find("token"), "token",
+        "is " + std::to_string(d.token.size()) + " characters; use " +
+            std::to_string(kMinTokenLength) + " or more (e.g. `openssl rand -hex 24`)"));
+  if (d.token.empty() && !is_loopback_address(d.listen_address))
+    return std::unexpected(daemon->error_at(
+        daemon->find("listen_address"), "listen_address",
+        "is \"" + d.listen_address +
+            "\", reachable from other machines, but daemon.token is not set; set a token "
+            "(e.g. `openssl rand -hex 24`) or listen on 127.0.0.1"));
+
   top.finish();
   return c;
 }

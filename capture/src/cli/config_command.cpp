@@ -15,21 +15,27 @@ Command add_config_command(CLI::App& parent) {
   check->add_option("file", *file, "The configuration file")->required();
   app->require_subcommand(1);
 
-  return {app, [file] {
-            int exit_code = 0;
-            auto config = load_config_or_report("config check", *file, exit_code);
-            if (!config) return exit_code;
-            std::printf("%s: ok\n", file->c_str());
-            std::printf("lights: %s, %d channels, slant %.1f deg\n", config->lights.backend.c_str(),
-                        config->lights.channels, config->geometry.slant_deg);
-            std::printf("camera: %s %s, exposure %d us, gain %.2f, %d frames averaged\n",
-                        config->camera.backend.c_str(),
-                        config->camera.backend == "sim" ? "" : config->camera.device.c_str(),
-                        config->camera.exposure_us, config->camera.gain,
-                        config->camera.frames_average);
-            std::printf("scans go to: %s\n", config->storage.root.string().c_str());
-            return 0;
-          }};
+  return {
+      app, [file] {
+        int exit_code = 0;
+        auto config = load_config_or_report("config check", *file, exit_code);
+        if (!config) return exit_code;
+        std::printf("%s: ok\n", file->c_str());
+        std::printf("lights: %s, %d channels, slant %.1f deg\n", config->lights.backend.c_str(),
+                    config->lights.channels, config->geometry.slant_deg);
+        std::printf("camera: %s %s, exposure %d us, gain %.2f, %d frames averaged\n",
+                    config->camera.backend.c_str(),
+                    config->camera.backend == "sim" ? "" : config->camera.device.c_str(),
+                    config->camera.exposure_us, config->camera.gain, config->camera.frames_average);
+        std::printf("scans go to: %s\n", config->storage.root.string().c_str());
+        const auto& d = config->daemon;
+        std::printf(
+            "psrigd: http://%s:%d (%s), %d scans may wait, Modbus %s\n", d.listen_address.c_str(),
+            d.port, d.token.empty() ? "no token" : "bearer token", d.queue_limit,
+            d.modbus_port == 0 ? "off"
+                               : (d.modbus_address + ":" + std::to_string(d.modbus_port)).c_str());
+        return 0;
+      }};
 }
 
 }  // namespace psrig::capture::cli

@@ -34,7 +34,8 @@ int main(int argc, char** argv) {
 
   const std::vector<Command> commands = {add_process_command(app), add_synth_command(app),
                                          add_scan_command(app),    add_lights_command(app),
-                                         add_config_command(app),  add_devices_command(app)};
+                                         add_config_command(app),  add_devices_command(app),
+                                         add_status_command(app)};
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -1,5 +1,6 @@
 // psrig scan --config FILE: one scan on the rig the file describes, written
-// to a scan directory and (unless --no-process) processed into maps.
+// to a scan directory and (unless --no-process) processed into maps; or,
+// with --remote URL, one scan queued on a running psrigd and followed.
 
 #include <chrono>
 #include <cstdio>
@@ -10,6 +11,7 @@
 #include "psrig/capture/scan_sequencer.h"
 #include "psrig/firmware_host/emergency_stop.h"
 #include "psrig/processing/parallel.h"
+#include "remote_scan.h"
 
 namespace psrig::capture::cli {
 namespace {
@@ -22,6 +24,9 @@ struct ScanArgs {
   bool no_process = false;
   bool quiet = false;
   int threads = 0;
+  std::string remote;
+  std::string token;
+  std::vector<std::string> tags;
 };
 
 }  // namespace
@@ -29,19 +34,38 @@ struct ScanArgs {
 Command add_scan_command(CLI::App& parent) {
   auto args = std::make_shared<ScanArgs>();
   CLI::App* app = parent.add_subcommand("scan", "Scan a swatch: one frame per LED, then the maps");
-  app->add_option("--config", args->config, "Rig configuration (e.g. config/sim.toml)")->required();
-  app->add_option("--out", args->out,
-                  "Scan directory to create (default: storage.root/<time>-<sample id>)");
+  auto* config_option =
+      app->add_option("--config", args->config, "Rig configuration (e.g. config/sim.toml)");
+  auto* out_option = app->add_option(
+      "--out", args->out, "Scan directory to create (default: storage.root/<time>-<sample id>)");
   app->add_option("--sample-id", args->sample_id, "The swatch's label, e.g. J-0042");
   app->add_option("--description", args->description, "Free text about the swatch");
-  app->add_flag("--no-process", args->no_process,
-                "Capture only; process later with `psrig process`");
-  app->add_option("--threads", args->threads, "Worker threads for processing (0: one per core)")
-      ->check(CLI::NonNegativeNumber);
+  auto* no_process = app->add_flag("--no-process", args->no_process,
+                                   "Capture only; process later with `psrig process`");
+  auto* threads =
+      app->add_option("--threads", args->threads, "Worker threads for processing (0: one per core)")
+          ->check(CLI::NonNegativeNumber);
   app->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
+  auto* remote = app->add_option("--remote", args->remote,
+                                 "Scan on the psrigd at this URL (e.g. http://127.0.0.1:8470) "
+                                 "instead of driving the rig from here");
+  remote->excludes(config_option)->excludes(out_option)->excludes(no_process)->excludes(threads);
+  app->add_option("--tag", args->tags, "A tag for the catalogue (with --remote; repeatable)")
+      ->needs(remote);
+  app->add_option("--token", args->token, "psrigd's bearer token (default: $PSRIG_TOKEN)")
+      ->needs(remote);
 
   return {app, [args] {
             stop_gracefully_on_signals();
+            if (!args->remote.empty())
+              return run_remote_scan({args->remote, args->token, args->sample_id, args->description,
+                                      args->tags, args->quiet});
+            if (args->config.empty()) {
+              std::fprintf(stderr,
+                           "psrig scan: error: give --config FILE (scan with the rig here) or "
+                           "--remote URL (scan on a running psrigd)\n");
+              return 2;
+            }
             processing::set_thread_count(args->threads);
             int exit_code = 0;
             auto config = load_config_or_report("scan", args->config, exit_code);

@@ -115,6 +115,23 @@ struct SimConfig {
   int frame_interval_us = 0;  // 0: exposure + readout
 };
 
+// psrigd, the rig's daemon: where its HTTP API listens, who may use it, how
+// many scans may wait, and its Modbus TCP server for a PLC. The systemd
+// watchdog interval comes from the unit (WatchdogSec=), not from here.
+struct DaemonConfig {
+  std::string listen_address = "127.0.0.1";  // the HTTP API's address
+  int port = 8470;
+  // Bearer token the HTTP API requires when set; required (16 characters
+  // or more) when listen_address is not a loopback address.
+  std::string token;
+  int queue_limit = 16;                      // scans waiting, not counting the running one
+  std::string modbus_address = "127.0.0.1";  // the PLC's Modbus TCP server
+  int modbus_port = 0;                       // 0: no Modbus server
+};
+
+// A loopback address (127.0.0.0/8, ::1, "localhost"): only this machine can connect.
+[[nodiscard]] bool is_loopback_address(const std::string& address);
+
 struct RigConfig {
   std::filesystem::path source;  // the file it came from, for messages
   Geometry geometry;
@@ -123,6 +140,7 @@ struct RigConfig {
   CaptureConfig capture;
   StorageConfig storage;
   SimConfig sim;
+  DaemonConfig daemon;
 };
 
 }  // namespace psrig::config

@@ -1,0 +1,131 @@
+#pragma once
+// The daemon's record of every scan: one SQLite database (WAL) in the
+// storage root, `catalogue.sqlite`, one row per scan. A row's id is the scan
+// id everywhere (HTTP API, Modbus). The files come first: a row says `done`
+// only after its scan and maps directories are whole on disk, so a crash
+// leaves at worst files without a `done` row, which recover() removes.
+// Thread-safe (one connection behind a mutex).
+
+#include <cstdint>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <nlohmann/json.hpp>
+
+#include "psrig/capture/scan_control.h"
+
+struct sqlite3;
+
+namespace psrig::capture {
+
+enum class ScanStatus { queued, running, done, failed, aborted };
+
+[[nodiscard]] const char* to_string(ScanStatus status);
+[[nodiscard]] std::optional<ScanStatus> parse_scan_status(const std::string& text);
+
+struct CatalogueEntry {
+  std::int64_t id = 0;
+  std::string sample_id;
+  std::string description;
+  std::vector<std::string> tags;
+  std::string source;  // "http", "modbus", ...
+  ScanStatus status = ScanStatus::queued;
+  // UTC, ISO-8601 ("2026-05-04T09:12:33Z"); empty until it happens.
+  std::string created;
+  std::string started;
+  std::string finished;
+  ScanErrorCode error_code = ScanErrorCode::none;
+  std::string error_message;
+  // Absolute; empty until known. The maps directory is set once `done`.
+  std::filesystem::path scan_directory;
+  std::filesystem::path maps_directory;
+  nlohmann::json report;  // the maps' report.json; null until `done`
+};
+
+// A search: every field given must match; newest first.
+struct CatalogueQuery {
+  std::optional<std::string> sample_id;  // exact
+  std::optional<std::string> tag;        // exact, one of the scan's tags
+  std::optional<std::string> from;       // created at or after (ISO-8601 date or date-time, UTC)
+  std::optional<std::string> to;         // created at or before; a date alone means its whole day
+  std::optional<ScanStatus> status;
+  int limit = 50;
+  int offset = 0;
+};
+
+// What start-up found of an interrupted run.
+struct CatalogueRecovery {
+  std::vector<std::int64_t> interrupted;                 // rows now `failed`
+  std::vector<std::filesystem::path> removed_leftovers;  // directories deleted
+};
+
+class Catalogue {
+ public:
+  inline static constexpr const char* kFileName = "catalogue.sqlite";
+  inline static constexpr int kSchemaVersion = 1;
+
+  // Opens (creating the storage root and the database if need be) and
+  // brings the schema up to date. A database newer than this program is
+  // refused rather than misread.
+  [[nodiscard]] static Result<std::unique_ptr<Catalogue>> open(
+      const std::filesystem::path& storage_root);
+  ~Catalogue();
+  Catalogue(const Catalogue&) = delete;
+  Catalogue& operator=(const Catalogue&) = delete;
+
+  [[nodiscard]] const std::filesystem::path& storage_root() const { return root_; }
+
+  // A new row, `queued`; its id.
+  [[nodiscard]] Result<std::int64_t> add(const ScanSubmission& submission);
+  // `running`, with the scan directory it is about to write (inside the
+  // storage root), so that recover() knows what to clean after a crash.
+  [[nodiscard]] Status mark_running(std::int64_t id, const std::filesystem::path& scan_directory);
+  // `done`, with its maps directory (empty when not processed) and report.
+  [[nodiscard]] Status mark_done(std::int64_t id, const std::filesystem::path& maps_directory,
+                                 const nlohmann::json& report);
+  // `failed` or `aborted`, with why. `keep_scan_directory` false forgets the
+  // scan directory (its files were removed).
+  [[nodiscard]] Status mark_failed(std::int64_t id, ScanStatus status, ScanErrorCode code,
+                                   const std::string& message, bool keep_scan_directory);
+
+  [[nodiscard]] Result<std::optional<CatalogueEntry>> get(std::int64_t id) const;
+  [[nodiscard]] Result<std::vector<CatalogueEntry>> search(const CatalogueQuery& query) const;
+
+  // Removes the scan's files (only inside the storage root), then its row.
+  // False when there is no such row.
+  [[nodiscard]] Result<bool> remove(std::int64_t id);
+
+  // Start-up: rows left `queued` or `running` by a run that ended without
+  // finishing them become `failed` ("interrupted"); their scan directories
+  // and the scan writer's staging directories of dead processes in the
+  // storage root are removed. Never a `done` scan's files, never anything
+  // outside the storage root, never a directory no row names (a scan
+  // `psrig scan` put there by hand stays).
+  [[nodiscard]] Result<CatalogueRecovery> recover();
+
+ private:
+  Catalogue(std::filesystem::path root, sqlite3* db);
+  [[nodiscard]] Status execute(const std::string& sql) const;
+  [[nodiscard]] Status migrate();
+  // `path` made absolute under the storage root, if it lies inside it.
+  [[nodiscard]] std::optional<std::filesystem::path> inside_root(
+      const std::filesystem::path& path) const;
+
+  std::filesystem::path root_;
+  sqlite3* db_;
+  mutable std::mutex mutex_;
+};
+
+// The UTC time now as the catalogue writes it: "2026-05-04T09:12:33Z".
+[[nodiscard]] std::string utc_timestamp_now();
+// A date ("2026-05-04") or date-time ("2026-05-04T09:12:33Z", "…+00:00" and
+// fractions accepted) as the catalogue compares them; nothing if malformed.
+// `end_of_day` makes a bare date mean its last second.
+[[nodiscard]] std::optional<std::string> normalise_timestamp(const std::string& text,
+                                                             bool end_of_day);
+
+}  // namespace psrig::capture

@@ -1,0 +1,122 @@
+#pragma once
+// The daemon's scanning service: owns the rig and one worker thread that
+// runs the queued scans one at a time, records each in the catalogue
+// (queued -> running -> done | failed | aborted) and tells the event
+// listeners how it goes. A device that fails fails its scan, never the
+// daemon: the rig is closed and opened again for the next scan. Thread-safe.
+
+#include <chrono>
+#include <condition_variable>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <optional>
+#include <string>
+#include <thread>
+
+#include "psrig/capture/catalogue.h"
+#include "psrig/capture/rig.h"
+#include "psrig/capture/scan_control.h"
+#include "psrig/capture/scan_events.h"
+#include "psrig/config/rig_config.h"
+
+namespace psrig::capture {
+
+struct DeviceFaults;
+
+// What the status page says of the devices.
+struct DeviceStatus {
+  bool open = false;
+  std::string lights;  // the backend's description, when open
+  std::string camera;
+  std::string open_error;  // why the last attempt to open them failed
+};
+
+// What DELETE /v1/scans/{id} did.
+enum class ScanRemoval {
+  not_found,
+  cancelled,  // it was queued: it will not run (its row says aborted)
+  aborting,   // it is running: it stops, LEDs off, and its row will say aborted
+  deleted,    // it had finished: files and row are gone
+};
+
+class ScanService final : public ScanControl {
+ public:
+  // Opens the catalogue in config.storage.root (cleaning what an
+  // interrupted run left), tries the rig (a rig that cannot open now is
+  // tried again at the next scan) and starts the worker.
+  [[nodiscard]] static Result<std::unique_ptr<ScanService>> start(config::RigConfig config);
+  ~ScanService() override;
+  ScanService(const ScanService&) = delete;
+  ScanService& operator=(const ScanService&) = delete;
+
+  [[nodiscard]] DaemonStatus status() const override;
+  [[nodiscard]] Result<std::int64_t> submit(ScanSubmission submission) override;
+  [[nodiscard]] Status lights_off() override;
+
+  // Cancels a queued scan, aborts the running one, or deletes a finished one.
+  [[nodiscard]] Result<ScanRemoval> remove(std::int64_t id);
+
+  // A new configuration (SIGHUP), applied between scans: the rig is opened
+  // again with it. storage.root and the daemon's addresses keep their
+  // start-up values until a restart (the catalogue and the sockets stay
+  // open); queue_limit applies at once.
+  void reload(config::RigConfig config);
+
+  // Aborts the running scan (LEDs off), marks the queued ones aborted and
+  // joins the worker. Idempotent; the destructor calls it.
+  void stop();
+
+  [[nodiscard]] Catalogue& catalogue() { return *catalogue_; }
+  [[nodiscard]] const ScanEvents& events() const { return events_; }
+  [[nodiscard]] DeviceStatus devices() const;
+  // The configuration the next scan uses.
+  [[nodiscard]] config::RigConfig config() const;
+
+ private:
+  struct Job {
+    std::int64_t id = 0;
+    ScanSubmission submission;
+  };
+  // How far a scan got, for blaming the right part when it fails.
+  enum class Stage { opening, acquiring, writing, processing, recording };
+
+  ScanService(config::RigConfig config, std::unique_ptr<Catalogue> catalogue);
+  void work();
+  void run(const Job& job);
+  void apply_pending_config();
+  [[nodiscard]] Status open_rig_if_closed(ScanErrorCode& code);
+  void close_rig();
+  void finish(const Job& job, ScanStatus status, ScanErrorCode code, const std::string& message,
+              const std::filesystem::path& scan_directory, bool keep_files);
+  void set_step(std::string step, int percent, DaemonState state);
+  [[nodiscard]] ScanErrorCode classify(const processing::Error& error, Stage stage) const;
+  [[nodiscard]] Status switch_lights_off();
+  void request_abort_locked();
+
+  std::unique_ptr<Catalogue> catalogue_;
+  ScanEvents events_;
+  const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
+
+  mutable std::mutex mutex_;  // everything below, but rig_ (see rig_mutex_)
+  std::condition_variable wake_;
+  config::RigConfig config_;
+  std::optional<config::RigConfig> pending_config_;
+  std::deque<Job> queue_;
+  bool stopping_ = false;
+  bool abort_current_ = false;
+  ScanSequencer* sequencer_ = nullptr;  // of the running scan
+  DaemonStatus status_;
+  DeviceStatus devices_;
+
+  // Only the worker replaces the rig; others (lights_off) use its lights
+  // under this lock while it is open.
+  mutable std::mutex rig_mutex_;
+  std::unique_ptr<Rig> rig_;
+  std::shared_ptr<DeviceFaults> faults_;
+
+  std::thread worker_;
+};
+
+}  // namespace psrig::capture

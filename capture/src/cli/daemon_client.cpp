@@ -1,0 +1,62 @@
+#include "daemon_client.h"
+
+#include <cstdlib>
+#include <httplib.h>
+
+namespace psrig::capture::cli {
+
+DaemonClient::DaemonClient(std::string url, std::string token) : url_(std::move(url)) {
+  if (token.empty())
+    if (const char* from_environment = std::getenv("PSRIG_TOKEN")) token = from_environment;
+  client_ = std::make_unique<httplib::Client>(url_);
+  client_->set_connection_timeout(std::chrono::seconds(3));
+  client_->set_read_timeout(std::chrono::seconds(10));
+  client_->set_write_timeout(std::chrono::seconds(10));
+  if (!token.empty()) client_->set_bearer_token_auth(token.c_str());
+}
+
+DaemonClient::~DaemonClient() = default;
+
+template <class Call>
+processing::Result<DaemonReply> DaemonClient::request(const std::string& what, Call call) {
+  if (!client_->is_valid())
+    return std::unexpected(processing::bad_input(
+        "", "--url", url_ + ": not a daemon URL (expected e.g. " + kDefaultDaemonUrl + ")"));
+  const httplib::Result result = call();
+  if (!result)
+    return std::unexpected(processing::io_error(
+        url_, "cannot reach psrigd (" + httplib::to_string(result.error()) + " on " + what +
+                  "); is it running, and is this its address?"));
+  if (result->status == 401)
+    return std::unexpected(processing::bad_input(
+        url_, "", "psrigd wants a bearer token: give --token or set PSRIG_TOKEN"));
+  DaemonReply reply;
+  reply.status = result->status;
+  reply.body = nlohmann::json::parse(result->body, nullptr, false);
+  if (reply.body.is_discarded())
+    return std::unexpected(processing::io_error(
+        url_, what + ": answered HTTP " + std::to_string(result->status) + " but not in JSON"));
+  return reply;
+}
+
+processing::Result<DaemonReply> DaemonClient::get(const std::string& path) {
+  return request("GET " + path, [&] { return client_->Get(path); });
+}
+
+processing::Result<DaemonReply> DaemonClient::post(const std::string& path,
+                                                   const nlohmann::json& body) {
+  return request("POST " + path,
+                 [&] { return client_->Post(path, body.dump(), "application/json"); });
+}
+
+processing::Result<DaemonReply> DaemonClient::remove(const std::string& path) {
+  return request("DELETE " + path, [&] { return client_->Delete(path); });
+}
+
+std::string reply_error(const DaemonReply& reply) {
+  if (reply.body.is_object() && reply.body.contains("error") && reply.body["error"].is_string())
+    return reply.body["error"].get<std::string>();
+  return "HTTP " + std::to_string(reply.status);
+}
+
+}  // namespace psrig::capture::cli

@@ -1,0 +1,95 @@
+#include "remote_scan.h"
+
+#include <chrono>
+#include <cstdio>
+#include <thread>
+
+#include "command.h"
+#include "daemon_client.h"
+#include "psrig/firmware_host/emergency_stop.h"
+
+namespace psrig::capture::cli {
+namespace {
+
+// Often enough to show each light's step, rarely enough not to matter.
+constexpr auto kPollInterval = std::chrono::milliseconds(200);
+
+std::string text(const nlohmann::json& value) {
+  return value.is_string() ? value.get<std::string>() : value.dump();
+}
+
+}  // namespace
+
+int run_remote_scan(const RemoteScan& scan) {
+  DaemonClient client(scan.url, scan.token);
+  auto queued = client.post(
+      "/v1/scans",
+      {{"sample_id", scan.sample_id}, {"description", scan.description}, {"tags", scan.tags}});
+  if (!queued) return report_error("scan", queued.error());
+  if (queued->status != 202) {
+    // 4xx: the request (sample id, tags, token); anything else: the daemon.
+    const std::string message = "psrigd refused the scan: " + reply_error(*queued);
+    const bool ours = queued->status >= 400 && queued->status < 500;
+    const auto error = ours ? processing::bad_input(scan.url, "", message)
+                            : processing::io_error(scan.url, message);
+    return report_error("scan", error);
+  }
+  const auto id = queued->body["id"].get<std::int64_t>();
+  const std::string path = "/v1/scans/" + std::to_string(id);
+  if (!scan.quiet)
+    std::fprintf(stderr, "psrig scan: scan %lld queued on %s\n", static_cast<long long>(id),
+                 scan.url.c_str());
+
+  std::string last_step;
+  for (;;) {
+    if (firmware_host::stop_requested()) {
+      auto cancelled = client.remove(path);
+      std::fprintf(
+          stderr, "psrig scan: interrupted; scan %lld %s\n", static_cast<long long>(id),
+          cancelled && cancelled->status < 300 ? "cancelled on psrigd" : "may still run on psrigd");
+      return 130;
+    }
+    auto entry = client.get(path);
+    if (!entry) return report_error("scan", entry.error());
+    if (entry->status != 200)
+      return report_error("scan", processing::io_error(scan.url, "scan " + std::to_string(id) +
+                                                                     ": " + reply_error(*entry)));
+    const std::string status = text(entry->body["status"]);
+    if (status == "done") {
+      const auto& e = entry->body;
+      std::printf("scan %lld: done\n", static_cast<long long>(id));
+      std::printf("scan: %s\n", text(e["scan_directory"]).c_str());
+      if (!e["maps_directory"].is_null())
+        std::printf("maps: %s\n", text(e["maps_directory"]).c_str());
+      const auto& report = e["report"];
+      if (report.is_object()) {
+        if (report.contains("residual"))
+          std::printf("residual: mean %.5f of full scale\n",
+                      report["residual"]["mean"].get<double>());
+        if (report.contains("ground_truth") && report["ground_truth"].contains("angular_error_deg"))
+          std::printf("ground truth: mean angular error %.3f deg\n",
+                      report["ground_truth"]["angular_error_deg"]["mean"].get<double>());
+      }
+      return 0;
+    }
+    if (status == "failed" || status == "aborted") {
+      const auto& error = entry->body["error"];
+      std::fprintf(stderr, "psrig scan: error: scan %lld %s (%s): %s\n", static_cast<long long>(id),
+                   status.c_str(), error.is_object() ? text(error["code_name"]).c_str() : "?",
+                   error.is_object() ? text(error["message"]).c_str() : "");
+      return 1;
+    }
+    if (!scan.quiet && status == "running") {
+      auto daemon = client.get("/v1/status");
+      if (daemon && daemon->status == 200 && daemon->body["current_scan"] == id) {
+        const std::string step = text(daemon->body["step"]);
+        if (!step.empty() && step != last_step)
+          std::fprintf(stderr, "psrig scan: %s\n", step.c_str());
+        last_step = step;
+      }
+    }
+    std::this_thread::sleep_for(kPollInterval);
+  }
+}
+
+}  // namespace psrig::capture::cli

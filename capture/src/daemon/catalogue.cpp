@@ -1,0 +1,467 @@
+#include "psrig/capture/catalogue.h"
+
+#include <cerrno>
+#include <cstdlib>
+#include <ctime>
+#include <regex>
+#include <signal.h>
+#include <sqlite3.h>
+#include <unistd.h>
+
+#include "psrig/processing/log.h"
+#include "sqlite_statement.h"
+
+namespace psrig::capture {
+namespace {
+
+namespace fs = std::filesystem;
+using sqlite::Statement;
+
+// Each step takes the schema from version N to N + 1; user_version says
+// how many have run. Append, never edit: databases in the field have run
+// the old ones.
+const char* const kMigrations[] = {
+    R"sql(
+CREATE TABLE scans (
+  id INTEGER PRIMARY KEY AUTOINCREMENT,  -- never reused: a PLC may still hold an old id
+  sample_id TEXT NOT NULL DEFAULT '',
+  description TEXT NOT NULL DEFAULT '',
+  source TEXT NOT NULL DEFAULT '',
+  status TEXT NOT NULL CHECK (status IN ('queued', 'running', 'done', 'failed', 'aborted')),
+  created TEXT NOT NULL,
+  started TEXT,
+  finished TEXT,
+  error_code INTEGER NOT NULL DEFAULT 0,
+  error_message TEXT NOT NULL DEFAULT '',
+  scan_path TEXT,  -- relative to the storage root
+  maps_path TEXT,
+  angular_error_deg REAL,  -- report metrics worth searching and sorting on
+  residual_mean REAL,
+  height_range REAL,
+  total_ms REAL,
+  report TEXT  -- the maps' report.json
+);
+CREATE INDEX scans_sample_id ON scans (sample_id);
+CREATE INDEX scans_created ON scans (created);
+CREATE INDEX scans_status ON scans (status);
+CREATE TABLE scan_tags (
+  scan_id INTEGER NOT NULL REFERENCES scans (id) ON DELETE CASCADE,
+  tag TEXT NOT NULL,
+  PRIMARY KEY (scan_id, tag)
+);
+CREATE INDEX scan_tags_tag ON scan_tags (tag);
+)sql",
+};
+static_assert(std::size(kMigrations) == Catalogue::kSchemaVersion);
+
+constexpr const char* kSelectEntry = R"sql(
+SELECT s.id, s.sample_id, s.description, s.source, s.status, s.created,
+       coalesce(s.started, ''), coalesce(s.finished, ''), s.error_code, s.error_message,
+       coalesce(s.scan_path, ''), coalesce(s.maps_path, ''), coalesce(s.report, 'null'),
+       (SELECT json_group_array(tag) FROM (SELECT tag FROM scan_tags t WHERE t.scan_id = s.id
+                                           ORDER BY t.rowid))
+FROM scans s)sql";
+
+std::optional<double> number_at(const nlohmann::json& report,
+                                const nlohmann::json::json_pointer& at) {
+  if (!report.contains(at)) return std::nullopt;
+  const auto& value = report.at(at);
+  if (!value.is_number()) return std::nullopt;
+  return value.get<double>();
+}
+
+// Staging directories are ".NAME.partial-PID-RANDOM" (atomic_directory.cpp):
+// the PID of the process that was writing, when the name is one.
+std::optional<pid_t> staging_owner(const std::string& name) {
+  const auto at = name.find(".partial-");
+  if (!name.starts_with('.') || at == std::string::npos) return std::nullopt;
+  char* end = nullptr;
+  const long pid = std::strtol(name.c_str() + at + 9, &end, 10);
+  if (pid <= 0 || end == nullptr || *end != '-') return std::nullopt;
+  return static_cast<pid_t>(pid);
+}
+
+bool process_alive(pid_t pid) {
+  return ::kill(pid, 0) == 0 || errno != ESRCH;
+}
+
+}  // namespace
+
+const char* to_string(ScanStatus status) {
+  switch (status) {
+    case ScanStatus::queued:
+      return "queued";
+    case ScanStatus::running:
+      return "running";
+    case ScanStatus::done:
+      return "done";
+    case ScanStatus::failed:
+      return "failed";
+    case ScanStatus::aborted:
+      return "aborted";
+  }
+  return "unknown";
+}
+
+std::optional<ScanStatus> parse_scan_status(const std::string& text) {
+  for (auto status : {ScanStatus::queued, ScanStatus::running, ScanStatus::done, ScanStatus::failed,
+                      ScanStatus::aborted})
+    if (text == to_string(status)) return status;
+  return std::nullopt;
+}
+
+std::string utc_timestamp_now() {
+  const std::time_t now = std::time(nullptr);
+  std::tm utc{};
+  gmtime_r(&now, &utc);
+  char text[32];
+  std::strftime(text, sizeof text, "%Y-%m-%dT%H:%M:%SZ", &utc);
+  return text;
+}
+
+std::optional<std::string> normalise_timestamp(const std::string& text, bool end_of_day) {
+  static const std::regex date(R"((\d{4})-(\d{2})-(\d{2}))");
+  static const std::regex date_time(
+      R"((\d{4}-\d{2}-\d{2})[T ](\d{2}:\d{2}:\d{2})(\.\d+)?(Z|\+00:00|\+0000)?)");
+  std::smatch match;
+  if (std::regex_match(text, match, date)) {
+    const int month = std::stoi(match[2]), day = std::stoi(match[3]);
+    if (month < 1 || month > 12 || day < 1 || day > 31) return std::nullopt;
+    return text + (end_of_day ? "T23:59:59Z" : "T00:00:00Z");
+  }
+  if (std::regex_match(text, match, date_time)) {
+    if (!normalise_timestamp(match[1], false)) return std::nullopt;
+    return match[1].str() + "T" + match[2].str() + "Z";
+  }
+  return std::nullopt;
+}
+
+Catalogue::Catalogue(fs::path root, sqlite3* db) : root_(std::move(root)), db_(db) {}
+
+Catalogue::~Catalogue() {
+  sqlite3_close_v2(db_);
+}
+
+Result<std::unique_ptr<Catalogue>> Catalogue::open(const fs::path& storage_root) {
+  std::error_code ec;
+  fs::create_directories(storage_root, ec);
+  if (ec)
+    return std::unexpected(
+        processing::io_error(storage_root, "cannot create the storage root: " + ec.message()));
+  const fs::path root = fs::weakly_canonical(storage_root, ec);
+  if (ec)
+    return std::unexpected(processing::io_error(storage_root, "cannot resolve: " + ec.message()));
+  const fs::path file = root / kFileName;
+  sqlite3* db = nullptr;
+  const int rc = sqlite3_open_v2(
+      file.c_str(), &db, SQLITE_OPEN_READWRITE | SQLITE_OPEN_CREATE | SQLITE_OPEN_NOMUTEX, nullptr);
+  if (rc != SQLITE_OK) {
+    const std::string message = db ? sqlite3_errmsg(db) : sqlite3_errstr(rc);
+    sqlite3_close_v2(db);
+    return std::unexpected(processing::io_error(file, "cannot open the catalogue: " + message));
+  }
+  std::unique_ptr<Catalogue> catalogue(new Catalogue(root, db));
+  // WAL: readers (sqlite3 on the command line, a backup) never block the
+  // daemon's writes; busy_timeout: a brief lock held by one waits, not fails.
+  sqlite3_busy_timeout(db, 5000);
+  for (const char* pragma :
+       {"PRAGMA journal_mode = WAL", "PRAGMA synchronous = FULL", "PRAGMA foreign_keys = ON"})
+    if (auto ok = catalogue->execute(pragma); !ok) return std::unexpected(ok.error());
+  if (auto ok = catalogue->migrate(); !ok) return std::unexpected(ok.error());
+  return catalogue;
+}
+
+Status Catalogue::execute(const std::string& sql) const {
+  char* message = nullptr;
+  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &message) != SQLITE_OK) {
+    const std::string text = message ? message : "unknown error";
+    sqlite3_free(message);
+    return std::unexpected(processing::io_error(root_ / kFileName, text));
+  }
+  return {};
+}
+
+Status Catalogue::migrate() {
+  auto version = Statement::prepare(db_, "PRAGMA user_version");
+  if (!version) return std::unexpected(version.error());
+  if (auto row = version->step(); !row) return std::unexpected(row.error());
+  const auto current = static_cast<int>(version->integer(0));
+  if (current > kSchemaVersion)
+    return std::unexpected(processing::io_error(
+        root_ / kFileName, "schema version " + std::to_string(current) +
+                               " is newer than this psrigd understands (" +
+                               std::to_string(kSchemaVersion) + "); run a newer psrigd"));
+  for (int step = current; step < kSchemaVersion; ++step) {
+    const std::string sql = std::string("BEGIN IMMEDIATE;") + kMigrations[step] +
+                            "PRAGMA user_version = " + std::to_string(step + 1) + "; COMMIT;";
+    if (auto ok = execute(sql); !ok) {
+      (void)execute("ROLLBACK");
+      return ok;
+    }
+  }
+  return {};
+}
+
+std::optional<fs::path> Catalogue::inside_root(const fs::path& path) const {
+  if (path.empty()) return std::nullopt;
+  const fs::path absolute = (path.is_absolute() ? path : root_ / path).lexically_normal();
+  const fs::path relative = absolute.lexically_relative(root_);
+  if (relative.empty() || relative == "." || *relative.begin() == "..") return std::nullopt;
+  return absolute;
+}
+
+Result<std::int64_t> Catalogue::add(const ScanSubmission& submission) {
+  std::lock_guard lock(mutex_);
+  if (auto ok = execute("BEGIN IMMEDIATE"); !ok) return std::unexpected(ok.error());
+  const auto fail = [&](const processing::Error& e) -> Result<std::int64_t> {
+    (void)execute("ROLLBACK");
+    return std::unexpected(e);
+  };
+  auto insert = Statement::prepare(
+      db_,
+      "INSERT INTO scans (sample_id, description, source, status, created) VALUES (?, ?, ?, "
+      "'queued', ?)");
+  if (!insert) return fail(insert.error());
+  insert->bind(1, submission.sample_id);
+  insert->bind(2, submission.description);
+  insert->bind(3, submission.source);
+  insert->bind(4, utc_timestamp_now());
+  if (auto ok = insert->run(); !ok) return fail(ok.error());
+  const std::int64_t id = sqlite3_last_insert_rowid(db_);
+  for (const auto& tag : submission.tags) {
+    auto tag_insert =
+        Statement::prepare(db_, "INSERT OR IGNORE INTO scan_tags (scan_id, tag) VALUES (?, ?)");
+    if (!tag_insert) return fail(tag_insert.error());
+    tag_insert->bind(1, id);
+    tag_insert->bind(2, tag);
+    if (auto ok = tag_insert->run(); !ok) return fail(ok.error());
+  }
+  if (auto ok = execute("COMMIT"); !ok) return fail(ok.error());
+  return id;
+}
+
+Status Catalogue::mark_running(std::int64_t id, const fs::path& scan_directory) {
+  const auto inside = inside_root(scan_directory);
+  if (!inside)
+    return std::unexpected(processing::internal_error("scan directory " + scan_directory.string() +
+                                                      " is outside the storage root " +
+                                                      root_.string()));
+  std::lock_guard lock(mutex_);
+  auto update = Statement::prepare(
+      db_, "UPDATE scans SET status = 'running', started = ?, scan_path = ? WHERE id = ?");
+  if (!update) return std::unexpected(update.error());
+  update->bind(1, utc_timestamp_now());
+  update->bind(2, inside->lexically_relative(root_).generic_string());
+  update->bind(3, id);
+  return update->run();
+}
+
+Status Catalogue::mark_done(std::int64_t id, const fs::path& maps_directory,
+                            const nlohmann::json& report) {
+  std::optional<std::string> maps_path;
+  if (!maps_directory.empty()) {
+    const auto inside = inside_root(maps_directory);
+    if (!inside)
+      return std::unexpected(processing::internal_error(
+          "maps directory " + maps_directory.string() + " is outside the storage root"));
+    maps_path = inside->lexically_relative(root_).generic_string();
+  }
+  std::lock_guard lock(mutex_);
+  auto update = Statement::prepare(db_, R"sql(
+UPDATE scans SET status = 'done', finished = ?, maps_path = ?, report = ?,
+  angular_error_deg = ?, residual_mean = ?, height_range = ?, total_ms = ?,
+  error_code = 0, error_message = ''
+WHERE id = ?)sql");
+  if (!update) return std::unexpected(update.error());
+  using Pointer = nlohmann::json::json_pointer;
+  update->bind(1, utc_timestamp_now());
+  if (maps_path)
+    update->bind(2, *maps_path);
+  else
+    update->bind_null(2);
+  if (report.is_null())
+    update->bind_null(3);
+  else
+    update->bind(3, report.dump());
+  update->bind(4, number_at(report, Pointer("/ground_truth/angular_error_deg/mean")));
+  update->bind(5, number_at(report, Pointer("/residual/mean")));
+  update->bind(6, number_at(report, Pointer("/height/range")));
+  update->bind(7, number_at(report, Pointer("/timings_ms/total")));
+  update->bind(8, id);
+  return update->run();
+}
+
+Status Catalogue::mark_failed(std::int64_t id, ScanStatus status, ScanErrorCode code,
+                              const std::string& message, bool keep_scan_directory) {
+  std::lock_guard lock(mutex_);
+  auto update = Statement::prepare(
+      db_, std::string("UPDATE scans SET status = ?, finished = ?, error_code = ?, "
+                       "error_message = ?") +
+               (keep_scan_directory ? "" : ", scan_path = NULL, maps_path = NULL") +
+               " WHERE id = ?");
+  if (!update) return std::unexpected(update.error());
+  update->bind(1, std::string(to_string(status)));
+  update->bind(2, utc_timestamp_now());
+  update->bind(3, static_cast<std::int64_t>(code));
+  update->bind(4, message);
+  update->bind(5, id);
+  return update->run();
+}
+
+namespace {
+
+CatalogueEntry read_entry(const Statement& row, const fs::path& root) {
+  CatalogueEntry e;
+  e.id = row.integer(0);
+  e.sample_id = row.text(1);
+  e.description = row.text(2);
+  e.source = row.text(3);
+  e.status = parse_scan_status(row.text(4)).value_or(ScanStatus::failed);
+  e.created = row.text(5);
+  e.started = row.text(6);
+  e.finished = row.text(7);
+  e.error_code = static_cast<ScanErrorCode>(row.integer(8));
+  e.error_message = row.text(9);
+  if (const auto scan = row.text(10); !scan.empty()) e.scan_directory = root / scan;
+  if (const auto maps = row.text(11); !maps.empty()) e.maps_directory = root / maps;
+  e.report = nlohmann::json::parse(row.text(12), nullptr, false);
+  if (e.report.is_discarded()) e.report = nullptr;
+  const auto tags = nlohmann::json::parse(row.text(13), nullptr, false);
+  if (tags.is_array())
+    for (const auto& tag : tags)
+      if (tag.is_string()) e.tags.push_back(tag.get<std::string>());
+  return e;
+}
+
+}  // namespace
+
+Result<std::optional<CatalogueEntry>> Catalogue::get(std::int64_t id) const {
+  std::lock_guard lock(mutex_);
+  auto select = Statement::prepare(db_, std::string(kSelectEntry) + " WHERE s.id = ?");
+  if (!select) return std::unexpected(select.error());
+  select->bind(1, id);
+  auto row = select->step();
+  if (!row) return std::unexpected(row.error());
+  if (!*row) return std::optional<CatalogueEntry>();
+  return std::optional<CatalogueEntry>(read_entry(*select, root_));
+}
+
+Result<std::vector<CatalogueEntry>> Catalogue::search(const CatalogueQuery& query) const {
+  std::string where;
+  std::vector<std::string> texts;
+  const auto condition = [&](const std::string& sql, const std::string& value) {
+    where += (where.empty() ? " WHERE " : " AND ") + sql;
+    texts.push_back(value);
+  };
+  if (query.sample_id) condition("s.sample_id = ?", *query.sample_id);
+  if (query.tag)
+    condition("EXISTS (SELECT 1 FROM scan_tags t WHERE t.scan_id = s.id AND t.tag = ?)",
+              *query.tag);
+  if (query.from) condition("s.created >= ?", *query.from);
+  if (query.to) condition("s.created <= ?", *query.to);
+  if (query.status) condition("s.status = ?", to_string(*query.status));
+
+  std::lock_guard lock(mutex_);
+  auto select = Statement::prepare(
+      db_, std::string(kSelectEntry) + where + " ORDER BY s.id DESC LIMIT ? OFFSET ?");
+  if (!select) return std::unexpected(select.error());
+  int index = 1;
+  for (const auto& text : texts)
+    select->bind(index++, text);
+  select->bind(index++, static_cast<std::int64_t>(query.limit));
+  select->bind(index, static_cast<std::int64_t>(query.offset));
+  std::vector<CatalogueEntry> entries;
+  for (;;) {
+    auto row = select->step();
+    if (!row) return std::unexpected(row.error());
+    if (!*row) break;
+    entries.push_back(read_entry(*select, root_));
+  }
+  return entries;
+}
+
+Result<bool> Catalogue::remove(std::int64_t id) {
+  auto entry = get(id);
+  if (!entry) return std::unexpected(entry.error());
+  if (!*entry) return false;
+  // Files first: a row without files is a lie, files without a row are
+  // what recover() and a technician can see and clean.
+  for (const auto& directory : {(*entry)->maps_directory, (*entry)->scan_directory}) {
+    const auto inside = inside_root(directory);
+    if (!inside) continue;
+    std::error_code ec;
+    fs::remove_all(*inside, ec);
+    if (ec) return std::unexpected(processing::io_error(*inside, "cannot remove: " + ec.message()));
+  }
+  std::lock_guard lock(mutex_);
+  auto erase = Statement::prepare(db_, "DELETE FROM scans WHERE id = ?");
+  if (!erase) return std::unexpected(erase.error());
+  erase->bind(1, id);
+  if (auto ok = erase->run(); !ok) return std::unexpected(ok.error());
+  return true;
+}
+
+Result<CatalogueRecovery> Catalogue::recover() {
+  auto log = processing::logger("catalogue");
+  CatalogueRecovery recovery;
+  std::vector<std::pair<std::int64_t, std::string>> unfinished;
+  {
+    std::lock_guard lock(mutex_);
+    auto select = Statement::prepare(db_,
+                                     "SELECT id, coalesce(scan_path, '') FROM scans WHERE status "
+                                     "IN ('queued', 'running') ORDER BY id");
+    if (!select) return std::unexpected(select.error());
+    for (;;) {
+      auto row = select->step();
+      if (!row) return std::unexpected(row.error());
+      if (!*row) break;
+      unfinished.emplace_back(select->integer(0), select->text(1));
+    }
+  }
+  const auto remove_directory = [&](const fs::path& directory) {
+    std::error_code failed;
+    if (!fs::exists(fs::symlink_status(directory, failed))) return;
+    fs::remove_all(directory, failed);
+    if (failed) {
+      log->warn("cannot remove {}: {}", directory.string(), failed.message());
+      return;
+    }
+    recovery.removed_leftovers.push_back(directory);
+    log->info("removed {}, left by an interrupted scan", directory.string());
+  };
+  std::error_code ec;
+  for (const auto& [id, scan_path] : unfinished) {
+    if (const auto directory = inside_root(scan_path)) {
+      remove_directory(*directory);
+      // Its writer's staging directory, whoever's PID it carries: no scan
+      // of this daemon is running yet.
+      const std::string prefix = "." + directory->filename().string() + ".partial-";
+      std::vector<fs::path> staging;
+      for (fs::directory_iterator it(directory->parent_path(), ec), end; !ec && it != end;
+           it.increment(ec))
+        if (it->path().filename().string().starts_with(prefix)) staging.push_back(it->path());
+      for (const auto& path : staging)
+        remove_directory(path);
+    }
+    if (auto ok = mark_failed(id, ScanStatus::failed, ScanErrorCode::internal,
+                              "interrupted: psrigd stopped before this scan finished", false);
+        !ok)
+      return std::unexpected(ok.error());
+    recovery.interrupted.push_back(id);
+    log->warn("scan {} was interrupted by the last shutdown; marked failed", id);
+  }
+  // Other writers' staging directories, once their process is gone.
+  std::vector<fs::path> abandoned;
+  for (fs::directory_iterator it(root_, ec), end; !ec && it != end; it.increment(ec)) {
+    const auto owner = staging_owner(it->path().filename().string());
+    std::error_code type_ec;
+    if (owner && *owner != ::getpid() && !process_alive(*owner) && !it->is_symlink(type_ec) &&
+        it->is_directory(type_ec))
+      abandoned.push_back(it->path());
+  }
+  for (const auto& path : abandoned)
+    remove_directory(path);
+  return recovery;
+}
+
+}  // namespace psrig::capture

@@ -1,0 +1,29 @@
+#pragma once
+// Decorators over the rig's camera and light backend that remember which
+// of them failed, so a failed scan can be blamed on the right device (the
+// PLC's error code tells a technician whether to check the camera cable or
+// the LED driver).
+
+#include <atomic>
+#include <memory>
+
+#include "psrig/capture/camera.h"
+#include "psrig/firmware_host/light_controller.h"
+
+namespace psrig::capture {
+
+struct DeviceFaults {
+  std::atomic<bool> camera{false};
+  std::atomic<bool> lights{false};
+  void clear() {
+    camera = false;
+    lights = false;
+  }
+};
+
+[[nodiscard]] std::unique_ptr<Camera> record_camera_faults(std::unique_ptr<Camera> camera,
+                                                           std::shared_ptr<DeviceFaults> faults);
+[[nodiscard]] std::unique_ptr<firmware_host::LightController> record_light_faults(
+    std::unique_ptr<firmware_host::LightController> lights, std::shared_ptr<DeviceFaults> faults);
+
+}  // namespace psrig::capture

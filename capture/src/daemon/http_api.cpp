@@ -1,0 +1,527 @@
+#include "psrig/capture/http_api.h"
+
+#include <atomic>
+#include <charconv>
+#include <fstream>
+#include <httplib.h>
+#include <limits>
+#include <map>
+#include <thread>
+
+#include "psrig/processing/log.h"
+#include "psrig/processing/map_encoding.h"
+
+namespace psrig::capture {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+constexpr std::size_t kMaxSampleId = 128;
+constexpr std::size_t kMaxDescription = 4096;
+constexpr std::size_t kMaxTags = 32;
+constexpr std::size_t kMaxTag = 64;
+constexpr int kMaxSearchLimit = 1000;
+// An idle event stream sends a comment this often: proxies keep it open,
+// and a listener that has gone is noticed.
+constexpr auto kHeartbeat = std::chrono::seconds(15);
+constexpr auto kEventPoll = std::chrono::milliseconds(250);
+
+const std::map<std::string, ScanFileHome>& scan_files() {
+  static const auto files = [] {
+    namespace m = processing::map_files;
+    std::map<std::string, ScanFileHome> names = {
+        {"scan.json", ScanFileHome::scan},   {"dark.png", ScanFileHome::scan},
+        {m::kAlbedoPng, ScanFileHome::maps}, {m::kAlbedoExr, ScanFileHome::maps},
+        {m::kNormalPng, ScanFileHome::maps}, {m::kP, ScanFileHome::maps},
+        {m::kQ, ScanFileHome::maps},         {m::kHeightExr, ScanFileHome::maps},
+        {m::kHeightPng, ScanFileHome::maps}, {m::kMask, ScanFileHome::maps},
+        {m::kReport, ScanFileHome::maps},
+    };
+    for (int k = 0; k < 16; ++k)  // lights.channels is at most 16
+      names.emplace("led" + std::to_string(k) + ".png", ScanFileHome::scan);
+    return names;
+  }();
+  return files;
+}
+
+std::string content_type(const std::string& name) {
+  if (name.ends_with(".png")) return "image/png";
+  if (name.ends_with(".exr")) return "image/x-exr";
+  if (name.ends_with(".json")) return "application/json";
+  return "application/octet-stream";
+}
+
+void reply(httplib::Response& res, int status, const json& body) {
+  res.status = status;
+  res.set_content(body.dump() + "\n", "application/json");
+}
+
+void refuse(httplib::Response& res, int status, const std::string& message) {
+  reply(res, status, {{"error", message}});
+}
+
+std::optional<std::int64_t> parse_id(const std::string& text) {
+  std::int64_t id = 0;
+  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), id);
+  if (ec != std::errc() || end != text.data() + text.size() || id <= 0) return std::nullopt;
+  return id;
+}
+
+json entry_json(const CatalogueEntry& e) {
+  json files = json::array();
+  for (const auto& [name, home] : scan_files()) {
+    const fs::path& directory = home == ScanFileHome::scan ? e.scan_directory : e.maps_directory;
+    std::error_code ec;
+    if (!directory.empty() && fs::is_regular_file(directory / name, ec)) files.push_back(name);
+  }
+  const auto optional_text = [](const std::string& text) -> json {
+    return text.empty() ? json(nullptr) : json(text);
+  };
+  return {
+      {"id", e.id},
+      {"sample_id", e.sample_id},
+      {"description", e.description},
+      {"tags", e.tags},
+      {"source", e.source},
+      {"status", to_string(e.status)},
+      {"created", e.created},
+      {"started", optional_text(e.started)},
+      {"finished", optional_text(e.finished)},
+      {"error", e.error_code == ScanErrorCode::none && e.error_message.empty()
+                    ? json(nullptr)
+                    : json{{"code", static_cast<int>(e.error_code)},
+                           {"code_name", to_string(e.error_code)},
+                           {"message", e.error_message}}},
+      {"scan_directory", optional_text(e.scan_directory.string())},
+      {"maps_directory", optional_text(e.maps_directory.string())},
+      {"files", files},
+      {"report", e.report},
+  };
+}
+
+// A JSON string field of the submission, when present: its value, or why not.
+std::optional<std::string> string_field(const json& body, const char* key, std::size_t max,
+                                        std::string& value) {
+  if (!body.contains(key)) return std::nullopt;
+  const auto& field = body[key];
+  if (!field.is_string()) return std::string(key) + ": expected a string";
+  value = field.get<std::string>();
+  if (value.size() > max)
+    return std::string(key) + ": longer than " + std::to_string(max) + " bytes";
+  return std::nullopt;
+}
+
+}  // namespace
+
+std::optional<ScanFileHome> scan_file_home(const std::string& name) {
+  const auto found = scan_files().find(name);
+  if (found == scan_files().end()) return std::nullopt;
+  return found->second;
+}
+
+bool constant_time_equal(const std::string& a, const std::string& b) {
+  // Every byte of the longer is looked at, whatever matches.
+  const std::size_t n = std::max(a.size(), b.size());
+  unsigned char difference = a.size() == b.size() ? 0 : 1;
+  for (std::size_t i = 0; i < n; ++i) {
+    const unsigned char x = i < a.size() ? static_cast<unsigned char>(a[i]) : 0;
+    const unsigned char y = i < b.size() ? static_cast<unsigned char>(b[i]) : 0;
+    difference |= static_cast<unsigned char>(x ^ y);
+  }
+  return difference == 0;
+}
+
+HttpApiOptions http_api_options(const config::DaemonConfig& daemon) {
+  HttpApiOptions options;
+  options.address = daemon.listen_address;
+  options.port = daemon.port;
+  options.token = daemon.token;
+  return options;
+}
+
+struct HttpApi::Impl {
+  Impl(ScanService& s, HttpApiOptions o) : service(s), options(std::move(o)) {}
+
+  ScanService& service;
+  const HttpApiOptions options;
+  httplib::Server server;
+  std::thread listener;
+  std::atomic<bool> stopping{false};
+  std::atomic<int> event_streams{0};
+  int port = 0;
+
+  void routes();
+  void status(httplib::Response& res);
+  void submit(const httplib::Request& req, httplib::Response& res);
+  void search(const httplib::Request& req, httplib::Response& res);
+  void get(const httplib::Request& req, httplib::Response& res);
+  void file(const httplib::Request& req, httplib::Response& res);
+  void remove(const httplib::Request& req, httplib::Response& res);
+  void events(const httplib::Request& req, httplib::Response& res);
+  void lights_off(httplib::Response& res);
+};
+
+void HttpApi::Impl::routes() {
+  auto log = processing::logger("http");
+  const std::string token = options.token;
+  const std::size_t max_body = options.max_body_bytes;
+  server.set_pre_routing_handler(
+      [token, max_body](const httplib::Request& req, httplib::Response& res) {
+        // Both refusals close the connection: a body left unread must not
+        // be taken for the next request.
+        if (!token.empty() &&
+            !constant_time_equal(req.get_header_value("Authorization"), "Bearer " + token)) {
+          res.set_header("WWW-Authenticate", "Bearer");
+          res.set_header("Connection", "close");
+          refuse(res, 401, "missing or wrong bearer token (Authorization: Bearer TOKEN)");
+          return httplib::Server::HandlerResponse::Handled;
+        }
+        // Refused from the headers: httplib would first read (or wait for) a
+        // body it is going to refuse, holding a thread for its read timeout.
+        if (req.get_header_value<std::uint64_t>("Content-Length") > max_body) {
+          res.set_header("Connection", "close");
+          refuse(res, 413, "request body larger than " + std::to_string(max_body) + " bytes");
+          return httplib::Server::HandlerResponse::Handled;
+        }
+        return httplib::Server::HandlerResponse::Unhandled;
+      });
+  // Whatever httplib refuses by itself (no route, body too large, bad
+  // request line) still answers in JSON.
+  server.set_error_handler(httplib::Server::HandlerWithResponse(
+      [max_body](const httplib::Request&, httplib::Response& res) {
+        if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+        std::string message;
+        switch (res.status) {
+          case 404:
+            message = "no such endpoint";
+            break;
+          case 405:
+            message = "method not allowed here";
+            break;
+          case 413:
+            message = "request body larger than " + std::to_string(max_body) + " bytes";
+            break;
+          case 414:
+            message = "request URI too long";
+            break;
+          case 400:
+            message = "malformed request";
+            break;
+          default:
+            message = "request failed (HTTP " + std::to_string(res.status) + ")";
+        }
+        refuse(res, res.status, message);
+        return httplib::Server::HandlerResponse::Handled;
+      }));
+  server.set_exception_handler(
+      [log](const httplib::Request& req, httplib::Response& res, std::exception_ptr error) {
+        std::string what = "unknown";
+        try {
+          if (error) std::rethrow_exception(error);
+        } catch (const std::exception& e) {
+          what = e.what();
+        } catch (...) {
+        }
+        log->error("{} {}: {}", req.method, req.path, what);
+        refuse(res, 500, "internal error: " + what);
+      });
+  server.set_logger([log](const httplib::Request& req, const httplib::Response& res) {
+    log->debug("{} {} -> {}", req.method, req.path, res.status);
+  });
+
+  server.Get("/v1/status",
+             [this](const httplib::Request&, httplib::Response& res) { status(res); });
+  server.Post("/v1/scans",
+              [this](const httplib::Request& req, httplib::Response& res) { submit(req, res); });
+  server.Get("/v1/scans",
+             [this](const httplib::Request& req, httplib::Response& res) { search(req, res); });
+  server.Get(R"(/v1/scans/([^/]+))",
+             [this](const httplib::Request& req, httplib::Response& res) { get(req, res); });
+  server.Get(R"(/v1/scans/([^/]+)/files/(.*))",
+             [this](const httplib::Request& req, httplib::Response& res) { file(req, res); });
+  server.Delete(R"(/v1/scans/([^/]+))",
+                [this](const httplib::Request& req, httplib::Response& res) { remove(req, res); });
+  server.Get("/v1/events",
+             [this](const httplib::Request& req, httplib::Response& res) { events(req, res); });
+  server.Post("/v1/lights/off",
+              [this](const httplib::Request&, httplib::Response& res) { lights_off(res); });
+}
+
+void HttpApi::Impl::status(httplib::Response& res) {
+  const DaemonStatus s = service.status();
+  const DeviceStatus d = service.devices();
+  const auto optional_id = [](const std::optional<std::int64_t>& id) {
+    return id ? json(*id) : json(nullptr);
+  };
+  reply(res, 200,
+        {{"state", to_string(s.state)},
+         {"step", s.step},
+         {"progress_percent", s.progress_percent},
+         {"current_scan", optional_id(s.current_scan)},
+         {"last_scan", optional_id(s.last_scan)},
+         {"last_error",
+          {{"code", static_cast<int>(s.last_error_code)},
+           {"code_name", to_string(s.last_error_code)},
+           {"message", s.last_error}}},
+         {"scans_completed", s.scans_completed},
+         {"scans_failed", s.scans_failed},
+         {"queue_length", s.queue_length},
+         {"queue_limit", service.config().daemon.queue_limit},
+         {"uptime_s", std::chrono::duration<double>(s.uptime).count()},
+         {"devices",
+          {{"open", d.open}, {"lights", d.lights}, {"camera", d.camera}, {"error", d.open_error}}},
+         {"storage_root", service.catalogue().storage_root().string()}});
+}
+
+void HttpApi::Impl::submit(const httplib::Request& req, httplib::Response& res) {
+  const json body = json::parse(req.body, nullptr, false);
+  if (body.is_discarded()) return refuse(res, 400, "malformed JSON in the request body");
+  if (!body.is_object()) return refuse(res, 400, "expected a JSON object");
+  for (const auto& [key, value] : body.items())
+    if (key != "sample_id" && key != "description" && key != "tags")
+      return refuse(res, 400, key + ": unknown field (expected sample_id, description, tags)");
+  ScanSubmission submission;
+  submission.source = "http";
+  if (auto problem = string_field(body, "sample_id", kMaxSampleId, submission.sample_id))
+    return refuse(res, 400, *problem);
+  if (auto problem = string_field(body, "description", kMaxDescription, submission.description))
+    return refuse(res, 400, *problem);
+  if (body.contains("tags")) {
+    const auto& tags = body["tags"];
+    if (!tags.is_array()) return refuse(res, 400, "tags: expected an array of strings");
+    if (tags.size() > kMaxTags)
+      return refuse(res, 400, "tags: more than " + std::to_string(kMaxTags));
+    for (const auto& tag : tags) {
+      if (!tag.is_string() || tag.get<std::string>().empty())
+        return refuse(res, 400, "tags: expected an array of non-empty strings");
+      if (tag.get<std::string>().size() > kMaxTag)
+        return refuse(res, 400, "tags: a tag longer than " + std::to_string(kMaxTag) + " bytes");
+      submission.tags.push_back(tag.get<std::string>());
+    }
+  }
+  auto id = service.submit(std::move(submission));
+  if (!id) {
+    // A full queue is the service's state, not the request's fault.
+    if (id.error().key == "daemon.queue_limit") {
+      res.set_header("Retry-After", "5");
+      return refuse(res, 503, id.error().message);
+    }
+    return refuse(res, id.error().kind == processing::ErrorKind::bad_input ? 400 : 503,
+                  id.error().message);
+  }
+  res.set_header("Location", "/v1/scans/" + std::to_string(*id));
+  reply(res, 202, {{"id", *id}, {"status", "queued"}});
+}
+
+void HttpApi::Impl::search(const httplib::Request& req, httplib::Response& res) {
+  CatalogueQuery query;
+  for (const auto& [key, value] : req.params) {
+    if (key == "sample_id") {
+      query.sample_id = value;
+    } else if (key == "tag") {
+      query.tag = value;
+    } else if (key == "from" || key == "to") {
+      auto normal = normalise_timestamp(value, key == "to");
+      if (!normal)
+        return refuse(res, 400,
+                      key +
+                          ": expected a UTC date or date-time, e.g. 2026-05-04 or "
+                          "2026-05-04T09:00:00Z");
+      (key == "from" ? query.from : query.to) = *normal;
+    } else if (key == "status") {
+      query.status = parse_scan_status(value);
+      if (!query.status)
+        return refuse(res, 400, "status: expected queued, running, done, failed or aborted");
+    } else if (key == "limit" || key == "offset") {
+      int number = 0;
+      const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), number);
+      const int low = key == "limit" ? 1 : 0;
+      const int high = key == "limit" ? kMaxSearchLimit : std::numeric_limits<int>::max();
+      if (ec != std::errc() || end != value.data() + value.size() || number < low || number > high)
+        return refuse(res, 400,
+                      key + ": expected a whole number from " + std::to_string(low) +
+                          (key == "limit" ? " to " + std::to_string(high) : ""));
+      (key == "limit" ? query.limit : query.offset) = number;
+    } else {
+      return refuse(res, 400,
+                    key +
+                        ": unknown parameter (expected sample_id, tag, from, to, status, limit, "
+                        "offset)");
+    }
+  }
+  auto found = service.catalogue().search(query);
+  if (!found) return refuse(res, 500, found.error().describe());
+  json scans = json::array();
+  for (const auto& entry : *found)
+    scans.push_back(entry_json(entry));
+  reply(res, 200, {{"scans", scans}, {"limit", query.limit}, {"offset", query.offset}});
+}
+
+void HttpApi::Impl::get(const httplib::Request& req, httplib::Response& res) {
+  const auto id = parse_id(req.matches[1]);
+  if (!id) return refuse(res, 404, "no such scan");
+  auto entry = service.catalogue().get(*id);
+  if (!entry) return refuse(res, 500, entry.error().describe());
+  if (!*entry) return refuse(res, 404, "no scan " + std::to_string(*id));
+  reply(res, 200, entry_json(**entry));
+}
+
+void HttpApi::Impl::file(const httplib::Request& req, httplib::Response& res) {
+  const auto id = parse_id(req.matches[1]);
+  if (!id) return refuse(res, 404, "no such scan");
+  // The name only picks from a fixed list; the path is ours.
+  const std::string name = req.matches[2];
+  const auto home = scan_file_home(name);
+  if (!home)
+    return refuse(res, 404,
+                  "no file named that; ask for scan.json, dark.png, led<k>.png, a map "
+                  "(albedo.png, normal.png, height.png, ...) or report.json");
+  auto entry = service.catalogue().get(*id);
+  if (!entry) return refuse(res, 500, entry.error().describe());
+  if (!*entry) return refuse(res, 404, "no scan " + std::to_string(*id));
+  const fs::path& directory =
+      *home == ScanFileHome::scan ? (*entry)->scan_directory : (*entry)->maps_directory;
+  if (directory.empty()) return refuse(res, 404, "scan " + std::to_string(*id) + " has no " + name);
+  const fs::path path = directory / name;
+  std::error_code ec;
+  const auto size = fs::file_size(path, ec);
+  if (ec || !fs::is_regular_file(path, ec))
+    return refuse(res, 404, "scan " + std::to_string(*id) + " has no " + name);
+  auto stream = std::make_shared<std::ifstream>(path, std::ios::binary);
+  if (!*stream) return refuse(res, 500, "cannot read " + name);
+  res.status = 200;
+  res.set_content_provider(
+      static_cast<std::size_t>(size), content_type(name),
+      [stream](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+        char buffer[64 * 1024];
+        stream->seekg(static_cast<std::streamoff>(offset));
+        const auto chunk = std::min(length, sizeof buffer);
+        stream->read(buffer, static_cast<std::streamsize>(chunk));
+        const auto got = static_cast<std::size_t>(stream->gcount());
+        return got > 0 && sink.write(buffer, got);
+      });
+}
+
+void HttpApi::Impl::remove(const httplib::Request& req, httplib::Response& res) {
+  const auto id = parse_id(req.matches[1]);
+  if (!id) return refuse(res, 404, "no such scan");
+  auto removed = service.remove(*id);
+  if (!removed) return refuse(res, 500, removed.error().describe());
+  switch (*removed) {
+    case ScanRemoval::not_found:
+      return refuse(res, 404, "no scan " + std::to_string(*id));
+    case ScanRemoval::cancelled:
+      return reply(res, 200, {{"id", *id}, {"status", "aborted"}});
+    case ScanRemoval::aborting:
+      return reply(res, 202, {{"id", *id}, {"status", "aborting"}});
+    case ScanRemoval::deleted:
+      return reply(res, 200, {{"id", *id}, {"deleted", true}});
+  }
+}
+
+void HttpApi::Impl::events(const httplib::Request& req, httplib::Response& res) {
+  // Counted from here; the count drops when the last copy of the stream's
+  // state goes, however the stream ends.
+  struct Stream {
+    std::atomic<int>& count;
+    std::uint64_t cursor = 0;
+    bool greeted = false;
+    std::chrono::steady_clock::time_point last_write = std::chrono::steady_clock::now();
+    explicit Stream(std::atomic<int>& c) : count(c) { ++count; }
+    ~Stream() { --count; }
+    Stream(const Stream&) = delete;
+    Stream& operator=(const Stream&) = delete;
+  };
+  if (event_streams.load() >= options.max_event_streams)
+    return refuse(res, 503, "too many event streams open; close one");
+  auto stream = std::make_shared<Stream>(event_streams);
+  // A listener that reconnects gets what it missed, if still held.
+  stream->cursor = service.events().last_sequence();
+  if (req.has_header("Last-Event-ID")) {
+    std::uint64_t last = 0;
+    const std::string text = req.get_header_value("Last-Event-ID");
+    const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), last);
+    if (ec == std::errc() && end == text.data() + text.size() && last <= stream->cursor)
+      stream->cursor = last;
+  }
+  res.set_header("Cache-Control", "no-cache");
+  res.set_header("X-Accel-Buffering", "no");
+  res.set_chunked_content_provider(
+      "text/event-stream", [this, stream](std::size_t, httplib::DataSink& sink) {
+        const auto write = [&](const std::string& text) {
+          stream->last_write = std::chrono::steady_clock::now();
+          return sink.write(text.data(), text.size());
+        };
+        if (!stream->greeted) {
+          stream->greeted = true;
+          return write("retry: 2000\n: connected\n\n");
+        }
+        if (stopping || service.events().closed()) {
+          sink.done();  // shutdown must not wait for listeners
+          return true;
+        }
+        for (const auto& event : service.events().wait_after(stream->cursor, kEventPoll)) {
+          stream->cursor = event.sequence;
+          if (!write("id: " + std::to_string(event.sequence) + "\nevent: " + event.type +
+                     "\ndata: " + event.data.dump() + "\n\n"))
+            return false;
+        }
+        if (std::chrono::steady_clock::now() - stream->last_write > kHeartbeat)
+          return write(": heartbeat\n\n");
+        return sink.is_writable();
+      });
+}
+
+void HttpApi::Impl::lights_off(httplib::Response& res) {
+  if (auto ok = service.lights_off(); !ok)
+    return refuse(res, 500, "turning the LEDs off failed: " + ok.error().describe());
+  reply(res, 200, {{"lights", "off"}});
+}
+
+HttpApi::HttpApi(std::unique_ptr<Impl> impl) : impl_(std::move(impl)) {}
+
+HttpApi::~HttpApi() {
+  stop();
+}
+
+Result<std::unique_ptr<HttpApi>> HttpApi::start(ScanService& service, HttpApiOptions options) {
+  const std::string where = options.address + ":" + std::to_string(options.port);
+  if (options.token.empty() && !config::is_loopback_address(options.address))
+    return std::unexpected(processing::bad_input(
+        service.config().source, "daemon.token",
+        "listening on " + where + " reaches other machines; set a token or listen on 127.0.0.1"));
+  auto impl = std::make_unique<Impl>(service, options);
+  auto& server = impl->server;
+  const int threads = std::max(2, options.threads);
+  server.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
+  server.set_payload_max_length(options.max_body_bytes);
+  server.set_read_timeout(std::chrono::seconds(5));
+  server.set_write_timeout(std::chrono::seconds(5));
+  server.set_keep_alive_timeout(5);
+  server.set_keep_alive_max_count(100);
+  impl->routes();
+  if (!server.bind_to_port(options.address, options.port))
+    return std::unexpected(processing::io_error(
+        where, "cannot listen (address in use, or not one of this machine's)"));
+  impl->port = options.port;
+  impl->listener = std::thread([&server] { server.listen_after_bind(); });
+  // Until it runs, httplib's stop() would not stop it.
+  for (int waited = 0; !server.is_running() && waited < 2000; ++waited)
+    std::this_thread::sleep_for(std::chrono::milliseconds(1));
+  processing::logger("http")->info("HTTP API on http://{}/v1/ ({})", where,
+                                   options.token.empty() ? "no token" : "bearer token required");
+  return std::unique_ptr<HttpApi>(new HttpApi(std::move(impl)));
+}
+
+void HttpApi::stop() {
+  if (!impl_ || impl_->stopping.exchange(true)) return;
+  impl_->server.stop();
+  if (impl_->listener.joinable()) impl_->listener.join();
+}
+
+int HttpApi::port() const {
+  return impl_->port;
+}
+
+}  // namespace psrig::capture

@@ -1,0 +1,172 @@
+// psrigd --config FILE: the rig as a service. Owns the lights and the
+// camera, runs queued scans one at a time into the catalogue, serves the
+// HTTP API. SIGTERM/SIGINT abort a scan safely (LEDs off first) and end
+// with exit code 0; SIGHUP reloads the configuration (a bad one is logged
+// and the old one kept). Serves a PLC over Modbus TCP when
+// daemon.modbus_port is set. Under systemd (Type=notify) it says READY,
+// STATUS, RELOADING and STOPPING and pets the watchdog while its main loop
+// and scanning service answer. Logs to stderr, with journald priority
+// prefixes when stderr is the journal.
+
+#include <atomic>
+#include <chrono>
+#include <ctime>
+#include <exception>
+#include <iostream>
+#include <memory>
+#include <signal.h>
+#include <string>
+
+#include <CLI/CLI.hpp>
+
+#include "psrig/capture/http_api.h"
+#include "psrig/capture/modbus_server.h"
+#include "psrig/capture/scan_service.h"
+#include "psrig/capture/systemd_notify.h"
+#include "psrig/config/config_loader.h"
+#include "psrig/firmware_host/emergency_stop.h"
+#include "psrig/processing/log.h"
+
+namespace {
+
+std::atomic<bool> stop_signalled{false};
+
+// How often the main loop looks up from waiting for SIGHUP: the latency
+// of a shutdown, and the rhythm of the systemd watchdog pings.
+constexpr long kLoopNanoseconds = 200'000'000;
+
+using Clock = std::chrono::steady_clock;
+// The main loop counts as alive while it came round this recently.
+constexpr auto kHealthyLoop = std::chrono::seconds(5);
+
+// systemd's one-line STATUS=: what `systemctl status psrigd` shows.
+std::string status_line(const psrig::capture::DaemonStatus& status) {
+  std::string line = psrig::capture::to_string(status.state);
+  if (status.current_scan)
+    line += " scan " + std::to_string(*status.current_scan) + " (" + status.step + ", " +
+            std::to_string(status.progress_percent) + " %)";
+  line += "; " + std::to_string(status.queue_length) + " queued; " +
+          std::to_string(status.scans_completed) + " done, " + std::to_string(status.scans_failed) +
+          " failed since start";
+  if (status.last_error_code != psrig::capture::ScanErrorCode::none)
+    line += "; last error: " + status.last_error;
+  return line;
+}
+
+psrig::processing::Result<psrig::config::RigConfig> load(const std::string& file) {
+  std::vector<std::string> warnings;
+  auto config = psrig::config::load_config(file, &warnings);
+  for (const auto& warning : warnings)
+    psrig::processing::logger("psrigd")->warn("{}", warning);
+  return config;
+}
+
+int run(const std::string& config_file) {
+  using namespace psrig;
+  auto log = processing::logger("psrigd");
+  auto config = load(config_file);
+  if (!config) {
+    log->error("{}", config.error().describe());
+    return processing::exit_code(config.error());
+  }
+  auto service = capture::ScanService::start(*config);
+  if (!service) {
+    log->error("{}", service.error().describe());
+    return processing::exit_code(service.error());
+  }
+  auto http = capture::HttpApi::start(**service, capture::http_api_options(config->daemon));
+  if (!http) {
+    log->error("{}", http.error().describe());
+    (*service)->stop();
+    return processing::exit_code(http.error());
+  }
+  std::unique_ptr<capture::ModbusServer> modbus;
+  if (config->daemon.modbus_port != 0) {
+    auto server = capture::ModbusServer::start(
+        **service, {.address = config->daemon.modbus_address, .port = config->daemon.modbus_port});
+    if (!server) {
+      log->error("{}", server.error().describe());
+      (*http)->stop();
+      (*service)->stop();
+      return processing::exit_code(server.error());
+    }
+    modbus = std::move(*server);
+    log->info("Modbus TCP for the PLC on {}", modbus->endpoint());
+  }
+
+  // The watchdog is petted from its own thread for as long as this loop
+  // has come round lately: the loop asks the scanning service for its
+  // status every tick, so a service that deadlocks stops the pings and
+  // systemd restarts the daemon.
+  capture::SystemdNotifier systemd;
+  std::atomic<Clock::rep> last_tick{Clock::now().time_since_epoch().count()};
+  capture::WatchdogPetter petter(systemd, [&] {
+    return Clock::now() - Clock::time_point(Clock::duration(last_tick.load())) < kHealthyLoop;
+  });
+  log->info("ready; storage {}", (*service)->catalogue().storage_root().string());
+  (void)systemd.ready();
+  std::string last_status;
+
+  sigset_t hangup;
+  sigemptyset(&hangup);
+  sigaddset(&hangup, SIGHUP);
+  const timespec tick{0, kLoopNanoseconds};
+  while (!stop_signalled) {
+    if (sigtimedwait(&hangup, nullptr, &tick) == SIGHUP) {
+      log->info("SIGHUP: reloading {}", config_file);
+      (void)systemd.reloading();
+      auto fresh = load(config_file);
+      if (fresh)
+        (*service)->reload(std::move(*fresh));
+      else
+        log->error("keeping the running configuration: {}", fresh.error().describe());
+      (void)systemd.ready();
+    }
+    const std::string status = status_line((*service)->status());
+    if (status != last_status) (void)systemd.status(status);
+    last_status = status;
+    last_tick = Clock::now().time_since_epoch().count();
+  }
+
+  (void)systemd.stopping();
+  petter.stop();
+  log->info("stopping: the running scan is aborted, every LED is off");
+  if (modbus) modbus->stop();
+  (*http)->stop();
+  (*service)->stop();
+  log->info("stopped");
+  return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  // Before any thread exists: SIGHUP waits for the main loop, and
+  // SIGINT/SIGTERM switch every LED off at once, then end the loop.
+  sigset_t hangup;
+  sigemptyset(&hangup);
+  sigaddset(&hangup, SIGHUP);
+  pthread_sigmask(SIG_BLOCK, &hangup, nullptr);
+  psrig::firmware_host::install_emergency_stop([](int) { stop_signalled = true; });
+
+  CLI::App app{"psrigd: the photometric-stereo rig's daemon (HTTP API, catalogue, scans)"};
+  std::string config_file;
+  bool verbose = false;
+  app.add_option("--config", config_file, "Rig configuration (e.g. /etc/psrig/rig.toml)")
+      ->required();
+  app.add_flag("-v,--verbose", verbose, "Log every request and stage");
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    const int code = app.exit(e);
+    return code == 0 ? 0 : 2;
+  }
+  if (psrig::processing::stderr_is_journal()) psrig::processing::log_to_stderr_for_journal();
+  psrig::processing::set_log_level(verbose ? spdlog::level::debug : spdlog::level::info);
+  try {
+    return run(config_file);
+  } catch (const std::exception& e) {
+    std::cerr << "psrigd: internal error: " << e.what() << '\n';
+    return 1;
+  }
+}

@@ -1,0 +1,489 @@
+#include "psrig/capture/scan_service.h"
+
+#include <algorithm>
+#include <exception>
+#include <fcntl.h>
+#include <unistd.h>
+
+#include "fault_recording_devices.h"
+#include "psrig/capture/scan_sequencer.h"
+#include "psrig/firmware_host/emergency_stop.h"
+#include "psrig/firmware_host/sim/sim_world.h"
+#include "psrig/processing/log.h"
+
+namespace psrig::capture {
+namespace {
+
+namespace fs = std::filesystem;
+
+// Share of the progress bar each part of a scan takes: acquiring the
+// frames up to 80 %, writing them 80, processing 85, done 100.
+constexpr int kAcquiredPercent = 80;
+constexpr int kProcessingPercent = 85;
+
+// The maps are written atomically but not flushed (process_scan makes
+// them again from the raw frames if need be); a row that says `done` must
+// not outlive them in a power cut, so they are flushed before it commits.
+Status flush_tree(const fs::path& directory) {
+  std::error_code ec;
+  std::vector<fs::path> paths;
+  for (fs::recursive_directory_iterator it(directory, ec), end; !ec && it != end; it.increment(ec))
+    paths.push_back(it->path());
+  if (ec) return std::unexpected(processing::io_error(directory, "cannot list: " + ec.message()));
+  paths.push_back(directory);
+  paths.push_back(directory.parent_path());
+  for (const auto& path : paths) {
+    const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return std::unexpected(processing::io_error(path, "cannot open to flush"));
+    const bool flushed = ::fsync(fd) == 0;
+    ::close(fd);
+    if (!flushed) return std::unexpected(processing::io_error(path, "cannot flush to disk"));
+  }
+  return {};
+}
+
+nlohmann::json scan_event(std::int64_t id) {
+  return {{"id", id}};
+}
+
+}  // namespace
+
+ScanService::ScanService(config::RigConfig config, std::unique_ptr<Catalogue> catalogue)
+    : catalogue_(std::move(catalogue)), config_(std::move(config)) {}
+
+Result<std::unique_ptr<ScanService>> ScanService::start(config::RigConfig config) {
+  auto catalogue = Catalogue::open(config.storage.root);
+  if (!catalogue) return std::unexpected(catalogue.error());
+  auto recovered = (*catalogue)->recover();
+  if (!recovered) return std::unexpected(recovered.error());
+  std::unique_ptr<ScanService> service(new ScanService(std::move(config), std::move(*catalogue)));
+  service->worker_ = std::thread([raw = service.get()] { raw->work(); });
+  return service;
+}
+
+ScanService::~ScanService() {
+  stop();
+}
+
+DaemonStatus ScanService::status() const {
+  std::lock_guard lock(mutex_);
+  DaemonStatus status = status_;
+  status.queue_length = queue_.size();
+  status.uptime = std::chrono::steady_clock::now() - started_;
+  return status;
+}
+
+DeviceStatus ScanService::devices() const {
+  std::lock_guard lock(mutex_);
+  return devices_;
+}
+
+config::RigConfig ScanService::config() const {
+  std::lock_guard lock(mutex_);
+  return config_;
+}
+
+Result<std::int64_t> ScanService::submit(ScanSubmission submission) {
+  auto log = processing::logger("daemon");
+  std::lock_guard lock(mutex_);
+  if (stopping_)
+    return std::unexpected(processing::io_error("psrigd", "stopping; no more scans are taken"));
+  const auto limit = static_cast<std::size_t>(config_.daemon.queue_limit);
+  if (queue_.size() >= limit) {
+    status_.last_error_code = ScanErrorCode::queue_full;
+    status_.last_error = "queue full: " + std::to_string(limit) + " scans waiting";
+    // The key tells the front ends this is the queue, not the request.
+    return std::unexpected(processing::bad_input(
+        config_.source, "daemon.queue_limit", status_.last_error + "; try again when one has run"));
+  }
+  auto id = catalogue_->add(submission);
+  if (!id) return std::unexpected(id.error());
+  log->info("scan {} queued (sample '{}', from {})", *id, submission.sample_id,
+            submission.source.empty() ? "?" : submission.source);
+  queue_.push_back({*id, std::move(submission)});
+  if (status_.state == DaemonState::error) status_.state = DaemonState::idle;
+  wake_.notify_one();
+  return *id;
+}
+
+void ScanService::request_abort_locked() {
+  if (!status_.current_scan) return;
+  abort_current_ = true;
+  if (sequencer_) sequencer_->request_stop();
+}
+
+Status ScanService::switch_lights_off() {
+  std::lock_guard lock(rig_mutex_);
+  if (!rig_) return {};  // closed: SafeLights left them off
+  return rig_->lights->all_off();
+}
+
+Status ScanService::lights_off() {
+  {
+    std::lock_guard lock(mutex_);
+    request_abort_locked();
+  }
+  processing::logger("daemon")->info("lights off requested");
+  return switch_lights_off();
+}
+
+Result<ScanRemoval> ScanService::remove(std::int64_t id) {
+  bool was_queued = false, was_running = false;
+  {
+    std::lock_guard lock(mutex_);
+    if (status_.current_scan == id) {
+      request_abort_locked();
+      was_running = true;
+    } else {
+      const auto queued =
+          std::find_if(queue_.begin(), queue_.end(), [&](const Job& job) { return job.id == id; });
+      if (queued != queue_.end()) {
+        queue_.erase(queued);
+        was_queued = true;
+      }
+    }
+  }
+  auto log = processing::logger("daemon");
+  if (was_running) {
+    log->info("scan {}: abort requested", id);
+    if (auto ok = switch_lights_off(); !ok) return std::unexpected(ok.error());
+    return ScanRemoval::aborting;
+  }
+  if (was_queued) {
+    const std::string message = "cancelled before it started";
+    if (auto ok = catalogue_->mark_failed(id, ScanStatus::aborted, ScanErrorCode::aborted, message,
+                                          false);
+        !ok)
+      return std::unexpected(ok.error());
+    auto event = scan_event(id);
+    event.update({{"status", "aborted"},
+                  {"code", static_cast<int>(ScanErrorCode::aborted)},
+                  {"error", message}});
+    events_.publish("error", std::move(event));
+    log->info("scan {} cancelled", id);
+    return ScanRemoval::cancelled;
+  }
+  auto removed = catalogue_->remove(id);
+  if (!removed) return std::unexpected(removed.error());
+  if (*removed) log->info("scan {} deleted", id);
+  return *removed ? ScanRemoval::deleted : ScanRemoval::not_found;
+}
+
+void ScanService::reload(config::RigConfig config) {
+  std::lock_guard lock(mutex_);
+  auto log = processing::logger("daemon");
+  if (config.storage.root != config_.storage.root)
+    log->warn("storage.root changed to {}; it takes effect at the next start",
+              config.storage.root.string());
+  const auto& now = config_.daemon;
+  const auto& next = config.daemon;
+  if (next.listen_address != now.listen_address || next.port != now.port ||
+      next.token != now.token || next.modbus_address != now.modbus_address ||
+      next.modbus_port != now.modbus_port)
+    log->warn("daemon addresses and token take effect at the next start");
+  pending_config_ = std::move(config);
+  wake_.notify_one();
+}
+
+void ScanService::apply_pending_config() {
+  {
+    std::lock_guard lock(mutex_);
+    if (!pending_config_) return;
+    config::RigConfig next = std::move(*pending_config_);
+    pending_config_.reset();
+    // What stays open keeps what it was opened with.
+    next.storage.root = config_.storage.root;
+    const int queue_limit = next.daemon.queue_limit;
+    next.daemon = config_.daemon;
+    next.daemon.queue_limit = queue_limit;
+    config_ = std::move(next);
+  }
+  close_rig();
+  ScanErrorCode ignored;
+  if (auto ok = open_rig_if_closed(ignored); ok)
+    processing::logger("daemon")->info("configuration reloaded; rig opened again");
+}
+
+Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
+  if (rig_) return {};
+  auto log = processing::logger("daemon");
+  const config::RigConfig config = this->config();
+  auto faults = std::make_shared<DeviceFaults>();
+  auto rig = std::make_unique<Rig>();
+  const auto failed = [&](ScanErrorCode what, const processing::Error& error) -> Status {
+    code = what;
+    log->error("cannot open the {}: {}", to_string(what), error.describe());
+    std::lock_guard lock(mutex_);
+    devices_ = {false, "", "", error.describe()};
+    return std::unexpected(error);
+  };
+  try {
+    if (config.lights.backend == "sim" || config.camera.backend == "sim")
+      rig->world = std::make_shared<firmware_host::SimWorld>(config);
+    auto backend = firmware_host::open_lights(config, rig->world);
+    if (!backend) return failed(ScanErrorCode::lights, backend.error());
+    rig->lights = std::make_unique<firmware_host::SafeLights>(
+        record_light_faults(std::move(*backend), faults),
+        std::chrono::milliseconds(config.lights.max_on_ms));
+    auto camera = open_camera(config, rig->world);
+    if (!camera) return failed(ScanErrorCode::camera, camera.error());
+    rig->camera = record_camera_faults(std::move(*camera), faults);
+  } catch (const std::exception& e) {
+    return failed(ScanErrorCode::config,
+                  processing::internal_error(std::string("opening the rig: ") + e.what()));
+  }
+  {
+    std::lock_guard lock(mutex_);
+    devices_ = {true, rig->lights->describe(), rig->camera->describe(), ""};
+  }
+  log->info("rig open: {}; {}", rig->lights->describe(), rig->camera->describe());
+  std::lock_guard lock(rig_mutex_);
+  rig_ = std::move(rig);
+  faults_ = std::move(faults);
+  return {};
+}
+
+void ScanService::close_rig() {
+  std::unique_ptr<Rig> closing;
+  {
+    std::lock_guard lock(rig_mutex_);
+    closing = std::move(rig_);
+  }
+  closing.reset();  // SafeLights turns every LED off as it goes
+  std::lock_guard lock(mutex_);
+  devices_.open = false;
+}
+
+void ScanService::set_step(std::string step, int percent, DaemonState state) {
+  std::int64_t id = 0;
+  {
+    std::lock_guard lock(mutex_);
+    status_.step = step;
+    status_.progress_percent = percent;
+    if (!stopping_) status_.state = state;
+    id = status_.current_scan.value_or(0);
+  }
+  auto event = scan_event(id);
+  event.update({{"step", step}, {"percent", percent}, {"state", to_string(state)}});
+  events_.publish("progress", std::move(event));
+}
+
+ScanErrorCode ScanService::classify(const processing::Error& error, Stage stage) const {
+  switch (stage) {
+    case Stage::opening:
+      return ScanErrorCode::config;
+    case Stage::writing:
+    case Stage::recording:
+      return ScanErrorCode::storage;
+    case Stage::processing:
+      return error.kind == processing::ErrorKind::io ? ScanErrorCode::storage
+                                                     : ScanErrorCode::processing;
+    case Stage::acquiring:
+      break;
+  }
+  if (faults_ && faults_->camera) return ScanErrorCode::camera;
+  if (faults_ && faults_->lights) return ScanErrorCode::lights;
+  // The sequencer's own findings: an LED cut off by the safety layer, or
+  // a camera whose frames never fit the lighting.
+  if (error.message.find("LED") != std::string::npos) return ScanErrorCode::lights;
+  if (error.kind == processing::ErrorKind::bad_input) return ScanErrorCode::storage;
+  return ScanErrorCode::camera;
+}
+
+void ScanService::finish(const Job& job, ScanStatus status, ScanErrorCode code,
+                         const std::string& message, const fs::path& scan_directory,
+                         bool keep_files) {
+  auto log = processing::logger("daemon");
+  if (!keep_files && !scan_directory.empty()) {
+    std::error_code ec;
+    fs::remove_all(scan_directory, ec);
+    if (ec) log->warn("cannot remove {}: {}", scan_directory.string(), ec.message());
+  }
+  if (auto ok = catalogue_->mark_failed(job.id, status, code, message, keep_files); !ok)
+    log->error("scan {}: cannot record its failure: {}", job.id, ok.error().describe());
+  log->error("scan {} {}: {}", job.id, to_string(status), message);
+  {
+    std::lock_guard lock(mutex_);
+    status_.last_scan = job.id;
+    status_.last_error_code = code;
+    status_.last_error = message;
+    ++status_.scans_failed;
+    status_.current_scan.reset();
+    status_.step.clear();
+    status_.progress_percent = 0;
+    if (!stopping_)
+      status_.state = status == ScanStatus::failed ? DaemonState::error : DaemonState::idle;
+  }
+  auto event = scan_event(job.id);
+  event.update({{"status", to_string(status)},
+                {"code", static_cast<int>(code)},
+                {"code_name", to_string(code)},
+                {"error", message}});
+  events_.publish("error", std::move(event));
+}
+
+void ScanService::run(const Job& job) {
+  auto log = processing::logger("daemon");
+  apply_pending_config();
+  const auto aborted = [&] {
+    std::lock_guard lock(mutex_);
+    return abort_current_ || firmware_host::stop_requested();
+  };
+  if (aborted())
+    return finish(job, ScanStatus::aborted, ScanErrorCode::aborted, "aborted", {}, false);
+  set_step("opening the rig", 0, DaemonState::scanning);
+  ScanErrorCode open_code = ScanErrorCode::config;
+  if (auto ok = open_rig_if_closed(open_code); !ok)
+    return finish(job, ScanStatus::failed, open_code, ok.error().describe(), {}, false);
+
+  const config::RigConfig config = this->config();
+  const fs::path directory = default_scan_directory(config, job.submission.sample_id);
+  if (auto ok = catalogue_->mark_running(job.id, directory); !ok)
+    return finish(job, ScanStatus::failed, ScanErrorCode::storage, ok.error().describe(), {},
+                  false);
+  log->info("scan {} running into {}", job.id, directory.string());
+
+  faults_->clear();
+  ScanSequencer sequencer(config, *rig_->lights, *rig_->camera);
+  {
+    std::lock_guard lock(mutex_);
+    sequencer_ = &sequencer;
+    if (abort_current_) sequencer.request_stop();
+  }
+  ScanRequest request = rig_->request(config);
+  request.sample_id = job.submission.sample_id;
+  request.description = job.submission.description;
+  request.directory = directory;
+  Stage stage = Stage::acquiring;
+  auto outcome = sequencer.capture(request, [&](const ScanProgress& p) {
+    if (p.step == "writing") {
+      stage = Stage::writing;
+      set_step(p.step, kAcquiredPercent, DaemonState::scanning);
+    } else if (p.step == "processing") {
+      stage = Stage::processing;
+      set_step(p.step, kProcessingPercent, DaemonState::processing);
+    } else {
+      set_step(p.step, kAcquiredPercent * p.done / std::max(1, p.total), DaemonState::scanning);
+    }
+  });
+  {
+    std::lock_guard lock(mutex_);
+    sequencer_ = nullptr;
+  }
+  // However it ended (the sequencer did this too; this is the daemon's word).
+  if (auto ok = switch_lights_off(); !ok)
+    log->error("turning the LEDs off after scan {}: {}", job.id, ok.error().describe());
+
+  if (aborted())
+    return finish(job, ScanStatus::aborted, ScanErrorCode::aborted,
+                  "aborted; all LEDs are off and nothing was kept", directory, false);
+  if (!outcome) {
+    const ScanErrorCode code = classify(outcome.error(), stage);
+    // Raw frames that could not be processed are kept: they can be
+    // processed again later. Anything less than a whole scan is not.
+    std::error_code ec;
+    const bool keep = stage == Stage::processing && fs::exists(directory / "scan.json", ec);
+    finish(job, ScanStatus::failed, code, outcome.error().describe(), directory, keep);
+    if (code == ScanErrorCode::camera || code == ScanErrorCode::lights) close_rig();
+    return;
+  }
+
+  stage = Stage::recording;
+  fs::path maps;
+  nlohmann::json report;
+  if (outcome->maps) {
+    maps = outcome->maps->maps_directory;
+    report = outcome->maps->report;
+  }
+  if (auto ok = flush_tree(maps.empty() ? outcome->directory : maps); !ok)
+    return finish(job, ScanStatus::failed, ScanErrorCode::storage, ok.error().describe(), directory,
+                  false);
+  if (auto ok = catalogue_->mark_done(job.id, maps, report); !ok)
+    return finish(job, ScanStatus::failed, ScanErrorCode::storage, ok.error().describe(), directory,
+                  false);
+  log->info("scan {} done: {}", job.id, outcome->directory.string());
+  {
+    std::lock_guard lock(mutex_);
+    status_.last_scan = job.id;
+    status_.last_error_code = ScanErrorCode::none;
+    status_.last_error.clear();
+    ++status_.scans_completed;
+    status_.current_scan.reset();
+    status_.step.clear();
+    status_.progress_percent = 0;
+    if (!stopping_) status_.state = DaemonState::idle;
+  }
+  auto event = scan_event(job.id);
+  event.update({{"status", "done"},
+                {"percent", 100},
+                {"scan_directory", outcome->directory.string()},
+                {"maps_directory", maps.string()}});
+  if (report.contains("ground_truth") && report["ground_truth"].contains("angular_error_deg"))
+    event["angular_error_deg"] = report["ground_truth"]["angular_error_deg"]["mean"];
+  events_.publish("done", std::move(event));
+}
+
+void ScanService::work() {
+  auto log = processing::logger("daemon");
+  {
+    ScanErrorCode ignored;
+    if (!open_rig_if_closed(ignored)) log->warn("the rig will be tried again at the next scan");
+  }
+  {
+    std::lock_guard lock(mutex_);
+    if (!stopping_) status_.state = DaemonState::idle;
+  }
+  for (;;) {
+    Job job;
+    {
+      std::unique_lock lock(mutex_);
+      wake_.wait(lock, [&] { return stopping_ || !queue_.empty() || pending_config_; });
+      if (stopping_) break;
+      if (queue_.empty()) {
+        lock.unlock();
+        apply_pending_config();
+        continue;
+      }
+      job = std::move(queue_.front());
+      queue_.pop_front();
+      status_.current_scan = job.id;
+      abort_current_ = false;
+    }
+    try {
+      run(job);
+    } catch (const std::exception& e) {
+      // OpenCV and the standard library may throw; a scan fails, never the daemon.
+      {
+        std::lock_guard lock(mutex_);
+        sequencer_ = nullptr;
+      }
+      (void)switch_lights_off();
+      finish(job, ScanStatus::failed, ScanErrorCode::internal,
+             std::string("internal error: ") + e.what(), {}, false);
+    }
+  }
+  close_rig();
+}
+
+void ScanService::stop() {
+  std::deque<Job> abandoned;
+  {
+    std::lock_guard lock(mutex_);
+    if (stopping_ && !worker_.joinable()) return;
+    stopping_ = true;
+    status_.state = DaemonState::stopping;
+    request_abort_locked();
+    abandoned.swap(queue_);
+  }
+  (void)switch_lights_off();
+  wake_.notify_all();
+  if (worker_.joinable()) worker_.join();
+  for (const auto& job : abandoned)
+    if (auto ok = catalogue_->mark_failed(job.id, ScanStatus::aborted, ScanErrorCode::aborted,
+                                          "psrigd stopped before this scan started", false);
+        !ok)
+      processing::logger("daemon")->error("scan {}: {}", job.id, ok.error().describe());
+  events_.close();
+}
+
+}  // namespace psrig::capture

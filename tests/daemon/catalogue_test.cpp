@@ -1,0 +1,298 @@
+// The catalogue on its own: rows through their lives, search, delete, and
+// what start-up makes of an interrupted run.
+
+#include "psrig/capture/catalogue.h"
+
+#include <fstream>
+#include <functional>
+#include <sqlite3.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include "test_support.h"
+
+namespace psrig::test {
+namespace {
+
+namespace fs = std::filesystem;
+using capture::Catalogue;
+using capture::CatalogueQuery;
+using capture::ScanErrorCode;
+using capture::ScanStatus;
+using capture::ScanSubmission;
+
+std::unique_ptr<Catalogue> open(const fs::path& root) {
+  auto catalogue = Catalogue::open(root);
+  EXPECT_TRUE(catalogue) << catalogue.error().describe();
+  return catalogue ? std::move(*catalogue) : nullptr;
+}
+
+std::int64_t add(Catalogue& catalogue, const std::string& sample,
+                 std::vector<std::string> tags = {}) {
+  auto id = catalogue.add({sample, "a swatch", std::move(tags), "test"});
+  EXPECT_TRUE(id) << id.error().describe();
+  return id.value_or(-1);
+}
+
+// A scan directory with a maps directory inside, as the service leaves one.
+void make_scan(const fs::path& directory) {
+  fs::create_directories(directory / "maps");
+  std::ofstream(directory / "scan.json") << "{}";
+  std::ofstream(directory / "maps" / "report.json") << "{}";
+}
+
+std::vector<std::int64_t> ids(const std::vector<capture::CatalogueEntry>& entries) {
+  std::vector<std::int64_t> out;
+  for (const auto& e : entries)
+    out.push_back(e.id);
+  return out;
+}
+
+CatalogueQuery query(const std::function<void(CatalogueQuery&)>& set) {
+  CatalogueQuery q;
+  set(q);
+  return q;
+}
+
+std::vector<std::int64_t> search(const Catalogue& catalogue, const CatalogueQuery& query) {
+  auto found = catalogue.search(query);
+  EXPECT_TRUE(found) << found.error().describe();
+  return found ? ids(*found) : std::vector<std::int64_t>{};
+}
+
+// Sets a row's created time, for date searches.
+void set_created(const fs::path& root, std::int64_t id, const std::string& when) {
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((root / Catalogue::kFileName).c_str(), &db), SQLITE_OK);
+  const std::string sql =
+      "UPDATE scans SET created = '" + when + "' WHERE id = " + std::to_string(id);
+  EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+}
+
+TEST(Catalogue, ARowThroughItsLife) {
+  TempDir temp;
+  auto catalogue = open(temp / "scans");
+  ASSERT_TRUE(catalogue);
+  const auto id = add(*catalogue, "J-0042", {"knit", "cotton", "knit"});
+  auto entry = catalogue->get(id);
+  ASSERT_TRUE(entry && *entry);
+  EXPECT_EQ((*entry)->status, ScanStatus::queued);
+  EXPECT_EQ((*entry)->sample_id, "J-0042");
+  EXPECT_EQ((*entry)->tags, (std::vector<std::string>{"knit", "cotton"}));  // duplicates once
+  EXPECT_TRUE(capture::normalise_timestamp((*entry)->created, false)) << (*entry)->created;
+  EXPECT_TRUE((*entry)->started.empty());
+
+  const fs::path scan = catalogue->storage_root() / "20260504-091233-J-0042";
+  ASSERT_TRUE(catalogue->mark_running(id, scan));
+  make_scan(scan);
+  const nlohmann::json report = {{"residual", {{"mean", 0.002}}},
+                                 {"ground_truth", {{"angular_error_deg", {{"mean", 0.4}}}}}};
+  ASSERT_TRUE(catalogue->mark_done(id, scan / "maps", report));
+  entry = catalogue->get(id);
+  ASSERT_TRUE(entry && *entry);
+  EXPECT_EQ((*entry)->status, ScanStatus::done);
+  EXPECT_EQ((*entry)->scan_directory, scan);
+  EXPECT_EQ((*entry)->maps_directory, scan / "maps");
+  EXPECT_EQ((*entry)->report, report);
+  EXPECT_FALSE((*entry)->finished.empty());
+
+  // A directory outside the storage root is refused, not recorded.
+  const auto other = add(*catalogue, "X");
+  EXPECT_FALSE(catalogue->mark_running(other, temp / "elsewhere"));
+  EXPECT_FALSE(catalogue->mark_running(other, catalogue->storage_root() / ".." / "escape"));
+
+  auto missing = catalogue->get(9999);
+  ASSERT_TRUE(missing);
+  EXPECT_FALSE(*missing);
+}
+
+TEST(Catalogue, IdsAreNeverReusedAndTheRowsOutliveTheProcess) {
+  TempDir temp;
+  std::int64_t first = 0, second = 0;
+  {
+    auto catalogue = open(temp.path());
+    first = add(*catalogue, "A");
+    second = add(*catalogue, "B");
+    ASSERT_TRUE(catalogue->remove(second));
+  }
+  auto catalogue = open(temp.path());
+  const auto third = add(*catalogue, "C");
+  EXPECT_GT(third, second);  // a PLC may still hold the old id
+  auto entry = catalogue->get(first);
+  ASSERT_TRUE(entry && *entry);
+  EXPECT_EQ((*entry)->sample_id, "A");
+}
+
+TEST(Catalogue, SearchBySampleTagDateAndStatusNewestFirst) {
+  TempDir temp;
+  auto catalogue = open(temp.path());
+  const auto a = add(*catalogue, "J-1", {"knit", "wool"});
+  const auto b = add(*catalogue, "J-2", {"knitted"});
+  const auto c = add(*catalogue, "J-1", {"woven"});
+  const auto d = add(*catalogue, "J-3", {"knit"});
+  set_created(temp.path(), a, "2026-05-01T08:00:00Z");
+  set_created(temp.path(), b, "2026-05-02T23:59:59Z");
+  set_created(temp.path(), c, "2026-05-03T00:00:00Z");
+  set_created(temp.path(), d, "2026-05-04T12:00:00Z");
+  ASSERT_TRUE(
+      catalogue->mark_failed(c, ScanStatus::failed, ScanErrorCode::camera, "timeout", false));
+
+  using Ids = std::vector<std::int64_t>;
+  EXPECT_EQ(search(*catalogue, {}), (Ids{d, c, b, a}));
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.sample_id = "J-1"; })), (Ids{c, a}));
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.tag = "knit"; })),
+            (Ids{d, a}));  // exact: not "knitted"
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.tag = "kni"; })), Ids{});
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.sample_id = "J-1";
+              q.tag = "woven";
+            })),
+            Ids{c});
+  // A bare date as `to` means the whole of that day.
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.from = capture::normalise_timestamp("2026-05-02", false);
+              q.to = capture::normalise_timestamp("2026-05-03", true);
+            })),
+            (Ids{c, b}));
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.from = capture::normalise_timestamp("2026-05-02T12:00:00Z", false);
+            })),
+            (Ids{d, c, b}));
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.status = ScanStatus::failed; })),
+            Ids{c});
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.status = ScanStatus::queued; })),
+            (Ids{d, b, a}));
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.limit = 2; })), (Ids{d, c}));
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.limit = 2;
+              q.offset = 2;
+            })),
+            (Ids{b, a}));
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.limit = 2;
+              q.offset = 4;
+            })),
+            Ids{});
+  // Text that looks like SQL is only ever a value.
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.sample_id = "J-1' OR '1'='1"; })),
+            Ids{});
+}
+
+TEST(Catalogue, TimestampsAreCheckedAndNormalised) {
+  using capture::normalise_timestamp;
+  EXPECT_EQ(normalise_timestamp("2026-05-04", false), "2026-05-04T00:00:00Z");
+  EXPECT_EQ(normalise_timestamp("2026-05-04", true), "2026-05-04T23:59:59Z");
+  EXPECT_EQ(normalise_timestamp("2026-05-04T09:12:33Z", true), "2026-05-04T09:12:33Z");
+  EXPECT_EQ(normalise_timestamp("2026-05-04T09:12:33.250+00:00", false), "2026-05-04T09:12:33Z");
+  EXPECT_FALSE(normalise_timestamp("yesterday", false));
+  EXPECT_FALSE(normalise_timestamp("2026-13-04", false));
+  EXPECT_FALSE(normalise_timestamp("2026-05-04T09:12:33+02:00", false));  // UTC only
+  EXPECT_FALSE(normalise_timestamp("2026-05-04'; DROP TABLE scans; --", false));
+}
+
+TEST(Catalogue, DeleteRemovesTheFilesThenTheRow) {
+  TempDir temp;
+  auto catalogue = open(temp / "scans");
+  const auto id = add(*catalogue, "J-7");
+  const fs::path scan = catalogue->storage_root() / "20260504-000000-J-7";
+  ASSERT_TRUE(catalogue->mark_running(id, scan));
+  make_scan(scan);
+  ASSERT_TRUE(catalogue->mark_done(id, scan / "maps", nullptr));
+  const auto removed = catalogue->remove(id);
+  ASSERT_TRUE(removed);
+  EXPECT_TRUE(*removed);
+  EXPECT_FALSE(fs::exists(scan));
+  auto entry = catalogue->get(id);
+  ASSERT_TRUE(entry);
+  EXPECT_FALSE(*entry);
+  const auto again = catalogue->remove(id);
+  ASSERT_TRUE(again);
+  EXPECT_FALSE(*again);
+  for (const auto& name : list_directory(catalogue->storage_root()))
+    EXPECT_TRUE(name.starts_with(Catalogue::kFileName)) << name;
+}
+
+TEST(Catalogue, RecoveryCleansAnInterruptedScanAndNothingElse) {
+  TempDir temp;
+  const fs::path root = temp / "scans";
+  const fs::path done_scan = root / "20260504-000000-done";
+  const fs::path running_scan = root / "20260504-000001-running";
+  const fs::path by_hand = root / "20260504-000002-by-hand";  // `psrig scan` put it there
+  const fs::path outside = temp / "outside";
+  std::int64_t done = 0, running = 0, queued = 0, escaped = 0;
+  {
+    auto catalogue = open(root);
+    done = add(*catalogue, "done");
+    ASSERT_TRUE(catalogue->mark_running(done, done_scan));
+    make_scan(done_scan);
+    ASSERT_TRUE(catalogue->mark_done(done, done_scan / "maps", nullptr));
+    running = add(*catalogue, "running");
+    ASSERT_TRUE(catalogue->mark_running(running, running_scan));
+    queued = add(*catalogue, "queued");
+    escaped = add(*catalogue, "escaped");
+  }
+  // What a killed daemon leaves: the scan written, its maps half made,
+  // and the writer's staging directory of the next one.
+  make_scan(running_scan);
+  fs::create_directories(running_scan / ".maps.partial-999999-1");
+  fs::create_directories(root / ".20260504-000001-running.partial-1-2");  // PID 1 is alive
+  fs::create_directories(root / ".other.partial-999999-3");               // a dead writer's
+  make_scan(by_hand);
+  make_scan(outside);
+  {
+    // A row pointing outside the storage root (edited by hand, say).
+    sqlite3* db = nullptr;
+    ASSERT_EQ(sqlite3_open((root / Catalogue::kFileName).c_str(), &db), SQLITE_OK);
+    const std::string sql =
+        "UPDATE scans SET status = 'running', scan_path = '../outside' "
+        "WHERE id = " +
+        std::to_string(escaped);
+    EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
+    sqlite3_close(db);
+  }
+
+  auto catalogue = open(root);
+  auto recovery = catalogue->recover();
+  ASSERT_TRUE(recovery) << recovery.error().describe();
+  EXPECT_EQ(recovery->interrupted, (std::vector<std::int64_t>{running, queued, escaped}));
+  for (const auto id : {running, queued, escaped}) {
+    auto entry = catalogue->get(id);
+    ASSERT_TRUE(entry && *entry);
+    EXPECT_EQ((*entry)->status, ScanStatus::failed);
+    EXPECT_NE((*entry)->error_message.find("interrupted"), std::string::npos);
+    EXPECT_TRUE((*entry)->scan_directory.empty());
+  }
+  EXPECT_FALSE(fs::exists(running_scan));
+  EXPECT_FALSE(fs::exists(root / ".20260504-000001-running.partial-1-2"));
+  EXPECT_FALSE(fs::exists(root / ".other.partial-999999-3"));
+  EXPECT_TRUE(fs::exists(done_scan / "maps" / "report.json"));
+  EXPECT_TRUE(fs::exists(by_hand / "scan.json"));
+  EXPECT_TRUE(fs::exists(outside / "scan.json"));
+  auto entry = catalogue->get(done);
+  ASSERT_TRUE(entry && *entry);
+  EXPECT_EQ((*entry)->status, ScanStatus::done);
+
+  // A second start finds nothing more to do.
+  auto again = catalogue->recover();
+  ASSERT_TRUE(again);
+  EXPECT_TRUE(again->interrupted.empty());
+  EXPECT_TRUE(again->removed_leftovers.empty());
+}
+
+TEST(Catalogue, ANewerSchemaIsRefused) {
+  TempDir temp;
+  { ASSERT_TRUE(open(temp.path())); }
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((temp / Catalogue::kFileName).c_str(), &db), SQLITE_OK);
+  EXPECT_EQ(sqlite3_exec(db, "PRAGMA user_version = 99", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  auto catalogue = Catalogue::open(temp.path());
+  ASSERT_FALSE(catalogue);
+  EXPECT_NE(catalogue.error().message.find("newer"), std::string::npos)
+      << catalogue.error().describe();
+}
+
+}  // namespace
+}  // namespace psrig::test

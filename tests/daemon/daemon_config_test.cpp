@@ -1,0 +1,91 @@
+// The [daemon] table of rig.toml: defaults, checks that name the key, and
+// the rule that nothing listens off this machine without a token.
+
+#include <gtest/gtest.h>
+
+#include "psrig/capture/http_api.h"
+#include "psrig/config/config_loader.h"
+
+namespace psrig::test {
+namespace {
+
+using config::parse_config;
+
+TEST(DaemonConfig, DefaultsListenOnLoopbackWithoutModbus) {
+  auto config = parse_config("", "rig.toml");
+  ASSERT_TRUE(config) << config.error().describe();
+  EXPECT_EQ(config->daemon.listen_address, "127.0.0.1");
+  EXPECT_EQ(config->daemon.port, 8470);
+  EXPECT_EQ(config->daemon.queue_limit, 16);
+  EXPECT_EQ(config->daemon.modbus_port, 0);
+  EXPECT_TRUE(config->daemon.token.empty());
+}
+
+TEST(DaemonConfig, KeysAreRead) {
+  auto config = parse_config(
+      "[daemon]\nlisten_address = \"0.0.0.0\"\nport = 9000\ntoken = \"0123456789abcdef0123\"\n"
+      "queue_limit = 3\nmodbus_address = \"0.0.0.0\"\nmodbus_port = 1502\n",
+      "rig.toml");
+  ASSERT_TRUE(config) << config.error().describe();
+  EXPECT_EQ(config->daemon.listen_address, "0.0.0.0");
+  EXPECT_EQ(config->daemon.port, 9000);
+  EXPECT_EQ(config->daemon.token, "0123456789abcdef0123");
+  EXPECT_EQ(config->daemon.queue_limit, 3);
+  EXPECT_EQ(config->daemon.modbus_address, "0.0.0.0");
+  EXPECT_EQ(config->daemon.modbus_port, 1502);
+}
+
+struct BadDaemon {
+  const char* text;
+  const char* key;  // what the message must name
+};
+
+TEST(DaemonConfig, ErrorsNameTheKey) {
+  for (const auto& bad : {
+           BadDaemon{"[daemon]\nport = 0\n", "daemon.port"},
+           BadDaemon{"[daemon]\nport = \"8470\"\n", "daemon.port"},
+           BadDaemon{"[daemon]\nqueue_limit = 0\n", "daemon.queue_limit"},
+           BadDaemon{"[daemon]\nmodbus_port = 70000\n", "daemon.modbus_port"},
+           BadDaemon{"[daemon]\nlisten_address = \"\"\n", "daemon.listen_address"},
+           BadDaemon{"[daemon]\ntoken = \"short\"\n", "daemon.token"},
+           BadDaemon{"[daemon]\nlisten_address = \"0.0.0.0\"\n", "daemon.token"},
+           BadDaemon{"daemon = 3\n", "daemon"},
+       }) {
+    auto config = parse_config(bad.text, "rig.toml");
+    ASSERT_FALSE(config) << bad.text;
+    EXPECT_NE(config.error().describe().find(bad.key), std::string::npos)
+        << bad.text << ": " << config.error().describe();
+    EXPECT_NE(config.error().describe().find("rig.toml:"), std::string::npos);
+  }
+}
+
+TEST(DaemonConfig, LoopbackAddresses) {
+  for (const char* address : {"127.0.0.1", "127.1.2.3", "::1", "localhost"})
+    EXPECT_TRUE(config::is_loopback_address(address)) << address;
+  for (const char* address : {"0.0.0.0", "::", "192.168.1.10", "128.0.0.1", "example.org", ""})
+    EXPECT_FALSE(config::is_loopback_address(address)) << address;
+}
+
+TEST(DaemonConfig, TokensCompareWhole) {
+  using capture::constant_time_equal;
+  EXPECT_TRUE(constant_time_equal("Bearer abc", "Bearer abc"));
+  EXPECT_FALSE(constant_time_equal("Bearer abc", "Bearer abd"));
+  EXPECT_FALSE(constant_time_equal("Bearer ab", "Bearer abc"));
+  EXPECT_FALSE(constant_time_equal("Bearer abc", "Bearer ab"));
+  EXPECT_FALSE(constant_time_equal("", "Bearer abc"));
+}
+
+TEST(DaemonConfig, OnlyWhitelistedFilesAreServed) {
+  using capture::scan_file_home;
+  using capture::ScanFileHome;
+  EXPECT_EQ(scan_file_home("scan.json"), ScanFileHome::scan);
+  EXPECT_EQ(scan_file_home("led2.png"), ScanFileHome::scan);
+  EXPECT_EQ(scan_file_home("normal.png"), ScanFileHome::maps);
+  EXPECT_EQ(scan_file_home("report.json"), ScanFileHome::maps);
+  for (const char* name : {"..", "../scan.json", "/etc/passwd", "catalogue.sqlite", "led16.png",
+                           "maps", "", "scan.json/", "NORMAL.PNG"})
+    EXPECT_FALSE(scan_file_home(name)) << name;
+}
+
+}  // namespace
+}  // namespace psrig::test

@@ -1,0 +1,188 @@
+#pragma once
+// A real psrigd process for the daemon's tests: its configuration (config/sim.toml
+// at 160x120, storage in a temp directory, on a free port), start, readiness,
+// signals and exit code, and an HTTP client to it.
+
+#include <chrono>
+#include <fcntl.h>
+#include <filesystem>
+#include <fstream>
+#include <httplib.h>
+#include <iterator>
+#include <netinet/in.h>
+#include <signal.h>
+#include <spawn.h>
+#include <string>
+#include <sys/socket.h>
+#include <sys/wait.h>
+#include <thread>
+#include <unistd.h>
+#include <utility>
+#include <vector>
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include "test_support.h"
+
+namespace psrig::test {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+using namespace std::chrono_literals;
+using Edits = std::vector<std::pair<std::string, std::string>>;
+
+inline const std::string kToken = "test-token-0123456789abcdef";
+
+inline bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+inline std::string read_file(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+// A port nobody listens on now (the kernel's pick, released at once).
+inline int free_port() {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  ::bind(fd, reinterpret_cast<sockaddr*>(&address), sizeof address);
+  socklen_t length = sizeof address;
+  ::getsockname(fd, reinterpret_cast<sockaddr*>(&address), &length);
+  ::close(fd);
+  return ntohs(address.sin_port);
+}
+
+// config/sim.toml at 160x120, scans into `temp`/scans, on `port`.
+inline fs::path daemon_config(const TempDir& temp, int port, const Edits& edits = {}) {
+  std::string text = read_file(fs::path(PSRIG_SOURCE_DIR) / "config/sim.toml");
+  const auto replace = [&](const std::string& from, const std::string& to) {
+    const auto at = text.find(from);
+    EXPECT_NE(at, std::string::npos) << from;
+    if (at != std::string::npos) text.replace(at, from.size(), to);
+  };
+  replace("width = 640", "width = 160");
+  replace("height = 480", "height = 120");
+  replace("root = \"../out/scans\"", "root = \"scans\"");
+  replace("port = 8470", "port = " + std::to_string(port));
+  for (const auto& [from, to] : edits)
+    replace(from, to);
+  const fs::path file = temp / "rig.toml";
+  std::ofstream(file) << text;
+  return file;
+}
+
+// A psrigd process, killed if the test leaves it running.
+class Daemon {
+ public:
+  Daemon(const fs::path& config, int port, const fs::path& log)
+      : port_(port), log_(log), client_("127.0.0.1", port) {
+    const std::string binary = program("psrigd").string(), config_arg = config.string();
+    std::vector<const char*> argv = {binary.c_str(), "--config", config_arg.c_str(), nullptr};
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+    if (posix_spawn(&pid_, binary.c_str(), &actions, nullptr, const_cast<char* const*>(argv.data()),
+                    environ) != 0)
+      pid_ = 0;
+    posix_spawn_file_actions_destroy(&actions);
+    client_.set_connection_timeout(1s);
+    client_.set_read_timeout(10s);
+    client_.set_bearer_token_auth(kToken.c_str());  // ignored where no token is set
+  }
+  ~Daemon() {
+    if (pid_ > 0) {
+      ::kill(pid_, SIGKILL);
+      ::waitpid(pid_, nullptr, 0);
+    }
+  }
+  Daemon(const Daemon&) = delete;
+  Daemon& operator=(const Daemon&) = delete;
+
+  // Serving, or gone (then the exit code).
+  [[nodiscard]] bool wait_ready() {
+    const auto deadline = std::chrono::steady_clock::now() + 15s;
+    while (std::chrono::steady_clock::now() < deadline) {
+      if (exited()) return false;
+      if (auto res = client_.Get("/v1/status"); res && res->status == 200) {
+        const auto body = json::parse(res->body);
+        if (body["state"] != "starting") return true;
+      }
+      std::this_thread::sleep_for(20ms);
+    }
+    return false;
+  }
+  bool exited() {
+    if (pid_ <= 0) return true;
+    int status = 0;
+    if (::waitpid(pid_, &status, WNOHANG) != pid_) return false;
+    exit_code_ = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+    pid_ = 0;
+    return true;
+  }
+  // Sends `signal` and waits (at most 20 s) for the exit code.
+  int signal_and_wait(int signal) {
+    ::kill(pid_, signal);
+    const auto deadline = std::chrono::steady_clock::now() + 20s;
+    while (!exited() && std::chrono::steady_clock::now() < deadline)
+      std::this_thread::sleep_for(10ms);
+    return pid_ == 0 ? exit_code_ : -1;
+  }
+  [[nodiscard]] int exit_code() const { return exit_code_; }
+  [[nodiscard]] pid_t pid() const { return pid_; }
+  [[nodiscard]] std::string log() const { return read_file(log_); }
+  [[nodiscard]] int port() const { return port_; }
+  [[nodiscard]] std::string url() const { return "http://127.0.0.1:" + std::to_string(port_); }
+  httplib::Client& http() { return client_; }
+
+  json get(const std::string& path, int expected_status = 200) {
+    auto res = client_.Get(path);
+    EXPECT_TRUE(res) << path;
+    if (!res) return nullptr;
+    EXPECT_EQ(res->status, expected_status) << path << ": " << res->body;
+    return json::parse(res->body, nullptr, false);
+  }
+  std::int64_t submit(const json& body) {
+    auto res = client_.Post("/v1/scans", body.dump(), "application/json");
+    EXPECT_TRUE(res);
+    if (!res) return -1;
+    EXPECT_EQ(res->status, 202) << res->body;
+    return json::parse(res->body).value("id", std::int64_t{-1});
+  }
+  // The scan's row once it has finished (or after `limit`).
+  json wait_finished(std::int64_t id, std::chrono::seconds limit = 30s) {
+    const auto deadline = std::chrono::steady_clock::now() + limit;
+    json entry;
+    while (std::chrono::steady_clock::now() < deadline) {
+      entry = get("/v1/scans/" + std::to_string(id));
+      const std::string status = entry.value("status", "");
+      if (status != "queued" && status != "running") return entry;
+      std::this_thread::sleep_for(20ms);
+    }
+    ADD_FAILURE() << "scan " << id << " did not finish: " << entry.dump();
+    return entry;
+  }
+  // Waits until `predicate` holds of GET /v1/status.
+  template <class Predicate>
+  bool wait_status(Predicate predicate, std::chrono::seconds limit = 20s) {
+    const auto deadline = std::chrono::steady_clock::now() + limit;
+    while (std::chrono::steady_clock::now() < deadline) {
+      if (auto res = client_.Get("/v1/status"); res && res->status == 200)
+        if (predicate(json::parse(res->body))) return true;
+      std::this_thread::sleep_for(2ms);
+    }
+    return false;
+  }
+
+ private:
+  pid_t pid_ = 0;
+  int exit_code_ = -1;
+  int port_;
+  fs::path log_;
+  httplib::Client client_;
+};
+
+}  // namespace psrig::test
