@@ -200,10 +200,18 @@ void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns, bool relax) {
   states_.resize(knots_.size());
   const int count = static_cast<int>(knots_.size());
   processing::parallel_chunks(count, 256, [&](int begin, int end) {
+    const auto chunk = static_cast<std::size_t>(end - begin);
+    if (!relax) {
+      std::copy_n(initial_.begin() + begin, chunk, states_.begin() + begin);
+      return;
+    }
+    std::vector<KnotProblem> problems;
+    problems.reserve(chunk);
     for (int k = begin; k < end; ++k)
-      states_[k] = relax ? relax_knot(placements_[k], initial_[k], passes(k),
-                                      parameters_.iterations, parameters_.weights)
-                         : initial_[k];
+      problems.push_back({&placements_[static_cast<std::size_t>(k)], passes(k),
+                          initial_[static_cast<std::size_t>(k)]});
+    relax_knots(problems, parameters_.iterations, parameters_.weights,
+                std::span(states_).subspan(static_cast<std::size_t>(begin), chunk));
   });
   sample(mesh, yarns);
 }

@@ -37,13 +37,26 @@ void sample_yarn(std::span<const YarnControlPoint> control, int samples_per_span
     const YarnControlPoint& p1 = control[i];
     const YarnControlPoint& p2 = control[i + 1];
     const YarnControlPoint& p3 = control[std::min(i + 2, spans)];
-    for (int j = 0; j < per_span; ++j, ++out) {
+    // The span's first sample is its control point; the cloth's normal only
+    // needs blending (and renormalising) where the two ends' normals differ,
+    // which on a flat cloth they never do.
+    const bool same_normal = p1.normal == p2.normal;
+    curve.points[out] = p1.position;
+    curve.normals[out] = p1.normal;
+    curve.lift[out] = p1.lift;
+    if (coloured) curve.colours[out] = p1.colour;
+    ++out;
+    for (int j = 1; j < per_span; ++j, ++out) {
       const Eigen::Vector4f& w = weights[static_cast<std::size_t>(j)];
       const float t = static_cast<float>(j) * step;
       curve.points[out] =
           w.x() * p0.position + w.y() * p1.position + w.z() * p2.position + w.w() * p3.position;
-      const Eigen::Vector3f normal = (1 - t) * p1.normal + t * p2.normal;
-      curve.normals[out] = normal * (1 / std::sqrt(std::max(normal.squaredNorm(), 1e-12f)));
+      if (same_normal) {
+        curve.normals[out] = p1.normal;
+      } else {
+        const Eigen::Vector3f normal = (1 - t) * p1.normal + t * p2.normal;
+        curve.normals[out] = normal * (1 / std::sqrt(std::max(normal.squaredNorm(), 1e-12f)));
+      }
       curve.lift[out] = (1 - t) * p1.lift + t * p2.lift;
       if (coloured) curve.colours[out] = (1 - t) * p1.colour + t * p2.colour;
     }

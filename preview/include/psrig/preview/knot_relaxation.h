@@ -72,4 +72,17 @@ struct KnotWeights {
                                    std::span<const KnotPass> passes, int iterations,
                                    KnotWeights weights = {});
 
+// One knot for relax_knots: where it sits, its passes, where to start.
+struct KnotProblem {
+  const KnotPlacement* knot = nullptr;
+  std::span<const KnotPass> passes;
+  KnotState initial;
+};
+
+// relax_knot() over many knots, out[i] for problems[i]. Knots with two
+// passes (every knit knot but the fabric's edges) go four at a time
+// through vector lanes, each lane doing the same arithmetic as one knot.
+void relax_knots(std::span<const KnotProblem> problems, int iterations, KnotWeights weights,
+                 std::span<KnotState> out);
+
 }  // namespace psrig::preview
