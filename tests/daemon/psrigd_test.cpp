@@ -514,6 +514,400 @@ TEST(Psrigd, AnLedDriverFaultFailsTheScanNotTheDaemon) {
   EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
 }
 
+// A camera that stops delivering frames (the simulated sensor slowed to one
+// frame in 5 s against a 300 ms grab timeout): the scan fails as a camera
+// timeout with every LED off, and the daemon serves on.
+TEST(Psrigd, ACameraTimeoutFailsTheScanWithTheLedsOff) {
+  TempDir temp;
+  auto driver = firmware_host::SimModbusDriver::start({});
+  ASSERT_TRUE(driver) << driver.error().describe();
+  const int port = free_port();
+  const Edits modbus_lights = {{"backend = \"sim\"\nchannels",
+                                "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", port = " +
+                                    std::to_string((*driver)->port()) + " }\nchannels"}};
+  Edits stalled = modbus_lights;
+  stalled.push_back({"timeout_ms = 2000", "timeout_ms = 300"});
+  stalled.push_back({"readout_us = 15000", "readout_us = 15000\nframe_interval_us = 5000000"});
+  const auto config = daemon_config(temp, port, stalled);
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto failed = daemon.wait_finished(daemon.submit({{"sample_id", "T"}}));
+  EXPECT_EQ(failed["status"], "failed") << failed.dump();
+  EXPECT_EQ(failed["error"]["code_name"], "camera") << failed.dump();
+  EXPECT_TRUE(contains(failed["error"]["message"].get<std::string>(), "camera.timeout_ms"))
+      << failed.dump();
+  EXPECT_TRUE((*driver)->leds_on().empty());
+  EXPECT_FALSE((*driver)->log().overlap());
+  for (const auto& name : list_directory(temp / "scans"))
+    EXPECT_TRUE(name.starts_with("catalogue.sqlite")) << "no half scan: " << name;
+
+  // The camera back to its pace: the daemon scans again.
+  daemon_config(temp, port, modbus_lights);
+  ::kill(daemon.pid(), SIGHUP);
+  // Submitted once the daemon has read the file again (its main loop takes
+  // SIGHUP within 200 ms); the worker applies it before the next scan.
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (!contains(daemon.log(), "SIGHUP") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(10ms);
+  ASSERT_TRUE(contains(daemon.log(), "SIGHUP")) << daemon.log();
+  std::this_thread::sleep_for(50ms);
+  const auto before = std::chrono::steady_clock::now();
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+  EXPECT_LT(std::chrono::steady_clock::now() - before, 5s);
+  idle_listener.join();
+}
+
+TEST(Psrigd, BadRequestsGetA4xxWithAMessage) {
+  TempDir temp;
+  const int port = free_port();
+  Daemon daemon(daemon_config(temp, port), port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto post = [&](const std::string& body) {
+    auto res = daemon.http().Post("/v1/scans", body, "application/json");
+    EXPECT_TRUE(res);
+    return res ? std::pair{res->status, json::parse(res->body, nullptr, false)}
+               : std::pair{-1, json()};
+  };
+  for (const auto& [body, must_name] : std::vector<std::pair<std::string, std::string>>{
+           {"{\"sample_id\": ", "malformed JSON"},
+           {"[1, 2]", "object"},
+           {"{\"sample_id\": 42}", "sample_id"},
+           {"{\"tags\": \"knit\"}", "tags"},
+           {"{\"tags\": [1]}", "tags"},
+           {"{\"sample_id\": \"" + std::string(200, 'x') + "\"}", "sample_id"},
+           {"{\"colour\": \"red\"}", "colour"},
+       }) {
+    const auto [status, reply] = post(body);
+    EXPECT_EQ(status, 400) << body;
+    ASSERT_TRUE(reply.is_object()) << body;
+    EXPECT_TRUE(contains(reply.value("error", ""), must_name)) << body << " -> " << reply.dump();
+  }
+  // Too large: refused from the headers, before a byte of the body is read.
+  const auto [too_large, answer] = raw_http(
+      port,
+      "POST /v1/scans HTTP/1.1\r\nHost: x\r\nContent-Type: application/json\r\nContent-Length: "
+      "10000000\r\nConnection: close\r\n\r\n{\"sample_id\": \"");
+  EXPECT_EQ(too_large, 413) << answer;
+  EXPECT_TRUE(
+      contains(json::parse(body_of(answer), nullptr, false).value("error", ""), "larger than"))
+      << answer;
+  // An oversized body sent whole gets the same.
+  auto big = daemon.http().Post(
+      "/v1/scans", "{\"description\": \"" + std::string(100000, 'x') + "\"}", "application/json");
+  ASSERT_TRUE(big);
+  EXPECT_EQ(big->status, 413);
+
+  EXPECT_EQ(daemon.get("/v1/scans/12345", 404).value("error", ""), "no scan 12345");
+  EXPECT_EQ(daemon.get("/v1/scans/abc", 404).value("error", ""), "no such scan");
+  EXPECT_EQ(daemon.get("/v1/nothing", 404).value("error", ""), "no such endpoint");
+  auto res = daemon.http().Delete("/v1/scans/99999999999999999999999");
+  ASSERT_TRUE(res);
+  EXPECT_EQ(res->status, 404);
+  EXPECT_EQ(json::parse(daemon.get("/v1/scans").dump())["scans"].size(), 0U);  // nothing queued
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+TEST(Psrigd, PathTraversalIsRefused) {
+  TempDir temp;
+  const int port = free_port();
+  const auto config = daemon_config(temp, port);
+  std::ofstream(temp / "secret.txt") << "the secret";
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto id = std::to_string(daemon.submit({{"sample_id", "T"}}));
+  ASSERT_EQ(daemon.wait_finished(std::stoll(id))["status"], "done");
+
+  const std::string scan = "/v1/scans/" + id + "/files/";
+  for (const std::string& path :
+       {scan + "../../../secret.txt", scan + "..%2f..%2f..%2fsecret.txt",
+        scan + "%2e%2e/%2e%2e/%2e%2e/secret.txt", scan + "%2e%2e%2f%2e%2e%2f%2e%2e%2fsecret.txt",
+        scan + "/etc/passwd", scan + "%2fetc%2fpasswd", scan + temp.path().string() + "/secret.txt",
+        scan + "..", scan + "maps%2f..%2f..%2f..%2fsecret.txt", scan + "scan.json%00.png",
+        "/v1/scans/" + id + "/../../secret.txt", "/v1/scans/..%2f" + id + "/files/scan.json",
+        "/v1/scans/" + id + "/files/../../catalogue.sqlite"}) {
+    const auto [status, answer] =
+        raw_http(port, "GET " + path + " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+    EXPECT_GE(status, 400) << path << "\n" << answer;
+    EXPECT_LT(status, 500) << path << "\n" << answer;
+    EXPECT_FALSE(contains(answer, "the secret")) << path;
+    EXPECT_FALSE(contains(answer, "root:")) << path;
+    EXPECT_FALSE(contains(answer, "SQLite format")) << path;
+  }
+  // The same request, well-formed, works: the refusals above were not luck.
+  const auto [ok, answer] =
+      raw_http(port, "GET " + scan + "scan.json HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(ok, 200) << answer;
+  EXPECT_TRUE(contains(answer, "psrig-scan/1"));
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+TEST(Psrigd, OffLoopbackItNeedsAToken) {
+  TempDir temp;
+  const int port = free_port();
+  {
+    // No token: refused at start, naming the key.
+    const auto config = daemon_config(
+        temp, port, {{"listen_address = \"127.0.0.1\"", "listen_address = \"0.0.0.0\""}});
+    Daemon daemon(config, port, temp / "refused.log");
+    EXPECT_FALSE(daemon.wait_ready());
+    EXPECT_EQ(daemon.exit_code(), 2) << daemon.log();
+    EXPECT_TRUE(contains(daemon.log(), "daemon.token")) << daemon.log();
+  }
+  const auto config = daemon_config(temp, port,
+                                    {{"listen_address = \"127.0.0.1\"",
+                                      "listen_address = \"0.0.0.0\"\ntoken = \"" + kToken + "\""}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();  // with the token
+  for (const std::string& authorization : std::vector<std::string>{
+           std::string(), "Authorization: Bearer wrong\r\n",
+           "Authorization: Bearer " + kToken + "x\r\n", "Authorization: " + kToken + "\r\n",
+           "Authorization: Basic " + kToken + "\r\n"}) {
+    for (const std::string request :
+         {"GET /v1/status", "POST /v1/lights/off", "GET /v1/scans", "DELETE /v1/scans/1"}) {
+      const auto [status, answer] =
+          raw_http(port, request + " HTTP/1.1\r\nHost: x\r\n" + authorization +
+                             "Content-Length: 0\r\nConnection: close\r\n\r\n");
+      EXPECT_EQ(status, 401) << request << " with '" << authorization << "'\n" << answer;
+      EXPECT_TRUE(contains(answer, "bearer token")) << answer;
+    }
+  }
+  const auto [status, answer] =
+      raw_http(port, "GET /v1/status HTTP/1.1\r\nHost: x\r\nAuthorization: Bearer " + kToken +
+                         "\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(status, 200) << answer;
+
+  auto without = run_program("psrig", {"status", "--url", daemon.url()});
+  EXPECT_EQ(without.exit_code, 2) << without.err;
+  EXPECT_TRUE(contains(without.err, "--token")) << without.err;
+  auto with = run_program("psrig", {"status", "--url", daemon.url(), "--token", kToken});
+  EXPECT_EQ(with.exit_code, 0) << with.err;
+  EXPECT_TRUE(contains(with.out, "idle")) << with.out;
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+// SIGTERM while an LED is lit, with the LEDs on a (simulated) Modbus driver
+// the test holds, so it sees from outside what the LEDs did.
+TEST(Psrigd, SigtermMidScanTurnsEveryLedOffAndExitsZero) {
+  TempDir temp;
+  auto driver = firmware_host::SimModbusDriver::start({});
+  ASSERT_TRUE(driver) << driver.error().describe();
+  const int port = free_port();
+  const auto config =
+      daemon_config(temp, port,
+                    {{"backend = \"sim\"\nchannels",
+                      "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", "
+                      "port = " +
+                          std::to_string((*driver)->port()) + " }\nchannels"},
+                     {"exposure_us = 20000", "exposure_us = 200000"}});  // a slow scan
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto id = daemon.submit({{"sample_id", "S-1"}});
+  const auto deadline = std::chrono::steady_clock::now() + 15s;
+  while ((*driver)->leds_on().empty() && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(1ms);
+  ASSERT_FALSE((*driver)->leds_on().empty()) << "no LED came on\n" << daemon.log();
+
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+  EXPECT_TRUE((*driver)->leds_on().empty());
+  EXPECT_FALSE((*driver)->log().overlap());
+  EXPECT_TRUE((*driver)->log().on_now().empty());
+  EXPECT_TRUE(contains(daemon.log(), "aborted")) << daemon.log();
+  // Nothing half-made is left, and the row says what happened.
+  for (const auto& name : list_directory(temp / "scans"))
+    EXPECT_TRUE(name.starts_with("catalogue.sqlite")) << name;
+  Daemon again(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(again.wait_ready()) << again.log();
+  const auto entry = again.get("/v1/scans/" + std::to_string(id));
+  EXPECT_EQ(entry["status"], "aborted") << entry.dump();
+  EXPECT_EQ(entry["error"]["code_name"], "aborted") << entry.dump();
+  EXPECT_EQ(again.signal_and_wait(SIGTERM), 0);
+}
+
+TEST(Psrigd, CancelQueuedAbortRunningAndLightsOff) {
+  TempDir temp;
+  const int port = free_port();
+  const auto config = daemon_config(temp, port, {{"exposure_us = 20000", "exposure_us = 150000"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto running = daemon.submit({{"sample_id", "R"}});
+  const auto queued = daemon.submit({{"sample_id", "Q"}});
+  const auto last = daemon.submit({{"sample_id", "L"}});
+  ASSERT_TRUE(daemon.wait_status([&](const json& s) { return s["current_scan"] == running; }));
+
+  auto cancel = daemon.http().Delete("/v1/scans/" + std::to_string(queued));
+  ASSERT_TRUE(cancel);
+  EXPECT_EQ(cancel->status, 200) << cancel->body;
+  auto abort = daemon.http().Delete("/v1/scans/" + std::to_string(running));
+  ASSERT_TRUE(abort);
+  EXPECT_EQ(abort->status, 202) << abort->body;
+  EXPECT_EQ(daemon.wait_finished(running)["status"], "aborted");
+  EXPECT_EQ(daemon.wait_finished(queued)["status"], "aborted");
+  EXPECT_EQ(daemon.wait_finished(queued)["error"]["message"], "cancelled before it started");
+
+  // lights/off stops the next one too.
+  ASSERT_TRUE(daemon.wait_status([&](const json& s) { return s["current_scan"] == last; }));
+  auto off = daemon.http().Post("/v1/lights/off", "", "application/json");
+  ASSERT_TRUE(off);
+  EXPECT_EQ(off->status, 200) << off->body;
+  const auto stopped = daemon.wait_finished(last);
+  EXPECT_EQ(stopped["status"], "aborted") << stopped.dump();
+  EXPECT_TRUE(stopped["scan_directory"].is_null());
+  const auto status = daemon.get("/v1/status");
+  EXPECT_EQ(status["state"], "idle") << status.dump();
+  EXPECT_EQ(status["last_error"]["code_name"], "aborted") << status.dump();
+  for (const auto& name : list_directory(temp / "scans"))
+    EXPECT_TRUE(name.starts_with("catalogue.sqlite")) << name;
+  EXPECT_EQ(daemon.signal_and_wait(SIGINT), 0) << daemon.log();
+}
+
+TEST(Psrigd, QueueLimitAndReloadOnSighup) {
+  TempDir temp;
+  const int port = free_port();
+  const auto config = daemon_config(
+      temp, port,
+      {{"queue_limit = 16", "queue_limit = 1"}, {"exposure_us = 20000", "exposure_us = 150000"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto first = daemon.submit(json::object());
+  ASSERT_TRUE(daemon.wait_status([&](const json& s) { return s["current_scan"] == first; }));
+  (void)daemon.submit(json::object());  // waits
+  auto full = daemon.http().Post("/v1/scans", "{}", "application/json");
+  ASSERT_TRUE(full);
+  EXPECT_EQ(full->status, 503) << full->body;
+  EXPECT_TRUE(contains(full->body, "queue full")) << full->body;
+  EXPECT_EQ(daemon.get("/v1/status")["last_error"]["code"], 6);  // queue_full, as the PLC reads it
+
+  // A broken file is logged and the running configuration kept.
+  const std::string good = read_file(config);
+  std::ofstream(config) << "[daemon\nqueue_limit = ";
+  ::kill(daemon.pid(), SIGHUP);
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (!contains(daemon.log(), "keeping the running configuration") &&
+         std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(20ms);
+  EXPECT_TRUE(contains(daemon.log(), "keeping the running configuration")) << daemon.log();
+  EXPECT_EQ(daemon.get("/v1/status")["queue_limit"], 1);
+
+  std::string larger = good;
+  larger.replace(larger.find("queue_limit = 1"), 15, "queue_limit = 4");
+  std::ofstream(config) << larger;
+  ::kill(daemon.pid(), SIGHUP);
+  EXPECT_TRUE(daemon.wait_status([](const json& s) { return s["queue_limit"] == 4; }))
+      << daemon.log();
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+TEST(Psrigd, KilledWhileSavingThenRestartedLeavesNoHalfScan) {
+  TempDir temp;
+  const int port = free_port();
+  // Full size, so that processing takes long enough to be caught in.
+  auto config = daemon_config(temp, port);
+  {
+    std::string text = read_file(config);
+    text.replace(text.find("width = 160"), 11, "width = 960");
+    text.replace(text.find("height = 120"), 12, "height = 720");
+    std::ofstream(config) << text;
+  }
+  std::int64_t id = 0;
+  {
+    Daemon daemon(config, port, temp / "psrigd.log");
+    ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+    id = daemon.submit({{"sample_id", "K-9"}});
+    ASSERT_TRUE(daemon.wait_status([](const json& s) { return s["state"] == "processing"; }))
+        << daemon.log();
+    EXPECT_EQ(daemon.signal_and_wait(SIGKILL), 128 + SIGKILL);
+  }
+  // The scan directory was written before processing began: the kill left
+  // it (and a staging directory of maps) without a `done` row.
+  const auto leftovers = list_directory(temp / "scans");
+  EXPECT_GT(leftovers.size(), 1U);
+
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto entry = daemon.get("/v1/scans/" + std::to_string(id));
+  EXPECT_EQ(entry["status"], "failed") << entry.dump();
+  EXPECT_TRUE(contains(entry["error"]["message"].get<std::string>(), "interrupted"))
+      << entry.dump();
+  EXPECT_TRUE(entry["scan_directory"].is_null());
+  for (const auto& name : list_directory(temp / "scans"))
+    EXPECT_TRUE(name.starts_with("catalogue.sqlite")) << name;
+  // And it serves on.
+  const auto next = daemon.submit({{"sample_id", "K-10"}});
+  EXPECT_EQ(daemon.wait_finished(next, 60s)["status"], "done") << daemon.log();
+  EXPECT_EQ(daemon.get("/v1/scans?status=done")["scans"].size(), 1U);
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+// A fault fails its scan, names the device, and leaves the daemon serving:
+// the next scan opens the rig again.
+TEST(Psrigd, AnLedDriverFaultFailsTheScanNotTheDaemon) {
+  TempDir temp;
+  auto driver = firmware_host::SimModbusDriver::start({});
+  ASSERT_TRUE(driver) << driver.error().describe();
+  const int port = free_port();
+  const auto config =
+      daemon_config(temp, port,
+                    {{"backend = \"sim\"\nchannels",
+                      "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", "
+                      "port = " +
+                          std::to_string((*driver)->port()) + ", retries = 0 }\nchannels"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  (*driver)->inject(firmware_host::ModbusFault::exception);
+  const auto failed = daemon.wait_finished(daemon.submit({{"sample_id", "F-1"}}));
+  EXPECT_EQ(failed["status"], "failed") << failed.dump();
+  EXPECT_EQ(failed["error"]["code"], 2) << failed.dump();  // lights, as the PLC reads it
+  const auto status = daemon.get("/v1/status");
+  EXPECT_EQ(status["state"], "error") << status.dump();
+  EXPECT_EQ(status["last_error"]["code_name"], "lights") << status.dump();
+  EXPECT_TRUE((*driver)->leds_on().empty());
+
+  (*driver)->clear_fault();
+  const auto next = daemon.wait_finished(daemon.submit({{"sample_id", "F-2"}}));
+  EXPECT_EQ(next["status"], "done") << next.dump() << daemon.log();
+  EXPECT_EQ(daemon.get("/v1/status")["state"], "idle");
+  EXPECT_FALSE((*driver)->log().overlap());
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+// A camera that stops delivering frames (the simulated sensor slowed to one
+// frame in 5 s against a 300 ms grab timeout): the scan fails as a camera
+// timeout with every LED off, and the daemon serves on.
+TEST(Psrigd, ACameraTimeoutFailsTheScanWithTheLedsOff) {
+  TempDir temp;
+  auto driver = firmware_host::SimModbusDriver::start({});
+  ASSERT_TRUE(driver) << driver.error().describe();
+  const int port = free_port();
+  const Edits modbus_lights = {{"backend = \"sim\"\nchannels",
+                                "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", port = " +
+                                    std::to_string((*driver)->port()) + " }\nchannels"}};
+  Edits stalled = modbus_lights;
+  stalled.push_back({"timeout_ms = 2000", "timeout_ms = 300"});
+  stalled.push_back({"readout_us = 15000", "readout_us = 15000\nframe_interval_us = 5000000"});
+  const auto config = daemon_config(temp, port, stalled);
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto failed = daemon.wait_finished(daemon.submit({{"sample_id", "T"}}));
+  EXPECT_EQ(failed["status"], "failed") << failed.dump();
+  EXPECT_EQ(failed["error"]["code_name"], "camera") << failed.dump();
+  EXPECT_TRUE(contains(failed["error"]["message"].get<std::string>(), "camera.timeout_ms"))
+      << failed.dump();
+  EXPECT_TRUE((*driver)->leds_on().empty());
+  EXPECT_FALSE((*driver)->log().overlap());
+  for (const auto& name : list_directory(temp / "scans"))
+    EXPECT_TRUE(name.starts_with("catalogue.sqlite")) << "no half scan: " << name;
+
+  // The camera back to its pace: the daemon scans again.
+  daemon_config(temp, port, modbus_lights);
+  ::kill(daemon.pid(), SIGHUP);
+  ASSERT_TRUE(daemon.wait_status([](const json& s) { return s["state"] != "starting"; }));
+  std::this_thread::sleep_for(300ms);  // the reload is applied before the next scan
+  EXPECT_EQ(daemon.wait_finished(daemon.submit({{"sample_id", "T"}}))["status"], "done")
+      << daemon.log();
+  EXPECT_TRUE((*driver)->leds_on().empty());
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
 TEST(Psrigd, AMissingCameraFailsEachScanUntilAReloadFixesIt) {
   TempDir temp;
   const int port = free_port();
