@@ -1,18 +1,26 @@
 #pragma once
 // A real psrigd process for the daemon's tests: its configuration (config/sim.toml
 // at 160x120, storage in a temp directory, on a free port), start, readiness,
-// signals and exit code, and an HTTP client to it.
+// signals and exit code, and an HTTP client to it. Optionally the daemon runs
+// in its own mount namespace with a tmpfs of a chosen size over a directory
+// (its storage root), so a test can fill "the disk" and nothing stays mounted
+// when the daemon dies, however the test ends.
 
+#include <cerrno>
 #include <chrono>
+#include <cstring>
 #include <fcntl.h>
 #include <filesystem>
 #include <fstream>
 #include <httplib.h>
 #include <iterator>
 #include <netinet/in.h>
+#include <optional>
+#include <sched.h>
 #include <signal.h>
 #include <spawn.h>
 #include <string>
+#include <sys/mount.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <thread>
@@ -75,20 +83,66 @@ inline fs::path daemon_config(const TempDir& temp, int port, const Edits& edits 
   return file;
 }
 
+// A tmpfs over `at` (an existing directory), seen only by the daemon.
+struct PrivateTmpfs {
+  fs::path at;
+  std::string options;  // mount(8)'s -o, e.g. "size=4m"
+};
+
+// Exit code of a child that could not set its private tmpfs up.
+inline constexpr int kTmpfsFailed = 97;
+
+// In a forked child (only async-signal-safe calls): a mount namespace of its
+// own, nothing propagating back, and the tmpfs. errno on failure, else 0.
+inline int mount_private_tmpfs(const char* at, const char* options) {
+  if (::unshare(CLONE_NEWNS) != 0) return errno;
+  if (::mount(nullptr, "/", nullptr, MS_REC | MS_PRIVATE, nullptr) != 0) return errno;
+  if (::mount("psrig-test", at, "tmpfs", MS_NOSUID | MS_NODEV, options) != 0) return errno;
+  return 0;
+}
+
+// Why this machine cannot give a test a private tmpfs (no CAP_SYS_ADMIN, a
+// seccomp filter), tried in a throwaway child; nothing when it can.
+inline std::optional<std::string> private_tmpfs_unavailable(const fs::path& scratch) {
+  int pipe_fds[2];
+  if (::pipe2(pipe_fds, O_CLOEXEC) != 0) return std::string("pipe: ") + std::strerror(errno);
+  const std::string at = scratch.string();
+  const pid_t child = ::fork();
+  if (child == 0) {
+    const int error = mount_private_tmpfs(at.c_str(), "size=64k");
+    (void)!::write(pipe_fds[1], &error, sizeof error);
+    ::_exit(0);
+  }
+  ::close(pipe_fds[1]);
+  int error = -1;
+  if (child < 0 || ::read(pipe_fds[0], &error, sizeof error) != sizeof error) error = ECHILD;
+  ::close(pipe_fds[0]);
+  if (child > 0) ::waitpid(child, nullptr, 0);
+  if (error == 0) return std::nullopt;
+  return "cannot mount a tmpfs in a private mount namespace on " + at + ": " +
+         std::strerror(error) + " (needs CAP_SYS_ADMIN, e.g. root outside a restricted container)";
+}
+
 // A psrigd process, killed if the test leaves it running.
 class Daemon {
  public:
-  Daemon(const fs::path& config, int port, const fs::path& log)
+  Daemon(const fs::path& config, int port, const fs::path& log,
+         const std::optional<PrivateTmpfs>& tmpfs = std::nullopt)
       : port_(port), log_(log), client_("127.0.0.1", port) {
     const std::string binary = program("psrigd").string(), config_arg = config.string();
     std::vector<const char*> argv = {binary.c_str(), "--config", config_arg.c_str(), nullptr};
-    posix_spawn_file_actions_t actions;
-    posix_spawn_file_actions_init(&actions);
-    posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
-    if (posix_spawn(&pid_, binary.c_str(), &actions, nullptr, const_cast<char* const*>(argv.data()),
-                    environ) != 0)
-      pid_ = 0;
-    posix_spawn_file_actions_destroy(&actions);
+    if (tmpfs) {
+      spawn_with_tmpfs(binary, argv, *tmpfs);
+    } else {
+      posix_spawn_file_actions_t actions;
+      posix_spawn_file_actions_init(&actions);
+      posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_APPEND,
+                                       0644);
+      if (posix_spawn(&pid_, binary.c_str(), &actions, nullptr,
+                      const_cast<char* const*>(argv.data()), environ) != 0)
+        pid_ = 0;
+      posix_spawn_file_actions_destroy(&actions);
+    }
     client_.set_connection_timeout(1s);
     client_.set_read_timeout(10s);
     client_.set_bearer_token_auth(kToken.c_str());  // ignored where no token is set
@@ -177,7 +231,31 @@ class Daemon {
     return false;
   }
 
+  // `path` as the daemon sees it, through its own root: inside its private
+  // tmpfs when it has one.
+  [[nodiscard]] fs::path seen_by_daemon(const fs::path& path) const {
+    return fs::path("/proc") / std::to_string(pid_) / "root" / path.relative_path();
+  }
+
  private:
+  // fork, not posix_spawn: the child must enter its namespace before exec.
+  void spawn_with_tmpfs(const std::string& binary, std::vector<const char*>& argv,
+                        const PrivateTmpfs& tmpfs) {
+    const std::string at = tmpfs.at.string(), log = log_.string();
+    pid_ = ::fork();
+    if (pid_ == 0) {
+      if (mount_private_tmpfs(at.c_str(), tmpfs.options.c_str()) != 0) ::_exit(kTmpfsFailed);
+      const int fd = ::open(log.c_str(), O_WRONLY | O_CREAT | O_APPEND, 0644);
+      if (fd > 2) {
+        ::dup2(fd, 2);
+        ::close(fd);
+      }
+      ::execve(binary.c_str(), const_cast<char* const*>(argv.data()), environ);
+      ::_exit(127);
+    }
+    if (pid_ < 0) pid_ = 0;
+  }
+
   pid_t pid_ = 0;
   int exit_code_ = -1;
   int port_;

@@ -3,6 +3,7 @@
 #include <cerrno>
 #include <cstdlib>
 #include <ctime>
+#include <fcntl.h>
 #include <regex>
 #include <signal.h>
 #include <sqlite3.h>
@@ -85,6 +86,11 @@ bool process_alive(pid_t pid) {
   return ::kill(pid, 0) == 0 || errno != ESRCH;
 }
 
+// SQLite's word for SQLITE_FULL, which the statement's error carries.
+bool disk_full(const processing::Error& error) {
+  return error.message.find(sqlite3_errstr(SQLITE_FULL)) != std::string::npos;
+}
+
 }  // namespace
 
 const char* to_string(ScanStatus status) {
@@ -138,6 +144,54 @@ std::optional<std::string> normalise_timestamp(const std::string& text, bool end
 
 Catalogue::Catalogue(fs::path root, sqlite3* db) : root_(std::move(root)), db_(db) {}
 
+template <class Write>
+auto Catalogue::with_room(Write&& write) -> decltype(write()) {
+  auto result = write();
+  if (result) {
+    hold_reserve();
+    return result;
+  }
+  if (!disk_full(result.error())) return result;
+  if (release_reserve()) {
+    processing::logger("catalogue")
+        ->warn("{}: the disk is full; gave back the catalogue's reserve ({} KiB) to record this",
+               root_.string(), kReserveBytes >> 10);
+    result = write();
+    if (result || !disk_full(result.error())) return result;
+  }
+  std::error_code ec;
+  const auto space = fs::space(root_, ec);
+  return std::unexpected(processing::io_error(
+      root_ / kFileName, "the disk is full (" + std::to_string(ec ? 0 : space.available >> 10) +
+                             " KiB free), the catalogue cannot record scans; delete or move old "
+                             "scans, or point storage.root at a larger disk"));
+}
+
+void Catalogue::hold_reserve() {
+  std::lock_guard lock(reserve_mutex_);
+  if (reserve_held_) return;
+  // Only with room to spare: allocating it must not take the last bytes a
+  // scan being written needs.
+  std::error_code ec;
+  if (const auto space = fs::space(root_, ec); ec || space.available < 4 * kReserveBytes) return;
+  const fs::path file = root_ / kReserveFileName;
+  const int fd = ::open(file.c_str(), O_WRONLY | O_CREAT | O_CLOEXEC, 0644);
+  if (fd < 0) return;
+  const int failed = ::posix_fallocate(fd, 0, static_cast<off_t>(kReserveBytes));
+  ::close(fd);
+  if (failed != 0) {
+    ::unlink(file.c_str());
+    return;
+  }
+  reserve_held_ = true;
+}
+
+bool Catalogue::release_reserve() {
+  std::lock_guard lock(reserve_mutex_);
+  reserve_held_ = false;
+  return ::unlink((root_ / kReserveFileName).c_str()) == 0;
+}
+
 Catalogue::~Catalogue() {
   sqlite3_close_v2(db_);
 }
@@ -168,6 +222,7 @@ Result<std::unique_ptr<Catalogue>> Catalogue::open(const fs::path& storage_root)
        {"PRAGMA journal_mode = WAL", "PRAGMA synchronous = FULL", "PRAGMA foreign_keys = ON"})
     if (auto ok = catalogue->execute(pragma); !ok) return std::unexpected(ok.error());
   if (auto ok = catalogue->migrate(); !ok) return std::unexpected(ok.error());
+  catalogue->hold_reserve();
   return catalogue;
 }
 
@@ -211,6 +266,10 @@ std::optional<fs::path> Catalogue::inside_root(const fs::path& path) const {
 }
 
 Result<std::int64_t> Catalogue::add(const ScanSubmission& submission) {
+  return with_room([&] { return add_row(submission); });
+}
+
+Result<std::int64_t> Catalogue::add_row(const ScanSubmission& submission) {
   std::lock_guard lock(mutex_);
   if (auto ok = execute("BEGIN IMMEDIATE"); !ok) return std::unexpected(ok.error());
   const auto fail = [&](const processing::Error& e) -> Result<std::int64_t> {
@@ -246,14 +305,16 @@ Status Catalogue::mark_running(std::int64_t id, const fs::path& scan_directory) 
     return std::unexpected(processing::internal_error("scan directory " + scan_directory.string() +
                                                       " is outside the storage root " +
                                                       root_.string()));
-  std::lock_guard lock(mutex_);
-  auto update = Statement::prepare(
-      db_, "UPDATE scans SET status = 'running', started = ?, scan_path = ? WHERE id = ?");
-  if (!update) return std::unexpected(update.error());
-  update->bind(1, utc_timestamp_now());
-  update->bind(2, inside->lexically_relative(root_).generic_string());
-  update->bind(3, id);
-  return update->run();
+  return with_room([&]() -> Status {
+    std::lock_guard lock(mutex_);
+    auto update = Statement::prepare(
+        db_, "UPDATE scans SET status = 'running', started = ?, scan_path = ? WHERE id = ?");
+    if (!update) return std::unexpected(update.error());
+    update->bind(1, utc_timestamp_now());
+    update->bind(2, inside->lexically_relative(root_).generic_string());
+    update->bind(3, id);
+    return update->run();
+  });
 }
 
 Status Catalogue::mark_done(std::int64_t id, const fs::path& maps_directory,
@@ -266,6 +327,11 @@ Status Catalogue::mark_done(std::int64_t id, const fs::path& maps_directory,
           "maps directory " + maps_directory.string() + " is outside the storage root"));
     maps_path = inside->lexically_relative(root_).generic_string();
   }
+  return with_room([&] { return mark_done_row(id, maps_path, report); });
+}
+
+Status Catalogue::mark_done_row(std::int64_t id, const std::optional<std::string>& maps_path,
+                                const nlohmann::json& report) {
   std::lock_guard lock(mutex_);
   auto update = Statement::prepare(db_, R"sql(
 UPDATE scans SET status = 'done', finished = ?, maps_path = ?, report = ?,
@@ -293,19 +359,21 @@ WHERE id = ?)sql");
 
 Status Catalogue::mark_failed(std::int64_t id, ScanStatus status, ScanErrorCode code,
                               const std::string& message, bool keep_scan_directory) {
-  std::lock_guard lock(mutex_);
-  auto update = Statement::prepare(
-      db_, std::string("UPDATE scans SET status = ?, finished = ?, error_code = ?, "
-                       "error_message = ?") +
-               (keep_scan_directory ? "" : ", scan_path = NULL, maps_path = NULL") +
-               " WHERE id = ?");
-  if (!update) return std::unexpected(update.error());
-  update->bind(1, std::string(to_string(status)));
-  update->bind(2, utc_timestamp_now());
-  update->bind(3, static_cast<std::int64_t>(code));
-  update->bind(4, message);
-  update->bind(5, id);
-  return update->run();
+  return with_room([&]() -> Status {
+    std::lock_guard lock(mutex_);
+    auto update = Statement::prepare(
+        db_, std::string("UPDATE scans SET status = ?, finished = ?, error_code = ?, "
+                         "error_message = ?") +
+                 (keep_scan_directory ? "" : ", scan_path = NULL, maps_path = NULL") +
+                 " WHERE id = ?");
+    if (!update) return std::unexpected(update.error());
+    update->bind(1, std::string(to_string(status)));
+    update->bind(2, utc_timestamp_now());
+    update->bind(3, static_cast<std::int64_t>(code));
+    update->bind(4, message);
+    update->bind(5, id);
+    return update->run();
+  });
 }
 
 namespace {
@@ -393,11 +461,14 @@ Result<bool> Catalogue::remove(std::int64_t id) {
     fs::remove_all(*inside, ec);
     if (ec) return std::unexpected(processing::io_error(*inside, "cannot remove: " + ec.message()));
   }
-  std::lock_guard lock(mutex_);
-  auto erase = Statement::prepare(db_, "DELETE FROM scans WHERE id = ?");
-  if (!erase) return std::unexpected(erase.error());
-  erase->bind(1, id);
-  if (auto ok = erase->run(); !ok) return std::unexpected(ok.error());
+  auto erased = with_room([&]() -> Status {
+    std::lock_guard lock(mutex_);
+    auto erase = Statement::prepare(db_, "DELETE FROM scans WHERE id = ?");
+    if (!erase) return std::unexpected(erase.error());
+    erase->bind(1, id);
+    return erase->run();
+  });
+  if (!erased) return std::unexpected(erased.error());
   return true;
 }
 

@@ -307,8 +307,10 @@ void HttpApi::Impl::submit(const httplib::Request& req, httplib::Response& res) 
       res.set_header("Retry-After", "5");
       return refuse(res, 503, id.error().message);
     }
-    return refuse(res, id.error().kind == processing::ErrorKind::bad_input ? 400 : 503,
-                  id.error().message);
+    if (id.error().kind == processing::ErrorKind::bad_input)
+      return refuse(res, 400, id.error().message);
+    // The daemon's trouble (a full disk): which file, for the technician.
+    return refuse(res, 503, id.error().describe());
   }
   res.set_header("Location", "/v1/scans/" + std::to_string(*id));
   reply(res, 202, {{"id", *id}, {"status", "queued"}});

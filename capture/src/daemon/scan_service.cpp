@@ -1,6 +1,7 @@
 #include "psrig/capture/scan_service.h"
 
 #include <algorithm>
+#include <cstdio>
 #include <exception>
 #include <fcntl.h>
 #include <unistd.h>
@@ -40,6 +41,51 @@ Status flush_tree(const fs::path& directory) {
     if (!flushed) return std::unexpected(processing::io_error(path, "cannot flush to disk"));
   }
   return {};
+}
+
+// Room the catalogue keeps after a scan: its rows for this scan (and for
+// a failure) go to SQLite's write-ahead log, which needs space to grow.
+constexpr std::uintmax_t kCatalogueHeadroom = 1 << 20;
+
+std::string human_bytes(std::uintmax_t bytes) {
+  char text[32];
+  if (bytes >= (1U << 20))
+    std::snprintf(text, sizeof text, "%.1f MiB", static_cast<double>(bytes) / (1 << 20));
+  else
+    std::snprintf(text, sizeof text, "%.0f KiB", static_cast<double>(bytes) / (1 << 10));
+  return text;
+}
+
+// What one scan and its maps take on disk, over-estimated: every frame
+// (each LED's and the dark) as 16-bit colour, the simulator's ground truth
+// (float normals and heights) and the maps (about 30 bytes a pixel). 0
+// when the frame size is the camera's own, known only once it has scanned.
+std::uintmax_t expected_scan_bytes(const config::RigConfig& config) {
+  const bool sim = config.camera.backend == "sim";
+  int width = config.camera.width, height = config.camera.height;
+  if ((width <= 0 || height <= 0) && sim) {
+    width = config.sim.width;
+    height = config.sim.height;
+  }
+  if (width <= 0 || height <= 0) return 0;
+  const auto frames =
+      static_cast<std::uintmax_t>(config.lights.channels + (config.capture.dark_frame ? 1 : 0));
+  std::uintmax_t per_pixel = frames * 3 * 2;
+  if (sim) per_pixel += 16;
+  if (config.capture.process) per_pixel += 32;
+  return static_cast<std::uintmax_t>(width) * static_cast<std::uintmax_t>(height) * per_pixel;
+}
+
+// What a finished scan takes on disk, maps included.
+std::uintmax_t tree_bytes(const fs::path& directory) {
+  std::uintmax_t bytes = 0;
+  std::error_code ec;
+  for (fs::recursive_directory_iterator it(directory, ec), end; !ec && it != end;
+       it.increment(ec)) {
+    std::error_code size_ec;
+    if (it->is_regular_file(size_ec)) bytes += it->file_size(size_ec);
+  }
+  return bytes;
 }
 
 nlohmann::json scan_event(std::int64_t id) {
@@ -254,6 +300,24 @@ void ScanService::close_rig() {
   devices_.open = false;
 }
 
+Status ScanService::check_free_space(const config::RigConfig& config) const {
+  const fs::path& root = catalogue_->storage_root();
+  std::error_code ec;
+  const auto space = fs::space(root, ec);
+  if (ec)
+    return std::unexpected(
+        processing::io_error(root, "cannot read the free space: " + ec.message()));
+  const std::uintmax_t scan = std::max(expected_scan_bytes(config), last_scan_bytes_);
+  const std::uintmax_t needed = scan + kCatalogueHeadroom;
+  if (space.available >= needed) return {};
+  return std::unexpected(processing::io_error(
+      root, "not enough free space for a scan: " + human_bytes(space.available) +
+                " free, a scan needs about " + human_bytes(scan) + " and the catalogue " +
+                human_bytes(kCatalogueHeadroom) +
+                " (LEDs not switched on); delete or move old scans, or point storage.root at a "
+                "larger disk"));
+}
+
 void ScanService::set_step(std::string step, int percent, DaemonState state) {
   std::int64_t id = 0;
   {
@@ -337,6 +401,10 @@ void ScanService::run(const Job& job) {
     return finish(job, ScanStatus::failed, open_code, ok.error().describe(), {}, false);
 
   const config::RigConfig config = this->config();
+  // A full disk is found before the LEDs go on, not after the frames are taken.
+  if (auto ok = check_free_space(config); !ok)
+    return finish(job, ScanStatus::failed, ScanErrorCode::storage, ok.error().describe(), {},
+                  false);
   const fs::path directory = default_scan_directory(config, job.submission.sample_id);
   if (auto ok = catalogue_->mark_running(job.id, directory); !ok)
     return finish(job, ScanStatus::failed, ScanErrorCode::storage, ok.error().describe(), {},
@@ -401,6 +469,9 @@ void ScanService::run(const Job& job) {
   if (auto ok = catalogue_->mark_done(job.id, maps, report); !ok)
     return finish(job, ScanStatus::failed, ScanErrorCode::storage, ok.error().describe(), directory,
                   false);
+  last_scan_bytes_ = tree_bytes(outcome->directory);
+  if (!maps.empty() && maps.parent_path() != outcome->directory)
+    last_scan_bytes_ += tree_bytes(maps);
   log->info("scan {} done: {}", job.id, outcome->directory.string());
   {
     std::lock_guard lock(mutex_);

@@ -66,6 +66,11 @@ struct CatalogueRecovery {
 class Catalogue {
  public:
   inline static constexpr const char* kFileName = "catalogue.sqlite";
+  // Space the catalogue sets aside beside its database (allocated, not
+  // sparse) and gives back when SQLite finds the disk full, so that the
+  // row of a scan that failed for want of space can still say so.
+  inline static constexpr const char* kReserveFileName = "catalogue.sqlite-reserve";
+  inline static constexpr std::uintmax_t kReserveBytes = 256 << 10;
   inline static constexpr int kSchemaVersion = 1;
 
   // Opens (creating the storage root and the database if need be) and
@@ -111,6 +116,15 @@ class Catalogue {
   Catalogue(std::filesystem::path root, sqlite3* db);
   [[nodiscard]] Status execute(const std::string& sql) const;
   [[nodiscard]] Status migrate();
+  // Runs a write; when SQLite finds the disk full, gives the reserve back
+  // and tries once more. Sets the reserve aside again when there is room.
+  template <class Write>
+  auto with_room(Write&& write) -> decltype(write());
+  void hold_reserve();
+  [[nodiscard]] Result<std::int64_t> add_row(const ScanSubmission& submission);
+  [[nodiscard]] Status mark_done_row(std::int64_t id, const std::optional<std::string>& maps_path,
+                                     const nlohmann::json& report);
+  [[nodiscard]] bool release_reserve();
   // `path` made absolute under the storage root, if it lies inside it.
   [[nodiscard]] std::optional<std::filesystem::path> inside_root(
       const std::filesystem::path& path) const;
@@ -118,6 +132,8 @@ class Catalogue {
   std::filesystem::path root_;
   sqlite3* db_;
   mutable std::mutex mutex_;
+  std::mutex reserve_mutex_;
+  bool reserve_held_ = false;
 };
 
 // The UTC time now as the catalogue writes it: "2026-05-04T09:12:33Z".

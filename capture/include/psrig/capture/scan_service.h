@@ -93,6 +93,8 @@ class ScanService final : public ScanControl {
   void set_step(std::string step, int percent, DaemonState state);
   [[nodiscard]] ScanErrorCode classify(const processing::Error& error, Stage stage) const;
   [[nodiscard]] Status switch_lights_off();
+  // Room in the storage root for one more scan and its catalogue rows.
+  [[nodiscard]] Status check_free_space(const config::RigConfig& config) const;
   void request_abort_locked();
 
   std::unique_ptr<Catalogue> catalogue_;
@@ -115,6 +117,7 @@ class ScanService final : public ScanControl {
   mutable std::mutex rig_mutex_;
   std::unique_ptr<Rig> rig_;
   std::shared_ptr<DeviceFaults> faults_;
+  std::uintmax_t last_scan_bytes_ = 0;  // on disk, maps included; the worker's
 
   std::thread worker_;
 };
