@@ -43,7 +43,13 @@ class FakeScanControl : public ScanControl {
   Result<std::int64_t> submit(ScanSubmission submission) override {
     const std::scoped_lock lock(mutex_);
     submissions_.push_back(std::move(submission));
-    if (refuse_) return std::unexpected(processing::internal_error("queue full (4 waiting)"));
+    // As ScanService refuses: a full queue names its key, a catalogue
+    // that cannot write is a storage error.
+    if (refuse_ && !storage_fails_)
+      return std::unexpected(
+          processing::bad_input("rig.toml", "daemon.queue_limit", "queue full: 4 scans waiting"));
+    if (refuse_)
+      return std::unexpected(processing::io_error("catalogue.sqlite", "database or disk is full"));
     ++status_.queue_length;
     return next_id_++;
   }
@@ -58,9 +64,10 @@ class FakeScanControl : public ScanControl {
     const std::scoped_lock lock(mutex_);
     change(status_);
   }
-  void refuse(bool refuse) {
+  void refuse(bool refuse, bool storage_fails = false) {
     const std::scoped_lock lock(mutex_);
     refuse_ = refuse;
+    storage_fails_ = storage_fails;
   }
   void fail_lights(bool fail) {
     const std::scoped_lock lock(mutex_);
@@ -85,6 +92,7 @@ class FakeScanControl : public ScanControl {
   std::vector<ScanSubmission> submissions_;
   std::int64_t next_id_ = 1;
   bool refuse_ = false;
+  bool storage_fails_ = false;
   bool lights_fail_ = false;
   int lights_off_calls_ = 0;
 };
@@ -309,6 +317,15 @@ TEST_F(ModbusServerTest, RefusedTriggerShowsAsErrorCodeUntilOneIsAccepted) {
   EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(ScanErrorCode::aborted));
   EXPECT_EQ(words[modbus_register::triggers_refused], 2);
 
+  // Refused because the catalogue cannot write (a full disk): storage, not the queue.
+  control_.script([](DaemonStatus& s) { s.state = DaemonState::idle; });
+  control_.refuse(true, true);
+  ASSERT_TRUE(plc.write_coil(modbus_coil::trigger, false));
+  ASSERT_TRUE(plc.write_coil(modbus_coil::trigger, true));
+  words = plc.registers();
+  EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(ScanErrorCode::storage));
+  EXPECT_EQ(words[modbus_register::triggers_refused], 3);
+
   control_.script([](DaemonStatus& s) { s.state = DaemonState::idle; });
   control_.refuse(false);
   ASSERT_TRUE(plc.write_coil(modbus_coil::trigger, false));
@@ -318,7 +335,7 @@ TEST_F(ModbusServerTest, RefusedTriggerShowsAsErrorCodeUntilOneIsAccepted) {
   EXPECT_EQ(words[modbus_register::error_code], 0);
   EXPECT_EQ(words[modbus_register::triggers_accepted], 1);
   EXPECT_EQ(u32(words, modbus_register::triggered_scan_id), 1u);
-  EXPECT_EQ(control_.submissions().size(), 3u);
+  EXPECT_EQ(control_.submissions().size(), 4u);
 }
 
 TEST_F(ModbusServerTest, LightsOffCoilActsOnItsRisingEdge) {

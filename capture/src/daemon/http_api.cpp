@@ -1,5 +1,6 @@
 #include "psrig/capture/http_api.h"
 
+#include <array>
 #include <atomic>
 #include <charconv>
 #include <fstream>
@@ -52,9 +53,17 @@ std::string content_type(const std::string& name) {
   return "application/octet-stream";
 }
 
+// JSON as text that never throws: a device's or driver's message may hold
+// bytes that are not UTF-8, and nlohmann's dump() throws on them, which
+// inside a streaming provider (outside httplib's try/catch) would end the
+// daemon. Such bytes become U+FFFD.
+std::string to_text(const json& value) {
+  return value.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
 void reply(httplib::Response& res, int status, const json& body) {
   res.status = status;
-  res.set_content(body.dump() + "\n", "application/json");
+  res.set_content(to_text(body) + "\n", "application/json");
 }
 
 void refuse(httplib::Response& res, int status, const std::string& message) {
@@ -396,12 +405,19 @@ void HttpApi::Impl::file(const httplib::Request& req, httplib::Response& res) {
   res.set_content_provider(
       static_cast<std::size_t>(size), content_type(name),
       [stream](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
-        char buffer[64 * 1024];
-        stream->seekg(static_cast<std::streamoff>(offset));
-        const auto chunk = std::min(length, sizeof buffer);
-        stream->read(buffer, static_cast<std::streamsize>(chunk));
-        const auto got = static_cast<std::size_t>(stream->gcount());
-        return got > 0 && sink.write(buffer, got);
+        // httplib runs providers outside its exception handler: nothing may
+        // escape, or the daemon ends. A failure ends this download only.
+        try {
+          std::array<char, 64 * 1024> buffer;
+          stream->seekg(static_cast<std::streamoff>(offset));
+          const auto chunk = std::min(length, buffer.size());
+          stream->read(buffer.data(), static_cast<std::streamsize>(chunk));
+          const auto got = static_cast<std::size_t>(stream->gcount());
+          return got > 0 && sink.write(buffer.data(), got);
+        } catch (const std::exception& e) {
+          processing::logger("http")->error("download: {}", e.what());
+          return false;
+        }
       });
 }
 
@@ -451,27 +467,33 @@ void HttpApi::Impl::events(const httplib::Request& req, httplib::Response& res) 
   res.set_header("X-Accel-Buffering", "no");
   res.set_chunked_content_provider(
       "text/event-stream", [this, stream](std::size_t, httplib::DataSink& sink) {
-        const auto write = [&](const std::string& text) {
-          stream->last_write = std::chrono::steady_clock::now();
-          return sink.write(text.data(), text.size());
-        };
-        if (!stream->greeted) {
-          stream->greeted = true;
-          return write("retry: 2000\n: connected\n\n");
+        try {
+          const auto write = [&](const std::string& text) {
+            stream->last_write = std::chrono::steady_clock::now();
+            return sink.write(text.data(), text.size());
+          };
+          if (!stream->greeted) {
+            stream->greeted = true;
+            return write("retry: 2000\n: connected\n\n");
+          }
+          if (stopping || service.events().closed()) {
+            sink.done();  // shutdown must not wait for listeners
+            return true;
+          }
+          for (const auto& event : service.events().wait_after(stream->cursor, kEventPoll)) {
+            stream->cursor = event.sequence;
+            if (!write("id: " + std::to_string(event.sequence) + "\nevent: " + event.type +
+                       "\ndata: " + to_text(event.data) + "\n\n"))
+              return false;
+          }
+          if (std::chrono::steady_clock::now() - stream->last_write > kHeartbeat)
+            return write(": heartbeat\n\n");
+          return sink.is_writable();
+        } catch (const std::exception& e) {
+          // As for downloads: an exception here would end the daemon.
+          processing::logger("http")->error("event stream: {}", e.what());
+          return false;
         }
-        if (stopping || service.events().closed()) {
-          sink.done();  // shutdown must not wait for listeners
-          return true;
-        }
-        for (const auto& event : service.events().wait_after(stream->cursor, kEventPoll)) {
-          stream->cursor = event.sequence;
-          if (!write("id: " + std::to_string(event.sequence) + "\nevent: " + event.type +
-                     "\ndata: " + event.data.dump() + "\n\n"))
-            return false;
-        }
-        if (std::chrono::steady_clock::now() - stream->last_write > kHeartbeat)
-          return write(": heartbeat\n\n");
-        return sink.is_writable();
       });
 }
 

@@ -258,7 +258,15 @@ void ModbusServer::Impl::serve() {
 
     if (fds[1].revents & POLLIN) {
       const int client = ::accept4(listen, nullptr, nullptr, SOCK_CLOEXEC);
-      if (client < 0) continue;  // the peer gave up already, or out of descriptors for now
+      if (client < 0) {
+        // Out of descriptors, the listening socket stays readable: without
+        // a pause the loop would spin a core until one frees up.
+        if (errno == EMFILE || errno == ENFILE || errno == ENOBUFS || errno == ENOMEM) {
+          plc_log()->error("cannot accept a Modbus connection: {}", std::strerror(errno));
+          std::this_thread::sleep_for(std::chrono::milliseconds(100));
+        }
+        continue;  // or the peer gave up already
+      }
       const std::scoped_lock lock(counters_mutex);
       if (static_cast<int>(clients.size()) >= options.max_clients) {
         ++counters.rejected;  // counted before the client can see the close
@@ -377,9 +385,11 @@ void ModbusServer::Impl::act(bool trigger_edge, bool lights_off_edge) {
       const std::scoped_lock lock(counters_mutex);
       ++counters.triggers_accepted;
     } else {
-      // Why, as the PLC reads it: a stopping daemon aborts, anything else is a full queue.
+      // Why, as the PLC reads it: a stopping daemon aborts, a full queue
+      // says so (its key), anything else is the catalogue's storage.
       refused = control.status().state == DaemonState::stopping ? ScanErrorCode::aborted
-                                                                : ScanErrorCode::queue_full;
+                : submitted.error().key == "daemon.queue_limit" ? ScanErrorCode::queue_full
+                                                                : ScanErrorCode::storage;
       plc_log()->warn("PLC: trigger refused: {}", submitted.error().describe());
       const std::scoped_lock lock(counters_mutex);
       ++counters.triggers_refused;
