@@ -20,6 +20,8 @@
 #include <nlohmann/json.hpp>
 
 #include "daemon_process.h"
+#include "psrig/config/config_loader.h"
+#include "psrig/firmware_host/light_controller.h"
 #include "psrig/firmware_host/sim/modbus_driver.h"
 
 namespace psrig::test {
@@ -511,6 +513,54 @@ TEST(Psrigd, AnLedDriverFaultFailsTheScanNotTheDaemon) {
   EXPECT_EQ(next["status"], "done") << next.dump() << daemon.log();
   EXPECT_EQ(daemon.get("/v1/status")["state"], "idle");
   EXPECT_FALSE((*driver)->log().overlap());
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+// An LED driver fault closes the rig; lights-off then still reaches the
+// driver (the light backend opened alone), says when it cannot, and the
+// failure to switch off on closing is shown, not dropped.
+TEST(Psrigd, LightsOffWithTheRigClosedReachesTheLedDriver) {
+  TempDir temp;
+  auto driver = firmware_host::SimModbusDriver::start({});
+  ASSERT_TRUE(driver) << driver.error().describe();
+  const int port = free_port();
+  const auto config =
+      daemon_config(temp, port,
+                    {{"backend = \"sim\"\nchannels",
+                      "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", "
+                      "port = " +
+                          std::to_string((*driver)->port()) + ", retries = 0 }\nchannels"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  (*driver)->inject(firmware_host::ModbusFault::exception);
+  const auto failed = daemon.wait_finished(daemon.submit({{"sample_id", "F-1"}}));
+  EXPECT_EQ(failed["error"]["code_name"], "lights") << failed.dump();
+  ASSERT_TRUE(daemon.wait_status([](const json& s) { return s["devices"]["open"] == false; }));
+  const auto devices = daemon.get("/v1/status")["devices"];
+  EXPECT_TRUE(contains(devices["error"].get<std::string>(), "switching every LED off"))
+      << devices.dump() << daemon.log();
+
+  // The driver still refuses: lights-off says so, naming the device.
+  auto refused = daemon.http().Post("/v1/lights/off", "", "application/json");
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 500) << refused->body;
+  EXPECT_TRUE(contains(refused->body, "modbus")) << refused->body;
+
+  // An LED left on behind the closed rig's back is switched off.
+  (*driver)->clear_fault();
+  auto rig = config::load_config(config);
+  ASSERT_TRUE(rig) << rig.error().describe();
+  // (another client of the driver, held open: its own closing would
+  // switch the LED off)
+  auto stuck = firmware_host::open_lights(*rig, nullptr);
+  ASSERT_TRUE(stuck) << stuck.error().describe();
+  ASSERT_TRUE((*stuck)->turn_on(1));
+  ASSERT_EQ((*driver)->leds_on(), std::vector<int>{1});
+  auto off = daemon.http().Post("/v1/lights/off", "", "application/json");
+  ASSERT_TRUE(off);
+  EXPECT_EQ(off->status, 200) << off->body;
+  EXPECT_TRUE((*driver)->leds_on().empty());
+  EXPECT_EQ(daemon.get("/v1/status")["devices"]["error"], "") << daemon.log();
   EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
 }
 

@@ -158,10 +158,38 @@ void ScanService::request_abort_locked() {
   if (sequencer_) sequencer_->request_stop();
 }
 
+Status ScanService::note_lights_off(Status off, const std::string& device) {
+  std::lock_guard lock(mutex_);
+  if (off) {
+    if (!devices_.lights_off_error.empty()) {
+      processing::logger("daemon")->info("{}: every LED is off again", device);
+      if (devices_.open_error == devices_.lights_off_error) devices_.open_error.clear();
+      devices_.lights_off_error.clear();
+    }
+    return off;
+  }
+  processing::Error error = off.error();
+  error.message =
+      "switching every LED off on " + device + " failed (one may still be on): " + error.message;
+  devices_.lights_off_error = error.describe();
+  devices_.open_error = devices_.lights_off_error;
+  return std::unexpected(error);
+}
+
 Status ScanService::switch_lights_off() {
-  std::lock_guard lock(rig_mutex_);
-  if (!rig_) return {};  // closed: SafeLights left them off
-  return rig_->lights->all_off();
+  std::lock_guard open_lock(open_mutex_);
+  {
+    std::lock_guard lock(rig_mutex_);
+    if (rig_) return note_lights_off(rig_->lights->all_off(), rig_->lights->describe());
+  }
+  // Closed: SafeLights switched them off as it went, or tried to; a failure
+  // there is not known to be fixed, so the light backend is opened alone to
+  // make sure.
+  const config::RigConfig config = this->config();
+  const std::string backend = "the LED backend '" + config.lights.backend + "'";
+  auto lights = open_rig(config, /*with_camera=*/false);
+  if (!lights) return note_lights_off(std::unexpected(lights.error()), backend);
+  return note_lights_off(lights->lights->all_off(), lights->lights->describe());
 }
 
 Status ScanService::lights_off() {
@@ -252,6 +280,7 @@ void ScanService::apply_pending_config() {
 
 Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
   if (rig_) return {};
+  std::lock_guard open_lock(open_mutex_);
   auto log = processing::logger("daemon");
   const config::RigConfig config = this->config();
   auto faults = std::make_shared<DeviceFaults>();
@@ -260,7 +289,7 @@ Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
     code = what;
     log->error("cannot open the {}: {}", to_string(what), error.describe());
     std::lock_guard lock(mutex_);
-    devices_ = {false, "", "", error.describe()};
+    devices_ = {false, "", "", error.describe(), devices_.lights_off_error};
     return std::unexpected(error);
   };
   try {
@@ -280,7 +309,8 @@ Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
   }
   {
     std::lock_guard lock(mutex_);
-    devices_ = {true, rig->lights->describe(), rig->camera->describe(), ""};
+    devices_ = {true, rig->lights->describe(), rig->camera->describe(), devices_.lights_off_error,
+                devices_.lights_off_error};
   }
   log->info("rig open: {}; {}", rig->lights->describe(), rig->camera->describe());
   std::lock_guard lock(rig_mutex_);
@@ -295,7 +325,13 @@ void ScanService::close_rig() {
     std::lock_guard lock(rig_mutex_);
     closing = std::move(rig_);
   }
-  closing.reset();  // SafeLights turns every LED off as it goes
+  if (closing) {
+    // SafeLights turns every LED off as it goes, but says nothing if that
+    // fails: asked here first, so that a failure is logged and shown.
+    if (auto off = note_lights_off(closing->lights->all_off(), closing->lights->describe()); !off)
+      processing::logger("daemon")->error("closing the rig: {}", off.error().describe());
+  }
+  closing.reset();
   std::lock_guard lock(mutex_);
   devices_.open = false;
 }

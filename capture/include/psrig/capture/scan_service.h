@@ -31,6 +31,10 @@ struct DeviceStatus {
   std::string lights;  // the backend's description, when open
   std::string camera;
   std::string open_error;  // why the last attempt to open them failed
+  // Why the last attempt to switch every LED off failed (closing the rig,
+  // or lights-off with the rig closed): an LED may still be on. Cleared
+  // when switching them off next succeeds. Also shown in open_error.
+  std::string lights_off_error;
 };
 
 // What DELETE /v1/scans/{id} did.
@@ -92,7 +96,11 @@ class ScanService final : public ScanControl {
               const std::filesystem::path& scan_directory, bool keep_files);
   void set_step(std::string step, int percent, DaemonState state);
   [[nodiscard]] ScanErrorCode classify(const processing::Error& error, Stage stage) const;
+  // Every LED off: through the open rig, or with the rig closed through
+  // the light backend opened alone for it.
   [[nodiscard]] Status switch_lights_off();
+  // Records (for status/devices) whether switching the LEDs off worked.
+  Status note_lights_off(Status off, const std::string& device);
   // Room in the storage root for one more scan and its catalogue rows.
   [[nodiscard]] Status check_free_space(const config::RigConfig& config) const;
   void request_abort_locked();
@@ -115,6 +123,10 @@ class ScanService final : public ScanControl {
   // Only the worker replaces the rig; others (lights_off) use its lights
   // under this lock while it is open.
   mutable std::mutex rig_mutex_;
+  // Held while the light backend is being opened (the rig, or the lights
+  // alone to switch them off), so that one device is never opened twice at
+  // once. Taken before rig_mutex_ and mutex_, never after.
+  std::mutex open_mutex_;
   std::unique_ptr<Rig> rig_;
   std::shared_ptr<DeviceFaults> faults_;
   std::uintmax_t last_scan_bytes_ = 0;  // on disk, maps included; the worker's
