@@ -296,6 +296,7 @@ Result<processing::Scan> ScanSequencer::acquire(
 
 Result<ScanOutcome> ScanSequencer::capture(
     const ScanRequest& request, const std::function<void(const ScanProgress&)>& progress) {
+  committed_ = false;
   ScanOutcome outcome;
   outcome.directory = request.directory.empty() ? default_scan_directory(config_, request.sample_id)
                                                 : request.directory;
@@ -309,6 +310,7 @@ Result<ScanOutcome> ScanSequencer::capture(
   std::error_code ec;
   fs::create_directories(outcome.directory.parent_path(), ec);
   if (auto ok = write_scan(*scan, outcome.directory); !ok) return std::unexpected(ok.error());
+  committed_ = true;
   if (request.process.value_or(config_.capture.process)) {
     if (progress) progress({"processing", 0, 1});
     auto maps = processing::process_scan(outcome.directory);

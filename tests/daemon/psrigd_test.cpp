@@ -406,6 +406,33 @@ TEST(Psrigd, CancelQueuedAbortRunningAndLightsOff) {
   EXPECT_EQ(daemon.signal_and_wait(SIGINT), 0) << daemon.log();
 }
 
+// The directory a scan is about to write appears meanwhile (a `psrig scan`
+// by hand): the scan fails, and the other scan is left alone.
+TEST(Psrigd, AScanNeverRemovesADirectoryItDidNotWrite) {
+  TempDir temp;
+  const int port = free_port();
+  const auto config = daemon_config(temp, port, {{"exposure_us = 20000", "exposure_us = 150000"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto id = daemon.submit({{"sample_id", "X-1"}});
+  ASSERT_TRUE(daemon.wait_status([&](const json& s) {
+    return s["current_scan"] == id && s["step"].get<std::string>().starts_with("light");
+  })) << daemon.log();
+  const auto running = daemon.get("/v1/scans/" + std::to_string(id));
+  ASSERT_TRUE(running["scan_directory"].is_string()) << running.dump();
+  const fs::path directory = running["scan_directory"].get<std::string>();
+  fs::create_directories(directory);
+  std::ofstream(directory / "scan.json") << R"({"format": "psrig-scan/1"})";
+
+  const auto failed = daemon.wait_finished(id);
+  EXPECT_EQ(failed["status"], "failed") << failed.dump();
+  EXPECT_TRUE(contains(failed["error"]["message"].get<std::string>(), "already exists"))
+      << failed.dump();
+  EXPECT_TRUE(failed["scan_directory"].is_null()) << failed.dump();
+  EXPECT_TRUE(fs::exists(directory / "scan.json")) << daemon.log();
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
 TEST(Psrigd, QueueLimitAndReloadOnSighup) {
   TempDir temp;
   const int port = free_port();

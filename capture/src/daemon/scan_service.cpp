@@ -478,16 +478,20 @@ void ScanService::run(const Job& job) {
   if (auto ok = switch_lights_off(); !ok)
     log->error("turning the LEDs off after scan {}: {}", job.id, ok.error().describe());
 
+  // Only what this scan wrote is ever removed: a directory that existed
+  // already (a `psrig scan` put it there first) is refused, never deleted.
+  const fs::path ours = sequencer.committed() ? directory : fs::path();
   if (aborted())
     return finish(job, ScanStatus::aborted, ScanErrorCode::aborted,
-                  "aborted; all LEDs are off and nothing was kept", directory, false);
+                  "aborted; all LEDs are off and nothing was kept", ours, false);
   if (!outcome) {
     const ScanErrorCode code = classify(outcome.error(), stage);
     // Raw frames that could not be processed are kept: they can be
     // processed again later. Anything less than a whole scan is not.
     std::error_code ec;
-    const bool keep = stage == Stage::processing && fs::exists(directory / "scan.json", ec);
-    finish(job, ScanStatus::failed, code, outcome.error().describe(), directory, keep);
+    const bool keep =
+        !ours.empty() && stage == Stage::processing && fs::exists(directory / "scan.json", ec);
+    finish(job, ScanStatus::failed, code, outcome.error().describe(), ours, keep);
     if (code == ScanErrorCode::camera || code == ScanErrorCode::lights) close_rig();
     return;
   }
