@@ -88,6 +88,16 @@ std::uintmax_t tree_bytes(const fs::path& directory) {
   return bytes;
 }
 
+// Runs `f` however the scope ends, exceptions included.
+template <class F>
+struct ScopeExit {
+  F f;
+  explicit ScopeExit(F fn) : f(std::move(fn)) {}
+  ScopeExit(const ScopeExit&) = delete;
+  ScopeExit& operator=(const ScopeExit&) = delete;
+  ~ScopeExit() { f(); }
+};
+
 nlohmann::json scan_event(std::int64_t id) {
   return {{"id", id}};
 }
@@ -424,6 +434,7 @@ void ScanService::finish(const Job& job, ScanStatus status, ScanErrorCode code,
 
 void ScanService::run(const Job& job) {
   auto log = processing::logger("daemon");
+  attempt_ = {};
   apply_pending_config();
   const auto aborted = [&] {
     std::lock_guard lock(mutex_);
@@ -446,6 +457,7 @@ void ScanService::run(const Job& job) {
     return finish(job, ScanStatus::failed, ScanErrorCode::storage, ok.error().describe(), {},
                   false);
   log->info("scan {} running into {}", job.id, directory.string());
+  attempt_.directory = directory;
 
   faults_->clear();
   ScanSequencer sequencer(config, *rig_->lights, *rig_->camera);
@@ -454,6 +466,13 @@ void ScanService::run(const Job& job) {
     sequencer_ = &sequencer;
     if (abort_current_) sequencer.request_stop();
   }
+  // However run() ends (an exception too): no one reaches the sequencer
+  // once it is gone, and the worker knows whether the scan was written.
+  const ScopeExit forget_sequencer{[&] {
+    attempt_.committed = sequencer.committed();
+    std::lock_guard lock(mutex_);
+    sequencer_ = nullptr;
+  }};
   ScanRequest request = rig_->request(config);
   request.sample_id = job.submission.sample_id;
   request.description = job.submission.description;
@@ -563,14 +582,18 @@ void ScanService::work() {
     try {
       run(job);
     } catch (const std::exception& e) {
-      // OpenCV and the standard library may throw; a scan fails, never the daemon.
-      {
-        std::lock_guard lock(mutex_);
-        sequencer_ = nullptr;
-      }
+      // OpenCV and the standard library may throw; a scan fails, never the
+      // daemon. A scan directory already written is not orphaned: whole
+      // raw frames are kept with the row naming them (they can be
+      // processed again), anything less is removed.
       (void)switch_lights_off();
+      const fs::path ours = attempt_.committed ? attempt_.directory : fs::path();
+      std::error_code ec;
+      const bool keep = !ours.empty() && fs::exists(ours / "scan.json", ec);
       finish(job, ScanStatus::failed, ScanErrorCode::internal,
-             std::string("internal error: ") + e.what(), {}, false);
+             std::string("internal error: ") + e.what() +
+                 (keep ? "; raw frames kept, reprocess with psrig process" : ""),
+             ours, keep);
     }
   }
   close_rig();

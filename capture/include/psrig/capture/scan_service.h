@@ -130,6 +130,12 @@ class ScanService final : public ScanControl {
   std::unique_ptr<Rig> rig_;
   std::shared_ptr<DeviceFaults> faults_;
   std::uintmax_t last_scan_bytes_ = 0;  // on disk, maps included; the worker's
+  // The running scan's directory and whether it has been written: what an
+  // exception out of run() must keep or remove. The worker's.
+  struct Attempt {
+    std::filesystem::path directory;
+    bool committed = false;
+  } attempt_;
 
   std::thread worker_;
 };
