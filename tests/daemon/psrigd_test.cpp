@@ -501,9 +501,19 @@ TEST(Psrigd, KilledWhileSavingThenRestartedLeavesNoHalfScan) {
   EXPECT_EQ(entry["status"], "failed") << entry.dump();
   EXPECT_TRUE(contains(entry["error"]["message"].get<std::string>(), "interrupted"))
       << entry.dump();
-  EXPECT_TRUE(entry["scan_directory"].is_null());
+  // No half scan: the raw frames were whole (they cannot be taken again)
+  // and stay, named by the row; the maps being made when it died do not.
+  EXPECT_TRUE(contains(entry["error"]["message"].get<std::string>(), "raw frames kept"))
+      << entry.dump();
+  ASSERT_TRUE(entry["scan_directory"].is_string()) << entry.dump();
+  EXPECT_TRUE(entry["maps_directory"].is_null()) << entry.dump();
+  const fs::path kept = entry["scan_directory"].get<std::string>();
+  EXPECT_TRUE(fs::exists(kept / "scan.json"));
+  for (const auto& name : list_directory(kept))
+    EXPECT_TRUE(name != "maps" && !name.starts_with(".")) << "no half maps: " << name;
   for (const auto& name : list_directory(temp / "scans"))
-    EXPECT_TRUE(name.starts_with("catalogue.sqlite")) << name;
+    EXPECT_TRUE(name.starts_with("catalogue.sqlite") || name == kept.filename().string())
+        << "no half scan: " << name;
   // And it serves on.
   const auto next = daemon.submit({{"sample_id", "K-10"}});
   EXPECT_EQ(daemon.wait_finished(next, 60s)["status"], "done") << daemon.log();
