@@ -433,6 +433,30 @@ TEST(Psrigd, AScanNeverRemovesADirectoryItDidNotWrite) {
   EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
 }
 
+// The storage root reached through a symlink (/var/lib/psrig -> /data, say).
+TEST(Psrigd, AStorageRootBehindASymlinkTakesScans) {
+  TempDir temp;
+  fs::create_directories(temp / "data");
+  fs::create_directory_symlink("data", temp / "scans");
+  const int port = free_port();
+  Daemon daemon(daemon_config(temp, port), port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto entry = daemon.wait_finished(daemon.submit({{"sample_id", "L-1"}}));
+  EXPECT_EQ(entry["status"], "done") << entry.dump() << daemon.log();
+  ASSERT_TRUE(entry["scan_directory"].is_string()) << entry.dump();
+  const fs::path directory = entry["scan_directory"].get<std::string>();
+  EXPECT_TRUE(fs::exists(temp / "data" / directory.filename() / "scan.json")) << entry.dump();
+  // SIGHUP with the same file: the root is the same root.
+  ::kill(daemon.pid(), SIGHUP);
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (!contains(daemon.log(), "SIGHUP") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(10ms);
+  EXPECT_EQ(daemon.wait_finished(daemon.submit({{"sample_id", "L-2"}}))["status"], "done")
+      << daemon.log();
+  EXPECT_FALSE(contains(daemon.log(), "storage.root changed")) << daemon.log();
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
 TEST(Psrigd, QueueLimitAndReloadOnSighup) {
   TempDir temp;
   const int port = free_port();

@@ -110,6 +110,9 @@ ScanService::ScanService(config::RigConfig config, std::unique_ptr<Catalogue> ca
 Result<std::unique_ptr<ScanService>> ScanService::start(config::RigConfig config) {
   auto catalogue = Catalogue::open(config.storage.root);
   if (!catalogue) return std::unexpected(catalogue.error());
+  // Scan directories are made from the root the catalogue resolved (a
+  // root reached through a symlink, say), or none would lie inside it.
+  config.storage.root = (*catalogue)->storage_root();
   auto recovered = (*catalogue)->recover();
   if (!recovered) return std::unexpected(recovered.error());
   std::unique_ptr<ScanService> service(new ScanService(std::move(config), std::move(*catalogue)));
@@ -256,7 +259,8 @@ Result<ScanRemoval> ScanService::remove(std::int64_t id) {
 void ScanService::reload(config::RigConfig config) {
   std::lock_guard lock(mutex_);
   auto log = processing::logger("daemon");
-  if (config.storage.root != config_.storage.root)
+  std::error_code ec;
+  if (fs::weakly_canonical(config.storage.root, ec) != config_.storage.root)
     log->warn("storage.root changed to {}; it takes effect at the next start",
               config.storage.root.string());
   const auto& now = config_.daemon;
