@@ -457,6 +457,33 @@ TEST(Psrigd, AStorageRootBehindASymlinkTakesScans) {
   EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
 }
 
+// Lights-off means stop: the queue does not start its next scan (which
+// would switch an LED on again at once).
+TEST(Psrigd, LightsOffAbortsTheQueuedScansToo) {
+  TempDir temp;
+  const int port = free_port();
+  const auto config = daemon_config(temp, port, {{"exposure_us = 20000", "exposure_us = 150000"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto running = daemon.submit({{"sample_id", "R"}});
+  const auto queued = daemon.submit({{"sample_id", "Q1"}});
+  const auto also_queued = daemon.submit({{"sample_id", "Q2"}});
+  ASSERT_TRUE(daemon.wait_status([&](const json& s) { return s["current_scan"] == running; }));
+  auto off = daemon.http().Post("/v1/lights/off", "", "application/json");
+  ASSERT_TRUE(off);
+  EXPECT_EQ(off->status, 200) << off->body;
+  EXPECT_EQ(daemon.get("/v1/status")["queue_length"], 0);
+  EXPECT_EQ(daemon.wait_finished(running)["status"], "aborted");
+  for (const auto id : {queued, also_queued}) {
+    const auto entry = daemon.wait_finished(id);
+    EXPECT_EQ(entry["status"], "aborted") << entry.dump();
+    EXPECT_EQ(entry["error"]["message"], "lights off requested") << entry.dump();
+  }
+  EXPECT_TRUE(daemon.wait_status([](const json& s) { return s["state"] == "idle"; }));
+  EXPECT_EQ(daemon.get("/v1/status")["scans_completed"], 0);
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
 TEST(Psrigd, QueueLimitAndReloadOnSighup) {
   TempDir temp;
   const int port = free_port();

@@ -206,12 +206,34 @@ Status ScanService::switch_lights_off() {
 }
 
 Status ScanService::lights_off() {
+  std::deque<Job> dropped;
   {
     std::lock_guard lock(mutex_);
     request_abort_locked();
+    // The queue stops too: lights-off means stop, not "the next one".
+    dropped.swap(queue_);
   }
-  processing::logger("daemon")->info("lights off requested");
-  return switch_lights_off();
+  auto log = processing::logger("daemon");
+  log->info("lights off requested");
+  auto off = switch_lights_off();
+  for (const auto& job : dropped)
+    if (auto ok = mark_cancelled(job.id, "lights off requested"); !ok)
+      log->error("scan {}: {}", job.id, ok.error().describe());
+  return off;
+}
+
+Status ScanService::mark_cancelled(std::int64_t id, const std::string& message) {
+  if (auto ok =
+          catalogue_->mark_failed(id, ScanStatus::aborted, ScanErrorCode::aborted, message, false);
+      !ok)
+    return ok;
+  auto event = scan_event(id);
+  event.update({{"status", "aborted"},
+                {"code", static_cast<int>(ScanErrorCode::aborted)},
+                {"error", message}});
+  events_.publish("error", std::move(event));
+  processing::logger("daemon")->info("scan {} cancelled: {}", id, message);
+  return {};
 }
 
 Result<ScanRemoval> ScanService::remove(std::int64_t id) {
@@ -237,17 +259,8 @@ Result<ScanRemoval> ScanService::remove(std::int64_t id) {
     return ScanRemoval::aborting;
   }
   if (was_queued) {
-    const std::string message = "cancelled before it started";
-    if (auto ok = catalogue_->mark_failed(id, ScanStatus::aborted, ScanErrorCode::aborted, message,
-                                          false);
-        !ok)
+    if (auto ok = mark_cancelled(id, "cancelled before it started"); !ok)
       return std::unexpected(ok.error());
-    auto event = scan_event(id);
-    event.update({{"status", "aborted"},
-                  {"code", static_cast<int>(ScanErrorCode::aborted)},
-                  {"error", message}});
-    events_.publish("error", std::move(event));
-    log->info("scan {} cancelled", id);
     return ScanRemoval::cancelled;
   }
   auto removed = catalogue_->remove(id);

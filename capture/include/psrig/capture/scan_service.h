@@ -104,6 +104,8 @@ class ScanService final : public ScanControl {
   // Room in the storage root for one more scan and its catalogue rows.
   [[nodiscard]] Status check_free_space(const config::RigConfig& config) const;
   void request_abort_locked();
+  // A queued scan's row `aborted` with `message`, and its event.
+  [[nodiscard]] Status mark_cancelled(std::int64_t id, const std::string& message);
 
   std::unique_ptr<Catalogue> catalogue_;
   ScanEvents events_;
