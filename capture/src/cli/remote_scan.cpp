@@ -18,6 +18,28 @@ std::string text(const nlohmann::json& value) {
   return value.is_string() ? value.get<std::string>() : value.dump();
 }
 
+// Gives up on the scan at `path`: cancelled if queued, aborted if running,
+// never deleted (a scan that finished between two polls is kept). What
+// happened, for the message.
+std::string cancel(DaemonClient& client, const std::string& path) {
+  auto reply = client.post(path + "/cancel", nlohmann::json::object());
+  if (reply && reply->status == 404 && reply_error(*reply) == "no such endpoint") {
+    // A psrigd from before /cancel: DELETE only while it still looks
+    // queued or running (a scan finishing in between would be deleted,
+    // which /cancel rules out).
+    auto entry = client.get(path);
+    if (!entry || entry->status != 200) return "may still run on psrigd";
+    const std::string status = text(entry->body["status"]);
+    if (status != "queued" && status != "running") return status + " on psrigd; kept";
+    reply = client.remove(path);
+  }
+  if (!reply) return "may still run on psrigd (" + reply.error().describe() + ")";
+  if (reply->status == 409) return "had already finished on psrigd; kept";
+  if (reply->status == 200) return "cancelled on psrigd";
+  if (reply->status == 202) return "aborting on psrigd (LEDs off)";
+  return "may still run on psrigd (" + reply_error(*reply) + ")";
+}
+
 }  // namespace
 
 int run_remote_scan(const RemoteScan& scan) {
@@ -43,10 +65,8 @@ int run_remote_scan(const RemoteScan& scan) {
   std::string last_step;
   for (;;) {
     if (firmware_host::stop_requested()) {
-      auto cancelled = client.remove(path);
-      std::fprintf(
-          stderr, "psrig scan: interrupted; scan %lld %s\n", static_cast<long long>(id),
-          cancelled && cancelled->status < 300 ? "cancelled on psrigd" : "may still run on psrigd");
+      std::fprintf(stderr, "psrig scan: interrupted; scan %lld %s\n", static_cast<long long>(id),
+                   cancel(client, path).c_str());
       return 130;
     }
     auto entry = client.get(path);

@@ -269,6 +269,39 @@ Result<ScanRemoval> ScanService::remove(std::int64_t id) {
   return *removed ? ScanRemoval::deleted : ScanRemoval::not_found;
 }
 
+Result<ScanCancel> ScanService::cancel(std::int64_t id) {
+  bool was_queued = false, was_running = false;
+  {
+    std::lock_guard lock(mutex_);
+    if (status_.current_scan == id) {
+      request_abort_locked();
+      was_running = true;
+    } else {
+      const auto queued =
+          std::find_if(queue_.begin(), queue_.end(), [&](const Job& job) { return job.id == id; });
+      if (queued != queue_.end()) {
+        queue_.erase(queued);
+        was_queued = true;
+      }
+    }
+  }
+  if (was_running) {
+    processing::logger("daemon")->info("scan {}: abort requested (cancel)", id);
+    if (auto ok = switch_lights_off(); !ok) return std::unexpected(ok.error());
+    return ScanCancel::aborting;
+  }
+  if (was_queued) {
+    if (auto ok = mark_cancelled(id, "cancelled before it started"); !ok)
+      return std::unexpected(ok.error());
+    return ScanCancel::cancelled;
+  }
+  // Neither queued nor running: finished, if it exists (rows are added
+  // under the same lock as the queue, and leave it only to run).
+  auto entry = catalogue_->get(id);
+  if (!entry) return std::unexpected(entry.error());
+  return *entry ? ScanCancel::already_finished : ScanCancel::not_found;
+}
+
 void ScanService::reload(config::RigConfig config) {
   std::lock_guard lock(mutex_);
   auto log = processing::logger("daemon");

@@ -45,6 +45,14 @@ enum class ScanRemoval {
   deleted,    // it had finished: files and row are gone
 };
 
+// What POST /v1/scans/{id}/cancel did: never a deletion.
+enum class ScanCancel {
+  not_found,
+  cancelled,         // it was queued: it will not run (its row says aborted)
+  aborting,          // it is running: it stops, LEDs off, and its row will say aborted
+  already_finished,  // done, failed or aborted already: left as it is
+};
+
 class ScanService final : public ScanControl {
  public:
   // Opens the catalogue in config.storage.root (cleaning what an
@@ -61,6 +69,11 @@ class ScanService final : public ScanControl {
 
   // Cancels a queued scan, aborts the running one, or deletes a finished one.
   [[nodiscard]] Result<ScanRemoval> remove(std::int64_t id);
+  // Cancels a queued scan or aborts the running one; a scan that has
+  // finished is left alone (already_finished), whenever it finished: what
+  // a client that gives up on a scan asks, where remove() would delete a
+  // scan that finished between its polls. Decided under the queue's lock.
+  [[nodiscard]] Result<ScanCancel> cancel(std::int64_t id);
 
   // A new configuration (SIGHUP), applied between scans: the rig is opened
   // again with it. storage.root and the daemon's addresses keep their
