@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <optional>
 #include <thread>
 
 #include "command.h"
@@ -40,6 +41,12 @@ std::string cancel(DaemonClient& client, const std::string& path) {
   return "may still run on psrigd (" + reply_error(*reply) + ")";
 }
 
+// A number of the reply, if it is one (a NaN metric is written as null).
+std::optional<double> number(const nlohmann::json& value) {
+  if (!value.is_number()) return std::nullopt;
+  return value.get<double>();
+}
+
 }  // namespace
 
 int run_remote_scan(const RemoteScan& scan) {
@@ -56,6 +63,11 @@ int run_remote_scan(const RemoteScan& scan) {
                             : processing::io_error(scan.url, message);
     return report_error("scan", error);
   }
+  if (!queued->body.is_object() || !queued->body["id"].is_number_integer())
+    return report_error("scan", processing::io_error(scan.url,
+                                                     "psrigd queued the scan but gave "
+                                                     "no id: " +
+                                                         queued->body.dump()));
   const auto id = queued->body["id"].get<std::int64_t>();
   const std::string path = "/v1/scans/" + std::to_string(id);
   if (!scan.quiet)
@@ -82,14 +94,15 @@ int run_remote_scan(const RemoteScan& scan) {
       if (!e["maps_directory"].is_null())
         std::printf("maps: %s\n", text(e["maps_directory"]).c_str());
       const auto& report = e["report"];
-      if (report.is_object()) {
-        if (report.contains("residual"))
-          std::printf("residual: mean %.5f of full scale\n",
-                      report["residual"]["mean"].get<double>());
-        if (report.contains("ground_truth") && report["ground_truth"].contains("angular_error_deg"))
-          std::printf("ground truth: mean angular error %.3f deg\n",
-                      report["ground_truth"]["angular_error_deg"]["mean"].get<double>());
-      }
+      using Pointer = nlohmann::json::json_pointer;
+      const auto metric = [&](const char* at) -> std::optional<double> {
+        if (!report.is_object() || !report.contains(Pointer(at))) return std::nullopt;
+        return number(report.at(Pointer(at)));
+      };
+      if (const auto residual = metric("/residual/mean"))
+        std::printf("residual: mean %.5f of full scale\n", *residual);
+      if (const auto angular = metric("/ground_truth/angular_error_deg/mean"))
+        std::printf("ground truth: mean angular error %.3f deg\n", *angular);
       return 0;
     }
     if (status == "failed" || status == "aborted") {
