@@ -108,5 +108,34 @@ TEST(PsrigdScanService, CancelAbortsTheRunningScanAndCancelsAQueuedOne) {
   EXPECT_EQ((*row)->status, ScanStatus::aborted);
 }
 
+// The worker shows it lives while it waits and while it scans, for the
+// systemd watchdog.
+TEST(PsrigdScanService, TheWorkerHeartbeatGoesOnWhileIdleAndScanning) {
+  TempDir temp;
+  auto service = start_service(temp);
+  ASSERT_TRUE(service);
+  for (int second = 0; second < 3; ++second) {
+    std::this_thread::sleep_for(1s);
+    EXPECT_TRUE(service->healthy(1500ms)) << "idle, second " << second;
+  }
+  const auto id = submit(*service, "H");
+  const auto finished = [&] {
+    auto entry = service->catalogue().get(id);
+    return entry && *entry && !(*entry)->finished.empty();
+  };
+  const auto deadline = std::chrono::steady_clock::now() + 30s;
+  while (!finished() && std::chrono::steady_clock::now() < deadline) {
+    EXPECT_TRUE(service->healthy(1500ms));
+    std::this_thread::sleep_for(20ms);
+  }
+  EXPECT_EQ(wait_finished(*service, id).status, ScanStatus::done);
+  EXPECT_TRUE(service->healthy(1500ms));
+  auto config = service->config();
+  // sim.toml: 64 stale + 2 averaged + 1 grabs of 2 s, and 5 ms settling.
+  EXPECT_EQ(ScanService::heartbeat_limit(config), std::chrono::milliseconds(134005));
+  config.camera.timeout_ms = 100;
+  EXPECT_EQ(ScanService::heartbeat_limit(config), std::chrono::seconds(60));
+}
+
 }  // namespace
 }  // namespace psrig::test

@@ -132,6 +132,30 @@ DaemonStatus ScanService::status() const {
   return status;
 }
 
+void ScanService::beat() {
+  heartbeat_ = std::chrono::steady_clock::now().time_since_epoch().count();
+}
+
+bool ScanService::healthy(std::chrono::steady_clock::duration limit) const {
+  const std::chrono::steady_clock::time_point last{
+      std::chrono::steady_clock::duration(heartbeat_.load())};
+  return std::chrono::steady_clock::now() - last <= limit;
+}
+
+std::chrono::steady_clock::duration ScanService::heartbeat_limit(const config::RigConfig& config) {
+  // Between two heartbeats a scan does at most one phase (the dark frame
+  // or one LED): its settling, and up to 64 stale frames (the
+  // sequencer's kMaxStaleFrames), the discarded and the averaged ones,
+  // each grab allowed camera.timeout_ms. Processing reports nothing
+  // while it runs; the 60 s floor is for it (seconds at the rig's sizes).
+  constexpr int kMaxStaleFrames = 64;
+  const auto grabs = static_cast<std::int64_t>(kMaxStaleFrames + config.camera.frames_discard +
+                                               config.camera.frames_average + 1);
+  const auto phase =
+      std::chrono::milliseconds(grabs * config.camera.timeout_ms + config.capture.settle_ms);
+  return std::max<std::chrono::steady_clock::duration>(std::chrono::seconds(60), phase);
+}
+
 DeviceStatus ScanService::devices() const {
   std::lock_guard lock(mutex_);
   return devices_;
@@ -415,6 +439,7 @@ Status ScanService::check_free_space(const config::RigConfig& config) const {
 }
 
 void ScanService::set_step(std::string step, int percent, DaemonState state) {
+  beat();
   std::int64_t id = 0;
   {
     std::lock_guard lock(mutex_);
@@ -453,6 +478,7 @@ ScanErrorCode ScanService::classify(const processing::Error& error, Stage stage)
 void ScanService::finish(const Job& job, ScanStatus status, ScanErrorCode code,
                          const std::string& message, const fs::path& scan_directory,
                          bool keep_files) {
+  beat();
   auto log = processing::logger("daemon");
   if (!keep_files && !scan_directory.empty()) {
     std::error_code ec;
@@ -484,6 +510,7 @@ void ScanService::finish(const Job& job, ScanStatus status, ScanErrorCode code,
 
 void ScanService::run(const Job& job) {
   auto log = processing::logger("daemon");
+  beat();
   attempt_ = {};
   apply_pending_config();
   const auto aborted = [&] {
@@ -617,7 +644,11 @@ void ScanService::work() {
     Job job;
     {
       std::unique_lock lock(mutex_);
-      wake_.wait(lock, [&] { return stopping_ || !queue_.empty() || pending_config_; });
+      // Waking every second to show the worker lives (healthy()).
+      while (!wake_.wait_for(lock, std::chrono::seconds(1),
+                             [&] { return stopping_ || !queue_.empty() || pending_config_; }))
+        beat();
+      beat();
       if (stopping_) break;
       if (queue_.empty()) {
         lock.unlock();

@@ -5,6 +5,7 @@
 // listeners how it goes. A device that fails fails its scan, never the
 // daemon: the rig is closed and opened again for the next scan. Thread-safe.
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -85,6 +86,17 @@ class ScanService final : public ScanControl {
   // joins the worker. Idempotent; the destructor calls it.
   void stop();
 
+  // The worker is alive: it has stamped its heartbeat (at each step and
+  // progress report of a scan, and every second while it waits for one)
+  // within `limit`. For the systemd watchdog, which otherwise only proves
+  // the main loop lives: pet it only while this holds.
+  [[nodiscard]] bool healthy(std::chrono::steady_clock::duration limit) const;
+  // The longest a working worker goes without a heartbeat under `config`,
+  // max(60 s, one phase of a scan at its worst: every grab it may make
+  // taking camera.timeout_ms).
+  [[nodiscard]] static std::chrono::steady_clock::duration heartbeat_limit(
+      const config::RigConfig& config);
+
   [[nodiscard]] Catalogue& catalogue() { return *catalogue_; }
   [[nodiscard]] const ScanEvents& events() const { return events_; }
   [[nodiscard]] DeviceStatus devices() const;
@@ -151,6 +163,11 @@ class ScanService final : public ScanControl {
     std::filesystem::path directory;
     bool committed = false;
   } attempt_;
+
+  // steady_clock time of the worker's last sign of life.
+  std::atomic<std::chrono::steady_clock::rep> heartbeat_{
+      std::chrono::steady_clock::now().time_since_epoch().count()};
+  void beat();
 
   std::thread worker_;
 };
