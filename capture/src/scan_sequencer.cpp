@@ -78,9 +78,20 @@ ScanSequencer::ScanSequencer(const config::RigConfig& config, firmware_host::Saf
     : config_(config), lights_(lights), camera_(camera) {}
 
 Result<ScanSequencer::Lighting> ScanSequencer::switch_lights(int channel, Lighting& previous) {
+  const auto stopping = [&] { return stop_ || firmware_host::stop_requested(); };
+  const auto interrupted = [&]() -> Result<Lighting> {
+    (void)lights_.all_off();
+    return std::unexpected(processing::internal_error("scan interrupted; all LEDs are off"));
+  };
+  // A stop (lights-off, abort, a signal) is flagged first, then every LED
+  // is switched off: checked just before a switch, so that no LED comes
+  // on again after that all-off, and just after it, for a stop flagged
+  // between the check and the switch (its all-off may have come first).
+  if (channel >= 0 && stopping()) return interrupted();
   const auto before = Clock::now();
   if (auto ok = channel < 0 ? lights_.all_off() : lights_.turn_on(channel); !ok)
     return std::unexpected(ok.error());
+  if (channel >= 0 && stopping()) return interrupted();
   const auto after = Clock::now();
   switch_time_ = std::max(switch_time_, after - before);
   previous.until = before;  // the old state may have ended as soon as the call began...
@@ -296,6 +307,7 @@ Result<processing::Scan> ScanSequencer::acquire(
 
 Result<ScanOutcome> ScanSequencer::capture(
     const ScanRequest& request, const std::function<void(const ScanProgress&)>& progress) {
+  committed_ = false;
   ScanOutcome outcome;
   outcome.directory = request.directory.empty() ? default_scan_directory(config_, request.sample_id)
                                                 : request.directory;
@@ -309,6 +321,7 @@ Result<ScanOutcome> ScanSequencer::capture(
   std::error_code ec;
   fs::create_directories(outcome.directory.parent_path(), ec);
   if (auto ok = write_scan(*scan, outcome.directory); !ok) return std::unexpected(ok.error());
+  committed_ = true;
   if (request.process.value_or(config_.capture.process)) {
     if (progress) progress({"processing", 0, 1});
     auto maps = processing::process_scan(outcome.directory);

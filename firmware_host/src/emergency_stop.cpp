@@ -57,8 +57,11 @@ void install_emergency_stop(std::function<void(int)> on_signal) {
       for (;;) {
         int signal = 0;
         if (sigwait(&signals, &signal) != 0) continue;
+        // Requested first: a scan that checks before switching an LED on
+        // sees it, so none comes on again after the all-off below.
+        const bool again = requested.exchange(true);
         emergency_all_off();
-        if (requested.exchange(true)) _exit(128 + signal);  // second signal: do not wait any longer
+        if (again) _exit(128 + signal);  // second signal: do not wait any longer
         if (on_signal) on_signal(signal);
       }
     }).detach();

@@ -219,9 +219,10 @@ TEST(Catalogue, RecoveryCleansAnInterruptedScanAndNothingElse) {
   const fs::path root = temp / "scans";
   const fs::path done_scan = root / "20260504-000000-done";
   const fs::path running_scan = root / "20260504-000001-running";
+  const fs::path half_scan = root / "20260504-000003-half";   // never renamed into place whole
   const fs::path by_hand = root / "20260504-000002-by-hand";  // `psrig scan` put it there
   const fs::path outside = temp / "outside";
-  std::int64_t done = 0, running = 0, queued = 0, escaped = 0;
+  std::int64_t done = 0, running = 0, half = 0, queued = 0, escaped = 0;
   {
     auto catalogue = open(root);
     done = add(*catalogue, "done");
@@ -230,13 +231,17 @@ TEST(Catalogue, RecoveryCleansAnInterruptedScanAndNothingElse) {
     ASSERT_TRUE(catalogue->mark_done(done, done_scan / "maps", nullptr));
     running = add(*catalogue, "running");
     ASSERT_TRUE(catalogue->mark_running(running, running_scan));
+    half = add(*catalogue, "half");
+    ASSERT_TRUE(catalogue->mark_running(half, half_scan));
     queued = add(*catalogue, "queued");
     escaped = add(*catalogue, "escaped");
   }
-  // What a killed daemon leaves: the scan written, its maps half made,
-  // and the writer's staging directory of the next one.
+  // What a killed daemon leaves: the scan written, its maps made (not
+  // recorded) and half made again, the writer's staging directory of the
+  // next one, and one without its scan.json.
   make_scan(running_scan);
   fs::create_directories(running_scan / ".maps.partial-999999-1");
+  fs::create_directories(half_scan / "maps");
   fs::create_directories(root / ".20260504-000001-running.partial-1-2");  // PID 1 is alive
   fs::create_directories(root / ".other.partial-999999-3");               // a dead writer's
   make_scan(by_hand);
@@ -256,15 +261,29 @@ TEST(Catalogue, RecoveryCleansAnInterruptedScanAndNothingElse) {
   auto catalogue = open(root);
   auto recovery = catalogue->recover();
   ASSERT_TRUE(recovery) << recovery.error().describe();
-  EXPECT_EQ(recovery->interrupted, (std::vector<std::int64_t>{running, queued, escaped}));
-  for (const auto id : {running, queued, escaped}) {
+  EXPECT_EQ(recovery->interrupted, (std::vector<std::int64_t>{running, half, queued, escaped}));
+  for (const auto id : {half, queued, escaped}) {
     auto entry = catalogue->get(id);
     ASSERT_TRUE(entry && *entry);
     EXPECT_EQ((*entry)->status, ScanStatus::failed);
     EXPECT_NE((*entry)->error_message.find("interrupted"), std::string::npos);
     EXPECT_TRUE((*entry)->scan_directory.empty());
   }
-  EXPECT_FALSE(fs::exists(running_scan));
+  // A whole raw scan cannot be taken again: kept, its row naming it, its
+  // unrecorded maps gone.
+  {
+    auto entry = catalogue->get(running);
+    ASSERT_TRUE(entry && *entry);
+    EXPECT_EQ((*entry)->status, ScanStatus::failed);
+    EXPECT_EQ((*entry)->error_message,
+              "interrupted during processing; raw frames kept, reprocess with psrig process");
+    EXPECT_EQ((*entry)->scan_directory, catalogue->storage_root() / running_scan.filename());
+    EXPECT_TRUE((*entry)->maps_directory.empty());
+  }
+  EXPECT_TRUE(fs::exists(running_scan / "scan.json"));
+  EXPECT_FALSE(fs::exists(running_scan / "maps"));
+  EXPECT_FALSE(fs::exists(running_scan / ".maps.partial-999999-1"));
+  EXPECT_FALSE(fs::exists(half_scan));
   EXPECT_FALSE(fs::exists(root / ".20260504-000001-running.partial-1-2"));
   EXPECT_FALSE(fs::exists(root / ".other.partial-999999-3"));
   EXPECT_TRUE(fs::exists(done_scan / "maps" / "report.json"));

@@ -20,6 +20,8 @@
 #include <nlohmann/json.hpp>
 
 #include "daemon_process.h"
+#include "psrig/config/config_loader.h"
+#include "psrig/firmware_host/light_controller.h"
 #include "psrig/firmware_host/sim/modbus_driver.h"
 
 namespace psrig::test {
@@ -404,6 +406,84 @@ TEST(Psrigd, CancelQueuedAbortRunningAndLightsOff) {
   EXPECT_EQ(daemon.signal_and_wait(SIGINT), 0) << daemon.log();
 }
 
+// The directory a scan is about to write appears meanwhile (a `psrig scan`
+// by hand): the scan fails, and the other scan is left alone.
+TEST(Psrigd, AScanNeverRemovesADirectoryItDidNotWrite) {
+  TempDir temp;
+  const int port = free_port();
+  const auto config = daemon_config(temp, port, {{"exposure_us = 20000", "exposure_us = 150000"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto id = daemon.submit({{"sample_id", "X-1"}});
+  ASSERT_TRUE(daemon.wait_status([&](const json& s) {
+    return s["current_scan"] == id && s["step"].get<std::string>().starts_with("light");
+  })) << daemon.log();
+  const auto running = daemon.get("/v1/scans/" + std::to_string(id));
+  ASSERT_TRUE(running["scan_directory"].is_string()) << running.dump();
+  const fs::path directory = running["scan_directory"].get<std::string>();
+  fs::create_directories(directory);
+  std::ofstream(directory / "scan.json") << R"({"format": "psrig-scan/1"})";
+
+  const auto failed = daemon.wait_finished(id);
+  EXPECT_EQ(failed["status"], "failed") << failed.dump();
+  EXPECT_TRUE(contains(failed["error"]["message"].get<std::string>(), "already exists"))
+      << failed.dump();
+  EXPECT_TRUE(failed["scan_directory"].is_null()) << failed.dump();
+  EXPECT_TRUE(fs::exists(directory / "scan.json")) << daemon.log();
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+// The storage root reached through a symlink (/var/lib/psrig -> /data, say).
+TEST(Psrigd, AStorageRootBehindASymlinkTakesScans) {
+  TempDir temp;
+  fs::create_directories(temp / "data");
+  fs::create_directory_symlink("data", temp / "scans");
+  const int port = free_port();
+  Daemon daemon(daemon_config(temp, port), port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto entry = daemon.wait_finished(daemon.submit({{"sample_id", "L-1"}}));
+  EXPECT_EQ(entry["status"], "done") << entry.dump() << daemon.log();
+  ASSERT_TRUE(entry["scan_directory"].is_string()) << entry.dump();
+  const fs::path directory = entry["scan_directory"].get<std::string>();
+  EXPECT_TRUE(fs::exists(temp / "data" / directory.filename() / "scan.json")) << entry.dump();
+  // SIGHUP with the same file: the root is the same root.
+  ::kill(daemon.pid(), SIGHUP);
+  const auto deadline = std::chrono::steady_clock::now() + 10s;
+  while (!contains(daemon.log(), "SIGHUP") && std::chrono::steady_clock::now() < deadline)
+    std::this_thread::sleep_for(10ms);
+  EXPECT_EQ(daemon.wait_finished(daemon.submit({{"sample_id", "L-2"}}))["status"], "done")
+      << daemon.log();
+  EXPECT_FALSE(contains(daemon.log(), "storage.root changed")) << daemon.log();
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+// Lights-off means stop: the queue does not start its next scan (which
+// would switch an LED on again at once).
+TEST(Psrigd, LightsOffAbortsTheQueuedScansToo) {
+  TempDir temp;
+  const int port = free_port();
+  const auto config = daemon_config(temp, port, {{"exposure_us = 20000", "exposure_us = 150000"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto running = daemon.submit({{"sample_id", "R"}});
+  const auto queued = daemon.submit({{"sample_id", "Q1"}});
+  const auto also_queued = daemon.submit({{"sample_id", "Q2"}});
+  ASSERT_TRUE(daemon.wait_status([&](const json& s) { return s["current_scan"] == running; }));
+  auto off = daemon.http().Post("/v1/lights/off", "", "application/json");
+  ASSERT_TRUE(off);
+  EXPECT_EQ(off->status, 200) << off->body;
+  EXPECT_EQ(daemon.get("/v1/status")["queue_length"], 0);
+  EXPECT_EQ(daemon.wait_finished(running)["status"], "aborted");
+  for (const auto id : {queued, also_queued}) {
+    const auto entry = daemon.wait_finished(id);
+    EXPECT_EQ(entry["status"], "aborted") << entry.dump();
+    EXPECT_EQ(entry["error"]["message"], "lights off requested") << entry.dump();
+  }
+  EXPECT_TRUE(daemon.wait_status([](const json& s) { return s["state"] == "idle"; }));
+  EXPECT_EQ(daemon.get("/v1/status")["scans_completed"], 0);
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
 TEST(Psrigd, QueueLimitAndReloadOnSighup) {
   TempDir temp;
   const int port = free_port();
@@ -472,9 +552,19 @@ TEST(Psrigd, KilledWhileSavingThenRestartedLeavesNoHalfScan) {
   EXPECT_EQ(entry["status"], "failed") << entry.dump();
   EXPECT_TRUE(contains(entry["error"]["message"].get<std::string>(), "interrupted"))
       << entry.dump();
-  EXPECT_TRUE(entry["scan_directory"].is_null());
+  // No half scan: the raw frames were whole (they cannot be taken again)
+  // and stay, named by the row; the maps being made when it died do not.
+  EXPECT_TRUE(contains(entry["error"]["message"].get<std::string>(), "raw frames kept"))
+      << entry.dump();
+  ASSERT_TRUE(entry["scan_directory"].is_string()) << entry.dump();
+  EXPECT_TRUE(entry["maps_directory"].is_null()) << entry.dump();
+  const fs::path kept = entry["scan_directory"].get<std::string>();
+  EXPECT_TRUE(fs::exists(kept / "scan.json"));
+  for (const auto& name : list_directory(kept))
+    EXPECT_TRUE(name != "maps" && !name.starts_with(".")) << "no half maps: " << name;
   for (const auto& name : list_directory(temp / "scans"))
-    EXPECT_TRUE(name.starts_with("catalogue.sqlite")) << name;
+    EXPECT_TRUE(name.starts_with("catalogue.sqlite") || name == kept.filename().string())
+        << "no half scan: " << name;
   // And it serves on.
   const auto next = daemon.submit({{"sample_id", "K-10"}});
   EXPECT_EQ(daemon.wait_finished(next, 60s)["status"], "done") << daemon.log();
@@ -511,6 +601,54 @@ TEST(Psrigd, AnLedDriverFaultFailsTheScanNotTheDaemon) {
   EXPECT_EQ(next["status"], "done") << next.dump() << daemon.log();
   EXPECT_EQ(daemon.get("/v1/status")["state"], "idle");
   EXPECT_FALSE((*driver)->log().overlap());
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+// An LED driver fault closes the rig; lights-off then still reaches the
+// driver (the light backend opened alone), says when it cannot, and the
+// failure to switch off on closing is shown, not dropped.
+TEST(Psrigd, LightsOffWithTheRigClosedReachesTheLedDriver) {
+  TempDir temp;
+  auto driver = firmware_host::SimModbusDriver::start({});
+  ASSERT_TRUE(driver) << driver.error().describe();
+  const int port = free_port();
+  const auto config =
+      daemon_config(temp, port,
+                    {{"backend = \"sim\"\nchannels",
+                      "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", "
+                      "port = " +
+                          std::to_string((*driver)->port()) + ", retries = 0 }\nchannels"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  (*driver)->inject(firmware_host::ModbusFault::exception);
+  const auto failed = daemon.wait_finished(daemon.submit({{"sample_id", "F-1"}}));
+  EXPECT_EQ(failed["error"]["code_name"], "lights") << failed.dump();
+  ASSERT_TRUE(daemon.wait_status([](const json& s) { return s["devices"]["open"] == false; }));
+  const auto devices = daemon.get("/v1/status")["devices"];
+  EXPECT_TRUE(contains(devices["error"].get<std::string>(), "switching every LED off"))
+      << devices.dump() << daemon.log();
+
+  // The driver still refuses: lights-off says so, naming the device.
+  auto refused = daemon.http().Post("/v1/lights/off", "", "application/json");
+  ASSERT_TRUE(refused);
+  EXPECT_EQ(refused->status, 500) << refused->body;
+  EXPECT_TRUE(contains(refused->body, "modbus")) << refused->body;
+
+  // An LED left on behind the closed rig's back is switched off.
+  (*driver)->clear_fault();
+  auto rig = config::load_config(config);
+  ASSERT_TRUE(rig) << rig.error().describe();
+  // (another client of the driver, held open: its own closing would
+  // switch the LED off)
+  auto stuck = firmware_host::open_lights(*rig, nullptr);
+  ASSERT_TRUE(stuck) << stuck.error().describe();
+  ASSERT_TRUE((*stuck)->turn_on(1));
+  ASSERT_EQ((*driver)->leds_on(), std::vector<int>{1});
+  auto off = daemon.http().Post("/v1/lights/off", "", "application/json");
+  ASSERT_TRUE(off);
+  EXPECT_EQ(off->status, 200) << off->body;
+  EXPECT_TRUE((*driver)->leds_on().empty());
+  EXPECT_EQ(daemon.get("/v1/status")["devices"]["error"], "") << daemon.log();
   EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
 }
 

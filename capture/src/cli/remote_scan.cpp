@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cstdio>
+#include <optional>
 #include <thread>
 
 #include "command.h"
@@ -16,6 +17,34 @@ constexpr auto kPollInterval = std::chrono::milliseconds(200);
 
 std::string text(const nlohmann::json& value) {
   return value.is_string() ? value.get<std::string>() : value.dump();
+}
+
+// Gives up on the scan at `path`: cancelled if queued, aborted if running,
+// never deleted (a scan that finished between two polls is kept). What
+// happened, for the message.
+std::string cancel(DaemonClient& client, const std::string& path) {
+  auto reply = client.post(path + "/cancel", nlohmann::json::object());
+  if (reply && reply->status == 404 && reply_error(*reply) == "no such endpoint") {
+    // A psrigd from before /cancel: DELETE only while it still looks
+    // queued or running (a scan finishing in between would be deleted,
+    // which /cancel rules out).
+    auto entry = client.get(path);
+    if (!entry || entry->status != 200) return "may still run on psrigd";
+    const std::string status = text(entry->body["status"]);
+    if (status != "queued" && status != "running") return status + " on psrigd; kept";
+    reply = client.remove(path);
+  }
+  if (!reply) return "may still run on psrigd (" + reply.error().describe() + ")";
+  if (reply->status == 409) return "had already finished on psrigd; kept";
+  if (reply->status == 200) return "cancelled on psrigd";
+  if (reply->status == 202) return "aborting on psrigd (LEDs off)";
+  return "may still run on psrigd (" + reply_error(*reply) + ")";
+}
+
+// A number of the reply, if it is one (a NaN metric is written as null).
+std::optional<double> number(const nlohmann::json& value) {
+  if (!value.is_number()) return std::nullopt;
+  return value.get<double>();
 }
 
 }  // namespace
@@ -34,6 +63,11 @@ int run_remote_scan(const RemoteScan& scan) {
                             : processing::io_error(scan.url, message);
     return report_error("scan", error);
   }
+  if (!queued->body.is_object() || !queued->body["id"].is_number_integer())
+    return report_error("scan", processing::io_error(scan.url,
+                                                     "psrigd queued the scan but gave "
+                                                     "no id: " +
+                                                         queued->body.dump()));
   const auto id = queued->body["id"].get<std::int64_t>();
   const std::string path = "/v1/scans/" + std::to_string(id);
   if (!scan.quiet)
@@ -43,10 +77,8 @@ int run_remote_scan(const RemoteScan& scan) {
   std::string last_step;
   for (;;) {
     if (firmware_host::stop_requested()) {
-      auto cancelled = client.remove(path);
-      std::fprintf(
-          stderr, "psrig scan: interrupted; scan %lld %s\n", static_cast<long long>(id),
-          cancelled && cancelled->status < 300 ? "cancelled on psrigd" : "may still run on psrigd");
+      std::fprintf(stderr, "psrig scan: interrupted; scan %lld %s\n", static_cast<long long>(id),
+                   cancel(client, path).c_str());
       return 130;
     }
     auto entry = client.get(path);
@@ -62,14 +94,15 @@ int run_remote_scan(const RemoteScan& scan) {
       if (!e["maps_directory"].is_null())
         std::printf("maps: %s\n", text(e["maps_directory"]).c_str());
       const auto& report = e["report"];
-      if (report.is_object()) {
-        if (report.contains("residual"))
-          std::printf("residual: mean %.5f of full scale\n",
-                      report["residual"]["mean"].get<double>());
-        if (report.contains("ground_truth") && report["ground_truth"].contains("angular_error_deg"))
-          std::printf("ground truth: mean angular error %.3f deg\n",
-                      report["ground_truth"]["angular_error_deg"]["mean"].get<double>());
-      }
+      using Pointer = nlohmann::json::json_pointer;
+      const auto metric = [&](const char* at) -> std::optional<double> {
+        if (!report.is_object() || !report.contains(Pointer(at))) return std::nullopt;
+        return number(report.at(Pointer(at)));
+      };
+      if (const auto residual = metric("/residual/mean"))
+        std::printf("residual: mean %.5f of full scale\n", *residual);
+      if (const auto angular = metric("/ground_truth/angular_error_deg/mean"))
+        std::printf("ground truth: mean angular error %.3f deg\n", *angular);
       return 0;
     }
     if (status == "failed" || status == "aborted") {

@@ -502,8 +502,28 @@ Result<CatalogueRecovery> Catalogue::recover() {
   };
   std::error_code ec;
   for (const auto& [id, scan_path] : unfinished) {
+    bool kept = false;
     if (const auto directory = inside_root(scan_path)) {
-      remove_directory(*directory);
+      // A scan directory is renamed into place whole, flushed, from its
+      // staging directory: one that holds scan.json is a whole raw
+      // capture, which cannot be repeated. It stays; only its maps, which
+      // no row recorded and which may not have reached the disk, go.
+      std::error_code type_ec;
+      kept = !fs::is_symlink(*directory, type_ec) && fs::is_directory(*directory, type_ec) &&
+             fs::is_regular_file(*directory / "scan.json", type_ec);
+      if (kept) {
+        std::vector<fs::path> maps;
+        for (fs::directory_iterator it(*directory, ec), end; !ec && it != end; it.increment(ec)) {
+          const std::string name = it->path().filename().string();
+          if (name == "maps" ||
+              (name.starts_with(".maps") && name.find(".partial-") != std::string::npos))
+            maps.push_back(it->path());
+        }
+        for (const auto& path : maps)
+          remove_directory(path);
+      } else {
+        remove_directory(*directory);
+      }
       // Its writer's staging directory, whoever's PID it carries: no scan
       // of this daemon is running yet.
       const std::string prefix = "." + directory->filename().string() + ".partial-";
@@ -514,12 +534,17 @@ Result<CatalogueRecovery> Catalogue::recover() {
       for (const auto& path : staging)
         remove_directory(path);
     }
-    if (auto ok = mark_failed(id, ScanStatus::failed, ScanErrorCode::internal,
-                              "interrupted: psrigd stopped before this scan finished", false);
-        !ok)
+    const std::string message =
+        kept ? "interrupted during processing; raw frames kept, reprocess with psrig process"
+             : "interrupted: psrigd stopped before this scan finished";
+    if (auto ok = mark_failed(id, ScanStatus::failed, ScanErrorCode::internal, message, kept); !ok)
       return std::unexpected(ok.error());
     recovery.interrupted.push_back(id);
-    log->warn("scan {} was interrupted by the last shutdown; marked failed", id);
+    if (kept)
+      log->warn("scan {} was interrupted by the last shutdown; marked failed, its raw frames kept",
+                id);
+    else
+      log->warn("scan {} was interrupted by the last shutdown; marked failed", id);
   }
   // Other writers' staging directories, once their process is gone.
   std::vector<fs::path> abandoned;

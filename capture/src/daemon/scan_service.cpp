@@ -88,6 +88,16 @@ std::uintmax_t tree_bytes(const fs::path& directory) {
   return bytes;
 }
 
+// Runs `f` however the scope ends, exceptions included.
+template <class F>
+struct ScopeExit {
+  F f;
+  explicit ScopeExit(F fn) : f(std::move(fn)) {}
+  ScopeExit(const ScopeExit&) = delete;
+  ScopeExit& operator=(const ScopeExit&) = delete;
+  ~ScopeExit() { f(); }
+};
+
 nlohmann::json scan_event(std::int64_t id) {
   return {{"id", id}};
 }
@@ -100,6 +110,9 @@ ScanService::ScanService(config::RigConfig config, std::unique_ptr<Catalogue> ca
 Result<std::unique_ptr<ScanService>> ScanService::start(config::RigConfig config) {
   auto catalogue = Catalogue::open(config.storage.root);
   if (!catalogue) return std::unexpected(catalogue.error());
+  // Scan directories are made from the root the catalogue resolved (a
+  // root reached through a symlink, say), or none would lie inside it.
+  config.storage.root = (*catalogue)->storage_root();
   auto recovered = (*catalogue)->recover();
   if (!recovered) return std::unexpected(recovered.error());
   std::unique_ptr<ScanService> service(new ScanService(std::move(config), std::move(*catalogue)));
@@ -117,6 +130,30 @@ DaemonStatus ScanService::status() const {
   status.queue_length = queue_.size();
   status.uptime = std::chrono::steady_clock::now() - started_;
   return status;
+}
+
+void ScanService::beat() {
+  heartbeat_ = std::chrono::steady_clock::now().time_since_epoch().count();
+}
+
+bool ScanService::healthy(std::chrono::steady_clock::duration limit) const {
+  const std::chrono::steady_clock::time_point last{
+      std::chrono::steady_clock::duration(heartbeat_.load())};
+  return std::chrono::steady_clock::now() - last <= limit;
+}
+
+std::chrono::steady_clock::duration ScanService::heartbeat_limit(const config::RigConfig& config) {
+  // Between two heartbeats a scan does at most one phase (the dark frame
+  // or one LED): its settling, and up to 64 stale frames (the
+  // sequencer's kMaxStaleFrames), the discarded and the averaged ones,
+  // each grab allowed camera.timeout_ms. Processing reports nothing
+  // while it runs; the 60 s floor is for it (seconds at the rig's sizes).
+  constexpr int kMaxStaleFrames = 64;
+  const auto grabs = static_cast<std::int64_t>(kMaxStaleFrames + config.camera.frames_discard +
+                                               config.camera.frames_average + 1);
+  const auto phase =
+      std::chrono::milliseconds(grabs * config.camera.timeout_ms + config.capture.settle_ms);
+  return std::max<std::chrono::steady_clock::duration>(std::chrono::seconds(60), phase);
 }
 
 DeviceStatus ScanService::devices() const {
@@ -158,19 +195,69 @@ void ScanService::request_abort_locked() {
   if (sequencer_) sequencer_->request_stop();
 }
 
+Status ScanService::note_lights_off(Status off, const std::string& device) {
+  std::lock_guard lock(mutex_);
+  if (off) {
+    if (!devices_.lights_off_error.empty()) {
+      processing::logger("daemon")->info("{}: every LED is off again", device);
+      if (devices_.open_error == devices_.lights_off_error) devices_.open_error.clear();
+      devices_.lights_off_error.clear();
+    }
+    return off;
+  }
+  processing::Error error = off.error();
+  error.message =
+      "switching every LED off on " + device + " failed (one may still be on): " + error.message;
+  devices_.lights_off_error = error.describe();
+  devices_.open_error = devices_.lights_off_error;
+  return std::unexpected(error);
+}
+
 Status ScanService::switch_lights_off() {
-  std::lock_guard lock(rig_mutex_);
-  if (!rig_) return {};  // closed: SafeLights left them off
-  return rig_->lights->all_off();
+  std::lock_guard open_lock(open_mutex_);
+  {
+    std::lock_guard lock(rig_mutex_);
+    if (rig_) return note_lights_off(rig_->lights->all_off(), rig_->lights->describe());
+  }
+  // Closed: SafeLights switched them off as it went, or tried to; a failure
+  // there is not known to be fixed, so the light backend is opened alone to
+  // make sure.
+  const config::RigConfig config = this->config();
+  const std::string backend = "the LED backend '" + config.lights.backend + "'";
+  auto lights = open_rig(config, /*with_camera=*/false);
+  if (!lights) return note_lights_off(std::unexpected(lights.error()), backend);
+  return note_lights_off(lights->lights->all_off(), lights->lights->describe());
 }
 
 Status ScanService::lights_off() {
+  std::deque<Job> dropped;
   {
     std::lock_guard lock(mutex_);
     request_abort_locked();
+    // The queue stops too: lights-off means stop, not "the next one".
+    dropped.swap(queue_);
   }
-  processing::logger("daemon")->info("lights off requested");
-  return switch_lights_off();
+  auto log = processing::logger("daemon");
+  log->info("lights off requested");
+  auto off = switch_lights_off();
+  for (const auto& job : dropped)
+    if (auto ok = mark_cancelled(job.id, "lights off requested"); !ok)
+      log->error("scan {}: {}", job.id, ok.error().describe());
+  return off;
+}
+
+Status ScanService::mark_cancelled(std::int64_t id, const std::string& message) {
+  if (auto ok =
+          catalogue_->mark_failed(id, ScanStatus::aborted, ScanErrorCode::aborted, message, false);
+      !ok)
+    return ok;
+  auto event = scan_event(id);
+  event.update({{"status", "aborted"},
+                {"code", static_cast<int>(ScanErrorCode::aborted)},
+                {"error", message}});
+  events_.publish("error", std::move(event));
+  processing::logger("daemon")->info("scan {} cancelled: {}", id, message);
+  return {};
 }
 
 Result<ScanRemoval> ScanService::remove(std::int64_t id) {
@@ -196,17 +283,8 @@ Result<ScanRemoval> ScanService::remove(std::int64_t id) {
     return ScanRemoval::aborting;
   }
   if (was_queued) {
-    const std::string message = "cancelled before it started";
-    if (auto ok = catalogue_->mark_failed(id, ScanStatus::aborted, ScanErrorCode::aborted, message,
-                                          false);
-        !ok)
+    if (auto ok = mark_cancelled(id, "cancelled before it started"); !ok)
       return std::unexpected(ok.error());
-    auto event = scan_event(id);
-    event.update({{"status", "aborted"},
-                  {"code", static_cast<int>(ScanErrorCode::aborted)},
-                  {"error", message}});
-    events_.publish("error", std::move(event));
-    log->info("scan {} cancelled", id);
     return ScanRemoval::cancelled;
   }
   auto removed = catalogue_->remove(id);
@@ -215,10 +293,44 @@ Result<ScanRemoval> ScanService::remove(std::int64_t id) {
   return *removed ? ScanRemoval::deleted : ScanRemoval::not_found;
 }
 
+Result<ScanCancel> ScanService::cancel(std::int64_t id) {
+  bool was_queued = false, was_running = false;
+  {
+    std::lock_guard lock(mutex_);
+    if (status_.current_scan == id) {
+      request_abort_locked();
+      was_running = true;
+    } else {
+      const auto queued =
+          std::find_if(queue_.begin(), queue_.end(), [&](const Job& job) { return job.id == id; });
+      if (queued != queue_.end()) {
+        queue_.erase(queued);
+        was_queued = true;
+      }
+    }
+  }
+  if (was_running) {
+    processing::logger("daemon")->info("scan {}: abort requested (cancel)", id);
+    if (auto ok = switch_lights_off(); !ok) return std::unexpected(ok.error());
+    return ScanCancel::aborting;
+  }
+  if (was_queued) {
+    if (auto ok = mark_cancelled(id, "cancelled before it started"); !ok)
+      return std::unexpected(ok.error());
+    return ScanCancel::cancelled;
+  }
+  // Neither queued nor running: finished, if it exists (rows are added
+  // under the same lock as the queue, and leave it only to run).
+  auto entry = catalogue_->get(id);
+  if (!entry) return std::unexpected(entry.error());
+  return *entry ? ScanCancel::already_finished : ScanCancel::not_found;
+}
+
 void ScanService::reload(config::RigConfig config) {
   std::lock_guard lock(mutex_);
   auto log = processing::logger("daemon");
-  if (config.storage.root != config_.storage.root)
+  std::error_code ec;
+  if (fs::weakly_canonical(config.storage.root, ec) != config_.storage.root)
     log->warn("storage.root changed to {}; it takes effect at the next start",
               config.storage.root.string());
   const auto& now = config_.daemon;
@@ -252,6 +364,7 @@ void ScanService::apply_pending_config() {
 
 Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
   if (rig_) return {};
+  std::lock_guard open_lock(open_mutex_);
   auto log = processing::logger("daemon");
   const config::RigConfig config = this->config();
   auto faults = std::make_shared<DeviceFaults>();
@@ -260,7 +373,7 @@ Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
     code = what;
     log->error("cannot open the {}: {}", to_string(what), error.describe());
     std::lock_guard lock(mutex_);
-    devices_ = {false, "", "", error.describe()};
+    devices_ = {false, "", "", error.describe(), devices_.lights_off_error};
     return std::unexpected(error);
   };
   try {
@@ -280,7 +393,8 @@ Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
   }
   {
     std::lock_guard lock(mutex_);
-    devices_ = {true, rig->lights->describe(), rig->camera->describe(), ""};
+    devices_ = {true, rig->lights->describe(), rig->camera->describe(), devices_.lights_off_error,
+                devices_.lights_off_error};
   }
   log->info("rig open: {}; {}", rig->lights->describe(), rig->camera->describe());
   std::lock_guard lock(rig_mutex_);
@@ -295,7 +409,13 @@ void ScanService::close_rig() {
     std::lock_guard lock(rig_mutex_);
     closing = std::move(rig_);
   }
-  closing.reset();  // SafeLights turns every LED off as it goes
+  if (closing) {
+    // SafeLights turns every LED off as it goes, but says nothing if that
+    // fails: asked here first, so that a failure is logged and shown.
+    if (auto off = note_lights_off(closing->lights->all_off(), closing->lights->describe()); !off)
+      processing::logger("daemon")->error("closing the rig: {}", off.error().describe());
+  }
+  closing.reset();
   std::lock_guard lock(mutex_);
   devices_.open = false;
 }
@@ -319,6 +439,7 @@ Status ScanService::check_free_space(const config::RigConfig& config) const {
 }
 
 void ScanService::set_step(std::string step, int percent, DaemonState state) {
+  beat();
   std::int64_t id = 0;
   {
     std::lock_guard lock(mutex_);
@@ -357,6 +478,7 @@ ScanErrorCode ScanService::classify(const processing::Error& error, Stage stage)
 void ScanService::finish(const Job& job, ScanStatus status, ScanErrorCode code,
                          const std::string& message, const fs::path& scan_directory,
                          bool keep_files) {
+  beat();
   auto log = processing::logger("daemon");
   if (!keep_files && !scan_directory.empty()) {
     std::error_code ec;
@@ -388,6 +510,8 @@ void ScanService::finish(const Job& job, ScanStatus status, ScanErrorCode code,
 
 void ScanService::run(const Job& job) {
   auto log = processing::logger("daemon");
+  beat();
+  attempt_ = {};
   apply_pending_config();
   const auto aborted = [&] {
     std::lock_guard lock(mutex_);
@@ -410,6 +534,7 @@ void ScanService::run(const Job& job) {
     return finish(job, ScanStatus::failed, ScanErrorCode::storage, ok.error().describe(), {},
                   false);
   log->info("scan {} running into {}", job.id, directory.string());
+  attempt_.directory = directory;
 
   faults_->clear();
   ScanSequencer sequencer(config, *rig_->lights, *rig_->camera);
@@ -418,6 +543,13 @@ void ScanService::run(const Job& job) {
     sequencer_ = &sequencer;
     if (abort_current_) sequencer.request_stop();
   }
+  // However run() ends (an exception too): no one reaches the sequencer
+  // once it is gone, and the worker knows whether the scan was written.
+  const ScopeExit forget_sequencer{[&] {
+    attempt_.committed = sequencer.committed();
+    std::lock_guard lock(mutex_);
+    sequencer_ = nullptr;
+  }};
   ScanRequest request = rig_->request(config);
   request.sample_id = job.submission.sample_id;
   request.description = job.submission.description;
@@ -442,16 +574,20 @@ void ScanService::run(const Job& job) {
   if (auto ok = switch_lights_off(); !ok)
     log->error("turning the LEDs off after scan {}: {}", job.id, ok.error().describe());
 
+  // Only what this scan wrote is ever removed: a directory that existed
+  // already (a `psrig scan` put it there first) is refused, never deleted.
+  const fs::path ours = sequencer.committed() ? directory : fs::path();
   if (aborted())
     return finish(job, ScanStatus::aborted, ScanErrorCode::aborted,
-                  "aborted; all LEDs are off and nothing was kept", directory, false);
+                  "aborted; all LEDs are off and nothing was kept", ours, false);
   if (!outcome) {
     const ScanErrorCode code = classify(outcome.error(), stage);
     // Raw frames that could not be processed are kept: they can be
     // processed again later. Anything less than a whole scan is not.
     std::error_code ec;
-    const bool keep = stage == Stage::processing && fs::exists(directory / "scan.json", ec);
-    finish(job, ScanStatus::failed, code, outcome.error().describe(), directory, keep);
+    const bool keep =
+        !ours.empty() && stage == Stage::processing && fs::exists(directory / "scan.json", ec);
+    finish(job, ScanStatus::failed, code, outcome.error().describe(), ours, keep);
     if (code == ScanErrorCode::camera || code == ScanErrorCode::lights) close_rig();
     return;
   }
@@ -508,7 +644,11 @@ void ScanService::work() {
     Job job;
     {
       std::unique_lock lock(mutex_);
-      wake_.wait(lock, [&] { return stopping_ || !queue_.empty() || pending_config_; });
+      // Waking every second to show the worker lives (healthy()).
+      while (!wake_.wait_for(lock, std::chrono::seconds(1),
+                             [&] { return stopping_ || !queue_.empty() || pending_config_; }))
+        beat();
+      beat();
       if (stopping_) break;
       if (queue_.empty()) {
         lock.unlock();
@@ -523,14 +663,18 @@ void ScanService::work() {
     try {
       run(job);
     } catch (const std::exception& e) {
-      // OpenCV and the standard library may throw; a scan fails, never the daemon.
-      {
-        std::lock_guard lock(mutex_);
-        sequencer_ = nullptr;
-      }
+      // OpenCV and the standard library may throw; a scan fails, never the
+      // daemon. A scan directory already written is not orphaned: whole
+      // raw frames are kept with the row naming them (they can be
+      // processed again), anything less is removed.
       (void)switch_lights_off();
+      const fs::path ours = attempt_.committed ? attempt_.directory : fs::path();
+      std::error_code ec;
+      const bool keep = !ours.empty() && fs::exists(ours / "scan.json", ec);
       finish(job, ScanStatus::failed, ScanErrorCode::internal,
-             std::string("internal error: ") + e.what(), {}, false);
+             std::string("internal error: ") + e.what() +
+                 (keep ? "; raw frames kept, reprocess with psrig process" : ""),
+             ours, keep);
     }
   }
   close_rig();

@@ -3,7 +3,8 @@
 // storage root, `catalogue.sqlite`, one row per scan. A row's id is the scan
 // id everywhere (HTTP API, Modbus). The files come first: a row says `done`
 // only after its scan and maps directories are whole on disk, so a crash
-// leaves at worst files without a `done` row, which recover() removes.
+// leaves at worst files without a `done` row, which recover() removes (all
+// but a whole raw scan, which it keeps with its row `failed`).
 // Thread-safe (one connection behind a mutex).
 
 #include <cstdint>
@@ -105,9 +106,11 @@ class Catalogue {
   [[nodiscard]] Result<bool> remove(std::int64_t id);
 
   // Start-up: rows left `queued` or `running` by a run that ended without
-  // finishing them become `failed` ("interrupted"); their scan directories
-  // and the scan writer's staging directories of dead processes in the
-  // storage root are removed. Never a `done` scan's files, never anything
+  // finishing them become `failed` ("interrupted"). A scan directory that
+  // was written whole (it holds scan.json) is kept, minus its unrecorded
+  // maps, and its row keeps naming it (reprocess with psrig process);
+  // anything less is removed, as are the scan writer's staging directories
+  // of dead processes in the storage root. Never a `done` scan's files, never anything
   // outside the storage root, never a directory no row names (a scan
   // `psrig scan` put there by hand stays).
   [[nodiscard]] Result<CatalogueRecovery> recover();

@@ -70,7 +70,8 @@ class ScanControl {
   // Queues a scan; its catalogue id at once (the row exists, status
   // "queued"), or an error (queue full, stopping).
   [[nodiscard]] virtual Result<std::int64_t> submit(ScanSubmission submission) = 0;
-  // Aborts the running scan (if any) and turns every LED off.
+  // Aborts the running scan (if any) and the queued ones, and turns every
+  // LED off.
   [[nodiscard]] virtual Status lights_off() = 0;
 };
 

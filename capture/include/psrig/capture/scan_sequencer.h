@@ -72,6 +72,11 @@ class ScanSequencer {
   // DELETE, a test); SIGINT/SIGTERM do it through emergency_stop.h.
   void request_stop() { stop_ = true; }
 
+  // The last capture() wrote its scan directory (whatever happened after):
+  // what it may clean up. False when it refused a directory that already
+  // existed, someone else's scan.
+  [[nodiscard]] bool committed() const { return committed_; }
+
  private:
   struct Lighting;
   struct Phase;
@@ -86,6 +91,7 @@ class ScanSequencer {
   firmware_host::SafeLights& lights_;
   Camera& camera_;
   std::atomic<bool> stop_{false};
+  bool committed_ = false;
 
   // The camera's rhythm, learnt from the frames: the last one seen and the
   // frame period, so the next LED can switch in the gap between one

@@ -5,6 +5,7 @@
 // listeners how it goes. A device that fails fails its scan, never the
 // daemon: the rig is closed and opened again for the next scan. Thread-safe.
 
+#include <atomic>
 #include <chrono>
 #include <condition_variable>
 #include <cstdint>
@@ -31,6 +32,10 @@ struct DeviceStatus {
   std::string lights;  // the backend's description, when open
   std::string camera;
   std::string open_error;  // why the last attempt to open them failed
+  // Why the last attempt to switch every LED off failed (closing the rig,
+  // or lights-off with the rig closed): an LED may still be on. Cleared
+  // when switching them off next succeeds. Also shown in open_error.
+  std::string lights_off_error;
 };
 
 // What DELETE /v1/scans/{id} did.
@@ -39,6 +44,14 @@ enum class ScanRemoval {
   cancelled,  // it was queued: it will not run (its row says aborted)
   aborting,   // it is running: it stops, LEDs off, and its row will say aborted
   deleted,    // it had finished: files and row are gone
+};
+
+// What POST /v1/scans/{id}/cancel did: never a deletion.
+enum class ScanCancel {
+  not_found,
+  cancelled,         // it was queued: it will not run (its row says aborted)
+  aborting,          // it is running: it stops, LEDs off, and its row will say aborted
+  already_finished,  // done, failed or aborted already: left as it is
 };
 
 class ScanService final : public ScanControl {
@@ -57,6 +70,11 @@ class ScanService final : public ScanControl {
 
   // Cancels a queued scan, aborts the running one, or deletes a finished one.
   [[nodiscard]] Result<ScanRemoval> remove(std::int64_t id);
+  // Cancels a queued scan or aborts the running one; a scan that has
+  // finished is left alone (already_finished), whenever it finished: what
+  // a client that gives up on a scan asks, where remove() would delete a
+  // scan that finished between its polls. Decided under the queue's lock.
+  [[nodiscard]] Result<ScanCancel> cancel(std::int64_t id);
 
   // A new configuration (SIGHUP), applied between scans: the rig is opened
   // again with it. storage.root and the daemon's addresses keep their
@@ -67,6 +85,17 @@ class ScanService final : public ScanControl {
   // Aborts the running scan (LEDs off), marks the queued ones aborted and
   // joins the worker. Idempotent; the destructor calls it.
   void stop();
+
+  // The worker is alive: it has stamped its heartbeat (at each step and
+  // progress report of a scan, and every second while it waits for one)
+  // within `limit`. For the systemd watchdog, which otherwise only proves
+  // the main loop lives: pet it only while this holds.
+  [[nodiscard]] bool healthy(std::chrono::steady_clock::duration limit) const;
+  // The longest a working worker goes without a heartbeat under `config`,
+  // max(60 s, one phase of a scan at its worst: every grab it may make
+  // taking camera.timeout_ms).
+  [[nodiscard]] static std::chrono::steady_clock::duration heartbeat_limit(
+      const config::RigConfig& config);
 
   [[nodiscard]] Catalogue& catalogue() { return *catalogue_; }
   [[nodiscard]] const ScanEvents& events() const { return events_; }
@@ -92,10 +121,16 @@ class ScanService final : public ScanControl {
               const std::filesystem::path& scan_directory, bool keep_files);
   void set_step(std::string step, int percent, DaemonState state);
   [[nodiscard]] ScanErrorCode classify(const processing::Error& error, Stage stage) const;
+  // Every LED off: through the open rig, or with the rig closed through
+  // the light backend opened alone for it.
   [[nodiscard]] Status switch_lights_off();
+  // Records (for status/devices) whether switching the LEDs off worked.
+  Status note_lights_off(Status off, const std::string& device);
   // Room in the storage root for one more scan and its catalogue rows.
   [[nodiscard]] Status check_free_space(const config::RigConfig& config) const;
   void request_abort_locked();
+  // A queued scan's row `aborted` with `message`, and its event.
+  [[nodiscard]] Status mark_cancelled(std::int64_t id, const std::string& message);
 
   std::unique_ptr<Catalogue> catalogue_;
   ScanEvents events_;
@@ -115,9 +150,24 @@ class ScanService final : public ScanControl {
   // Only the worker replaces the rig; others (lights_off) use its lights
   // under this lock while it is open.
   mutable std::mutex rig_mutex_;
+  // Held while the light backend is being opened (the rig, or the lights
+  // alone to switch them off), so that one device is never opened twice at
+  // once. Taken before rig_mutex_ and mutex_, never after.
+  std::mutex open_mutex_;
   std::unique_ptr<Rig> rig_;
   std::shared_ptr<DeviceFaults> faults_;
   std::uintmax_t last_scan_bytes_ = 0;  // on disk, maps included; the worker's
+  // The running scan's directory and whether it has been written: what an
+  // exception out of run() must keep or remove. The worker's.
+  struct Attempt {
+    std::filesystem::path directory;
+    bool committed = false;
+  } attempt_;
+
+  // steady_clock time of the worker's last sign of life.
+  std::atomic<std::chrono::steady_clock::rep> heartbeat_{
+      std::chrono::steady_clock::now().time_since_epoch().count()};
+  void beat();
 
   std::thread worker_;
 };
