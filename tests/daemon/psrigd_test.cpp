@@ -406,6 +406,41 @@ TEST(Psrigd, CancelQueuedAbortRunningAndLightsOff) {
   EXPECT_EQ(daemon.signal_and_wait(SIGINT), 0) << daemon.log();
 }
 
+// POST .../cancel stops what has not finished and never deletes what has:
+// a client giving up (Ctrl-C) just as its scan ends keeps the scan.
+TEST(Psrigd, CancelStopsAnUnfinishedScanAndKeepsAFinishedOne) {
+  TempDir temp;
+  const int port = free_port();
+  const auto config = daemon_config(temp, port, {{"exposure_us = 20000", "exposure_us = 150000"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto first = daemon.submit({{"sample_id", "F"}});
+  ASSERT_EQ(daemon.wait_finished(first)["status"], "done");
+  auto kept =
+      daemon.http().Post("/v1/scans/" + std::to_string(first) + "/cancel", "", "application/json");
+  ASSERT_TRUE(kept);
+  EXPECT_EQ(kept->status, 409) << kept->body;
+  EXPECT_EQ(daemon.get("/v1/scans/" + std::to_string(first))["status"], "done");
+
+  const auto running = daemon.submit({{"sample_id", "R"}});
+  const auto queued = daemon.submit({{"sample_id", "Q"}});
+  ASSERT_TRUE(daemon.wait_status([&](const json& s) { return s["current_scan"] == running; }));
+  auto cancelled =
+      daemon.http().Post("/v1/scans/" + std::to_string(queued) + "/cancel", "", "application/json");
+  ASSERT_TRUE(cancelled);
+  EXPECT_EQ(cancelled->status, 200) << cancelled->body;
+  auto aborting = daemon.http().Post("/v1/scans/" + std::to_string(running) + "/cancel", "",
+                                     "application/json");
+  ASSERT_TRUE(aborting);
+  EXPECT_EQ(aborting->status, 202) << aborting->body;
+  EXPECT_EQ(daemon.wait_finished(running)["status"], "aborted");
+  EXPECT_EQ(daemon.wait_finished(queued)["status"], "aborted");
+  auto unknown = daemon.http().Post("/v1/scans/999999/cancel", "", "application/json");
+  ASSERT_TRUE(unknown);
+  EXPECT_EQ(unknown->status, 404);
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
 // The directory a scan is about to write appears meanwhile (a `psrig scan`
 // by hand): the scan fails, and the other scan is left alone.
 TEST(Psrigd, AScanNeverRemovesADirectoryItDidNotWrite) {

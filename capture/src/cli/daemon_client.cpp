@@ -49,10 +49,6 @@ processing::Result<DaemonReply> DaemonClient::post(const std::string& path,
                  [&] { return client_->Post(path, body.dump(), "application/json"); });
 }
 
-processing::Result<DaemonReply> DaemonClient::remove(const std::string& path) {
-  return request("DELETE " + path, [&] { return client_->Delete(path); });
-}
-
 std::string reply_error(const DaemonReply& reply) {
   if (reply.body.is_object() && reply.body.contains("error") && reply.body["error"].is_string())
     return reply.body["error"].get<std::string>();

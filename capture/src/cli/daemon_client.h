@@ -37,7 +37,6 @@ class DaemonClient {
   [[nodiscard]] processing::Result<DaemonReply> get(const std::string& path);
   [[nodiscard]] processing::Result<DaemonReply> post(const std::string& path,
                                                      const nlohmann::json& body);
-  [[nodiscard]] processing::Result<DaemonReply> remove(const std::string& path);
 
   [[nodiscard]] const std::string& url() const { return url_; }
 

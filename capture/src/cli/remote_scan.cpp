@@ -23,17 +23,7 @@ std::string text(const nlohmann::json& value) {
 // never deleted (a scan that finished between two polls is kept). What
 // happened, for the message.
 std::string cancel(DaemonClient& client, const std::string& path) {
-  auto reply = client.post(path + "/cancel", nlohmann::json::object());
-  if (reply && reply->status == 404 && reply_error(*reply) == "no such endpoint") {
-    // A psrigd from before /cancel: DELETE only while it still looks
-    // queued or running (a scan finishing in between would be deleted,
-    // which /cancel rules out).
-    auto entry = client.get(path);
-    if (!entry || entry->status != 200) return "may still run on psrigd";
-    const std::string status = text(entry->body["status"]);
-    if (status != "queued" && status != "running") return status + " on psrigd; kept";
-    reply = client.remove(path);
-  }
+  const auto reply = client.post(path + "/cancel", nlohmann::json::object());
   if (!reply) return "may still run on psrigd (" + reply.error().describe() + ")";
   if (reply->status == 409) return "had already finished on psrigd; kept";
   if (reply->status == 200) return "cancelled on psrigd";

@@ -167,6 +167,7 @@ struct HttpApi::Impl {
   void get(const httplib::Request& req, httplib::Response& res);
   void file(const httplib::Request& req, httplib::Response& res);
   void remove(const httplib::Request& req, httplib::Response& res);
+  void cancel(const httplib::Request& req, httplib::Response& res);
   void events(const httplib::Request& req, httplib::Response& res);
   void lights_off(httplib::Response& res);
 };
@@ -251,6 +252,8 @@ void HttpApi::Impl::routes() {
              [this](const httplib::Request& req, httplib::Response& res) { file(req, res); });
   server.Delete(R"(/v1/scans/([^/]+))",
                 [this](const httplib::Request& req, httplib::Response& res) { remove(req, res); });
+  server.Post(R"(/v1/scans/([^/]+)/cancel)",
+              [this](const httplib::Request& req, httplib::Response& res) { cancel(req, res); });
   server.Get("/v1/events",
              [this](const httplib::Request& req, httplib::Response& res) { events(req, res); });
   server.Post("/v1/lights/off",
@@ -435,6 +438,26 @@ void HttpApi::Impl::remove(const httplib::Request& req, httplib::Response& res) 
       return reply(res, 202, {{"id", *id}, {"status", "aborting"}});
     case ScanRemoval::deleted:
       return reply(res, 200, {{"id", *id}, {"deleted", true}});
+  }
+}
+
+// Stops a scan that has not finished, and never deletes one that has: what
+// a client that gives up waiting (psrig scan --remote on Ctrl-C) wants,
+// decided in one step so a scan finishing meanwhile is kept.
+void HttpApi::Impl::cancel(const httplib::Request& req, httplib::Response& res) {
+  const auto id = parse_id(req.matches[1]);
+  if (!id) return refuse(res, 404, "no such scan");
+  auto cancelled = service.cancel(*id);
+  if (!cancelled) return refuse(res, 500, cancelled.error().describe());
+  switch (*cancelled) {
+    case ScanCancel::not_found:
+      return refuse(res, 404, "no scan " + std::to_string(*id));
+    case ScanCancel::cancelled:
+      return reply(res, 200, {{"id", *id}, {"status", "aborted"}});
+    case ScanCancel::aborting:
+      return reply(res, 202, {{"id", *id}, {"status", "aborting"}});
+    case ScanCancel::already_finished:
+      return refuse(res, 409, "scan " + std::to_string(*id) + " has already finished; it is kept");
   }
 }
 

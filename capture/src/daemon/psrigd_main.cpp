@@ -95,13 +95,16 @@ int run(const std::string& config_file) {
   }
 
   // The watchdog is petted from its own thread for as long as this loop
-  // has come round lately: the loop asks the scanning service for its
-  // status every tick, so a service that deadlocks stops the pings and
+  // has come round lately and the scan worker's heartbeat is recent: the
+  // loop asks the scanning service for its status every tick, so a service
+  // that deadlocks, or a worker stuck in a device call, stops the pings and
   // systemd restarts the daemon.
   capture::SystemdNotifier systemd;
   std::atomic<Clock::rep> last_tick{Clock::now().time_since_epoch().count()};
+  std::atomic<bool> worker_alive{true};
   capture::WatchdogPetter petter(systemd, [&] {
-    return Clock::now() - Clock::time_point(Clock::duration(last_tick.load())) < kHealthyLoop;
+    return worker_alive &&
+           Clock::now() - Clock::time_point(Clock::duration(last_tick.load())) < kHealthyLoop;
   });
   log->info("ready; storage {}", (*service)->catalogue().storage_root().string());
   (void)systemd.ready();
@@ -122,7 +125,16 @@ int run(const std::string& config_file) {
         log->error("keeping the running configuration: {}", fresh.error().describe());
       (void)systemd.ready();
     }
-    const std::string status = status_line((*service)->status());
+    const bool alive =
+        (*service)->healthy(capture::ScanService::heartbeat_limit((*service)->config()));
+    if (alive != worker_alive)
+      alive ? log->info("the scan worker is answering again")
+            : log->error(
+                  "the scan worker has not answered within its limit; the watchdog "
+                  "is no longer petted");
+    worker_alive = alive;
+    std::string status = status_line((*service)->status());
+    if (!alive) status = "worker stalled; " + status;
     if (status != last_status) (void)systemd.status(status);
     last_status = status;
     last_tick = Clock::now().time_since_epoch().count();
