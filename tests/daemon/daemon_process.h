@@ -123,6 +123,16 @@ inline std::optional<std::string> private_tmpfs_unavailable(const fs::path& scra
          std::strerror(error) + " (needs CAP_SYS_ADMIN, e.g. root outside a restricted container)";
 }
 
+// The edit that puts config/sim.toml's LEDs on a simulated Modbus LED driver
+// the test holds (its switch log shows every LED on and off), with `extra`
+// keys for the driver's table (e.g. ", retries = 0").
+inline std::pair<std::string, std::string> modbus_lights(int driver_port,
+                                                         const std::string& extra = "") {
+  return {"backend = \"sim\"\nchannels",
+          "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", port = " +
+              std::to_string(driver_port) + extra + " }\nchannels"};
+}
+
 // A psrigd process, killed if the test leaves it running.
 class Daemon {
  public:

@@ -80,9 +80,7 @@ class PsrigdFullDisk : public ::testing::Test {
   }
   // config/sim.toml with the LEDs on the test's Modbus driver, `edits` on top.
   fs::path config(Edits edits = {}) {
-    edits.insert(edits.begin(), {"backend = \"sim\"\nchannels",
-                                 "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", port = " +
-                                     std::to_string(driver_->port()) + " }\nchannels"});
+    edits.insert(edits.begin(), modbus_lights(driver_->port()));
     return daemon_config(temp_, port_, edits);
   }
   std::unique_ptr<Daemon> start(const fs::path& config) {

@@ -84,11 +84,7 @@ TEST(PsrigdSoak, ConsecutiveScansKeepMemoryFilesAndLedsSteady) {
   auto driver = firmware_host::SimModbusDriver::start({});
   ASSERT_TRUE(driver) << driver.error().describe();
   const int port = free_port();
-  const auto config = daemon_config(temp, port,
-                                    {{"backend = \"sim\"\nchannels",
-                                      "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", "
-                                      "port = " +
-                                          std::to_string((*driver)->port()) + " }\nchannels"}});
+  const auto config = daemon_config(temp, port, {modbus_lights((*driver)->port())});
   Daemon daemon(config, port, temp / "psrigd.log");
   ::unsetenv("GLIBC_TUNABLES");
   ASSERT_TRUE(daemon.wait_ready()) << daemon.log();

@@ -340,10 +340,7 @@ TEST(Psrigd, SigtermMidScanTurnsEveryLedOffAndExitsZero) {
   const int port = free_port();
   const auto config =
       daemon_config(temp, port,
-                    {{"backend = \"sim\"\nchannels",
-                      "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", "
-                      "port = " +
-                          std::to_string((*driver)->port()) + " }\nchannels"},
+                    {modbus_lights((*driver)->port()),
                      {"exposure_us = 20000", "exposure_us = 200000"}});  // a slow scan
   Daemon daemon(config, port, temp / "psrigd.log");
   ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
@@ -615,11 +612,7 @@ TEST(Psrigd, AnLedDriverFaultFailsTheScanNotTheDaemon) {
   ASSERT_TRUE(driver) << driver.error().describe();
   const int port = free_port();
   const auto config =
-      daemon_config(temp, port,
-                    {{"backend = \"sim\"\nchannels",
-                      "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", "
-                      "port = " +
-                          std::to_string((*driver)->port()) + ", retries = 0 }\nchannels"}});
+      daemon_config(temp, port, {modbus_lights((*driver)->port(), ", retries = 0")});
   Daemon daemon(config, port, temp / "psrigd.log");
   ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
   (*driver)->inject(firmware_host::ModbusFault::exception);
@@ -648,11 +641,7 @@ TEST(Psrigd, LightsOffWithTheRigClosedReachesTheLedDriver) {
   ASSERT_TRUE(driver) << driver.error().describe();
   const int port = free_port();
   const auto config =
-      daemon_config(temp, port,
-                    {{"backend = \"sim\"\nchannels",
-                      "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", "
-                      "port = " +
-                          std::to_string((*driver)->port()) + ", retries = 0 }\nchannels"}});
+      daemon_config(temp, port, {modbus_lights((*driver)->port(), ", retries = 0")});
   Daemon daemon(config, port, temp / "psrigd.log");
   ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
   (*driver)->inject(firmware_host::ModbusFault::exception);
@@ -695,10 +684,8 @@ TEST(Psrigd, ACameraTimeoutFailsTheScanWithTheLedsOff) {
   auto driver = firmware_host::SimModbusDriver::start({});
   ASSERT_TRUE(driver) << driver.error().describe();
   const int port = free_port();
-  const Edits modbus_lights = {{"backend = \"sim\"\nchannels",
-                                "backend = \"modbus\"\nmodbus = { host = \"127.0.0.1\", port = " +
-                                    std::to_string((*driver)->port()) + " }\nchannels"}};
-  Edits stalled = modbus_lights;
+  const Edits normal = {modbus_lights((*driver)->port())};
+  Edits stalled = normal;
   stalled.push_back({"timeout_ms = 2000", "timeout_ms = 300"});
   stalled.push_back({"readout_us = 15000", "readout_us = 15000\nframe_interval_us = 5000000"});
   const auto config = daemon_config(temp, port, stalled);
@@ -717,7 +704,7 @@ TEST(Psrigd, ACameraTimeoutFailsTheScanWithTheLedsOff) {
   // The camera back to its pace: once the daemon has read the file again
   // (its main loop takes SIGHUP within 200 ms; the worker applies it before
   // the next scan), it scans again.
-  daemon_config(temp, port, modbus_lights);
+  daemon_config(temp, port, normal);
   ::kill(daemon.pid(), SIGHUP);
   const auto deadline = std::chrono::steady_clock::now() + 10s;
   while (!contains(daemon.log(), "SIGHUP") && std::chrono::steady_clock::now() < deadline)

@@ -260,36 +260,24 @@ Status ScanService::mark_cancelled(std::int64_t id, const std::string& message) 
   return {};
 }
 
+// A scan that has not finished is cancelled or aborted, never deleted: the
+// delete applies only to what cancel() found already finished.
 Result<ScanRemoval> ScanService::remove(std::int64_t id) {
-  bool was_queued = false, was_running = false;
-  {
-    std::lock_guard lock(mutex_);
-    if (status_.current_scan == id) {
-      request_abort_locked();
-      was_running = true;
-    } else {
-      const auto queued =
-          std::find_if(queue_.begin(), queue_.end(), [&](const Job& job) { return job.id == id; });
-      if (queued != queue_.end()) {
-        queue_.erase(queued);
-        was_queued = true;
-      }
-    }
-  }
-  auto log = processing::logger("daemon");
-  if (was_running) {
-    log->info("scan {}: abort requested", id);
-    if (auto ok = switch_lights_off(); !ok) return std::unexpected(ok.error());
-    return ScanRemoval::aborting;
-  }
-  if (was_queued) {
-    if (auto ok = mark_cancelled(id, "cancelled before it started"); !ok)
-      return std::unexpected(ok.error());
-    return ScanRemoval::cancelled;
+  auto cancelled = cancel(id);
+  if (!cancelled) return std::unexpected(cancelled.error());
+  switch (*cancelled) {
+    case ScanCancel::not_found:
+      return ScanRemoval::not_found;
+    case ScanCancel::cancelled:
+      return ScanRemoval::cancelled;
+    case ScanCancel::aborting:
+      return ScanRemoval::aborting;
+    case ScanCancel::already_finished:
+      break;
   }
   auto removed = catalogue_->remove(id);
   if (!removed) return std::unexpected(removed.error());
-  if (*removed) log->info("scan {} deleted", id);
+  if (*removed) processing::logger("daemon")->info("scan {} deleted", id);
   return *removed ? ScanRemoval::deleted : ScanRemoval::not_found;
 }
 
@@ -310,7 +298,7 @@ Result<ScanCancel> ScanService::cancel(std::int64_t id) {
     }
   }
   if (was_running) {
-    processing::logger("daemon")->info("scan {}: abort requested (cancel)", id);
+    processing::logger("daemon")->info("scan {}: abort requested", id);
     if (auto ok = switch_lights_off(); !ok) return std::unexpected(ok.error());
     return ScanCancel::aborting;
   }
