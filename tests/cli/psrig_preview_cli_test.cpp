@@ -177,10 +177,6 @@ TEST(PsrigPreviewCli, BenchPrintsFramesPerSecond) {
   EXPECT_EQ(report["size"], nlohmann::json::array({64, 48}));
 }
 
-fs::path pattern(const std::string& name) {
-  return fs::path(PSRIG_SOURCE_DIR) / "config/patterns" / name;
-}
-
 // Of the pixels inside the cloth's bounding box, the share that is yarn.
 double yarn_share(const cv::Mat& image) {
   cv::Mat grey, yarn;
@@ -194,7 +190,7 @@ TEST(PsrigPreviewCli, KnitDrawsYarnsAndStretchOpensGaps) {
   TempDir temp;
   const auto knit = [&](const std::string& name, std::vector<std::string> extra,
                         const std::string& light_slant = "0") {
-    std::vector<std::string> args = {"knit",          pattern("stockinette.chart").string(),
+    std::vector<std::string> args = {"knit",          shipped_pattern("stockinette.chart").string(),
                                      "--out",         (temp / name).string(),
                                      "--size",        "320x240",
                                      "--stitches",    "8",
@@ -226,9 +222,10 @@ TEST(PsrigPreviewCli, KnitDrawsYarnsAndStretchOpensGaps) {
   EXPECT_GT(cv::norm(plain, rest, cv::NORM_L1) / static_cast<double>(rest.total()), 0.5)
       << "--plain-fibres drops the ply grooves";
 
-  const auto woven = run_program("psrig-preview", {"knit", pattern("satin-5.weave").string(),
-                                                   "--out", (temp / "satin.png").string(), "--size",
-                                                   "160x120", "--stitches", "20", "--rows", "20"});
+  const auto woven =
+      run_program("psrig-preview", {"knit", shipped_pattern("satin-5.weave").string(), "--out",
+                                    (temp / "satin.png").string(), "--size", "160x120",
+                                    "--stitches", "20", "--rows", "20"});
   ASSERT_EQ(woven.exit_code, 0) << woven.err;
   EXPECT_GT(yarn_share(cv::imread((temp / "satin.png").string())), 0.5);
 }
@@ -242,7 +239,7 @@ TEST(PsrigPreviewCli, KnitBadInputNamesTheFileAndLine) {
   EXPECT_EQ(bad.exit_code, 2);
   EXPECT_TRUE(contains(bad.err, "ragged.chart:2")) << bad.err;
   const auto colour =
-      run_program("psrig-preview", {"knit", pattern("seed.chart").string(), "--out",
+      run_program("psrig-preview", {"knit", shipped_pattern("seed.chart").string(), "--out",
                                     (temp / "k.png").string(), "--yarn-color", "red"});
   EXPECT_EQ(colour.exit_code, 2);
   EXPECT_TRUE(contains(colour.err, "--yarn-color")) << colour.err;
@@ -255,8 +252,8 @@ TEST(PsrigPreviewCli, KnitBadInputNamesTheFileAndLine) {
 
 TEST(PsrigPreviewCli, KnitBenchTimesThreeSizes) {
   const auto bench =
-      run_program("psrig-preview", {"knit", pattern("stockinette.chart").string(), "--bench",
-                                    "--size", "160x120", "--frames", "1"});
+      run_program("psrig-preview", {"knit", shipped_pattern("stockinette.chart").string(),
+                                    "--bench", "--size", "160x120", "--frames", "1"});
   ASSERT_EQ(bench.exit_code, 0) << bench.err;
   const auto report = nlohmann::json::parse(bench.out);
   ASSERT_EQ(report["runs"].size(), 3U);

@@ -47,7 +47,7 @@ class FakeScanControl : public ScanControl {
     // that cannot write is a storage error.
     if (refuse_ && !storage_fails_)
       return std::unexpected(
-          processing::bad_input("rig.toml", "daemon.queue_limit", "queue full: 4 scans waiting"));
+          processing::bad_input("rig.toml", kQueueFullKey, "queue full: 4 scans waiting"));
     if (refuse_)
       return std::unexpected(processing::io_error("catalogue.sqlite", "database or disk is full"));
     ++status_.queue_length;

@@ -37,6 +37,10 @@ std::optional<std::filesystem::path> real_dataset(const std::string& name) {
   return folder;
 }
 
+std::filesystem::path shipped_pattern(const std::string& name) {
+  return std::filesystem::path(PSRIG_SOURCE_DIR) / "config" / "patterns" / name;
+}
+
 std::filesystem::path program(const std::string& name) {
   return std::filesystem::path(PSRIG_BIN_DIR) / name;
 }

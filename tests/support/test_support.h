@@ -30,6 +30,9 @@ class TempDir {
 // tests on real data skip, never fail, without it.
 [[nodiscard]] std::optional<std::filesystem::path> real_dataset(const std::string& name);
 
+// A knit chart or weave matrix shipped in config/patterns, e.g. "garter.chart".
+[[nodiscard]] std::filesystem::path shipped_pattern(const std::string& name);
+
 // A program built into build/bin, e.g. "psrig".
 [[nodiscard]] std::filesystem::path program(const std::string& name);
 

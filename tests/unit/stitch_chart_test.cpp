@@ -13,12 +13,8 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path patterns() {
-  return fs::path(PSRIG_SOURCE_DIR) / "config" / "patterns";
-}
-
 StitchChart shipped(const std::string& file) {
-  auto chart = load_stitch_chart(patterns() / file);
+  auto chart = load_stitch_chart(test::shipped_pattern(file));
   EXPECT_TRUE(chart) << chart.error().describe();
   return chart ? *chart : StitchChart{};
 }
@@ -31,7 +27,7 @@ StitchChart parsed(std::string_view text) {
 
 TEST(StitchChart, EveryShippedChartLoads) {
   int charts = 0;
-  for (const fs::directory_entry& entry : fs::directory_iterator(patterns())) {
+  for (const fs::directory_entry& entry : fs::directory_iterator(test::shipped_pattern(""))) {
     if (entry.path().extension() != ".chart") continue;
     ++charts;
     auto chart = load_stitch_chart(entry.path());

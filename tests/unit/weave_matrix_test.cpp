@@ -13,19 +13,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
-fs::path patterns() {
-  return fs::path(PSRIG_SOURCE_DIR) / "config" / "patterns";
-}
-
 WeaveMatrix shipped(const std::string& file) {
-  auto matrix = load_weave_matrix(patterns() / file);
+  auto matrix = load_weave_matrix(test::shipped_pattern(file));
   EXPECT_TRUE(matrix) << matrix.error().describe();
   return matrix ? *matrix : WeaveMatrix{};
 }
 
 TEST(WeaveMatrix, EveryShippedWeaveLoads) {
   int weaves = 0;
-  for (const fs::directory_entry& entry : fs::directory_iterator(patterns())) {
+  for (const fs::directory_entry& entry : fs::directory_iterator(test::shipped_pattern(""))) {
     if (!looks_like_weave(entry.path())) continue;
     ++weaves;
     auto matrix = load_weave_matrix(entry.path());

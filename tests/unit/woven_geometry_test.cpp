@@ -4,13 +4,10 @@
 
 #include "psrig/preview/knit_fabric.h"
 #include "psrig/preview/woven_fabric.h"
+#include "test_support.h"
 
 namespace psrig::preview {
 namespace {
-
-std::filesystem::path pattern(const char* name) {
-  return std::filesystem::path(PSRIG_SOURCE_DIR) / "config/patterns" / name;
-}
 
 // z of a thread's sample nearest to (x, y) seen from the front.
 float depth_at(const YarnCurve& curve, float x, float y) {
@@ -27,7 +24,7 @@ float depth_at(const YarnCurve& curve, float x, float y) {
 
 TEST(WovenGeometry, EveryCrossingAsTheMatrixSays) {
   for (const char* name : {"plain.weave", "twill-2x2.weave", "satin-5.weave"}) {
-    const auto weave = load_weave_matrix(pattern(name));
+    const auto weave = load_weave_matrix(test::shipped_pattern(name));
     ASSERT_TRUE(weave) << weave.error().describe();
     const WovenParameters parameters;
     const StitchMesh mesh = woven_mesh(10, 10, parameters);
@@ -47,7 +44,7 @@ TEST(WovenGeometry, EveryCrossingAsTheMatrixSays) {
 }
 
 TEST(WovenGeometry, SatinShowsOneThreadInFrontAndTheOtherBehind) {
-  const auto weave = load_weave_matrix(pattern("satin-5.weave"));
+  const auto weave = load_weave_matrix(test::shipped_pattern("satin-5.weave"));
   ASSERT_TRUE(weave);
   const WovenParameters parameters;
   YarnSet yarns;
@@ -64,7 +61,7 @@ TEST(WovenGeometry, SatinShowsOneThreadInFrontAndTheOtherBehind) {
 }
 
 TEST(KnitLayout, ChartTiledWithItsColours) {
-  const auto chart = load_stitch_chart(pattern("stripes.chart"));
+  const auto chart = load_stitch_chart(test::shipped_pattern("stripes.chart"));
   ASSERT_TRUE(chart) << chart.error().describe();
   const KnitLayout layout = tile_chart(*chart, 7, 9);
   ASSERT_EQ(layout.purl.size(), 63U);
@@ -74,7 +71,7 @@ TEST(KnitLayout, ChartTiledWithItsColours) {
       EXPECT_EQ(layout.is_purl(column, row), chart->at(column, row) == Stitch::purl);
       EXPECT_EQ(layout.colours[row * 7 + column], chart->palette[chart->colour_at(column, row)]);
     }
-  const auto rib = load_stitch_chart(pattern("rib-2x2.chart"));
+  const auto rib = load_stitch_chart(test::shipped_pattern("rib-2x2.chart"));
   ASSERT_TRUE(rib);
   const KnitLayout ribbed = tile_chart(*rib, 8, 2);
   EXPECT_TRUE(ribbed.colours.empty());

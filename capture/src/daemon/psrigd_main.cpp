@@ -102,6 +102,9 @@ int run(const std::string& config_file) {
   capture::SystemdNotifier systemd;
   std::atomic<Clock::rep> last_tick{Clock::now().time_since_epoch().count()};
   std::atomic<bool> worker_alive{true};
+  // How long the worker may go without a heartbeat under the configuration
+  // in use; worked out again when SIGHUP brings a new one.
+  auto heartbeat_limit = capture::ScanService::heartbeat_limit(*config);
   capture::WatchdogPetter petter(systemd, [&] {
     return worker_alive &&
            Clock::now() - Clock::time_point(Clock::duration(last_tick.load())) < kHealthyLoop;
@@ -119,19 +122,20 @@ int run(const std::string& config_file) {
       log->info("SIGHUP: reloading {}", config_file);
       (void)systemd.reloading();
       auto fresh = load(config_file);
-      if (fresh)
+      if (fresh) {
+        heartbeat_limit = capture::ScanService::heartbeat_limit(*fresh);
         (*service)->reload(std::move(*fresh));
-      else
+      } else {
         log->error("keeping the running configuration: {}", fresh.error().describe());
+      }
       (void)systemd.ready();
     }
-    const bool alive =
-        (*service)->healthy(capture::ScanService::heartbeat_limit((*service)->config()));
-    if (alive != worker_alive)
-      alive ? log->info("the scan worker is answering again")
-            : log->error(
-                  "the scan worker has not answered within its limit; the watchdog "
-                  "is no longer petted");
+    const bool alive = (*service)->healthy(heartbeat_limit);
+    if (alive && !worker_alive) log->info("the scan worker is answering again");
+    if (!alive && worker_alive)
+      log->error(
+          "the scan worker has not answered within its limit; the watchdog is no longer "
+          "petted");
     worker_alive = alive;
     std::string status = status_line((*service)->status());
     if (!alive) status = "worker stalled; " + status;

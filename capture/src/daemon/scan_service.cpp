@@ -177,7 +177,7 @@ Result<std::int64_t> ScanService::submit(ScanSubmission submission) {
     status_.last_error = "queue full: " + std::to_string(limit) + " scans waiting";
     // The key tells the front ends this is the queue, not the request.
     return std::unexpected(processing::bad_input(
-        config_.source, "daemon.queue_limit", status_.last_error + "; try again when one has run"));
+        config_.source, kQueueFullKey, status_.last_error + "; try again when one has run"));
   }
   auto id = catalogue_->add(submission);
   if (!id) return std::unexpected(id.error());

@@ -42,6 +42,10 @@ enum class ScanErrorCode : std::uint16_t {
 [[nodiscard]] const char* to_string(DaemonState state);
 [[nodiscard]] const char* to_string(ScanErrorCode code);
 
+// The Error::key of a submission refused because the queue is full: the
+// service's state, not the request's fault (HTTP 503, the PLC's code 6).
+inline constexpr const char* kQueueFullKey = "daemon.queue_limit";
+
 struct ScanSubmission {
   std::string sample_id;  // may be empty
   std::string description;
@@ -51,12 +55,12 @@ struct ScanSubmission {
 
 struct DaemonStatus {
   DaemonState state = DaemonState::starting;
-  std::string step;          // the running scan's step, e.g. "light 2 of 3"
-  int progress_percent = 0;  // of the running scan, 0..100
+  std::string step;                          // the running scan's step, e.g. "light 2 of 3"
+  int progress_percent = 0;                  // of the running scan, 0..100
   std::optional<std::int64_t> current_scan;  // catalogue id of the running scan
   std::optional<std::int64_t> last_scan;     // catalogue id of the last finished (or failed) one
   ScanErrorCode last_error_code = ScanErrorCode::none;
-  std::string last_error;  // message of the last failure, empty if none
+  std::string last_error;             // message of the last failure, empty if none
   std::uint64_t scans_completed = 0;  // since start-up
   std::uint64_t scans_failed = 0;
   std::size_t queue_length = 0;  // waiting, not counting the running scan
