@@ -10,8 +10,7 @@ Result<std::unique_ptr<Camera>> open_camera(const config::RigConfig& config,
   std::unique_ptr<Camera> camera;
   if (config.camera.backend == "sim") {
     if (!world)
-      return std::unexpected(
-          processing::internal_error("camera.backend \"sim\" needs the simulated world"));
+      return std::unexpected(internal_error("camera.backend \"sim\" needs the simulated world"));
     camera = open_sim_camera(config, std::move(world));
   } else if (config.camera.backend == "v4l2") {
     auto v4l2 = open_v4l2_camera(config.camera);
@@ -23,8 +22,8 @@ Result<std::unique_ptr<Camera>> open_camera(const config::RigConfig& config,
     camera = std::move(*libcamera);
   } else {
     return std::unexpected(
-        processing::bad_input(config.source, "camera.backend",
-                              "\"" + config.camera.backend + "\" is not built into this psrig"));
+        bad_input(config.source, "camera.backend",
+                  "\"" + config.camera.backend + "\" is not built into this psrig"));
   }
   if (auto ok = camera->configure(config.camera); !ok) return std::unexpected(ok.error());
   return camera;

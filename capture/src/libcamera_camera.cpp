@@ -12,8 +12,8 @@
 #include <sys/mman.h>
 #include <time.h>
 
+#include "psrig/base/log.h"
 #include "psrig/capture/v4l2_formats.h"
-#include "psrig/processing/log.h"
 
 // Written against libcamera 0.0.3 (Debian 12). Later releases changed:
 // - 0.5 replaced AeEnable by ExposureTimeMode and AnalogueGainMode (guarded
@@ -41,7 +41,7 @@ Result<std::shared_ptr<lc::CameraManager>> camera_manager() {
   setenv("LIBCAMERA_LOG_LEVELS", "*:ERROR", /*overwrite=*/0);
   auto manager = std::make_shared<lc::CameraManager>();
   if (const int result = manager->start(); result < 0)
-    return std::unexpected(processing::io_error(
+    return std::unexpected(io_error(
         "libcamera", std::string("the camera manager did not start: ") + std::strerror(-result)));
   shared = manager;
   return manager;
@@ -101,8 +101,7 @@ class LibcameraCamera final : public Camera {
 
   Status configure(const config::CameraConfig& settings) override {
     if (running_)
-      return std::unexpected(
-          processing::internal_error(describe() + ": configure while streaming"));
+      return std::unexpected(internal_error(describe() + ": configure while streaming"));
     release_buffers();
     settings_ = settings;
 
@@ -110,9 +109,9 @@ class LibcameraCamera final : public Camera {
     if (settings.format != "auto") {
       wanted = find_v4l2_format(settings.format);
       if (!wanted)
-        return std::unexpected(processing::bad_input(
-            settings.device, "camera.format",
-            "\"" + settings.format + "\" is not a pixel format psrig converts"));
+        return std::unexpected(
+            bad_input(settings.device, "camera.format",
+                      "\"" + settings.format + "\" is not a pixel format psrig converts"));
     }
     // Photometric stereo wants the sensor's raw, linear data; an ISP's
     // processed output only when asked for by name.
@@ -120,9 +119,9 @@ class LibcameraCamera final : public Camera {
         !wanted || wanted->linear ? lc::StreamRole::Raw : lc::StreamRole::StillCapture;
     configuration_ = camera_->generateConfiguration({role});
     if (!configuration_ || configuration_->empty())
-      return std::unexpected(processing::io_error(
-          label(), role == lc::StreamRole::Raw ? "offers no raw stream (camera.format)"
-                                               : "offers no still stream"));
+      return std::unexpected(io_error(label(), role == lc::StreamRole::Raw
+                                                   ? "offers no raw stream (camera.format)"
+                                                   : "offers no still stream"));
     lc::StreamConfiguration& stream = configuration_->at(0);
     if (settings.width > 0 && settings.height > 0)
       stream.size =
@@ -134,20 +133,18 @@ class LibcameraCamera final : public Camera {
 
     if (configuration_->validate() == lc::CameraConfiguration::Invalid)
       return std::unexpected(
-          processing::io_error(label(), "refused the configuration " + stream.toString() +
-                                            " (camera.width, camera.height, camera.format)"));
+          io_error(label(), "refused the configuration " + stream.toString() +
+                                " (camera.width, camera.height, camera.format)"));
     if (stream.pixelFormat != *chosen)
-      return std::unexpected(processing::io_error(label(), "cannot deliver " + chosen->toString() +
-                                                               " at " + stream.size.toString() +
-                                                               " (camera.format)"));
+      return std::unexpected(io_error(label(), "cannot deliver " + chosen->toString() + " at " +
+                                                   stream.size.toString() + " (camera.format)"));
     if (settings.width > 0 && (stream.size.width != static_cast<unsigned>(settings.width) ||
                                stream.size.height != static_cast<unsigned>(settings.height)))
-      processing::logger("camera")->warn("{}: {}x{} adjusted to {} (camera.width, camera.height)",
-                                         label(), settings.width, settings.height,
-                                         stream.size.toString());
+      logger("camera")->warn("{}: {}x{} adjusted to {} (camera.width, camera.height)", label(),
+                             settings.width, settings.height, stream.size.toString());
     if (const int result = camera_->configure(configuration_.get()); result < 0)
       return std::unexpected(
-          processing::io_error(label(), std::string("configure: ") + std::strerror(-result)));
+          io_error(label(), std::string("configure: ") + std::strerror(-result)));
 
     format_ = *v4l2_equivalent(stream.pixelFormat);
     width_ = static_cast<int>(stream.size.width);
@@ -159,16 +156,14 @@ class LibcameraCamera final : public Camera {
   Status start() override {
     if (running_) return {};
     if (requests_.empty())
-      return std::unexpected(processing::internal_error(describe() + ": start before configure"));
-    if (vanished_)
-      return std::unexpected(processing::io_error(label(), "the camera is gone (unplugged?)"));
+      return std::unexpected(internal_error(describe() + ": start before configure"));
+    if (vanished_) return std::unexpected(io_error(label(), "the camera is gone (unplugged?)"));
     camera_->requestCompleted.connect(this, &LibcameraCamera::completed);
     lc::ControlList controls(lc::controls::controls);
     set_manual_controls(controls);
     if (const int result = camera_->start(&controls); result < 0) {
       camera_->requestCompleted.disconnect(this);
-      return std::unexpected(
-          processing::io_error(label(), std::string("start: ") + std::strerror(-result)));
+      return std::unexpected(io_error(label(), std::string("start: ") + std::strerror(-result)));
     }
     running_ = true;
     for (auto& request : requests_) {
@@ -176,27 +171,25 @@ class LibcameraCamera final : public Camera {
       set_manual_controls(request->controls());
       if (const int result = camera_->queueRequest(request.get()); result < 0) {
         (void)stop();
-        return std::unexpected(processing::io_error(
-            label(), std::string("queue a request: ") + std::strerror(-result)));
+        return std::unexpected(
+            io_error(label(), std::string("queue a request: ") + std::strerror(-result)));
       }
     }
     return {};
   }
 
   Result<Frame> grab(milliseconds timeout) override {
-    if (!running_)
-      return std::unexpected(processing::internal_error(describe() + ": grab before start"));
+    if (!running_) return std::unexpected(internal_error(describe() + ": grab before start"));
     const auto deadline = steady_clock::now() + timeout;
     for (;;) {
       lc::Request* request = nullptr;
       {
         std::unique_lock lock(mutex_);
         if (!ready_.wait_until(lock, deadline, [&] { return !completed_.empty() || vanished_; }))
-          return std::unexpected(processing::io_error(
+          return std::unexpected(io_error(
               label(),
               "no frame within " + std::to_string(timeout.count()) + " ms (camera.timeout_ms)"));
-        if (vanished_)
-          return std::unexpected(processing::io_error(label(), "the camera is gone (unplugged?)"));
+        if (vanished_) return std::unexpected(io_error(label(), "the camera is gone (unplugged?)"));
         request = completed_.front();
         completed_.pop_front();
       }
@@ -204,8 +197,8 @@ class LibcameraCamera final : public Camera {
       request->reuse(lc::Request::ReuseBuffers);
       set_manual_controls(request->controls());
       if (const int result = camera_->queueRequest(request); result < 0)
-        return std::unexpected(processing::io_error(
-            label(), std::string("queue a request: ") + std::strerror(-result)));
+        return std::unexpected(
+            io_error(label(), std::string("queue a request: ") + std::strerror(-result)));
       if (!frame) return std::unexpected(frame.error());
       if (*frame) return std::move(**frame);
       // else a dropped or damaged frame: wait for the next
@@ -220,8 +213,7 @@ class LibcameraCamera final : public Camera {
     std::lock_guard lock(mutex_);
     completed_.clear();
     if (result < 0 && !vanished_)
-      return std::unexpected(
-          processing::io_error(label(), std::string("stop: ") + std::strerror(-result)));
+      return std::unexpected(io_error(label(), std::string("stop: ") + std::strerror(-result)));
     return {};
   }
 
@@ -244,9 +236,9 @@ class LibcameraCamera final : public Camera {
         if (const auto equivalent = v4l2_equivalent(format);
             equivalent && equivalent->fourcc == wanted->fourcc)
           return format;
-      return std::unexpected(processing::io_error(
-          label(), "does not offer " + std::string(wanted->name) +
-                       " (camera.format; `psrig devices` lists what it does)"));
+      return std::unexpected(
+          io_error(label(), "does not offer " + std::string(wanted->name) +
+                                " (camera.format; `psrig devices` lists what it does)"));
     }
     // "auto": the best for photometry of what the camera offers.
     std::optional<lc::PixelFormat> best;
@@ -257,9 +249,7 @@ class LibcameraCamera final : public Camera {
         best = format;
         best_rank = equivalent->photometric_rank;
       }
-    if (!best)
-      return std::unexpected(
-          processing::io_error(label(), "offers no pixel format psrig converts"));
+    if (!best) return std::unexpected(io_error(label(), "offers no pixel format psrig converts"));
     return *best;
   }
 
@@ -267,8 +257,8 @@ class LibcameraCamera final : public Camera {
     stream_ = stream;
     allocator_ = std::make_unique<lc::FrameBufferAllocator>(camera_);
     if (const int result = allocator_->allocate(stream); result < 0)
-      return std::unexpected(processing::io_error(
-          label(), std::string("allocate buffers: ") + std::strerror(-result)));
+      return std::unexpected(
+          io_error(label(), std::string("allocate buffers: ") + std::strerror(-result)));
     for (const auto& buffer : allocator_->buffers(stream)) {
       const lc::FrameBuffer::Plane& plane = buffer->planes().front();
       MappedBuffer mapped;
@@ -276,12 +266,12 @@ class LibcameraCamera final : public Camera {
       mapped.base = mmap(nullptr, mapped.length, PROT_READ, MAP_SHARED, plane.fd.get(), 0);
       if (mapped.base == MAP_FAILED)
         return std::unexpected(
-            processing::io_error(label(), std::string("map a buffer: ") + std::strerror(errno)));
+            io_error(label(), std::string("map a buffer: ") + std::strerror(errno)));
       mapped.plane = {static_cast<const std::uint8_t*>(mapped.base) + plane.offset, plane.length};
       mapped_[buffer.get()] = mapped;
       std::unique_ptr<lc::Request> request = camera_->createRequest();
       if (!request || request->addBuffer(stream, buffer.get()) < 0)
-        return std::unexpected(processing::io_error(label(), "could not make a capture request"));
+        return std::unexpected(io_error(label(), "could not make a capture request"));
       requests_.push_back(std::move(request));
     }
     return {};
@@ -399,9 +389,9 @@ Result<std::unique_ptr<Camera>> open_libcamera_camera(const config::CameraConfig
   if (!manager) return std::unexpected(manager.error());
   const auto cameras = (*manager)->cameras();
   if (cameras.empty())
-    return std::unexpected(processing::io_error("libcamera",
-                                                "no camera found (camera.backend = \"libcamera\"); "
-                                                "`psrig devices` lists what is connected"));
+    return std::unexpected(io_error("libcamera",
+                                    "no camera found (camera.backend = \"libcamera\"); "
+                                    "`psrig devices` lists what is connected"));
   // camera.device defaults to the V4L2 node, which means "the first" here.
   std::shared_ptr<lc::Camera> camera = config.device.empty() || config.device == "/dev/video0"
                                            ? cameras.front()
@@ -410,12 +400,11 @@ Result<std::unique_ptr<Camera>> open_libcamera_camera(const config::CameraConfig
     std::string known;
     for (const auto& c : cameras)
       known += (known.empty() ? "" : ", ") + c->id();
-    return std::unexpected(processing::bad_input(
-        config.device, "camera.device", "no libcamera camera with this id; found: " + known));
+    return std::unexpected(bad_input(config.device, "camera.device",
+                                     "no libcamera camera with this id; found: " + known));
   }
   if (camera->acquire() < 0)
-    return std::unexpected(
-        processing::io_error(camera_label(camera), "is in use by another program"));
+    return std::unexpected(io_error(camera_label(camera), "is in use by another program"));
   return std::make_unique<LibcameraCamera>(std::move(*manager), std::move(camera));
 }
 

@@ -7,10 +7,11 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "psrig/base/log.h"
 #include "psrig/capture/scan_writer.h"
 #include "psrig/firmware_host/emergency_stop.h"
 #include "psrig/processing/light_matrix.h"
-#include "psrig/processing/log.h"
+#include "psrig/processing/scan_layout.h"
 
 namespace psrig::capture {
 namespace {
@@ -81,7 +82,7 @@ Result<ScanSequencer::Lighting> ScanSequencer::switch_lights(int channel, Lighti
   const auto stopping = [&] { return stop_ || firmware_host::stop_requested(); };
   const auto interrupted = [&]() -> Result<Lighting> {
     (void)lights_.all_off();
-    return std::unexpected(processing::internal_error("scan interrupted; all LEDs are off"));
+    return std::unexpected(internal_error("scan interrupted; all LEDs are off"));
   };
   // A stop (lights-off, abort, a signal) is flagged first, then every LED
   // is switched off: checked just before a switch, so that no LED comes
@@ -102,7 +103,7 @@ Result<ScanSequencer::Lighting> ScanSequencer::switch_lights(int channel, Lighti
 
 Result<Frame> ScanSequencer::grab() {
   if (stop_ || firmware_host::stop_requested())
-    return std::unexpected(processing::internal_error("scan interrupted; all LEDs are off"));
+    return std::unexpected(internal_error("scan interrupted; all LEDs are off"));
   auto frame = camera_.grab(milliseconds(config_.camera.timeout_ms));
   if (!frame) return frame;
   // What the frames show beats what the camera says.
@@ -144,10 +145,11 @@ Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Li
   const auto still_lit = [&]() -> Status {
     const auto lit = lights_.lit();
     if (phase.channel >= 0 && (!lit || lit->first != phase.channel))
-      return std::unexpected(processing::internal_error(
-          "LED " + std::to_string(phase.channel) +
-          " went off during its exposures (lights.max_on_ms is " +
-          std::to_string(config_.lights.max_on_ms) + " ms: raise it, or shorten the exposure)"));
+      return std::unexpected(internal_error("LED " + std::to_string(phase.channel) +
+                                            " went off during its exposures (lights.max_on_ms is " +
+                                            std::to_string(config_.lights.max_on_ms) +
+                                            " ms: raise it, or shorten the exposure)")
+                                 .with(ErrorCode::lights));
     return {};
   };
   while (kept < needed) {
@@ -177,9 +179,10 @@ Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Li
     if (!valid) {
       ++timing.frames_skipped;
       if (++stale > kMaxStaleFrames)
-        return std::unexpected(processing::io_error(
-            camera_.describe(), "no frame exposed wholly under " + phase.label +
-                                    ": the camera's timestamps or queue are wrong"));
+        return std::unexpected(
+            io_error(camera_.describe(), "no frame exposed wholly under " + phase.label +
+                                             ": the camera's timestamps or queue are wrong")
+                .with(ErrorCode::camera));
       continue;
     }
     if (++kept <= config_.camera.frames_discard) {
@@ -191,7 +194,8 @@ Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Li
       } else if (frame->image.size() != first.image.size() ||
                  frame->image.channels() != first.image.channels()) {
         return std::unexpected(
-            processing::io_error(camera_.describe(), "the frame size or format changed mid-scan"));
+            io_error(camera_.describe(), "the frame size or format changed mid-scan")
+                .with(ErrorCode::camera));
       }
       cv::accumulate(frame->image, sum);
       ++timing.frames_kept;
@@ -268,7 +272,7 @@ Result<processing::Scan> ScanSequencer::acquire(
     } else {
       scan.frames.push_back(stored);
       scan.description.lights.push_back(
-          {"led" + std::to_string(phase.channel) + ".png",
+          {processing::scan_files::led_frame(phase.channel, stored.depth()),
            processing::light_direction(
                config_.geometry.tilts_deg.at(static_cast<std::size_t>(phase.channel)),
                config_.geometry.slant_deg),
@@ -313,8 +317,8 @@ Result<ScanOutcome> ScanSequencer::capture(
                                                 : request.directory;
   // Refused before the LEDs go on, not after (write_scan checks again).
   if (std::error_code ec; fs::exists(outcome.directory, ec))
-    return std::unexpected(processing::bad_input(outcome.directory, "",
-                                                 "already exists; a scan is never overwritten"));
+    return std::unexpected(
+        bad_input(outcome.directory, "", "already exists; a scan is never overwritten"));
   auto scan = acquire(request, outcome.timing, progress);
   if (!scan) return std::unexpected(scan.error());
   if (progress) progress({"writing", 0, 1});

@@ -8,16 +8,14 @@
 #include "psrig/processing/atomic_directory.h"
 #include "psrig/processing/image_io.h"
 #include "psrig/processing/parallel.h"
+#include "psrig/processing/scan_layout.h"
 
 namespace psrig::capture {
 namespace {
 
 using processing::Scan;
+namespace files = processing::scan_files;
 namespace fs = std::filesystem;
-
-std::string image_name(const std::string& stem, const cv::Mat& image) {
-  return stem + (image.depth() == CV_32F ? ".exr" : ".png");
-}
 
 nlohmann::json intensity_json(const processing::ScanLight& light) {
   const cv::Vec3d& bgr = light.intensity_bgr;
@@ -35,15 +33,17 @@ struct ImageFile {
 std::vector<ImageFile> image_files(const Scan& scan) {
   std::vector<ImageFile> files;
   for (std::size_t k = 0; k < scan.frames.size(); ++k)
-    files.push_back({image_name("led" + std::to_string(k), scan.frames[k]), &scan.frames[k]});
-  if (!scan.dark.empty()) files.push_back({image_name("dark", scan.dark), &scan.dark});
-  if (!scan.mask.empty()) files.push_back({"mask.png", &scan.mask});
+    files.push_back(
+        {files::led_frame(static_cast<int>(k), scan.frames[k].depth()), &scan.frames[k]});
+  if (!scan.dark.empty()) files.push_back({files::dark_frame(scan.dark.depth()), &scan.dark});
+  if (!scan.mask.empty()) files.push_back({files::kMask, &scan.mask});
   for (std::size_t k = 0; k < scan.flats.size(); ++k)
-    files.push_back({image_name("flat" + std::to_string(k), scan.flats[k]), &scan.flats[k]});
+    files.push_back(
+        {files::flat_frame(static_cast<int>(k), scan.flats[k].depth()), &scan.flats[k]});
   if (!scan.ground_truth_normal.empty())
-    files.push_back({"gt_normal.exr", &scan.ground_truth_normal, true});
+    files.push_back({files::kGroundTruthNormal, &scan.ground_truth_normal, true});
   if (!scan.ground_truth_height.empty())
-    files.push_back({"gt_height.exr", &scan.ground_truth_height});
+    files.push_back({files::kGroundTruthHeight, &scan.ground_truth_height});
   return files;
 }
 
@@ -65,20 +65,20 @@ nlohmann::json scan_json(const Scan& scan) {
                        : d.white_level      ? nlohmann::json(*d.white_level)
                                        : nlohmann::json();  // unknown: the reader takes full scale
   doc["dark"] =
-      scan.dark.empty() ? nlohmann::json() : nlohmann::json(image_name("dark", scan.dark));
-  doc["mask"] = scan.mask.empty() ? nlohmann::json() : nlohmann::json("mask.png");
+      scan.dark.empty() ? nlohmann::json() : nlohmann::json(files::dark_frame(scan.dark.depth()));
+  doc["mask"] = scan.mask.empty() ? nlohmann::json() : nlohmann::json(files::kMask);
   if (scan.flats.empty()) {
     doc.erase("flats");
   } else {
     nlohmann::json flats = nlohmann::json::array();
     for (std::size_t k = 0; k < scan.flats.size(); ++k)
-      flats.push_back(image_name("flat" + std::to_string(k), scan.flats[k]));
+      flats.push_back(files::flat_frame(static_cast<int>(k), scan.flats[k].depth()));
     doc["flats"] = flats;
   }
   nlohmann::json lights = nlohmann::json::array();
   for (std::size_t k = 0; k < d.lights.size(); ++k) {
     const auto& light = d.lights[k];
-    lights.push_back({{"image", image_name("led" + std::to_string(k), scan.frames[k])},
+    lights.push_back({{"image", files::led_frame(static_cast<int>(k), scan.frames[k].depth())},
                       {"direction", {light.direction[0], light.direction[1], light.direction[2]}},
                       {"intensity", intensity_json(light)}});
   }
@@ -86,8 +86,8 @@ nlohmann::json scan_json(const Scan& scan) {
   doc["pixel_size_mm"] = d.pixel_size_mm ? nlohmann::json(*d.pixel_size_mm) : nlohmann::json();
   if (!scan.ground_truth_normal.empty() || !scan.ground_truth_height.empty()) {
     nlohmann::json truth = nlohmann::json::object();
-    if (!scan.ground_truth_normal.empty()) truth["normal"] = "gt_normal.exr";
-    if (!scan.ground_truth_height.empty()) truth["height"] = "gt_height.exr";
+    if (!scan.ground_truth_normal.empty()) truth["normal"] = files::kGroundTruthNormal;
+    if (!scan.ground_truth_height.empty()) truth["height"] = files::kGroundTruthHeight;
     doc["ground_truth"] = truth;
   } else {
     doc.erase("ground_truth");
@@ -97,19 +97,17 @@ nlohmann::json scan_json(const Scan& scan) {
 
 namespace {
 
-processing::Status write_scan_unguarded(const Scan& scan, const fs::path& directory) {
+Status write_scan_unguarded(const Scan& scan, const fs::path& directory) {
   if (scan.frames.size() != scan.description.lights.size() || scan.frames.size() < 3)
-    return std::unexpected(
-        processing::internal_error("write_scan: need one frame per light, at least three"));
+    return std::unexpected(internal_error("write_scan: need one frame per light, at least three"));
   std::error_code ec;
   if (fs::exists(directory, ec))
-    return std::unexpected(
-        processing::bad_input(directory, "", "already exists; a scan is never overwritten"));
+    return std::unexpected(bad_input(directory, "", "already exists; a scan is never overwritten"));
   auto staging = processing::AtomicDirectory::create(directory);
   if (!staging) return std::unexpected(staging.error());
 
   const auto files = image_files(scan);
-  std::vector<std::optional<processing::Error>> errors(files.size());
+  std::vector<std::optional<Error>> errors(files.size());
   processing::parallel_chunks(static_cast<int>(files.size()), 1, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
       const fs::path path = staging->path() / files[i].name;
@@ -121,22 +119,22 @@ processing::Status write_scan_unguarded(const Scan& scan, const fs::path& direct
   for (const auto& error : errors)
     if (error) return std::unexpected(*error);
 
-  const fs::path json_path = staging->path() / "scan.json";
+  const fs::path json_path = staging->path() / files::kDescription;
   std::ofstream json(json_path);
   json << scan_json(scan).dump(2) << '\n';
   json.close();
-  if (!json) return std::unexpected(processing::io_error(json_path, "cannot write"));
+  if (!json) return std::unexpected(io_error(json_path, "cannot write"));
   return staging->commit(processing::AtomicDirectory::Existing::refuse, true);
 }
 
 }  // namespace
 
-processing::Status write_scan(const Scan& scan, const fs::path& directory) {
+Status write_scan(const Scan& scan, const fs::path& directory) {
   try {
     return write_scan_unguarded(scan, directory);
   } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
     return std::unexpected(
-        processing::internal_error(directory.string() + ": writing the scan failed: " + e.what()));
+        internal_error(directory.string() + ": writing the scan failed: " + e.what()));
   }
 }
 

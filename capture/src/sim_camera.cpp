@@ -22,13 +22,12 @@ class SimCamera final : public Camera {
       : config_(config), world_(std::move(world)), sensor_(config.sim, config.sim.seed) {}
 
   Status configure(const config::CameraConfig& settings) override {
-    if (running_)
-      return std::unexpected(processing::internal_error("sim camera: configure while streaming"));
+    if (running_) return std::unexpected(internal_error("sim camera: configure while streaming"));
     if (settings.format != "auto" && settings.format != "GREY" && settings.format != "BGR3")
-      return std::unexpected(processing::bad_input(
-          config_.source, "camera.format",
-          "the simulated camera delivers \"BGR3\" (colour) or \"GREY\"; got \"" + settings.format +
-              "\""));
+      return std::unexpected(
+          bad_input(config_.source, "camera.format",
+                    "the simulated camera delivers \"BGR3\" (colour) or \"GREY\"; got \"" +
+                        settings.format + "\""));
     settings_.exposure_us = settings.exposure_us;
     settings_.gain = settings.gain;
     settings_.channels = settings.format == "GREY" ? 1 : 3;
@@ -43,8 +42,7 @@ class SimCamera final : public Camera {
   }
 
   Result<Frame> grab(milliseconds timeout) override {
-    if (!running_)
-      return std::unexpected(processing::internal_error("sim camera: grab before start"));
+    if (!running_) return std::unexpected(internal_error("sim camera: grab before start"));
     const auto exposure = microseconds(settings_.exposure_us);
     const auto readout = microseconds(config_.sim.readout_us);
     const auto interval = std::max(microseconds(config_.sim.frame_interval_us), exposure + readout);
@@ -57,7 +55,7 @@ class SimCamera final : public Camera {
       n = std::max(n, newest - kBuffers + 1);  // the driver dropped what did not fit its queue
     } else if (ready(n) > now + timeout) {
       std::this_thread::sleep_for(timeout);
-      return std::unexpected(processing::io_error(
+      return std::unexpected(io_error(
           "sim camera",
           "no frame within " + std::to_string(timeout.count()) + " ms (camera.timeout_ms)"));
     } else {

@@ -5,6 +5,7 @@
 
 #include "psrig/firmware_host/sim/lambertian_render.h"
 #include "psrig/processing/light_matrix.h"
+#include "psrig/processing/scan_layout.h"
 
 namespace psrig::capture {
 
@@ -31,7 +32,8 @@ processing::Scan make_synthetic_scan(const SyntheticScanParams& params) {
 
   for (int k = 0; k < 3; ++k) {
     const cv::Vec3d direction = processing::light_direction(120.0 * k, params.slant_deg);
-    d.lights.push_back({"led" + std::to_string(k) + ".png", direction, {1, 1, 1}, false});
+    d.lights.push_back(
+        {processing::scan_files::led_frame(k, params.depth), direction, {1, 1, 1}, false});
     cv::Mat radiance = sim::render_lambertian(swatch, {direction, {1, 1, 1}}, params.cast_shadows);
     radiance *= params.exposure;
     if (params.noise > 0) {

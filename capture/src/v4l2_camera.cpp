@@ -14,8 +14,8 @@
 
 #include <spdlog/fmt/fmt.h>
 
+#include "psrig/base/log.h"
 #include "psrig/capture/v4l2_formats.h"
-#include "psrig/processing/log.h"
 #include "v4l2_controls.h"
 #include "v4l2_device.h"
 
@@ -82,7 +82,7 @@ class V4l2Camera final : public Camera {
   };
 
   Error config_error(const std::string& key, const std::string& message) const {
-    return processing::bad_input(device_, key, message);
+    return bad_input(device_, key, message);
   }
   std::string who() const { return device_ + " (" + driver_ + ", '" + card_ + "')"; }
   std::vector<Offered> offered_formats() const;
@@ -130,11 +130,11 @@ Status V4l2Camera::open() {
                        "`v4l2-ctl --list-devices` and set camera.device to one of them"));
     if (e == EACCES || e == EPERM)
       return std::unexpected(
-          processing::io_error(device_,
-                               "permission denied: add the user to the `video` group (or install "
-                               "config/udev rules) and log in again"));
+          io_error(device_,
+                   "permission denied: add the user to the `video` group (or install "
+                   "config/udev rules) and log in again"));
     if (e == EBUSY) return std::unexpected(v4l2::busy_error(device_, "opening"));
-    return std::unexpected(processing::io_error(device_, "cannot open: " + errno_text(e)));
+    return std::unexpected(io_error(device_, "cannot open: " + errno_text(e)));
   }
   v4l2_capability cap{};
   if (xioctl(fd_, VIDIOC_QUERYCAP, &cap) < 0) {
@@ -228,8 +228,7 @@ Result<V4l2PixelFormat> V4l2Camera::choose_format(const std::string& wanted,
 }
 
 Status V4l2Camera::configure(const config::CameraConfig& settings) {
-  if (streaming_)
-    return std::unexpected(processing::internal_error(device_ + ": configure() while streaming"));
+  if (streaming_) return std::unexpected(internal_error(device_ + ": configure() while streaming"));
   configured_ = false;
   const auto offered = offered_formats();
   auto format = choose_format(settings.format, offered);
@@ -304,7 +303,7 @@ Status V4l2Camera::configure(const config::CameraConfig& settings) {
   exposure_us_ = set->exposure_us;
   gain_ = set->gain;
   if (frame_interval_.count() > 0 && std::chrono::microseconds(exposure_us_) > frame_interval_)
-    processing::logger("camera")->warn(
+    logger("camera")->warn(
         "{}: exposure {} us is longer than the frame interval {} us: the camera may clip it or "
         "slow down",
         device_, exposure_us_,
@@ -326,7 +325,7 @@ void V4l2Camera::release_buffers() {
 
 Status V4l2Camera::start() {
   if (!configured_)
-    return std::unexpected(processing::internal_error(device_ + ": start() before configure()"));
+    return std::unexpected(internal_error(device_ + ": start() before configure()"));
   if (streaming_) return {};
   if (vanished_) return std::unexpected(v4l2::vanished_error(device_, "starting"));
   v4l2_requestbuffers req{};
@@ -337,7 +336,7 @@ Status V4l2Camera::start() {
     return std::unexpected(ioctl_error(device_, "requesting buffers", errno));
   if (req.count < 2) {
     release_buffers();
-    return std::unexpected(processing::io_error(
+    return std::unexpected(io_error(
         device_, "the driver gave " + std::to_string(req.count) + " buffers, need 2 or more"));
   }
   const auto fail = [&](const std::string& step, int e) -> Status {
@@ -361,10 +360,10 @@ Status V4l2Camera::start() {
     const int e = errno;
     if (e == ENOSPC) {
       release_buffers();
-      return std::unexpected(processing::io_error(
-          device_,
-          "not enough USB bandwidth to stream: use a smaller camera.width/height or "
-          "plug the camera into another USB controller"));
+      return std::unexpected(
+          io_error(device_,
+                   "not enough USB bandwidth to stream: use a smaller camera.width/height or "
+                   "plug the camera into another USB controller"));
     }
     return fail("starting the stream", e);
   }
@@ -375,16 +374,15 @@ Status V4l2Camera::start() {
 }
 
 Error V4l2Camera::timeout_error(std::chrono::milliseconds timeout, bool lost_frames) const {
-  return processing::io_error(
-      device_, "no frame within " + std::to_string(timeout.count()) + " ms (camera.timeout_ms)" +
-                   (lost_frames ? ", the driver reported lost frames (EIO)" : "") +
-                   ": check that the camera is connected and streaming and, if it is "
-                   "triggered, its trigger");
+  return io_error(device_, "no frame within " + std::to_string(timeout.count()) +
+                               " ms (camera.timeout_ms)" +
+                               (lost_frames ? ", the driver reported lost frames (EIO)" : "") +
+                               ": check that the camera is connected and streaming and, if it is "
+                               "triggered, its trigger");
 }
 
 Result<Frame> V4l2Camera::grab(std::chrono::milliseconds timeout) {
-  if (!streaming_)
-    return std::unexpected(processing::internal_error(device_ + ": grab() before start()"));
+  if (!streaming_) return std::unexpected(internal_error(device_ + ": grab() before start()"));
   if (vanished_) return std::unexpected(v4l2::vanished_error(device_, "grabbing a frame"));
   const auto deadline = Clock::now() + timeout;
   bool lost_frames = false;
@@ -418,8 +416,8 @@ Result<Frame> V4l2Camera::grab(std::chrono::milliseconds timeout) {
       return std::unexpected(ioctl_error(device_, "dequeueing a frame", e));
     }
     if (buf.index >= buffers_.size())
-      return std::unexpected(processing::internal_error(device_ + ": the driver returned buffer " +
-                                                        std::to_string(buf.index)));
+      return std::unexpected(
+          internal_error(device_ + ": the driver returned buffer " + std::to_string(buf.index)));
 
     const auto dequeued_at = Clock::now();
     Result<cv::Mat> image = cv::Mat{};

@@ -8,14 +8,11 @@
 
 #include <spdlog/fmt/fmt.h>
 
-#include "psrig/processing/log.h"
+#include "psrig/base/log.h"
 #include "v4l2_device.h"
 
 namespace psrig::capture::v4l2 {
 namespace {
-
-using processing::Error;
-using processing::Result;
 
 // A control the device offers and lets us write.
 std::optional<v4l2_queryctrl> query(int fd, std::uint32_t id) {
@@ -43,7 +40,7 @@ Result<std::int32_t> set_and_read(int fd, const std::string& device, const std::
     const int e = errno;
     if (e == EBUSY || e == ENODEV)
       return std::unexpected(ioctl_error(device, std::string("setting ") + name, e));
-    return std::unexpected(processing::bad_input(
+    return std::unexpected(bad_input(
         device, key,
         fmt::format("the camera refuses {} = {} ({}; it takes {} to {} in steps of {})", name,
                     value, errno_text(e), q.minimum, q.maximum, std::max(q.step, 1))));
@@ -78,7 +75,7 @@ Result<int> set_exposure(int fd, const std::string& device, int exposure_us, int
       const int e = errno;
       if (e == EBUSY || e == ENODEV)
         return std::unexpected(ioctl_error(device, "setting V4L2_CID_EXPOSURE_AUTO to manual", e));
-      return std::unexpected(processing::bad_input(
+      return std::unexpected(bad_input(
           device, key,
           "the camera refuses manual exposure (V4L2_CID_EXPOSURE_AUTO = manual: " + errno_text(e) +
               "); photometric stereo needs the same exposure under every LED: use a camera "
@@ -94,18 +91,18 @@ Result<int> set_exposure(int fd, const std::string& device, int exposure_us, int
   if (auto q = query(fd, V4L2_CID_EXPOSURE)) {
     const auto line = line_time_s(fd, width);
     if (!line)
-      return std::unexpected(processing::bad_input(
-          device, key,
-          "the camera's exposure control (V4L2_CID_EXPOSURE) is in driver units and the "
-          "driver does not say its line time (V4L2_CID_PIXEL_RATE, V4L2_CID_HBLANK): use "
-          "camera.backend = \"libcamera\" for this sensor"));
+      return std::unexpected(
+          bad_input(device, key,
+                    "the camera's exposure control (V4L2_CID_EXPOSURE) is in driver units and the "
+                    "driver does not say its line time (V4L2_CID_PIXEL_RATE, V4L2_CID_HBLANK): use "
+                    "camera.backend = \"libcamera\" for this sensor"));
     const double line_us = *line * 1e6;
     auto got =
         set_and_read(fd, device, key, "V4L2_CID_EXPOSURE", *q, fit(*q, exposure_us / line_us));
     if (!got) return std::unexpected(got.error());
     return static_cast<int>(std::lround(*got * line_us));
   }
-  return std::unexpected(processing::bad_input(
+  return std::unexpected(bad_input(
       device, key,
       "the camera has no exposure control (V4L2_CID_EXPOSURE_ABSOLUTE or V4L2_CID_EXPOSURE); "
       "photometric stereo needs a fixed, known exposure: use a camera with manual exposure"));
@@ -127,7 +124,7 @@ Result<double> set_gain(int fd, const std::string& device, double gain) {
   }
   if (!q) {
     if (std::abs(gain - 1.0) > 1e-9)
-      processing::logger("camera")->warn(
+      logger("camera")->warn(
           "{}: no gain control (V4L2_CID_ANALOGUE_GAIN, V4L2_CID_GAIN): camera.gain = {} ignored",
           device, gain);
     return 1.0;
@@ -135,7 +132,7 @@ Result<double> set_gain(int fd, const std::string& device, double gain) {
   if (q->default_value <= 0) {
     // No unity to scale from: leave the driver's default.
     if (std::abs(gain - 1.0) > 1e-9)
-      processing::logger("camera")->warn(
+      logger("camera")->warn(
           "{}: the gain control's default is {}, so its unity is unknown: camera.gain = {} "
           "ignored, gain left at the default",
           device, q->default_value, gain);
@@ -157,7 +154,7 @@ Result<ExposureAndGain> set_exposure_and_gain(int fd, const std::string& device,
   if (!exposure) return std::unexpected(exposure.error());
   auto actual_gain = set_gain(fd, device, gain);
   if (!actual_gain) return std::unexpected(actual_gain.error());
-  auto log = processing::logger("camera");
+  auto log = logger("camera");
   if (std::abs(*exposure - exposure_us) > std::max(1.0, 0.01 * exposure_us))
     log->warn("{}: exposure {} us asked, the camera took {} us", device, exposure_us, *exposure);
   if (std::abs(*actual_gain - gain) > 0.01 * gain)

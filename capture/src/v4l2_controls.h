@@ -13,7 +13,7 @@
 
 #include <string>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::capture::v4l2 {
 
@@ -24,9 +24,8 @@ struct ExposureAndGain {
 
 // Sets exposure and gain on the open device `fd` (frames `width` pixels
 // wide) and reads back what the device took.
-[[nodiscard]] processing::Result<ExposureAndGain> set_exposure_and_gain(int fd,
-                                                                        const std::string& device,
-                                                                        int exposure_us,
-                                                                        double gain, int width);
+[[nodiscard]] Result<ExposureAndGain> set_exposure_and_gain(int fd, const std::string& device,
+                                                            int exposure_us, double gain,
+                                                            int width);
 
 }  // namespace psrig::capture::v4l2

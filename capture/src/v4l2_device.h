@@ -7,7 +7,7 @@
 #include <string>
 #include <sys/ioctl.h>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::capture::v4l2 {
 
@@ -25,27 +25,26 @@ inline std::string errno_text(int error) {
 }
 
 // Another program holds the camera.
-inline processing::Error busy_error(const std::string& device, const std::string& step) {
-  return processing::io_error(device, step +
-                                          ": the camera is busy: another program is using it "
-                                          "(find it with `fuser " +
-                                          device + "`) and close that program");
+inline Error busy_error(const std::string& device, const std::string& step) {
+  return io_error(device, step +
+                              ": the camera is busy: another program is using it "
+                              "(find it with `fuser " +
+                              device + "`) and close that program");
 }
 
 // The device went away under us (unplugged, driver unbound, reset).
-inline processing::Error vanished_error(const std::string& device, const std::string& step) {
-  return processing::io_error(device, step +
-                                          ": the camera vanished (unplugged or reset): check its "
-                                          "cable and power, then find it again with `psrig "
-                                          "devices` or `v4l2-ctl --list-devices`");
+inline Error vanished_error(const std::string& device, const std::string& step) {
+  return io_error(device, step +
+                              ": the camera vanished (unplugged or reset): check its "
+                              "cable and power, then find it again with `psrig "
+                              "devices` or `v4l2-ctl --list-devices`");
 }
 
 // A failed ioctl: busy and vanished get their own words.
-inline processing::Error ioctl_error(const std::string& device, const std::string& step,
-                                     int error) {
+inline Error ioctl_error(const std::string& device, const std::string& step, int error) {
   if (error == EBUSY) return busy_error(device, step);
   if (error == ENODEV) return vanished_error(device, step);
-  return processing::io_error(device, step + " failed: " + errno_text(error));
+  return io_error(device, step + " failed: " + errno_text(error));
 }
 
 }  // namespace psrig::capture::v4l2

@@ -195,25 +195,25 @@ std::size_t v4l2_min_bytes_per_line(const V4l2PixelFormat& format, int width) {
   return w;
 }
 
-processing::Result<cv::Mat> convert_v4l2_frame(std::span<const std::uint8_t> data,
-                                               const V4l2PixelFormat& format, int width, int height,
-                                               std::size_t bytes_per_line) {
+Result<cv::Mat> convert_v4l2_frame(std::span<const std::uint8_t> data,
+                                   const V4l2PixelFormat& format, int width, int height,
+                                   std::size_t bytes_per_line) {
   const std::string what =
       fourcc_to_string(format.fourcc) + " " + std::to_string(width) + "x" + std::to_string(height);
   if (width <= 0 || height <= 0)
-    return std::unexpected(processing::internal_error("v4l2 frame " + what + ": empty size"));
+    return std::unexpected(internal_error("v4l2 frame " + what + ": empty size"));
   const std::size_t min_line = v4l2_min_bytes_per_line(format, width);
   if (bytes_per_line < min_line)
-    return std::unexpected(
-        processing::internal_error("v4l2 frame " + what + ": " + std::to_string(bytes_per_line) +
-                                   " bytes per line, need " + std::to_string(min_line)));
+    return std::unexpected(internal_error("v4l2 frame " + what + ": " +
+                                          std::to_string(bytes_per_line) +
+                                          " bytes per line, need " + std::to_string(min_line)));
   const std::size_t needed = bytes_per_line * static_cast<std::size_t>(height - 1) + min_line;
   if (data.size() < needed)
-    return std::unexpected(processing::io_error(
+    return std::unexpected(io_error(
         {}, "v4l2 frame " + what + " is short: " + std::to_string(data.size()) + " bytes, need " +
                 std::to_string(needed) + " (a truncated transfer: check the cable or bandwidth)"));
   if (format.layout == L::yuyv && width % 2 != 0)
-    return std::unexpected(processing::internal_error("v4l2 frame " + what + ": odd YUYV width"));
+    return std::unexpected(internal_error("v4l2 frame " + what + ": odd YUYV width"));
 
   // OpenCV does not write through a Mat header over const memory; we only read.
   auto* bytes = const_cast<std::uint8_t*>(data.data());
@@ -256,7 +256,7 @@ processing::Result<cv::Mat> convert_v4l2_frame(std::span<const std::uint8_t> dat
         break;
     }
   } catch (const cv::Exception& e) {  // e.g. a mosaic too small to demosaic
-    return std::unexpected(processing::internal_error("v4l2 frame " + what + ": " + e.what()));
+    return std::unexpected(internal_error("v4l2 frame " + what + ": " + e.what()));
   }
   return out;
 }

@@ -10,9 +10,6 @@ namespace psrig::config {
 namespace {
 
 namespace fs = std::filesystem;
-using processing::Error;
-using processing::Result;
-using processing::Status;
 
 // Levenshtein distance, for "did you mean" on unknown keys.
 std::size_t distance(const std::string& a, const std::string& b) {
@@ -45,7 +42,7 @@ class Section {
 
   Error error_at(const toml::node* node, const std::string& name,
                  const std::string& message) const {
-    Error e = processing::bad_input(file_, key(name), message);
+    Error e = bad_input(file_, key(name), message);
     if (node) {
       e.line = static_cast<int>(node->source().begin.line);
       e.column = static_cast<int>(node->source().begin.column);
@@ -418,14 +415,14 @@ Result<RigConfig> parse_config(std::string_view text, const fs::path& source,
     const toml::table root = toml::parse(text, source.string());
     return read(root, source, warnings);
   } catch (const toml::parse_error& e) {
-    Error error = processing::bad_input(
-        source, "", std::string("malformed TOML: ") + std::string(e.description()));
+    Error error =
+        bad_input(source, "", std::string("malformed TOML: ") + std::string(e.description()));
     error.line = static_cast<int>(e.source().begin.line);
     error.column = static_cast<int>(e.source().begin.column);
     return std::unexpected(error);
   } catch (const std::exception& e) {
-    return std::unexpected(processing::internal_error(
-        source.string() + ": reading the configuration failed: " + e.what()));
+    return std::unexpected(
+        internal_error(source.string() + ": reading the configuration failed: " + e.what()));
   }
 }
 
@@ -433,9 +430,9 @@ Result<RigConfig> load_config(const fs::path& file, std::vector<std::string>* wa
   std::ifstream stream(file);
   std::error_code ec;
   if (!fs::exists(file, ec))
-    return std::unexpected(processing::bad_input(
-        file, "", "no such configuration file (see config/rig.example.toml)"));
-  if (!stream) return std::unexpected(processing::bad_input(file, "", "cannot open for reading"));
+    return std::unexpected(
+        bad_input(file, "", "no such configuration file (see config/rig.example.toml)"));
+  if (!stream) return std::unexpected(bad_input(file, "", "cannot open for reading"));
   std::stringstream text;
   text << stream.rdbuf();
   return parse_config(text.str(), fs::absolute(file, ec), warnings);

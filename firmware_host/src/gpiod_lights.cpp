@@ -31,7 +31,7 @@
 #include <string>
 #include <vector>
 
-#include "psrig/processing/log.h"
+#include "psrig/base/log.h"
 
 namespace psrig::firmware_host {
 namespace {
@@ -46,7 +46,7 @@ constexpr const char* kPermissionFix =
     "SUBSYSTEM==\"gpio\", KERNEL==\"gpiochip*\", GROUP=\"gpio\", MODE=\"0660\"";
 
 Error device_error(std::string key, std::filesystem::path node, std::string message) {
-  Error error = processing::io_error(std::move(node), std::move(message));
+  Error error = io_error(std::move(node), std::move(message));
   error.key = std::move(key);
   return error;
 }
@@ -110,7 +110,7 @@ std::string describe_chips(const std::vector<GpioChipEntry>& chips) {
 // a number (0) or a label (pinctrl-bcm2711).
 Result<ChipPtr> find_chip(const std::string& spec) {
   if (spec.empty())
-    return std::unexpected(processing::bad_input(
+    return std::unexpected(bad_input(
         {}, kChipKey, "no GPIO chip given; set it to a name (gpiochip0), a path or a label"));
 
   std::string path;
@@ -171,8 +171,8 @@ class GpiodLights final : public LightController {
 
   ~GpiodLights() override {
     if (auto off = all_off(); !off)
-      processing::logger("lights")->error("{}: switching all LEDs off on close failed: {}",
-                                          describe(), off.error().message);
+      logger("lights")->error("{}: switching all LEDs off on close failed: {}", describe(),
+                              off.error().message);
     gpiod_line_release_bulk(&bulk_);
   }
 
@@ -215,7 +215,7 @@ class GpiodLights final : public LightController {
   Status set_intensity(int channel, double level) override {
     if (auto checked = check_channel(channel); !checked) return checked;
     if (level != 0.0 && level != 1.0)
-      return std::unexpected(processing::bad_input(
+      return std::unexpected(bad_input(
           {}, "lights.intensity[" + std::to_string(channel) + "]",
           "gpiod lights are on/off only: intensity " + std::to_string(level) +
               " needs a dimmable driver (the usb or modbus backend); use 1 (on) or 0 (channel "
@@ -232,9 +232,8 @@ class GpiodLights final : public LightController {
  private:
   Status check_channel(int channel) const {
     if (channel < 0 || channel >= channel_count())
-      return std::unexpected(
-          processing::internal_error("gpiod lights: no channel " + std::to_string(channel) + " (" +
-                                     std::to_string(channel_count()) + " channels)"));
+      return std::unexpected(internal_error("gpiod lights: no channel " + std::to_string(channel) +
+                                            " (" + std::to_string(channel_count()) + " channels)"));
     return {};
   }
 
@@ -313,27 +312,27 @@ std::vector<GpioChipEntry> list_gpio_chips() {
 Result<std::unique_ptr<LightController>> open_gpiod_lights(const config::LightsConfig& config) {
   const auto& gpio = config.gpiod;
   if (gpio.lines.empty())
-    return std::unexpected(processing::bad_input(
+    return std::unexpected(bad_input(
         {}, kLinesKey, "no GPIO lines; give one line offset per LED, e.g. lines = [17, 27, 22]"));
   if (static_cast<int>(gpio.lines.size()) != config.channels)
-    return std::unexpected(processing::bad_input(
+    return std::unexpected(bad_input(
         {}, kLinesKey,
         std::to_string(gpio.lines.size()) + " lines for " + std::to_string(config.channels) +
             " channels (lights.channels); give one line offset per LED"));
   if (gpio.lines.size() > GPIOD_LINE_BULK_MAX_LINES)
-    return std::unexpected(processing::bad_input(
+    return std::unexpected(bad_input(
         {}, kLinesKey, "at most " + std::to_string(GPIOD_LINE_BULK_MAX_LINES) + " lines"));
   for (std::size_t i = 0; i < gpio.lines.size(); ++i)
     for (std::size_t j = 0; j < i; ++j)
       if (gpio.lines[i] == gpio.lines[j])
-        return std::unexpected(processing::bad_input(
-            {}, kLinesKey,
-            "line " + std::to_string(gpio.lines[i]) + " given twice (channels " +
-                std::to_string(j) + " and " + std::to_string(i) + ")"));
+        return std::unexpected(bad_input({}, kLinesKey,
+                                         "line " + std::to_string(gpio.lines[i]) +
+                                             " given twice (channels " + std::to_string(j) +
+                                             " and " + std::to_string(i) + ")"));
   for (std::size_t i = 0; i < config.intensity.size(); ++i) {
     const double level = config.intensity[i];
     if (level != 0.0 && level != 1.0)
-      return std::unexpected(processing::bad_input(
+      return std::unexpected(bad_input(
           {}, "lights.intensity[" + std::to_string(i) + "]",
           "gpiod lights are on/off only: intensity " + std::to_string(level) +
               " needs a dimmable driver (the usb or modbus backend); use 1 (on) or 0 (disabled)"));
@@ -352,11 +351,11 @@ Result<std::unique_ptr<LightController>> open_gpiod_lights(const config::LightsC
     const unsigned offset = gpio.lines[i];
     const std::string key = std::string(kLinesKey) + "[" + std::to_string(i) + "]";
     if (offset >= count)
-      return std::unexpected(processing::bad_input(
-          {}, key,
-          "line " + std::to_string(offset) + " does not exist: " + name + " [" + label + "] has " +
-              std::to_string(count) + " lines (0 to " + std::to_string(count - 1) +
-              "); `gpioinfo " + name + "` lists them"));
+      return std::unexpected(
+          bad_input({}, key,
+                    "line " + std::to_string(offset) + " does not exist: " + name + " [" + label +
+                        "] has " + std::to_string(count) + " lines (0 to " +
+                        std::to_string(count - 1) + "); `gpioinfo " + name + "` lists them"));
     gpiod_line* line = gpiod_chip_get_line(raw, offset);  // reads the line's info
     if (!line)
       return std::unexpected(device_error(key, "/dev/" + name,

@@ -10,8 +10,7 @@ namespace {
 // Settings errors point into the file they came from.
 Result<std::unique_ptr<LightController>> from_file(Result<std::unique_ptr<LightController>> opened,
                                                    const std::filesystem::path& source) {
-  if (!opened && opened.error().kind == processing::ErrorKind::bad_input &&
-      opened.error().file.empty())
+  if (!opened && opened.error().kind == ErrorKind::bad_input && opened.error().file.empty())
     opened.error().file = source;
   return opened;
 }
@@ -23,16 +22,15 @@ Result<std::unique_ptr<LightController>> open_lights(const config::RigConfig& co
   const auto& lights = config.lights;
   if (lights.backend == "sim") {
     if (!world)
-      return std::unexpected(
-          processing::internal_error("lights.backend \"sim\" needs the simulated world"));
+      return std::unexpected(internal_error("lights.backend \"sim\" needs the simulated world"));
     return open_sim_lights(lights, std::move(world));
   }
   if (lights.backend == "gpiod") return from_file(open_gpiod_lights(lights), config.source);
   if (lights.backend == "usb") return from_file(open_usb_lights(lights), config.source);
   if (lights.backend == "modbus") return from_file(open_modbus_lights(lights), config.source);
   return std::unexpected(
-      processing::bad_input(config.source, "lights.backend",
-                            "\"" + lights.backend + "\" is not one of gpiod, usb, modbus, sim"));
+      bad_input(config.source, "lights.backend",
+                "\"" + lights.backend + "\" is not one of gpiod, usb, modbus, sim"));
 }
 
 }  // namespace psrig::firmware_host

@@ -13,13 +13,9 @@
 #include <utility>
 #include <vector>
 
-#include "psrig/processing/log.h"
+#include "psrig/base/log.h"
 
 namespace psrig::firmware_host {
-
-using processing::bad_input;
-using processing::internal_error;
-using processing::io_error;
 
 namespace {
 
@@ -511,7 +507,7 @@ class ModbusLights final : public LightController {
   bool started_ = false;
   std::optional<int> on_;                  // the LED we switched on, as far as we know
   std::optional<std::uint16_t> firmware_;  // major << 8 | minor, when the driver tells
-  std::shared_ptr<spdlog::logger> logger_ = processing::logger("lights");
+  std::shared_ptr<spdlog::logger> logger_ = logger("lights");
 };
 
 }  // namespace

@@ -1,7 +1,7 @@
 #include "psrig/firmware_host/safe_lights.h"
 
+#include "psrig/base/log.h"
 #include "psrig/firmware_host/emergency_stop.h"
-#include "psrig/processing/log.h"
 
 namespace psrig::firmware_host {
 
@@ -31,8 +31,9 @@ Status SafeLights::off_locked() {
 
 Status SafeLights::turn_on(int channel) {
   if (channel < 0 || channel >= backend_->channel_count())
-    return std::unexpected(processing::internal_error("lights: no channel " + std::to_string(channel) + " (" +
-                                                      std::to_string(backend_->channel_count()) + " channels)"));
+    return std::unexpected(internal_error("lights: no channel " + std::to_string(channel) + " (" +
+                                          std::to_string(backend_->channel_count()) +
+                                          " channels)"));
   {
     std::lock_guard lock(mutex_);
     if (lit_) {
@@ -41,7 +42,8 @@ Status SafeLights::turn_on(int channel) {
     if (auto on = backend_->turn_on(channel); !on) {
       const auto off = off_locked();
       Error error = on.error();
-      error.message += off ? "; all LEDs switched off" : "; switching all LEDs off failed too: " + off.error().message;
+      error.message += off ? "; all LEDs switched off"
+                           : "; switching all LEDs off failed too: " + off.error().message;
       return std::unexpected(error);
     }
     lit_ = channel;
@@ -85,8 +87,10 @@ void SafeLights::watch() {
       continue;
     }
     const auto deadline = lit_since_ + max_on_;
-    if (changed_.wait_until(lock, deadline) == std::cv_status::timeout && lit_ && Clock::now() >= lit_since_ + max_on_) {
-      processing::logger("lights")->error("LED {} on for more than {} ms: switched off", *lit_, max_on_.count());
+    if (changed_.wait_until(lock, deadline) == std::cv_status::timeout && lit_ &&
+        Clock::now() >= lit_since_ + max_on_) {
+      logger("lights")->error("LED {} on for more than {} ms: switched off", *lit_,
+                              max_on_.count());
       (void)off_locked();
       timed_out_ = true;
     }

@@ -28,12 +28,14 @@ class SimLights final : public LightController {
 
   Status set_intensity(int channel, double level) override {
     if (channel < 0 || channel >= channels_)
-      return std::unexpected(processing::internal_error("sim lights: no channel " + std::to_string(channel)));
+      return std::unexpected(internal_error("sim lights: no channel " + std::to_string(channel)));
     intensity_[channel] = level;
     return {};
   }
 
-  std::string describe() const override { return "simulated lights, " + std::to_string(channels_) + " channels"; }
+  std::string describe() const override {
+    return "simulated lights, " + std::to_string(channels_) + " channels";
+  }
 
  private:
   int channels_;
@@ -43,7 +45,8 @@ class SimLights final : public LightController {
 
 }  // namespace
 
-std::unique_ptr<LightController> open_sim_lights(const config::LightsConfig& config, std::shared_ptr<SimWorld> world) {
+std::unique_ptr<LightController> open_sim_lights(const config::LightsConfig& config,
+                                                 std::shared_ptr<SimWorld> world) {
   return std::make_unique<SimLights>(config.channels, config.intensity, std::move(world));
 }
 

@@ -55,11 +55,11 @@ std::string udev_rule(const config::UsbLights& usb) {
 // A failure of the controller or of its link: the device node (bus and
 // address) as the file, the configuration section as the key.
 Error device_error(std::string node, std::string message) {
-  return {processing::ErrorKind::io, std::move(message), std::move(node), "lights.usb"};
+  return {ErrorKind::io, std::move(message), std::move(node), "lights.usb"};
 }
 
 Error not_found(const config::UsbLights& usb, const std::string& detail) {
-  return {processing::ErrorKind::io,
+  return {ErrorKind::io,
           "no " + wanted(usb) + " found" + (detail.empty() ? "" : " (" + detail + ")") +
               ": check its USB cable and the udev rule for " + vid_pid(usb) +
               " (firmware_host/PROTOCOL.md), and run `psrig devices` to list the controllers "
@@ -91,9 +91,9 @@ auto guarded(const char* what, F f) -> decltype(f()) {
   try {
     return f();
   } catch (const std::exception& e) {
-    return std::unexpected(processing::internal_error(std::string(what) + ": " + e.what()));
+    return std::unexpected(internal_error(std::string(what) + ": " + e.what()));
   } catch (...) {
-    return std::unexpected(processing::internal_error(std::string(what) + ": unknown exception"));
+    return std::unexpected(internal_error(std::string(what) + ": unknown exception"));
   }
 }
 
@@ -167,10 +167,9 @@ Status UsbStrobeLights::handshake() {
                    ".x: update the controller's firmware (or psrig) so that they match"));
   }
   if (info_.channels < channels_) {
-    return std::unexpected(processing::bad_input({}, "lights.channels",
-                                                 std::to_string(channels_) +
-                                                     " channels configured but " + name() +
-                                                     " drives " + std::to_string(info_.channels)));
+    return std::unexpected(bad_input({}, "lights.channels",
+                                     std::to_string(channels_) + " channels configured but " +
+                                         name() + " drives " + std::to_string(info_.channels)));
   }
   // Faults latched before we came (a previous host's watchdog, say) are
   // history; one whose cause persists stops us here.
@@ -182,11 +181,11 @@ Status UsbStrobeLights::handshake() {
         refused(link, Opcode::clear_faults, "clear its faults", StatusCode::faulted));
   }
   if (usb_.watchdog_ms < info_.watchdog_min_ms || usb_.watchdog_ms > info_.watchdog_max_ms) {
-    return std::unexpected(
-        processing::bad_input({}, "lights.usb.watchdog_ms",
-                              std::to_string(usb_.watchdog_ms) + " ms is outside what " + name() +
-                                  " accepts (" + std::to_string(info_.watchdog_min_ms) + " to " +
-                                  std::to_string(info_.watchdog_max_ms) + " ms)"));
+    return std::unexpected(bad_input({}, "lights.usb.watchdog_ms",
+                                     std::to_string(usb_.watchdog_ms) + " ms is outside what " +
+                                         name() + " accepts (" +
+                                         std::to_string(info_.watchdog_min_ms) + " to " +
+                                         std::to_string(info_.watchdog_max_ms) + " ms)"));
   }
   const auto watchdog = command(
       link, strobe::SetWatchdog{static_cast<std::uint16_t>(usb_.watchdog_ms)}, "set its watchdog");
@@ -393,9 +392,9 @@ void UsbStrobeLights::notice_offs(const strobe::Response& response) {
 Status UsbStrobeLights::turn_on(int channel) {
   return guarded("usb lights: turn_on", [&]() -> Status {
     if (channel < 0 || channel >= channels_) {
-      return std::unexpected(processing::bad_input({}, "lights.channels",
-                                                   "no channel " + std::to_string(channel) + " (" +
-                                                       std::to_string(channels_) + " configured)"));
+      return std::unexpected(bad_input({}, "lights.channels",
+                                       "no channel " + std::to_string(channel) + " (" +
+                                           std::to_string(channels_) + " configured)"));
     }
     std::unique_lock link(link_);
     const auto on = command(link, strobe::ChannelOn{static_cast<std::uint8_t>(channel)},
@@ -410,15 +409,15 @@ Status UsbStrobeLights::turn_on(int channel) {
 Status UsbStrobeLights::strobe(int channel, std::chrono::microseconds duration) {
   return guarded("usb lights: strobe", [&]() -> Status {
     if (channel < 0 || channel >= channels_) {
-      return std::unexpected(processing::bad_input({}, "lights.channels",
-                                                   "no channel " + std::to_string(channel) + " (" +
-                                                       std::to_string(channels_) + " configured)"));
+      return std::unexpected(bad_input({}, "lights.channels",
+                                       "no channel " + std::to_string(channel) + " (" +
+                                           std::to_string(channels_) + " configured)"));
     }
     if (duration.count() < 1 || duration.count() > info_.strobe_max_us) {
-      return std::unexpected(processing::bad_input(
-          {}, {},
-          "a strobe lasts 1 to " + std::to_string(info_.strobe_max_us) + " us on " + name() +
-              ", not " + std::to_string(duration.count())));
+      return std::unexpected(bad_input({}, {},
+                                       "a strobe lasts 1 to " +
+                                           std::to_string(info_.strobe_max_us) + " us on " +
+                                           name() + ", not " + std::to_string(duration.count())));
     }
     std::unique_lock link(link_);
     const Clock::time_point sent = Clock::now();
@@ -447,9 +446,9 @@ Status UsbStrobeLights::all_off() {
 Status UsbStrobeLights::set_intensity(int channel, double level) {
   return guarded("usb lights: set_intensity", [&]() -> Status {
     if (channel < 0 || channel >= channels_) {
-      return std::unexpected(processing::bad_input({}, "lights.channels",
-                                                   "no channel " + std::to_string(channel) + " (" +
-                                                       std::to_string(channels_) + " configured)"));
+      return std::unexpected(bad_input({}, "lights.channels",
+                                       "no channel " + std::to_string(channel) + " (" +
+                                           std::to_string(channels_) + " configured)"));
     }
     std::unique_lock link(link_);
     return send_intensity(link, channel, level);
@@ -459,10 +458,9 @@ Status UsbStrobeLights::set_intensity(int channel, double level) {
 Status UsbStrobeLights::send_intensity(std::unique_lock<std::mutex>& link, int channel,
                                        double level) {
   if (!std::isfinite(level) || level < 0 || level > 1) {
-    return std::unexpected(processing::bad_input({}, "lights.intensity",
-                                                 "channel " + std::to_string(channel) + ": " +
-                                                     std::to_string(level) +
-                                                     " is not within 0 to 1"));
+    return std::unexpected(bad_input({}, "lights.intensity",
+                                     "channel " + std::to_string(channel) + ": " +
+                                         std::to_string(level) + " is not within 0 to 1"));
   }
   const auto set =
       command(link,
@@ -526,18 +524,15 @@ Result<std::unique_ptr<UsbStrobeLights>> open_usb_strobe(const config::LightsCon
   return guarded("usb lights: open", [&]() -> Result<std::unique_ptr<UsbStrobeLights>> {
     const config::UsbLights& usb = config.usb;
     if (config.channels < 1 || config.channels > 8) {
-      return std::unexpected(
-          processing::bad_input({}, "lights.channels",
-                                "the usb strobe controller drives 1 to 8 channels, not " +
-                                    std::to_string(config.channels)));
+      return std::unexpected(bad_input({}, "lights.channels",
+                                       "the usb strobe controller drives 1 to 8 channels, not " +
+                                           std::to_string(config.channels)));
     }
     if (usb.timeout_ms < 1) {
-      return std::unexpected(
-          processing::bad_input({}, "lights.usb.timeout_ms", "must be at least 1 ms"));
+      return std::unexpected(bad_input({}, "lights.usb.timeout_ms", "must be at least 1 ms"));
     }
     if (usb.watchdog_ms < 1 || usb.watchdog_ms > 65535) {
-      return std::unexpected(
-          processing::bad_input({}, "lights.usb.watchdog_ms", "must be 1 to 65535 ms"));
+      return std::unexpected(bad_input({}, "lights.usb.watchdog_ms", "must be 1 to 65535 ms"));
     }
 
     libusb_context* raw_context = nullptr;
@@ -614,10 +609,10 @@ Result<std::unique_ptr<UsbStrobeLights>> open_usb_strobe(const config::LightsCon
                  " on " + match.node;
       }
       close_all();
-      return std::unexpected(processing::bad_input(
-          {}, "lights.usb.serial",
-          std::to_string(matches.size()) + " usb strobe controllers " + vid_pid(usb) + " found (" +
-              found + "): set lights.usb.serial to the one to use"));
+      return std::unexpected(bad_input({}, "lights.usb.serial",
+                                       std::to_string(matches.size()) + " usb strobe controllers " +
+                                           vid_pid(usb) + " found (" + found +
+                                           "): set lights.usb.serial to the one to use"));
     }
     Match match = matches.front();
     matches.clear();

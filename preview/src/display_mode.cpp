@@ -50,26 +50,24 @@ std::string list_modes(const std::vector<DisplayMode>& modes) {
 }
 
 Error request_error(std::string message) {
-  return processing::bad_input({}, {}, std::move(message));
+  return bad_input({}, {}, std::move(message));
 }
 
 Result<std::size_t> choose_connector(const std::vector<ConnectorInfo>& connectors,
                                      std::string_view wanted) {
-  if (connectors.empty())
-    return std::unexpected(processing::io_error({}, "the device has no connectors"));
+  if (connectors.empty()) return std::unexpected(io_error({}, "the device has no connectors"));
   if (wanted.empty()) {
     for (std::size_t i = 0; i < connectors.size(); ++i)
       if (connectors[i].connected) return i;
-    return std::unexpected(
-        processing::io_error({},
-                             "no connector is connected (is the display plugged in and "
-                             "powered?); connectors: " +
-                                 list_connectors(connectors)));
+    return std::unexpected(io_error({},
+                                    "no connector is connected (is the display plugged in and "
+                                    "powered?); connectors: " +
+                                        list_connectors(connectors)));
   }
   for (std::size_t i = 0; i < connectors.size(); ++i) {
     if (!iequal(connectors[i].name, wanted)) continue;
     if (!connectors[i].connected)
-      return std::unexpected(processing::io_error(
+      return std::unexpected(io_error(
           {}, "connector \"" + std::string(wanted) +
                   "\" is not connected (is the display plugged in and powered?); connectors: " +
                   list_connectors(connectors)));
@@ -132,7 +130,7 @@ Result<ModeChoice> choose_display_mode(const std::vector<ConnectorInfo>& connect
   const auto& modes = info.modes;
   if (modes.empty())
     return std::unexpected(
-        processing::io_error({}, "connector " + info.name + " is connected but offers no modes"));
+        io_error({}, "connector " + info.name + " is connected but offers no modes"));
 
   std::optional<std::size_t> best;
   if (mode_wanted.empty()) {

@@ -11,10 +11,9 @@ namespace psrig::preview {
 namespace {
 
 Error egl_failure(const std::string& what) {
-  return processing::io_error("EGL",
-                              egl_error(what) +
-                                  "; is Mesa's EGL installed (libegl-mesa0, libgl1-mesa-dri)? "
-                                  "scripts/install-deps installs it");
+  return io_error("EGL", egl_error(what) +
+                             "; is Mesa's EGL installed (libegl-mesa0, libgl1-mesa-dri)? "
+                             "scripts/install-deps installs it");
 }
 
 }  // namespace
@@ -24,9 +23,9 @@ Result<std::unique_ptr<EglContext>> EglContext::open_surfaceless() {
   if (client_extensions == nullptr ||
       std::strstr(client_extensions, "EGL_MESA_platform_surfaceless") == nullptr)
     return std::unexpected(
-        processing::io_error("EGL",
-                             "EGL_MESA_platform_surfaceless is not offered; headless rendering "
-                             "needs Mesa's EGL (libegl-mesa0)"));
+        io_error("EGL",
+                 "EGL_MESA_platform_surfaceless is not offered; headless rendering "
+                 "needs Mesa's EGL (libegl-mesa0)"));
   EGLDisplay display =
       eglGetPlatformDisplay(EGL_PLATFORM_SURFACELESS_MESA, EGL_DEFAULT_DISPLAY, nullptr);
   if (display == EGL_NO_DISPLAY)
@@ -49,7 +48,7 @@ Result<std::unique_ptr<EglContext>> EglContext::open_surfaceless() {
   glGetIntegerv(GL_MAJOR_VERSION, &context->major_);
   glGetIntegerv(GL_MINOR_VERSION, &context->minor_);
   if (context->major_ < 3)
-    return std::unexpected(processing::io_error(
+    return std::unexpected(io_error(
         "EGL",
         "the context is GLES " + std::to_string(context->major_) + "; the preview needs GLES 3.0"));
   context->extensions_ = gl_extension_list();

@@ -21,8 +21,8 @@ std::string info_log(GLuint object, bool is_program) {
   return log;
 }
 
-processing::Result<GLuint> compile(GLenum stage, const shaders::ShaderSource& source,
-                                   std::string_view defines) {
+Result<GLuint> compile(GLenum stage, const shaders::ShaderSource& source,
+                       std::string_view defines) {
   const GLuint shader = glCreateShader(stage);
   // After the first line: GLSL ES wants #version before anything else.
   const std::size_t first_line = source.text.find('\n') + 1;
@@ -39,15 +39,14 @@ processing::Result<GLuint> compile(GLenum stage, const shaders::ShaderSource& so
   if (ok == GL_TRUE) return shader;
   const std::string log = info_log(shader, false);
   glDeleteShader(shader);
-  return std::unexpected(
-      processing::internal_error(std::string(source.name) + " does not compile: " + log));
+  return std::unexpected(internal_error(std::string(source.name) + " does not compile: " + log));
 }
 
 }  // namespace
 
-processing::Result<GlProgram> GlProgram::build(const shaders::ShaderSource& vertex,
-                                               const shaders::ShaderSource& fragment,
-                                               std::string_view defines) {
+Result<GlProgram> GlProgram::build(const shaders::ShaderSource& vertex,
+                                   const shaders::ShaderSource& fragment,
+                                   std::string_view defines) {
   auto vertex_shader = compile(GL_VERTEX_SHADER, vertex, defines);
   if (!vertex_shader) return std::unexpected(vertex_shader.error());
   auto fragment_shader = compile(GL_FRAGMENT_SHADER, fragment, defines);
@@ -65,9 +64,9 @@ processing::Result<GlProgram> GlProgram::build(const shaders::ShaderSource& vert
   GLint ok = GL_FALSE;
   glGetProgramiv(program.id_, GL_LINK_STATUS, &ok);
   if (ok != GL_TRUE)
-    return std::unexpected(
-        processing::internal_error(std::string(vertex.name) + " + " + std::string(fragment.name) +
-                                   " do not link: " + info_log(program.id_, true)));
+    return std::unexpected(internal_error(std::string(vertex.name) + " + " +
+                                          std::string(fragment.name) +
+                                          " do not link: " + info_log(program.id_, true)));
   return program;
 }
 

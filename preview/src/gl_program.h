@@ -6,7 +6,7 @@
 #include <string_view>
 #include <unordered_map>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 #include "shader_sources.h"
 
 namespace psrig::preview {
@@ -15,9 +15,9 @@ class GlProgram {
  public:
   // `defines` ("#define NAME 1\n" lines) go into both shaders right after
   // their #version line.
-  [[nodiscard]] static processing::Result<GlProgram> build(const shaders::ShaderSource& vertex,
-                                                           const shaders::ShaderSource& fragment,
-                                                           std::string_view defines = {});
+  [[nodiscard]] static Result<GlProgram> build(const shaders::ShaderSource& vertex,
+                                               const shaders::ShaderSource& fragment,
+                                               std::string_view defines = {});
   GlProgram(GlProgram&& other) noexcept;
   GlProgram& operator=(GlProgram&& other) noexcept;
   GlProgram(const GlProgram&) = delete;

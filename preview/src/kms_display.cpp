@@ -137,7 +137,7 @@ struct KmsDisplay::Impl {
   ~Impl();
 
   [[nodiscard]] Error failure(const std::string& message) const {
-    return processing::io_error(device, connector.empty() ? message : connector + ": " + message);
+    return io_error(device, connector.empty() ? message : connector + ": " + message);
   }
   Status probe(const Options& options);
   Status start_egl(int samples);
@@ -153,19 +153,19 @@ Status KmsDisplay::Impl::probe(const Options& options) {
     std::string message = std::string("cannot open the DRM device: ") + std::strerror(error);
     if (error == EACCES || error == EPERM)
       message += " (is the user in the video or render group?)";
-    return std::unexpected(processing::io_error(device, message));
+    return std::unexpected(io_error(device, message));
   }
   const DrmVersion driver(drmGetVersion(fd));
   if (!driver)
-    return std::unexpected(processing::io_error(
-        device, std::string("not a DRM device (") + std::strerror(errno) +
-                    "); the kiosk needs a display card such as /dev/dri/card0"));
+    return std::unexpected(
+        io_error(device, std::string("not a DRM device (") + std::strerror(errno) +
+                             "); the kiosk needs a display card such as /dev/dri/card0"));
   const DrmResources resources(drmModeGetResources(fd));
   if (!resources)
-    return std::unexpected(processing::io_error(
-        device,
-        "a DRM device without modesetting (a render node?); the kiosk needs a display "
-        "card such as /dev/dri/card0"));
+    return std::unexpected(
+        io_error(device,
+                 "a DRM device without modesetting (a render node?); the kiosk needs a display "
+                 "card such as /dev/dri/card0"));
 
   std::vector<DrmConnector> drm_connectors;
   std::vector<ConnectorInfo> infos;
@@ -431,9 +431,9 @@ Result<std::unique_ptr<KmsDisplay>> KmsDisplay::open(const Options& options) {
     const std::vector<std::string> cards = card_nodes();
     if (cards.empty())
       return std::unexpected(
-          processing::io_error(kDriDirectory,
-                               "no DRM device found (no /dev/dri/card*): is the display's kernel "
-                               "driver loaded, and /dev/dri passed into the container if in one?"));
+          io_error(kDriDirectory,
+                   "no DRM device found (no /dev/dri/card*): is the display's kernel "
+                   "driver loaded, and /dev/dri passed into the container if in one?"));
     std::string reasons;
     bool all_bad_input = true;
     for (const auto& card : cards) {
@@ -444,13 +444,13 @@ Result<std::unique_ptr<KmsDisplay>> KmsDisplay::open(const Options& options) {
         impl = std::move(candidate);
         break;
       }
-      all_bad_input = all_bad_input && probed.error().kind == processing::ErrorKind::bad_input;
+      all_bad_input = all_bad_input && probed.error().kind == ErrorKind::bad_input;
       reasons += (reasons.empty() ? "" : "; ") + probed.error().describe();
     }
     if (!impl) {
-      Error error = processing::io_error(kDriDirectory,
-                                         "no DRM device found with a usable display: " + reasons);
-      if (all_bad_input) error.kind = processing::ErrorKind::bad_input;
+      Error error =
+          io_error(kDriDirectory, "no DRM device found with a usable display: " + reasons);
+      if (all_bad_input) error.kind = ErrorKind::bad_input;
       return std::unexpected(error);
     }
   }

@@ -2,7 +2,7 @@
 
 #include <system_error>
 
-#include "psrig/processing/map_encoding.h"
+#include "psrig/processing/scan_layout.h"
 
 namespace psrig::preview {
 
@@ -13,7 +13,8 @@ std::optional<std::filesystem::path> newest_maps(const std::filesystem::path& ca
   std::error_code error;  // scans come and go while we look: skip what vanished
   for (const auto& entry : fs::directory_iterator(catalogue, error)) {
     if (!entry.is_directory(error)) continue;
-    for (const fs::path& maps : {entry.path() / "maps", entry.path()}) {
+    for (const fs::path& maps :
+         {entry.path() / processing::scan_files::kMapsDirectory, entry.path()}) {
       const auto written = fs::last_write_time(maps / processing::map_files::kReport, error);
       if (error) continue;
       if (!newest || written > newest_time || (written == newest_time && maps > *newest)) {

@@ -36,21 +36,21 @@ Result<std::unique_ptr<OffscreenTarget>> OffscreenTarget::create(cv::Size size, 
   glGetIntegerv(GL_MAX_RENDERBUFFER_SIZE, &max_size);
   glGetIntegerv(GL_MAX_SAMPLES, &max_samples);
   if (size.width <= 0 || size.height <= 0 || size.width > max_size || size.height > max_size)
-    return std::unexpected(
-        processing::bad_input("", "--size",
-                              std::to_string(size.width) + "x" + std::to_string(size.height) +
-                                  " is not a frame size this GL can draw (at most " +
-                                  std::to_string(max_size) + " a side)"));
+    return std::unexpected(bad_input("", "--size",
+                                     std::to_string(size.width) + "x" +
+                                         std::to_string(size.height) +
+                                         " is not a frame size this GL can draw (at most " +
+                                         std::to_string(max_size) + " a side)"));
   std::unique_ptr<OffscreenTarget> target(new OffscreenTarget);
   target->size_ = size;
   target->samples_ = std::clamp(samples, 0, max_samples);
   target->storage_ = storage;
   if (!make_framebuffer(size, target->samples_, storage, target->framebuffer_, target->colour_,
                         &target->depth_))
-    return std::unexpected(processing::io_error("GLES", "the offscreen framebuffer is incomplete"));
+    return std::unexpected(io_error("GLES", "the offscreen framebuffer is incomplete"));
   if (target->samples_ > 0 && !make_framebuffer(size, 0, storage, target->resolve_framebuffer_,
                                                 target->resolve_colour_, nullptr))
-    return std::unexpected(processing::io_error("GLES", "the resolve framebuffer is incomplete"));
+    return std::unexpected(io_error("GLES", "the resolve framebuffer is incomplete"));
   return target;
 }
 

@@ -43,25 +43,23 @@ std::optional<std::string_view> name_value(std::string_view code) {
   return trim(code.substr(kKey.size()));
 }
 
-processing::Error error_at(const std::filesystem::path& source, int line, int column,
-                           std::string message) {
-  processing::Error error = processing::bad_input(source, {}, std::move(message));
+Error error_at(const std::filesystem::path& source, int line, int column, std::string message) {
+  Error error = bad_input(source, {}, std::move(message));
   error.line = line;
   error.column = column;
   return error;
 }
 
-processing::Result<std::string> read_text_file(const std::filesystem::path& file) {
+Result<std::string> read_text_file(const std::filesystem::path& file) {
   std::error_code ignored;
   if (std::filesystem::is_directory(file, ignored))
-    return std::unexpected(processing::bad_input(file, {}, "is a directory, not a pattern file"));
+    return std::unexpected(bad_input(file, {}, "is a directory, not a pattern file"));
   std::ifstream in(file, std::ios::binary);
   if (!in)
-    return std::unexpected(
-        processing::io_error(file, std::string("cannot read: ") + std::strerror(errno)));
+    return std::unexpected(io_error(file, std::string("cannot read: ") + std::strerror(errno)));
   std::ostringstream text;
   text << in.rdbuf();
-  if (in.bad()) return std::unexpected(processing::io_error(file, "read failed"));
+  if (in.bad()) return std::unexpected(io_error(file, "read failed"));
   return std::move(text).str();
 }
 

@@ -9,7 +9,7 @@
 #include <string_view>
 #include <vector>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::preview::pattern_text {
 
@@ -45,10 +45,10 @@ struct Line {
 }
 
 // A bad-input error at a place in `source` (column 0: the whole line).
-[[nodiscard]] processing::Error error_at(const std::filesystem::path& source, int line, int column,
-                                         std::string message);
+[[nodiscard]] Error error_at(const std::filesystem::path& source, int line, int column,
+                             std::string message);
 
 // The whole file, or an io error naming it.
-[[nodiscard]] processing::Result<std::string> read_text_file(const std::filesystem::path& file);
+[[nodiscard]] Result<std::string> read_text_file(const std::filesystem::path& file);
 
 }  // namespace psrig::preview::pattern_text

@@ -57,8 +57,8 @@ std::vector<Symbol> symbols_of(const Line& line, std::string_view code) {
 
 // `colour A #RRGGBB`: the `#` of the value is not a comment, so this line
 // is read before comments are stripped.
-processing::Status read_palette_line(const fs::path& source, const Line& line,
-                                     std::string_view rest, ChartLines& chart) {
+Status read_palette_line(const fs::path& source, const Line& line, std::string_view rest,
+                         ChartLines& chart) {
   rest = pattern_text::trim(rest);
   if (rest.empty() || rest.front() == '#')
     return std::unexpected(error_at(source, line.number, line.column_of(rest),
@@ -100,8 +100,8 @@ processing::Status read_palette_line(const fs::path& source, const Line& line,
   return {};
 }
 
-processing::Status read_colour_row(const fs::path& source, const Line& line, std::string_view code,
-                                   ChartLines& chart) {
+Status read_colour_row(const fs::path& source, const Line& line, std::string_view code,
+                       ChartLines& chart) {
   if (chart.rows.empty())
     return std::unexpected(error_at(
         source, line.number, line.column_of(code),
@@ -123,8 +123,8 @@ processing::Status read_colour_row(const fs::path& source, const Line& line, std
   return {};
 }
 
-processing::Status read_stitch_row(const fs::path& source, const Line& line, std::string_view code,
-                                   ChartLines& chart) {
+Status read_stitch_row(const fs::path& source, const Line& line, std::string_view code,
+                       ChartLines& chart) {
   StitchRow row{line.number, {}, std::nullopt};
   for (const Symbol& symbol : symbols_of(line, code)) {
     const char upper = static_cast<char>(std::toupper(static_cast<unsigned char>(symbol.letter)));
@@ -145,7 +145,7 @@ processing::Status read_stitch_row(const fs::path& source, const Line& line, std
   return {};
 }
 
-processing::Status read_line(const fs::path& source, const Line& line, ChartLines& chart) {
+Status read_line(const fs::path& source, const Line& line, ChartLines& chart) {
   const std::string_view whole = pattern_text::trim(line.text);
   for (const std::string_view keyword : {"colour", "color"})
     if (whole.starts_with(keyword) && whole.size() > keyword.size() &&
@@ -190,7 +190,7 @@ Result<StitchChart> parse_stitch_chart(std::string_view text, const fs::path& so
   for (const Line& line : pattern_text::split_lines(text))
     if (auto read = read_line(source, line, lines); !read) return std::unexpected(read.error());
   if (lines.rows.empty())
-    return std::unexpected(processing::bad_input(
+    return std::unexpected(bad_input(
         source, {}, "the chart has no stitch rows (lines of K and P, the bottom course first)"));
 
   StitchChart chart;

@@ -8,12 +8,12 @@
 #include "psrig/processing/image_io.h"
 #include "psrig/processing/linearise.h"
 #include "psrig/processing/map_encoding.h"
+#include "psrig/processing/scan_layout.h"
 
 namespace psrig::preview {
 namespace {
 
 namespace fs = std::filesystem;
-using processing::bad_input;
 namespace map_files = processing::map_files;
 
 // Any depth, one or three channels, BGR as OpenCV reads it -> CV_32FC3 RGB.
@@ -118,7 +118,7 @@ cv::Size2d SwatchMaps::extent() const {
 
 Result<SwatchMaps> load_swatch_maps(const fs::path& directory) {
   if (!fs::is_directory(directory))
-    return std::unexpected(processing::bad_input(directory, "", "not a maps directory"));
+    return std::unexpected(bad_input(directory, "", "not a maps directory"));
   SwatchMaps maps;
   maps.directory = directory;
   auto albedo = read_albedo(directory);

@@ -169,8 +169,8 @@ Result<std::unique_ptr<SwatchRenderer>> SwatchRenderer::create(const SwatchMaps&
   }
   gl.sphere = upload_sphere();
   if (const GLenum error = glGetError(); error != GL_NO_ERROR)
-    return std::unexpected(processing::internal_error(
-        "GL error " + std::to_string(error) + " while uploading " + maps.directory.string()));
+    return std::unexpected(internal_error("GL error " + std::to_string(error) +
+                                          " while uploading " + maps.directory.string()));
   return renderer;
 }
 

@@ -56,8 +56,8 @@ Result<WeaveMatrix> parse_weave_matrix(std::string_view text, const fs::path& so
     ++matrix.wefts;
   }
   if (matrix.wefts == 0)
-    return std::unexpected(processing::bad_input(
-        source, {}, "the weave has no rows (lines of 0 and 1, the first weft first)"));
+    return std::unexpected(
+        bad_input(source, {}, "the weave has no rows (lines of 0 and 1, the first weft first)"));
   matrix.name = name && !name->empty() ? *name : source.stem().string();
   return matrix;
 }

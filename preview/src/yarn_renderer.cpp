@@ -124,11 +124,10 @@ Result<std::unique_ptr<YarnRenderer>> YarnRenderer::create(const YarnRendererOpt
   const bool complete = glCheckFramebufferStatus(GL_DRAW_FRAMEBUFFER) == GL_FRAMEBUFFER_COMPLETE;
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(previous_framebuffer));
   if (!complete)
-    return std::unexpected(
-        processing::internal_error("the yarn shadow map's framebuffer is incomplete"));
+    return std::unexpected(internal_error("the yarn shadow map's framebuffer is incomplete"));
   if (const GLenum error = glGetError(); error != GL_NO_ERROR)
-    return std::unexpected(processing::internal_error("GL error " + std::to_string(error) +
-                                                      " while setting up the yarn renderer"));
+    return std::unexpected(internal_error("GL error " + std::to_string(error) +
+                                          " while setting up the yarn renderer"));
   return renderer;
 }
 

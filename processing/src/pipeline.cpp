@@ -7,13 +7,14 @@
 
 #include <opencv2/imgcodecs.hpp>
 
+#include "psrig/base/log.h"
 #include "psrig/processing/atomic_directory.h"
 #include "psrig/processing/evaluation.h"
 #include "psrig/processing/image_io.h"
-#include "psrig/processing/log.h"
 #include "psrig/processing/map_encoding.h"
 #include "psrig/processing/parallel.h"
 #include "psrig/processing/report.h"
+#include "psrig/processing/scan_layout.h"
 #include "psrig/processing/scan_reader.h"
 
 namespace psrig::processing {
@@ -68,7 +69,8 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
 
   // Where the maps go is checked first: a bad --out should not wait for a
   // 12 MP read. Nothing is visible there until the commit.
-  const fs::path output = options.output.empty() ? scan_directory / "maps" : options.output;
+  const fs::path output =
+      options.output.empty() ? scan_directory / scan_files::kMapsDirectory : options.output;
   const auto existing = check_output(output);
   if (!existing) return std::unexpected(existing.error());
   auto staging = AtomicDirectory::create(output);

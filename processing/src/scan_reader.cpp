@@ -8,6 +8,7 @@
 #include "psrig/processing/image_io.h"
 #include "psrig/processing/light_matrix.h"
 #include "psrig/processing/parallel.h"
+#include "psrig/processing/scan_layout.h"
 
 namespace psrig::processing {
 namespace {
@@ -191,11 +192,11 @@ class DescriptionParser {
     }
 
     if (!doc.contains("flats") || doc["flats"].is_null()) {
-      // No key: DESIGN.md's layout names them flat0.png, flat1.png, ...
-      for (const char* extension : {".png", ".tif", ".tiff", ".exr"}) {
-        if (!std::filesystem::exists(directory / ("flat0" + std::string(extension)))) continue;
+      // No key: the layout names them flat0.png, flat1.png, ...
+      for (const auto extension : scan_files::kFrameExtensions) {
+        if (!std::filesystem::exists(directory / scan_files::flat_frame(0, extension))) continue;
         for (std::size_t i = 0; i < lights.size(); ++i)
-          d.flats.push_back("flat" + std::to_string(i) + extension);
+          d.flats.push_back(scan_files::flat_frame(static_cast<int>(i), extension));
         break;
       }
     } else {
@@ -279,7 +280,7 @@ Result<ScanDescription> read_scan_description(const fs::path& directory) {
   if (!fs::is_directory(directory, ec))
     return std::unexpected(bad_input(
         directory, "", fs::exists(directory, ec) ? "not a directory" : "no such scan directory"));
-  const fs::path file = directory / "scan.json";
+  const fs::path file = directory / scan_files::kDescription;
   if (!fs::exists(file, ec))
     return std::unexpected(bad_input(file, "", "missing: a scan directory holds scan.json"));
   std::ifstream stream(file, std::ios::binary);
@@ -394,7 +395,7 @@ Result<Scan> read_scan_unguarded(const fs::path& directory) {
 
   const double full = full_scale(first.depth());
   scan.white_level = d.white_level.value_or(full);
-  const fs::path json_file = directory / "scan.json";
+  const fs::path json_file = directory / scan_files::kDescription;
   if (first.depth() != CV_32F && scan.white_level > full)
     return std::unexpected(bad_input(json_file, "white_level",
                                      "is " + std::to_string(scan.white_level) +

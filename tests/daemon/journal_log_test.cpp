@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 #include <spdlog/sinks/ostream_sink.h>
 
-#include "psrig/processing/log.h"
+#include "psrig/base/log.h"
 
 namespace psrig::processing {
 namespace {

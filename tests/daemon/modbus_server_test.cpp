@@ -46,17 +46,15 @@ class FakeScanControl : public ScanControl {
     // As ScanService refuses: a full queue names its key, a catalogue
     // that cannot write is a storage error.
     if (refuse_ && !storage_fails_)
-      return std::unexpected(
-          processing::bad_input("rig.toml", kQueueFullKey, "queue full: 4 scans waiting"));
-    if (refuse_)
-      return std::unexpected(processing::io_error("catalogue.sqlite", "database or disk is full"));
+      return std::unexpected(bad_input("rig.toml", kQueueFullKey, "queue full: 4 scans waiting"));
+    if (refuse_) return std::unexpected(io_error("catalogue.sqlite", "database or disk is full"));
     ++status_.queue_length;
     return next_id_++;
   }
   Status lights_off() override {
     const std::scoped_lock lock(mutex_);
     ++lights_off_calls_;
-    if (lights_fail_) return std::unexpected(processing::internal_error("LED driver gone"));
+    if (lights_fail_) return std::unexpected(internal_error("LED driver gone"));
     return {};
   }
 

@@ -14,11 +14,11 @@ fs::path config_dir() {
   return fs::path(PSRIG_SOURCE_DIR) / "config";
 }
 
-processing::Error expect_error(const std::string& text, const std::string& key, int line) {
+Error expect_error(const std::string& text, const std::string& key, int line) {
   auto config = parse_config(text, "/etc/psrig/rig.toml");
   EXPECT_FALSE(config) << text;
   if (config) return {};
-  EXPECT_EQ(config.error().kind, processing::ErrorKind::bad_input);
+  EXPECT_EQ(config.error().kind, ErrorKind::bad_input);
   EXPECT_EQ(config.error().key, key) << config.error().describe();
   EXPECT_EQ(config.error().line, line) << config.error().describe();
   EXPECT_EQ(config.error().file, fs::path("/etc/psrig/rig.toml"));

@@ -8,8 +8,6 @@
 namespace psrig::preview {
 namespace {
 
-using processing::ErrorKind;
-
 // A monitor on HDMI whose EDID prefers 1080p60, and a panel with nothing on it.
 std::vector<ConnectorInfo> hdmi_monitor_and_dsi_panel() {
   ConnectorInfo dsi{31, "DSI-1", false, {}};

@@ -18,7 +18,7 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 #include "psrig/processing/parallel.h"
 #include "test_support.h"
 

@@ -27,14 +27,14 @@ class FakeLights final : public LightController {
   int channel_count() const override { return 3; }
   Status turn_on(int channel) override {
     if (state_->fail_on)
-      return std::unexpected(processing::io_error("/dev/fake", "the driver stopped answering"));
+      return std::unexpected(io_error("/dev/fake", "the driver stopped answering"));
     state_->on[channel] = true;
     log_.record(channel, true);
     return {};
   }
   Status all_off() override {
     ++state_->off_calls;
-    if (state_->fail_off) return std::unexpected(processing::io_error("/dev/fake", "stuck"));
+    if (state_->fail_off) return std::unexpected(io_error("/dev/fake", "stuck"));
     std::fill(state_->on.begin(), state_->on.end(), false);
     log_.record(-1, false);
     return {};

@@ -106,7 +106,7 @@ class ScriptedCamera final : public Camera {
     const int n = next_++;
     if (on_grab) on_grab(n + 1);
     if (frames_before_silence >= 0 && n >= frames_before_silence)
-      return std::unexpected(processing::io_error(
+      return std::unexpected(io_error(
           "scripted camera", "no frame within " + std::to_string(timeout.count()) + " ms"));
     Frame frame;
     frame.exposure_start = t0_ + n * period + (jitter ? jitter(n) : Clock::duration{});
@@ -254,8 +254,7 @@ class FailingLights final : public firmware_host::LightController {
  public:
   int channel_count() const override { return 3; }
   Status turn_on(int channel) override {
-    if (channel == 1)
-      return std::unexpected(processing::io_error("test lights", "channel 1: line busy"));
+    if (channel == 1) return std::unexpected(io_error("test lights", "channel 1: line busy"));
     log_.record(channel, true);
     return {};
   }

@@ -206,8 +206,8 @@ TEST(StitchChart, ErrorsNameTheFileLineAndColumn) {
   for (const BadChart& bad : cases) {
     auto chart = parse_stitch_chart(bad.text, "bad.chart");
     ASSERT_FALSE(chart) << bad.text;
-    const processing::Error& error = chart.error();
-    EXPECT_EQ(error.kind, processing::ErrorKind::bad_input) << bad.text;
+    const Error& error = chart.error();
+    EXPECT_EQ(error.kind, ErrorKind::bad_input) << bad.text;
     EXPECT_EQ(error.line, bad.line) << bad.text;
     EXPECT_EQ(error.column, bad.column) << bad.text;
     const std::string where = "bad.chart:" + std::to_string(bad.line) + ":";
@@ -220,7 +220,7 @@ TEST(StitchChart, AChartWithoutStitchRowsIsAnError) {
   for (const char* text : {"", "# only a comment\n\nname: nothing\n", "colour A #000000\n"}) {
     auto chart = parse_stitch_chart(text, "empty.chart");
     ASSERT_FALSE(chart) << text;
-    EXPECT_EQ(processing::exit_code(chart.error()), 2);
+    EXPECT_EQ(exit_code(chart.error()), 2);
     EXPECT_NE(chart.error().describe().find("empty.chart"), std::string::npos);
     EXPECT_NE(chart.error().describe().find("no stitch rows"), std::string::npos);
   }
@@ -230,7 +230,7 @@ TEST(StitchChart, AnUnreadableFileIsAnIoError) {
   const test::TempDir temp;
   auto chart = load_stitch_chart(temp / "absent.chart");
   ASSERT_FALSE(chart);
-  EXPECT_EQ(chart.error().kind, processing::ErrorKind::io);
+  EXPECT_EQ(chart.error().kind, ErrorKind::io);
   EXPECT_NE(chart.error().describe().find("absent.chart"), std::string::npos);
 }
 

@@ -88,7 +88,7 @@ TEST(SwatchMaps, ErrorsNameTheFile) {
 
   auto not_a_directory = load_swatch_maps(temp / "nowhere");
   ASSERT_FALSE(not_a_directory);
-  EXPECT_EQ(processing::exit_code(not_a_directory.error()), 2);
+  EXPECT_EQ(exit_code(not_a_directory.error()), 2);
 }
 
 TEST(NewestMaps, PicksTheLatestFinishedScan) {

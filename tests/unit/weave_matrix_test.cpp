@@ -112,7 +112,7 @@ TEST(WeaveMatrix, ErrorsNameTheFileLineAndColumn) {
   for (const Bad& bad : cases) {
     auto matrix = parse_weave_matrix(bad.text, "bad.weave");
     ASSERT_FALSE(matrix) << bad.text;
-    EXPECT_EQ(matrix.error().kind, processing::ErrorKind::bad_input);
+    EXPECT_EQ(matrix.error().kind, ErrorKind::bad_input);
     EXPECT_EQ(matrix.error().line, bad.line) << bad.text;
     EXPECT_EQ(matrix.error().column, bad.column) << bad.text;
     const std::string where = "bad.weave:" + std::to_string(bad.line) + ":";
@@ -122,14 +122,14 @@ TEST(WeaveMatrix, ErrorsNameTheFileLineAndColumn) {
   }
   auto empty = parse_weave_matrix("# nothing\n\n", "empty.weave");
   ASSERT_FALSE(empty);
-  EXPECT_EQ(processing::exit_code(empty.error()), 2);
+  EXPECT_EQ(exit_code(empty.error()), 2);
   EXPECT_NE(empty.error().describe().find("empty.weave"), std::string::npos);
   EXPECT_NE(empty.error().describe().find("no rows"), std::string::npos);
 
   const test::TempDir temp;
   auto absent = load_weave_matrix(temp / "absent.weave");
   ASSERT_FALSE(absent);
-  EXPECT_EQ(absent.error().kind, processing::ErrorKind::io);
+  EXPECT_EQ(absent.error().kind, ErrorKind::io);
   EXPECT_NE(absent.error().describe().find("absent.weave"), std::string::npos);
 }
 

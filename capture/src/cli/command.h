@@ -7,8 +7,8 @@
 
 #include <CLI/CLI.hpp>
 
+#include "psrig/base/error.h"
 #include "psrig/config/rig_config.h"
-#include "psrig/processing/error.h"
 #include "psrig/processing/pipeline.h"
 
 namespace psrig::capture::cli {
@@ -41,6 +41,6 @@ std::optional<config::RigConfig> load_config_or_report(const std::string& comman
                                                        const std::string& file, int& exit_code);
 
 // Prints "psrig COMMAND: error: ..." to stderr and returns the exit code.
-int report_error(const std::string& command, const processing::Error& error);
+int report_error(const std::string& command, const Error& error);
 
 }  // namespace psrig::capture::cli

@@ -5,8 +5,8 @@
 #include <iostream>
 
 #include "command.h"
+#include "psrig/base/log.h"
 #include "psrig/config/config_loader.h"
-#include "psrig/processing/log.h"
 
 namespace psrig::capture::cli {
 

@@ -18,33 +18,32 @@ DaemonClient::DaemonClient(std::string url, std::string token) : url_(std::move(
 DaemonClient::~DaemonClient() = default;
 
 template <class Call>
-processing::Result<DaemonReply> DaemonClient::request(const std::string& what, Call call) {
+Result<DaemonReply> DaemonClient::request(const std::string& what, Call call) {
   if (!client_->is_valid())
-    return std::unexpected(processing::bad_input(
+    return std::unexpected(bad_input(
         "", "--url", url_ + ": not a daemon URL (expected e.g. " + kDefaultDaemonUrl + ")"));
   const httplib::Result result = call();
   if (!result)
-    return std::unexpected(processing::io_error(
-        url_, "cannot reach psrigd (" + httplib::to_string(result.error()) + " on " + what +
-                  "); is it running, and is this its address?"));
+    return std::unexpected(io_error(url_, "cannot reach psrigd (" +
+                                              httplib::to_string(result.error()) + " on " + what +
+                                              "); is it running, and is this its address?"));
   if (result->status == 401)
-    return std::unexpected(processing::bad_input(
-        url_, "", "psrigd wants a bearer token: give --token or set PSRIG_TOKEN"));
+    return std::unexpected(
+        bad_input(url_, "", "psrigd wants a bearer token: give --token or set PSRIG_TOKEN"));
   DaemonReply reply;
   reply.status = result->status;
   reply.body = nlohmann::json::parse(result->body, nullptr, false);
   if (reply.body.is_discarded())
-    return std::unexpected(processing::io_error(
+    return std::unexpected(io_error(
         url_, what + ": answered HTTP " + std::to_string(result->status) + " but not in JSON"));
   return reply;
 }
 
-processing::Result<DaemonReply> DaemonClient::get(const std::string& path) {
+Result<DaemonReply> DaemonClient::get(const std::string& path) {
   return request("GET " + path, [&] { return client_->Get(path); });
 }
 
-processing::Result<DaemonReply> DaemonClient::post(const std::string& path,
-                                                   const nlohmann::json& body) {
+Result<DaemonReply> DaemonClient::post(const std::string& path, const nlohmann::json& body) {
   return request("POST " + path,
                  [&] { return client_->Post(path, body.dump(), "application/json"); });
 }

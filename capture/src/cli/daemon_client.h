@@ -8,7 +8,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace httplib {
 class Client;
@@ -34,15 +34,14 @@ class DaemonClient {
   // Any HTTP answer; an error only when there was none (no daemon there,
   // a bad URL) or it was not JSON. 401 becomes a bad_input error naming
   // --token.
-  [[nodiscard]] processing::Result<DaemonReply> get(const std::string& path);
-  [[nodiscard]] processing::Result<DaemonReply> post(const std::string& path,
-                                                     const nlohmann::json& body);
+  [[nodiscard]] Result<DaemonReply> get(const std::string& path);
+  [[nodiscard]] Result<DaemonReply> post(const std::string& path, const nlohmann::json& body);
 
   [[nodiscard]] const std::string& url() const { return url_; }
 
  private:
   template <class Call>
-  processing::Result<DaemonReply> request(const std::string& what, Call call);
+  Result<DaemonReply> request(const std::string& what, Call call);
 
   std::string url_;
   std::unique_ptr<httplib::Client> client_;

@@ -8,14 +8,14 @@
 #include <vector>
 
 #include "command.h"
+#include "psrig/base/log.h"
 #include "psrig/firmware_host/emergency_stop.h"
-#include "psrig/processing/log.h"
 
 namespace psrig::capture::cli {
 
-int report_error(const std::string& command, const processing::Error& error) {
+int report_error(const std::string& command, const Error& error) {
   std::cerr << "psrig " << command << ": error: " << error.describe() << '\n';
-  return processing::exit_code(error);
+  return exit_code(error);
 }
 
 }  // namespace psrig::capture::cli
@@ -42,7 +42,7 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);  // prints help or the usage error
     return code == 0 ? 0 : 2;
   }
-  psrig::processing::set_log_level(verbose ? spdlog::level::debug : spdlog::level::warn);
+  psrig::set_log_level(verbose ? spdlog::level::debug : spdlog::level::warn);
   try {
     for (const auto& command : commands)
       if (command.app->parsed()) return command.run();

@@ -49,15 +49,14 @@ int run_remote_scan(const RemoteScan& scan) {
     // 4xx: the request (sample id, tags, token); anything else: the daemon.
     const std::string message = "psrigd refused the scan: " + reply_error(*queued);
     const bool ours = queued->status >= 400 && queued->status < 500;
-    const auto error = ours ? processing::bad_input(scan.url, "", message)
-                            : processing::io_error(scan.url, message);
+    const auto error = ours ? bad_input(scan.url, "", message) : io_error(scan.url, message);
     return report_error("scan", error);
   }
   if (!queued->body.is_object() || !queued->body["id"].is_number_integer())
-    return report_error("scan", processing::io_error(scan.url,
-                                                     "psrigd queued the scan but gave "
-                                                     "no id: " +
-                                                         queued->body.dump()));
+    return report_error("scan", io_error(scan.url,
+                                         "psrigd queued the scan but gave "
+                                         "no id: " +
+                                             queued->body.dump()));
   const auto id = queued->body["id"].get<std::int64_t>();
   const std::string path = "/v1/scans/" + std::to_string(id);
   if (!scan.quiet)
@@ -74,8 +73,8 @@ int run_remote_scan(const RemoteScan& scan) {
     auto entry = client.get(path);
     if (!entry) return report_error("scan", entry.error());
     if (entry->status != 200)
-      return report_error("scan", processing::io_error(scan.url, "scan " + std::to_string(id) +
-                                                                     ": " + reply_error(*entry)));
+      return report_error(
+          "scan", io_error(scan.url, "scan " + std::to_string(id) + ": " + reply_error(*entry)));
     const std::string status = text(entry->body["status"]);
     if (status == "done") {
       const auto& e = entry->body;

@@ -68,7 +68,7 @@ Command add_status_command(CLI::App& parent) {
             auto reply = client.get("/v1/status");
             if (!reply) return report_error("status", reply.error());
             if (reply->status != 200)
-              return report_error("status", processing::io_error(args->url, reply_error(*reply)));
+              return report_error("status", io_error(args->url, reply_error(*reply)));
             try {
               if (args->json)
                 std::printf("%s\n", reply->body.dump(2).c_str());
@@ -76,8 +76,7 @@ Command add_status_command(CLI::App& parent) {
                 print_status(args->url, reply->body);
             } catch (const nlohmann::json::exception& e) {
               return report_error(
-                  "status",
-                  processing::io_error(args->url, std::string("unexpected answer: ") + e.what()));
+                  "status", io_error(args->url, std::string("unexpected answer: ") + e.what()));
             }
             return 0;
           }};

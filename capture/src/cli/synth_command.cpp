@@ -58,11 +58,10 @@ Command add_synth_command(CLI::App& parent) {
             if (!std::regex_match(args->size, match, size_pattern) || std::stoi(match[1]) < 8 ||
                 std::stoi(match[2]) < 8 || std::stoi(match[1]) > kMaxSide ||
                 std::stoi(match[2]) > kMaxSide)
-              return report_error("synth",
-                                  processing::bad_input(
-                                      {}, "--size",
-                                      "expected WxH from 8x8 to 16384x16384, e.g. 640x480; got '" +
-                                          args->size + "'"));
+              return report_error(
+                  "synth", bad_input({}, "--size",
+                                     "expected WxH from 8x8 to 16384x16384, e.g. 640x480; got '" +
+                                         args->size + "'"));
             SyntheticScanParams params;
             params.swatch.pattern = *firmware_host::sim::parse_swatch_pattern(args->pattern);
             params.swatch.size = {std::stoi(match[1]), std::stoi(match[2])};

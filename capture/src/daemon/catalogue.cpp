@@ -9,7 +9,7 @@
 #include <sqlite3.h>
 #include <unistd.h>
 
-#include "psrig/processing/log.h"
+#include "psrig/base/log.h"
 #include "sqlite_statement.h"
 
 namespace psrig::capture {
@@ -87,7 +87,7 @@ bool process_alive(pid_t pid) {
 }
 
 // SQLite's word for SQLITE_FULL, which the statement's error carries.
-bool disk_full(const processing::Error& error) {
+bool disk_full(const Error& error) {
   return error.message.find(sqlite3_errstr(SQLITE_FULL)) != std::string::npos;
 }
 
@@ -153,7 +153,7 @@ auto Catalogue::with_room(Write&& write) -> decltype(write()) {
   }
   if (!disk_full(result.error())) return result;
   if (release_reserve()) {
-    processing::logger("catalogue")
+    logger("catalogue")
         ->warn("{}: the disk is full; gave back the catalogue's reserve ({} KiB) to record this",
                root_.string(), kReserveBytes >> 10);
     result = write();
@@ -161,7 +161,7 @@ auto Catalogue::with_room(Write&& write) -> decltype(write()) {
   }
   std::error_code ec;
   const auto space = fs::space(root_, ec);
-  return std::unexpected(processing::io_error(
+  return std::unexpected(io_error(
       root_ / kFileName, "the disk is full (" + std::to_string(ec ? 0 : space.available >> 10) +
                              " KiB free), the catalogue cannot record scans; delete or move old "
                              "scans, or point storage.root at a larger disk"));
@@ -201,10 +201,9 @@ Result<std::unique_ptr<Catalogue>> Catalogue::open(const fs::path& storage_root)
   fs::create_directories(storage_root, ec);
   if (ec)
     return std::unexpected(
-        processing::io_error(storage_root, "cannot create the storage root: " + ec.message()));
+        io_error(storage_root, "cannot create the storage root: " + ec.message()));
   const fs::path root = fs::weakly_canonical(storage_root, ec);
-  if (ec)
-    return std::unexpected(processing::io_error(storage_root, "cannot resolve: " + ec.message()));
+  if (ec) return std::unexpected(io_error(storage_root, "cannot resolve: " + ec.message()));
   const fs::path file = root / kFileName;
   sqlite3* db = nullptr;
   const int rc = sqlite3_open_v2(
@@ -212,7 +211,7 @@ Result<std::unique_ptr<Catalogue>> Catalogue::open(const fs::path& storage_root)
   if (rc != SQLITE_OK) {
     const std::string message = db ? sqlite3_errmsg(db) : sqlite3_errstr(rc);
     sqlite3_close_v2(db);
-    return std::unexpected(processing::io_error(file, "cannot open the catalogue: " + message));
+    return std::unexpected(io_error(file, "cannot open the catalogue: " + message));
   }
   std::unique_ptr<Catalogue> catalogue(new Catalogue(root, db));
   // WAL: readers (sqlite3 on the command line, a backup) never block the
@@ -231,7 +230,7 @@ Status Catalogue::execute(const std::string& sql) const {
   if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &message) != SQLITE_OK) {
     const std::string text = message ? message : "unknown error";
     sqlite3_free(message);
-    return std::unexpected(processing::io_error(root_ / kFileName, text));
+    return std::unexpected(io_error(root_ / kFileName, text));
   }
   return {};
 }
@@ -242,10 +241,10 @@ Status Catalogue::migrate() {
   if (auto row = version->step(); !row) return std::unexpected(row.error());
   const auto current = static_cast<int>(version->integer(0));
   if (current > kSchemaVersion)
-    return std::unexpected(processing::io_error(
-        root_ / kFileName, "schema version " + std::to_string(current) +
-                               " is newer than this psrigd understands (" +
-                               std::to_string(kSchemaVersion) + "); run a newer psrigd"));
+    return std::unexpected(
+        io_error(root_ / kFileName, "schema version " + std::to_string(current) +
+                                        " is newer than this psrigd understands (" +
+                                        std::to_string(kSchemaVersion) + "); run a newer psrigd"));
   for (int step = current; step < kSchemaVersion; ++step) {
     const std::string sql = std::string("BEGIN IMMEDIATE;") + kMigrations[step] +
                             "PRAGMA user_version = " + std::to_string(step + 1) + "; COMMIT;";
@@ -272,7 +271,7 @@ Result<std::int64_t> Catalogue::add(const ScanSubmission& submission) {
 Result<std::int64_t> Catalogue::add_row(const ScanSubmission& submission) {
   std::lock_guard lock(mutex_);
   if (auto ok = execute("BEGIN IMMEDIATE"); !ok) return std::unexpected(ok.error());
-  const auto fail = [&](const processing::Error& e) -> Result<std::int64_t> {
+  const auto fail = [&](const Error& e) -> Result<std::int64_t> {
     (void)execute("ROLLBACK");
     return std::unexpected(e);
   };
@@ -302,9 +301,8 @@ Result<std::int64_t> Catalogue::add_row(const ScanSubmission& submission) {
 Status Catalogue::mark_running(std::int64_t id, const fs::path& scan_directory) {
   const auto inside = inside_root(scan_directory);
   if (!inside)
-    return std::unexpected(processing::internal_error("scan directory " + scan_directory.string() +
-                                                      " is outside the storage root " +
-                                                      root_.string()));
+    return std::unexpected(internal_error("scan directory " + scan_directory.string() +
+                                          " is outside the storage root " + root_.string()));
   return with_room([&]() -> Status {
     std::lock_guard lock(mutex_);
     auto update = Statement::prepare(
@@ -323,8 +321,8 @@ Status Catalogue::mark_done(std::int64_t id, const fs::path& maps_directory,
   if (!maps_directory.empty()) {
     const auto inside = inside_root(maps_directory);
     if (!inside)
-      return std::unexpected(processing::internal_error(
-          "maps directory " + maps_directory.string() + " is outside the storage root"));
+      return std::unexpected(internal_error("maps directory " + maps_directory.string() +
+                                            " is outside the storage root"));
     maps_path = inside->lexically_relative(root_).generic_string();
   }
   return with_room([&] { return mark_done_row(id, maps_path, report); });
@@ -459,7 +457,7 @@ Result<bool> Catalogue::remove(std::int64_t id) {
     if (!inside) continue;
     std::error_code ec;
     fs::remove_all(*inside, ec);
-    if (ec) return std::unexpected(processing::io_error(*inside, "cannot remove: " + ec.message()));
+    if (ec) return std::unexpected(io_error(*inside, "cannot remove: " + ec.message()));
   }
   auto erased = with_room([&]() -> Status {
     std::lock_guard lock(mutex_);
@@ -473,7 +471,7 @@ Result<bool> Catalogue::remove(std::int64_t id) {
 }
 
 Result<CatalogueRecovery> Catalogue::recover() {
-  auto log = processing::logger("catalogue");
+  auto log = logger("catalogue");
   CatalogueRecovery recovery;
   std::vector<std::pair<std::int64_t, std::string>> unfinished;
   {

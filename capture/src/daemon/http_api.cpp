@@ -9,8 +9,8 @@
 #include <map>
 #include <thread>
 
-#include "psrig/processing/log.h"
-#include "psrig/processing/map_encoding.h"
+#include "psrig/base/log.h"
+#include "psrig/processing/scan_layout.h"
 
 namespace psrig::capture {
 namespace {
@@ -173,7 +173,7 @@ struct HttpApi::Impl {
 };
 
 void HttpApi::Impl::routes() {
-  auto log = processing::logger("http");
+  auto log = logger("http");
   const std::string token = options.token;
   const std::size_t max_body = options.max_body_bytes;
   server.set_pre_routing_handler(
@@ -319,8 +319,7 @@ void HttpApi::Impl::submit(const httplib::Request& req, httplib::Response& res) 
       res.set_header("Retry-After", "5");
       return refuse(res, 503, id.error().message);
     }
-    if (id.error().kind == processing::ErrorKind::bad_input)
-      return refuse(res, 400, id.error().message);
+    if (id.error().kind == ErrorKind::bad_input) return refuse(res, 400, id.error().message);
     // The daemon's trouble (a full disk): which file, for the technician.
     return refuse(res, 503, id.error().describe());
   }
@@ -418,7 +417,7 @@ void HttpApi::Impl::file(const httplib::Request& req, httplib::Response& res) {
           const auto got = static_cast<std::size_t>(stream->gcount());
           return got > 0 && sink.write(buffer.data(), got);
         } catch (const std::exception& e) {
-          processing::logger("http")->error("download: {}", e.what());
+          logger("http")->error("download: {}", e.what());
           return false;
         }
       });
@@ -514,7 +513,7 @@ void HttpApi::Impl::events(const httplib::Request& req, httplib::Response& res) 
           return sink.is_writable();
         } catch (const std::exception& e) {
           // As for downloads: an exception here would end the daemon.
-          processing::logger("http")->error("event stream: {}", e.what());
+          logger("http")->error("event stream: {}", e.what());
           return false;
         }
       });
@@ -535,7 +534,7 @@ HttpApi::~HttpApi() {
 Result<std::unique_ptr<HttpApi>> HttpApi::start(ScanService& service, HttpApiOptions options) {
   const std::string where = options.address + ":" + std::to_string(options.port);
   if (options.token.empty() && !config::is_loopback_address(options.address))
-    return std::unexpected(processing::bad_input(
+    return std::unexpected(bad_input(
         service.config().source, "daemon.token",
         "listening on " + where + " reaches other machines; set a token or listen on 127.0.0.1"));
   auto impl = std::make_unique<Impl>(service, options);
@@ -549,15 +548,15 @@ Result<std::unique_ptr<HttpApi>> HttpApi::start(ScanService& service, HttpApiOpt
   server.set_keep_alive_max_count(100);
   impl->routes();
   if (!server.bind_to_port(options.address, options.port))
-    return std::unexpected(processing::io_error(
-        where, "cannot listen (address in use, or not one of this machine's)"));
+    return std::unexpected(
+        io_error(where, "cannot listen (address in use, or not one of this machine's)"));
   impl->port = options.port;
   impl->listener = std::thread([&server] { server.listen_after_bind(); });
   // Until it runs, httplib's stop() would not stop it.
   for (int waited = 0; !server.is_running() && waited < 2000; ++waited)
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
-  processing::logger("http")->info("HTTP API on http://{}/v1/ ({})", where,
-                                   options.token.empty() ? "no token" : "bearer token required");
+  logger("http")->info("HTTP API on http://{}/v1/ ({})", where,
+                       options.token.empty() ? "no token" : "bearer token required");
   return std::unique_ptr<HttpApi>(new HttpApi(std::move(impl)));
 }
 

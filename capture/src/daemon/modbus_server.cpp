@@ -20,18 +20,14 @@
 #include <utility>
 #include <vector>
 
-#include "psrig/processing/log.h"
+#include "psrig/base/log.h"
 
 namespace psrig::capture {
-
-using processing::bad_input;
-using processing::Error;
-using processing::internal_error;
 
 namespace {
 
 std::shared_ptr<spdlog::logger> plc_log() {
-  return processing::logger("modbus");
+  return logger("modbus");
 }
 
 std::string system_error(const std::string& what) {
@@ -148,7 +144,7 @@ Status ModbusServer::Impl::open() {
   listen = modbus_tcp_listen(ctx, options.max_clients);
   if (listen < 0) {
     const bool privileged = errno == EACCES && options.port < 1024;
-    Error error = processing::io_error(
+    Error error = io_error(
         {}, system_error("cannot listen for the PLC on tcp " + options.address + ":" +
                          std::to_string(options.port)) +
                 (privileged ? " (ports below 1024 need CAP_NET_BIND_SERVICE, which "

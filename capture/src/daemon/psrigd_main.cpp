@@ -19,13 +19,13 @@
 
 #include <CLI/CLI.hpp>
 
+#include "psrig/base/log.h"
 #include "psrig/capture/http_api.h"
 #include "psrig/capture/modbus_server.h"
 #include "psrig/capture/scan_service.h"
 #include "psrig/capture/systemd_notify.h"
 #include "psrig/config/config_loader.h"
 #include "psrig/firmware_host/emergency_stop.h"
-#include "psrig/processing/log.h"
 
 namespace {
 
@@ -53,32 +53,32 @@ std::string status_line(const psrig::capture::DaemonStatus& status) {
   return line;
 }
 
-psrig::processing::Result<psrig::config::RigConfig> load(const std::string& file) {
+psrig::Result<psrig::config::RigConfig> load(const std::string& file) {
   std::vector<std::string> warnings;
   auto config = psrig::config::load_config(file, &warnings);
   for (const auto& warning : warnings)
-    psrig::processing::logger("psrigd")->warn("{}", warning);
+    psrig::logger("psrigd")->warn("{}", warning);
   return config;
 }
 
 int run(const std::string& config_file) {
   using namespace psrig;
-  auto log = processing::logger("psrigd");
+  auto log = psrig::logger("psrigd");
   auto config = load(config_file);
   if (!config) {
     log->error("{}", config.error().describe());
-    return processing::exit_code(config.error());
+    return psrig::exit_code(config.error());
   }
   auto service = capture::ScanService::start(*config);
   if (!service) {
     log->error("{}", service.error().describe());
-    return processing::exit_code(service.error());
+    return psrig::exit_code(service.error());
   }
   auto http = capture::HttpApi::start(**service, capture::http_api_options(config->daemon));
   if (!http) {
     log->error("{}", http.error().describe());
     (*service)->stop();
-    return processing::exit_code(http.error());
+    return psrig::exit_code(http.error());
   }
   std::unique_ptr<capture::ModbusServer> modbus;
   if (config->daemon.modbus_port != 0) {
@@ -88,7 +88,7 @@ int run(const std::string& config_file) {
       log->error("{}", server.error().describe());
       (*http)->stop();
       (*service)->stop();
-      return processing::exit_code(server.error());
+      return psrig::exit_code(server.error());
     }
     modbus = std::move(*server);
     log->info("Modbus TCP for the PLC on {}", modbus->endpoint());
@@ -177,8 +177,8 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);
     return code == 0 ? 0 : 2;
   }
-  if (psrig::processing::stderr_is_journal()) psrig::processing::log_to_stderr_for_journal();
-  psrig::processing::set_log_level(verbose ? spdlog::level::debug : spdlog::level::info);
+  if (psrig::stderr_is_journal()) psrig::log_to_stderr_for_journal();
+  psrig::set_log_level(verbose ? spdlog::level::debug : spdlog::level::info);
   try {
     return run(config_file);
   } catch (const std::exception& e) {

@@ -7,10 +7,10 @@
 #include <unistd.h>
 
 #include "fault_recording_devices.h"
+#include "psrig/base/log.h"
 #include "psrig/capture/scan_sequencer.h"
 #include "psrig/firmware_host/emergency_stop.h"
 #include "psrig/firmware_host/sim/sim_world.h"
-#include "psrig/processing/log.h"
 
 namespace psrig::capture {
 namespace {
@@ -30,15 +30,15 @@ Status flush_tree(const fs::path& directory) {
   std::vector<fs::path> paths;
   for (fs::recursive_directory_iterator it(directory, ec), end; !ec && it != end; it.increment(ec))
     paths.push_back(it->path());
-  if (ec) return std::unexpected(processing::io_error(directory, "cannot list: " + ec.message()));
+  if (ec) return std::unexpected(io_error(directory, "cannot list: " + ec.message()));
   paths.push_back(directory);
   paths.push_back(directory.parent_path());
   for (const auto& path : paths) {
     const int fd = ::open(path.c_str(), O_RDONLY | O_CLOEXEC);
-    if (fd < 0) return std::unexpected(processing::io_error(path, "cannot open to flush"));
+    if (fd < 0) return std::unexpected(io_error(path, "cannot open to flush"));
     const bool flushed = ::fsync(fd) == 0;
     ::close(fd);
-    if (!flushed) return std::unexpected(processing::io_error(path, "cannot flush to disk"));
+    if (!flushed) return std::unexpected(io_error(path, "cannot flush to disk"));
   }
   return {};
 }
@@ -167,17 +167,16 @@ config::RigConfig ScanService::config() const {
 }
 
 Result<std::int64_t> ScanService::submit(ScanSubmission submission) {
-  auto log = processing::logger("daemon");
+  auto log = logger("daemon");
   std::lock_guard lock(mutex_);
-  if (stopping_)
-    return std::unexpected(processing::io_error("psrigd", "stopping; no more scans are taken"));
+  if (stopping_) return std::unexpected(io_error("psrigd", "stopping; no more scans are taken"));
   const auto limit = static_cast<std::size_t>(config_.daemon.queue_limit);
   if (queue_.size() >= limit) {
     status_.last_error_code = ScanErrorCode::queue_full;
     status_.last_error = "queue full: " + std::to_string(limit) + " scans waiting";
     // The key tells the front ends this is the queue, not the request.
-    return std::unexpected(processing::bad_input(
-        config_.source, kQueueFullKey, status_.last_error + "; try again when one has run"));
+    return std::unexpected(bad_input(config_.source, kQueueFullKey,
+                                     status_.last_error + "; try again when one has run"));
   }
   auto id = catalogue_->add(submission);
   if (!id) return std::unexpected(id.error());
@@ -199,13 +198,13 @@ Status ScanService::note_lights_off(Status off, const std::string& device) {
   std::lock_guard lock(mutex_);
   if (off) {
     if (!devices_.lights_off_error.empty()) {
-      processing::logger("daemon")->info("{}: every LED is off again", device);
+      logger("daemon")->info("{}: every LED is off again", device);
       if (devices_.open_error == devices_.lights_off_error) devices_.open_error.clear();
       devices_.lights_off_error.clear();
     }
     return off;
   }
-  processing::Error error = off.error();
+  Error error = off.error();
   error.message =
       "switching every LED off on " + device + " failed (one may still be on): " + error.message;
   devices_.lights_off_error = error.describe();
@@ -237,7 +236,7 @@ Status ScanService::lights_off() {
     // The queue stops too: lights-off means stop, not "the next one".
     dropped.swap(queue_);
   }
-  auto log = processing::logger("daemon");
+  auto log = logger("daemon");
   log->info("lights off requested");
   auto off = switch_lights_off();
   for (const auto& job : dropped)
@@ -256,7 +255,7 @@ Status ScanService::mark_cancelled(std::int64_t id, const std::string& message) 
                 {"code", static_cast<int>(ScanErrorCode::aborted)},
                 {"error", message}});
   events_.publish("error", std::move(event));
-  processing::logger("daemon")->info("scan {} cancelled: {}", id, message);
+  logger("daemon")->info("scan {} cancelled: {}", id, message);
   return {};
 }
 
@@ -277,7 +276,7 @@ Result<ScanRemoval> ScanService::remove(std::int64_t id) {
   }
   auto removed = catalogue_->remove(id);
   if (!removed) return std::unexpected(removed.error());
-  if (*removed) processing::logger("daemon")->info("scan {} deleted", id);
+  if (*removed) logger("daemon")->info("scan {} deleted", id);
   return *removed ? ScanRemoval::deleted : ScanRemoval::not_found;
 }
 
@@ -298,7 +297,7 @@ Result<ScanCancel> ScanService::cancel(std::int64_t id) {
     }
   }
   if (was_running) {
-    processing::logger("daemon")->info("scan {}: abort requested", id);
+    logger("daemon")->info("scan {}: abort requested", id);
     if (auto ok = switch_lights_off(); !ok) return std::unexpected(ok.error());
     return ScanCancel::aborting;
   }
@@ -316,7 +315,7 @@ Result<ScanCancel> ScanService::cancel(std::int64_t id) {
 
 void ScanService::reload(config::RigConfig config) {
   std::lock_guard lock(mutex_);
-  auto log = processing::logger("daemon");
+  auto log = logger("daemon");
   std::error_code ec;
   if (fs::weakly_canonical(config.storage.root, ec) != config_.storage.root)
     log->warn("storage.root changed to {}; it takes effect at the next start",
@@ -347,17 +346,17 @@ void ScanService::apply_pending_config() {
   close_rig();
   ScanErrorCode ignored;
   if (auto ok = open_rig_if_closed(ignored); ok)
-    processing::logger("daemon")->info("configuration reloaded; rig opened again");
+    logger("daemon")->info("configuration reloaded; rig opened again");
 }
 
 Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
   if (rig_) return {};
   std::lock_guard open_lock(open_mutex_);
-  auto log = processing::logger("daemon");
+  auto log = logger("daemon");
   const config::RigConfig config = this->config();
   auto faults = std::make_shared<DeviceFaults>();
   auto rig = std::make_unique<Rig>();
-  const auto failed = [&](ScanErrorCode what, const processing::Error& error) -> Status {
+  const auto failed = [&](ScanErrorCode what, const Error& error) -> Status {
     code = what;
     log->error("cannot open the {}: {}", to_string(what), error.describe());
     std::lock_guard lock(mutex_);
@@ -377,7 +376,7 @@ Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
     rig->camera = record_camera_faults(std::move(*camera), faults);
   } catch (const std::exception& e) {
     return failed(ScanErrorCode::config,
-                  processing::internal_error(std::string("opening the rig: ") + e.what()));
+                  internal_error(std::string("opening the rig: ") + e.what()));
   }
   {
     std::lock_guard lock(mutex_);
@@ -401,7 +400,7 @@ void ScanService::close_rig() {
     // SafeLights turns every LED off as it goes, but says nothing if that
     // fails: asked here first, so that a failure is logged and shown.
     if (auto off = note_lights_off(closing->lights->all_off(), closing->lights->describe()); !off)
-      processing::logger("daemon")->error("closing the rig: {}", off.error().describe());
+      logger("daemon")->error("closing the rig: {}", off.error().describe());
   }
   closing.reset();
   std::lock_guard lock(mutex_);
@@ -412,13 +411,11 @@ Status ScanService::check_free_space(const config::RigConfig& config) const {
   const fs::path& root = catalogue_->storage_root();
   std::error_code ec;
   const auto space = fs::space(root, ec);
-  if (ec)
-    return std::unexpected(
-        processing::io_error(root, "cannot read the free space: " + ec.message()));
+  if (ec) return std::unexpected(io_error(root, "cannot read the free space: " + ec.message()));
   const std::uintmax_t scan = std::max(expected_scan_bytes(config), last_scan_bytes_);
   const std::uintmax_t needed = scan + kCatalogueHeadroom;
   if (space.available >= needed) return {};
-  return std::unexpected(processing::io_error(
+  return std::unexpected(io_error(
       root, "not enough free space for a scan: " + human_bytes(space.available) +
                 " free, a scan needs about " + human_bytes(scan) + " and the catalogue " +
                 human_bytes(kCatalogueHeadroom) +
@@ -441,7 +438,7 @@ void ScanService::set_step(std::string step, int percent, DaemonState state) {
   events_.publish("progress", std::move(event));
 }
 
-ScanErrorCode ScanService::classify(const processing::Error& error, Stage stage) const {
+ScanErrorCode ScanService::classify(const Error& error, Stage stage) const {
   switch (stage) {
     case Stage::opening:
       return ScanErrorCode::config;
@@ -449,8 +446,7 @@ ScanErrorCode ScanService::classify(const processing::Error& error, Stage stage)
     case Stage::recording:
       return ScanErrorCode::storage;
     case Stage::processing:
-      return error.kind == processing::ErrorKind::io ? ScanErrorCode::storage
-                                                     : ScanErrorCode::processing;
+      return error.kind == ErrorKind::io ? ScanErrorCode::storage : ScanErrorCode::processing;
     case Stage::acquiring:
       break;
   }
@@ -459,7 +455,7 @@ ScanErrorCode ScanService::classify(const processing::Error& error, Stage stage)
   // The sequencer's own findings: an LED cut off by the safety layer, or
   // a camera whose frames never fit the lighting.
   if (error.message.find("LED") != std::string::npos) return ScanErrorCode::lights;
-  if (error.kind == processing::ErrorKind::bad_input) return ScanErrorCode::storage;
+  if (error.kind == ErrorKind::bad_input) return ScanErrorCode::storage;
   return ScanErrorCode::camera;
 }
 
@@ -467,7 +463,7 @@ void ScanService::finish(const Job& job, ScanStatus status, ScanErrorCode code,
                          const std::string& message, const fs::path& scan_directory,
                          bool keep_files) {
   beat();
-  auto log = processing::logger("daemon");
+  auto log = logger("daemon");
   if (!keep_files && !scan_directory.empty()) {
     std::error_code ec;
     fs::remove_all(scan_directory, ec);
@@ -497,7 +493,7 @@ void ScanService::finish(const Job& job, ScanStatus status, ScanErrorCode code,
 }
 
 void ScanService::run(const Job& job) {
-  auto log = processing::logger("daemon");
+  auto log = logger("daemon");
   beat();
   attempt_ = {};
   apply_pending_config();
@@ -619,7 +615,7 @@ void ScanService::run(const Job& job) {
 }
 
 void ScanService::work() {
-  auto log = processing::logger("daemon");
+  auto log = logger("daemon");
   {
     ScanErrorCode ignored;
     if (!open_rig_if_closed(ignored)) log->warn("the rig will be tried again at the next scan");
@@ -685,7 +681,7 @@ void ScanService::stop() {
     if (auto ok = catalogue_->mark_failed(job.id, ScanStatus::aborted, ScanErrorCode::aborted,
                                           "psrigd stopped before this scan started", false);
         !ok)
-      processing::logger("daemon")->error("scan {}: {}", job.id, ok.error().describe());
+      logger("daemon")->error("scan {}: {}", job.id, ok.error().describe());
   events_.close();
 }
 

@@ -7,12 +7,12 @@
 #include <sqlite3.h>
 #include <string>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::capture::sqlite {
 
-inline processing::Error error(sqlite3* db, const std::string& what) {
-  return processing::io_error("catalogue", what + ": " + sqlite3_errmsg(db));
+inline Error error(sqlite3* db, const std::string& what) {
+  return io_error("catalogue", what + ": " + sqlite3_errmsg(db));
 }
 
 class Statement {
@@ -25,7 +25,7 @@ class Statement {
   Statement& operator=(Statement&&) = delete;
   ~Statement() { sqlite3_finalize(statement_); }
 
-  [[nodiscard]] static processing::Result<Statement> prepare(sqlite3* db, const std::string& sql) {
+  [[nodiscard]] static Result<Statement> prepare(sqlite3* db, const std::string& sql) {
     sqlite3_stmt* statement = nullptr;
     if (sqlite3_prepare_v2(db, sql.c_str(), -1, &statement, nullptr) != SQLITE_OK)
       return std::unexpected(error(db, "preparing \"" + sql + "\""));
@@ -48,14 +48,14 @@ class Statement {
   }
 
   // True while there is a row to read; false once done.
-  [[nodiscard]] processing::Result<bool> step() {
+  [[nodiscard]] Result<bool> step() {
     const int rc = sqlite3_step(statement_);
     if (rc == SQLITE_ROW) return true;
     if (rc == SQLITE_DONE) return false;
     return std::unexpected(error(db_, "running \"" + std::string(sqlite3_sql(statement_)) + "\""));
   }
   // Runs a statement that returns no rows.
-  [[nodiscard]] processing::Status run() {
+  [[nodiscard]] Status run() {
     auto stepped = step();
     if (!stepped) return std::unexpected(stepped.error());
     return {};

@@ -8,11 +8,9 @@
 #include <string>
 #include <systemd/sd-daemon.h>
 
-#include "psrig/processing/log.h"
+#include "psrig/base/log.h"
 
 namespace psrig::capture {
-
-using processing::internal_error;
 
 bool SystemdNotifier::enabled() const {
   const char* socket = std::getenv("NOTIFY_SOCKET");
@@ -27,7 +25,7 @@ Status SystemdNotifier::notify(std::string_view state) {
   const std::string message = "sd_notify(\"" + std::string(state.substr(0, state.find('\n'))) +
                               "\") to " + (socket ? socket : "?") +
                               " failed: " + std::strerror(-sent);
-  processing::logger("daemon")->warn("{}", message);
+  logger("daemon")->warn("{}", message);
   return std::unexpected(internal_error(message));
 }
 
@@ -73,8 +71,7 @@ WatchdogPetter::WatchdogPetter(SystemdNotifier& notifier, std::function<bool()> 
     : notifier_(notifier), healthy_(std::move(healthy)) {
   const auto interval = notifier_.watchdog_interval();
   if (!interval || !notifier_.enabled()) return;
-  processing::logger("daemon")->debug("petting the systemd watchdog every {} ms",
-                                      interval->count() / 1000);
+  logger("daemon")->debug("petting the systemd watchdog every {} ms", interval->count() / 1000);
   thread_ = std::thread([this, every = *interval] { run(every); });
 }
 
@@ -105,9 +102,9 @@ void WatchdogPetter::run(std::chrono::microseconds interval) {
     if (healthy) (void)notifier_.watchdog();
     // Once per change, not once per interval.
     if (healthy != was_healthy)
-      processing::logger("daemon")->warn(healthy ? "petting the systemd watchdog again"
-                                                 : "not petting the systemd watchdog: the "
-                                                   "daemon reports itself stuck");
+      logger("daemon")->warn(healthy ? "petting the systemd watchdog again"
+                                     : "not petting the systemd watchdog: the "
+                                       "daemon reports itself stuck");
     was_healthy = healthy;
     lock.lock();
     wake_.wait_for(lock, interval, [this] { return stopping_; });

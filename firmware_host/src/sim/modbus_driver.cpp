@@ -18,8 +18,6 @@
 
 namespace psrig::firmware_host {
 
-using processing::internal_error;
-
 // Everything the server thread owns at the C level.
 struct SimModbusDriver::Link {
   modbus_t* ctx = nullptr;

@@ -49,7 +49,7 @@ void add_view_options(CLI::App& app, ViewArgs& args);
 }
 
 // Prints "psrig-preview COMMAND: error: ..." to stderr and returns the exit code.
-int report_error(const std::string& command, const processing::Error& error);
+int report_error(const std::string& command, const Error& error);
 
 // The multisampling the preview draws with unless told otherwise.
 inline constexpr int kDefaultSamples = 4;

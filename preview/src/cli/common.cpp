@@ -51,8 +51,7 @@ Result<cv::Size> parse_size(const std::string& text, const std::string& option) 
       std::from_chars(text.data(), text.data() + x, width).ptr == text.data() + x &&
       std::from_chars(text.data() + x + 1, end, height).ptr == end && width > 0 && height > 0)
     return cv::Size(width, height);
-  return std::unexpected(
-      processing::bad_input("", option, "\"" + text + "\" is not a size like 1920x1080"));
+  return std::unexpected(bad_input("", option, "\"" + text + "\" is not a size like 1920x1080"));
 }
 
 RendererOptions renderer_options(bool offers_anisotropy) {
@@ -66,9 +65,9 @@ RendererOptions renderer_options(bool offers_anisotropy) {
   return options;
 }
 
-int report_error(const std::string& command, const processing::Error& error) {
+int report_error(const std::string& command, const Error& error) {
   std::cerr << "psrig-preview " << command << ": error: " << error.describe() << '\n';
-  return processing::exit_code(error);
+  return exit_code(error);
 }
 
 }  // namespace psrig::preview::cli

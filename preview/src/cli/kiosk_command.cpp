@@ -16,6 +16,7 @@
 #include "psrig/preview/newest_scan.h"
 #include "psrig/preview/scene_motion.h"
 #include "psrig/processing/map_encoding.h"
+#include "psrig/processing/scan_layout.h"
 
 namespace psrig::preview::cli {
 namespace {
@@ -77,14 +78,12 @@ SceneView kiosk_view() {
 
 int run_kiosk(const KioskArgs& args) {
   if (args.maps.empty() == args.catalogue.empty())
-    return report_error(
-        "kiosk", processing::bad_input("", "MAPS_DIR", "give a maps directory or --catalogue DIR"));
+    return report_error("kiosk",
+                        bad_input("", "MAPS_DIR", "give a maps directory or --catalogue DIR"));
   if (args.headless && args.out_dir.empty())
-    return report_error("kiosk",
-                        processing::bad_input("", "--out-dir", "--headless needs --out-dir DIR"));
+    return report_error("kiosk", bad_input("", "--out-dir", "--headless needs --out-dir DIR"));
   if (!args.catalogue.empty() && !fs::is_directory(args.catalogue))
-    return report_error("kiosk",
-                        processing::bad_input(args.catalogue, "--catalogue", "not a directory"));
+    return report_error("kiosk", bad_input(args.catalogue, "--catalogue", "not a directory"));
   stop_on_signals();
   auto output = args.headless ? open_headless_output(args.size, args.samples, args.out_dir)
                               : open_kms_output(args.kms, args.samples);

@@ -48,8 +48,7 @@ Result<std::unique_ptr<KioskOutput>> open_headless_output(const std::string& siz
   if (!parsed) return std::unexpected(parsed.error());
   std::error_code error;
   std::filesystem::create_directories(out_dir, error);
-  if (error)
-    return std::unexpected(processing::io_error(out_dir, "cannot create: " + error.message()));
+  if (error) return std::unexpected(io_error(out_dir, "cannot create: " + error.message()));
   auto context = EglContext::open_surfaceless();
   if (!context) return std::unexpected(context.error());
   auto target = OffscreenTarget::create(*parsed, samples, ColourStorage::srgb);

@@ -51,7 +51,7 @@ Result<std::optional<Eigen::Vector3f>> yarn_colour(const KnitArgs& args) {
   if (!args.yarn_colour.empty()) {
     const auto colour = parse_srgb_hex(args.yarn_colour);
     if (!colour)
-      return std::unexpected(processing::bad_input(
+      return std::unexpected(bad_input(
           {}, "--yarn-color", "'" + args.yarn_colour + "' is not #RRGGBB (sRGB, hexadecimal)"));
     return colour;
   }

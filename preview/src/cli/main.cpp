@@ -8,7 +8,7 @@
 #include <vector>
 
 #include "command.h"
-#include "psrig/processing/log.h"
+#include "psrig/base/log.h"
 
 int main(int argc, char** argv) {
   using namespace psrig::preview::cli;
@@ -24,7 +24,7 @@ int main(int argc, char** argv) {
     const int code = app.exit(e);  // prints help or the usage error
     return code == 0 ? 0 : 2;
   }
-  psrig::processing::set_log_level(verbose ? spdlog::level::debug : spdlog::level::info);
+  psrig::set_log_level(verbose ? spdlog::level::debug : spdlog::level::info);
   try {
     for (const auto& command : commands)
       if (command.app->parsed()) return command.run();

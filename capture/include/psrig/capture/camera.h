@@ -9,9 +9,9 @@
 
 #include <opencv2/core.hpp>
 
+#include "psrig/base/error.h"
 #include "psrig/config/rig_config.h"
 #include "psrig/firmware_host/switch_log.h"
-#include "psrig/processing/error.h"
 #include "psrig/processing/scan.h"
 
 namespace psrig::firmware_host {
@@ -20,9 +20,6 @@ class SimWorld;
 
 namespace psrig::capture {
 
-using processing::Error;
-using processing::Result;
-using processing::Status;
 using Clock = firmware_host::Clock;
 
 struct Frame {

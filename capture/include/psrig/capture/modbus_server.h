@@ -10,8 +10,8 @@
 #include <memory>
 #include <string>
 
+#include "psrig/base/error.h"
 #include "psrig/capture/scan_control.h"
-#include "psrig/processing/error.h"
 
 namespace psrig::capture {
 

@@ -9,12 +9,9 @@
 #include <string>
 #include <vector>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::capture {
-
-using processing::Result;
-using processing::Status;
 
 // Numbered because the PLC reads them as register values: never renumber.
 enum class DaemonState : std::uint16_t {

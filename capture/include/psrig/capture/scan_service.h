@@ -120,7 +120,7 @@ class ScanService final : public ScanControl {
   void finish(const Job& job, ScanStatus status, ScanErrorCode code, const std::string& message,
               const std::filesystem::path& scan_directory, bool keep_files);
   void set_step(std::string step, int percent, DaemonState state);
-  [[nodiscard]] ScanErrorCode classify(const processing::Error& error, Stage stage) const;
+  [[nodiscard]] ScanErrorCode classify(const Error& error, Stage stage) const;
   // Every LED off: through the open rig, or with the rig closed through
   // the light backend opened alone for it.
   [[nodiscard]] Status switch_lights_off();

@@ -6,7 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 #include "psrig/processing/scan.h"
 
 namespace psrig::capture {
@@ -19,7 +19,7 @@ namespace psrig::capture {
 
 // Writes the images and scan.json into `directory`, which must not exist
 // yet: the directory appears whole, flushed to disk, or not at all.
-[[nodiscard]] processing::Status write_scan(const processing::Scan& scan,
-                                            const std::filesystem::path& directory);
+[[nodiscard]] Status write_scan(const processing::Scan& scan,
+                                const std::filesystem::path& directory);
 
 }  // namespace psrig::capture

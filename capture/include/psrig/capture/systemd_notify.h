@@ -12,11 +12,9 @@
 #include <string_view>
 #include <thread>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::capture {
-
-using processing::Status;
 
 class SystemdNotifier {
  public:

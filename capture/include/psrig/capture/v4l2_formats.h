@@ -19,7 +19,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::capture {
 
@@ -77,9 +77,8 @@ struct V4l2PixelFormat {
 // apart) as a cv::Mat: CV_8U for 8-bit formats, else CV_16U with the value
 // in the low bits; BGR for colour and Bayer formats (demosaiced,
 // bilinear: a linear filter, so linear data stays linear), else grey.
-[[nodiscard]] processing::Result<cv::Mat> convert_v4l2_frame(std::span<const std::uint8_t> data,
-                                                             const V4l2PixelFormat& format,
-                                                             int width, int height,
-                                                             std::size_t bytes_per_line);
+[[nodiscard]] Result<cv::Mat> convert_v4l2_frame(std::span<const std::uint8_t> data,
+                                                 const V4l2PixelFormat& format, int width,
+                                                 int height, std::size_t bytes_per_line);
 
 }  // namespace psrig::capture

@@ -9,18 +9,19 @@
 #include <string_view>
 #include <vector>
 
+#include "psrig/base/error.h"
 #include "psrig/config/rig_config.h"
-#include "psrig/processing/error.h"
 
 namespace psrig::config {
 
 // `warnings` gets one line per unknown key.
-[[nodiscard]] processing::Result<RigConfig> load_config(const std::filesystem::path& file,
-                                                        std::vector<std::string>* warnings = nullptr);
+[[nodiscard]] Result<RigConfig> load_config(const std::filesystem::path& file,
+                                            std::vector<std::string>* warnings = nullptr);
 
 // The same from text; `source` names it in messages, and relative paths
 // in it resolve against its directory.
-[[nodiscard]] processing::Result<RigConfig> parse_config(std::string_view text, const std::filesystem::path& source,
-                                                         std::vector<std::string>* warnings = nullptr);
+[[nodiscard]] Result<RigConfig> parse_config(std::string_view text,
+                                             const std::filesystem::path& source,
+                                             std::vector<std::string>* warnings = nullptr);
 
 }  // namespace psrig::config

@@ -8,15 +8,11 @@
 #include <memory>
 #include <string>
 
+#include "psrig/base/error.h"
 #include "psrig/config/rig_config.h"
 #include "psrig/firmware_host/switch_log.h"
-#include "psrig/processing/error.h"
 
 namespace psrig::firmware_host {
-
-using processing::Error;
-using processing::Result;
-using processing::Status;
 
 class LightController {
  public:

@@ -9,12 +9,9 @@
 #include <string_view>
 #include <vector>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::preview {
-
-using processing::Error;
-using processing::Result;
 
 struct DisplayMode {
   int width = 0;

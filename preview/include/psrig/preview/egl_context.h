@@ -8,12 +8,9 @@
 #include <string>
 #include <string_view>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::preview {
-
-using processing::Error;
-using processing::Result;
 
 class EglContext {
  public:

@@ -14,8 +14,6 @@
 
 namespace psrig::preview {
 
-using processing::Status;
-
 class KmsDisplay {
  public:
   struct Options {

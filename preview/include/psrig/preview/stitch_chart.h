@@ -11,11 +11,9 @@
 
 #include <Eigen/Core>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::preview {
-
-using processing::Result;
 
 // A stitch as seen from the fabric's front (right side): a knit loop shows
 // as a V, a purl as a bump.

@@ -9,13 +9,9 @@
 
 #include <opencv2/core.hpp>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::preview {
-
-using processing::Error;
-using processing::Result;
-using processing::Status;
 
 namespace swatch_files {
 inline constexpr const char* kGloss = "gloss.png";

@@ -9,11 +9,9 @@
 #include <string_view>
 #include <vector>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::preview {
-
-using processing::Result;
 
 struct WeaveMatrix {
   std::string name;

@@ -5,7 +5,7 @@
 
 #include <filesystem>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::processing {
 

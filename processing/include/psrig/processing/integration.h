@@ -11,7 +11,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 namespace psrig::processing {
 

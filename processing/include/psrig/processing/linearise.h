@@ -15,7 +15,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 #include "psrig/processing/scan.h"
 
 namespace psrig::processing {

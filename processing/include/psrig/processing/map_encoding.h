@@ -1,23 +1,10 @@
 #pragma once
-// The maps directory's image encodings (DESIGN.md "Maps directory"), as
-// pure functions so their conventions can be checked pixel by pixel.
+// The maps directory's image encodings (docs/design.md "Maps directory"; names in scan_layout.h),
+// as pure functions so their conventions can be checked pixel by pixel.
 
 #include <opencv2/core.hpp>
 
 namespace psrig::processing {
-
-// File names of the maps directory.
-namespace map_files {
-inline constexpr const char* kAlbedoPng = "albedo.png";
-inline constexpr const char* kAlbedoExr = "albedo.exr";
-inline constexpr const char* kNormalPng = "normal.png";
-inline constexpr const char* kP = "p.exr";
-inline constexpr const char* kQ = "q.exr";
-inline constexpr const char* kHeightExr = "height.exr";
-inline constexpr const char* kHeightPng = "height.png";
-inline constexpr const char* kMask = "mask.png";
-inline constexpr const char* kReport = "report.json";
-}  // namespace map_files
 
 // Linear albedo (CV_32FC1/C3) -> 8-bit sRGB, clamped to [0, 1].
 [[nodiscard]] cv::Mat encode_albedo_srgb8(const cv::Mat& albedo);

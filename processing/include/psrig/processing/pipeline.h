@@ -6,7 +6,7 @@
 
 #include <nlohmann/json.hpp>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 #include "psrig/processing/integration.h"
 #include "psrig/processing/woodham.h"
 

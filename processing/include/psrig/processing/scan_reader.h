@@ -4,7 +4,7 @@
 
 #include <filesystem>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 #include "psrig/processing/scan.h"
 
 namespace psrig::processing {

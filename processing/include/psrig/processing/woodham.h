@@ -10,7 +10,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 #include "psrig/processing/light_matrix.h"
 #include "psrig/processing/linearise.h"
 #include "psrig/processing/scan.h"

@@ -1,4 +1,4 @@
-#include "psrig/processing/log.h"
+#include "psrig/base/log.h"
 
 #include <cstdio>
 #include <cstdlib>
@@ -10,7 +10,7 @@
 #include <spdlog/pattern_formatter.h>
 #include <spdlog/sinks/stdout_sinks.h>
 
-namespace psrig::processing {
+namespace psrig {
 namespace {
 
 std::mutex& registry_mutex() {
@@ -96,4 +96,4 @@ bool stderr_is_journal() {
   return info.st_dev == device && info.st_ino == inode;
 }
 
-}  // namespace psrig::processing
+}  // namespace psrig

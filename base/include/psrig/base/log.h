@@ -8,7 +8,7 @@
 
 #include <spdlog/spdlog.h>
 
-namespace psrig::processing {
+namespace psrig {
 
 // The logger of one category, created on first use.
 std::shared_ptr<spdlog::logger> logger(const std::string& category);
@@ -29,4 +29,4 @@ void log_to_stderr_for_journal();
 // The formatter log_to_stderr_for_journal() sets: "<N>name: text".
 [[nodiscard]] std::unique_ptr<spdlog::formatter> journal_formatter();
 
-}  // namespace psrig::processing
+}  // namespace psrig

@@ -1,8 +1,8 @@
-#include "psrig/processing/error.h"
+#include "psrig/base/error.h"
 
 #include <utility>
 
-namespace psrig::processing {
+namespace psrig {
 
 std::string Error::describe() const {
   std::string text;
@@ -14,6 +14,11 @@ std::string Error::describe() const {
   if (!key.empty()) text += key + ": ";
   text += message;
   return text;
+}
+
+Error Error::with(ErrorCode c) && {
+  code = c;
+  return std::move(*this);
 }
 
 Error bad_input(std::filesystem::path file, std::string key, std::string message) {
@@ -32,4 +37,4 @@ int exit_code(const Error& error) {
   return error.kind == ErrorKind::bad_input ? 2 : 1;
 }
 
-}  // namespace psrig::processing
+}  // namespace psrig
