@@ -12,7 +12,7 @@
 namespace psrig::test {
 
 // `count` lights evenly spread in tilt from `first_tilt_deg` (0, 120, 240 for
-// three), all at `slant_deg` from the camera axis: DESIGN.md's convention.
+// three), all at `slant_deg` from the camera axis (docs/design.md "Axes and units").
 [[nodiscard]] std::vector<cv::Vec3d> ring_lights(int count, double slant_deg,
                                                  double first_tilt_deg = 0);
 

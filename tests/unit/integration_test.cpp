@@ -1,5 +1,5 @@
 // Normal integration: Frankot–Chellappa (r2r, mirror extension) and the DCT
-// Poisson solver. Axes as DESIGN.md: x = column, y up (y = -row + const),
+// Poisson solver. Axes as docs/design.md: x = column, y up (y = -row + const),
 // p = dz/dx, q = dz/dy, so dz/drow = -q.
 
 #include "psrig/processing/integration.h"
@@ -593,7 +593,7 @@ TEST(Integration, RecoversTheVaseDepth) {
     // silhouette, where the files clamp |p|, |q| at 10 and drop to 0 outside.
     EXPECT_LT(rms, 2.5) << to_string(method);
   }
-  // The files follow DESIGN's axes (q = dz/dy, y up): read as dz/drow, q
+  // The files follow docs/design.md's axes (q = dz/dy, y up): read as dz/drow, q
   // would give a different surface far from the truth.
   const auto flipped = integrate_frankot_chellappa(p, -q);
   ASSERT_TRUE(flipped.has_value());

@@ -1,4 +1,5 @@
-// The maps directory's encodings follow DESIGN.md's conventions.
+// The maps directory's encodings follow docs/design.md ("Maps directory",
+// "Normal-map convention").
 
 #include "psrig/processing/map_encoding.h"
 

@@ -201,7 +201,7 @@ TEST(Pipeline, AFailureAfterStagingLeavesNothingBehind) {
 }
 
 TEST(Pipeline, FlatsAreFoundByTheirDesignNames) {
-  // DESIGN.md's layout lists flat0.png ... without a key in scan.json.
+  // docs/design.md "Scan directory" lists flat0.png ... without a key in scan.json.
   test::TempDir temp;
   write_scan_with_black_flat(temp / "scan");
   std::ifstream in(temp / "scan" / "scan.json");

@@ -60,7 +60,7 @@ TEST(RealData, BeethovenPlasterAlbedoIsNearlyFlatAndNormalsIntegrable) {
   const double median = albedo[albedo.size() / 2];
   EXPECT_LT((albedo[3 * albedo.size() / 4] - albedo[albedo.size() / 4]) / median, 0.16);
 
-  // The lights in DESIGN.md's axes give an integrable field; the same lights
+  // The lights in docs/design.md "Axes and units" give an integrable field; the same lights
   // with y flipped (the row-axis mistake) do not. Measured: 0.072 vs 0.179.
   auto flipped = solve(with_y_flipped(*scan));
   ASSERT_TRUE(flipped);

@@ -1,5 +1,5 @@
 #pragma once
-// Writes scan directories in the psrig-scan/1 layout (DESIGN.md): the rig's
+// Writes scan directories in the psrig-scan/1 layout (docs/design.md "Scan directory"): the rig's
 // scans, `psrig synth`'s synthetic ones, and test fixtures.
 
 #include <filesystem>

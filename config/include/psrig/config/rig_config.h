@@ -11,7 +11,7 @@
 
 namespace psrig::config {
 
-// Where the lights are, DESIGN.md axes: tilt from +x toward +y, slant from +z.
+// Where the lights are, docs/design.md "Axes and units": tilt from +x toward +y, slant from +z.
 struct Geometry {
   double slant_deg = 45;
   std::vector<double> tilts_deg = {0, 120, 240};  // one per light, in channel order

@@ -1,7 +1,7 @@
 #pragma once
 // Where everything is in one frame: the swatch's patch (model), the camera
 // and the light, each turned on its own (VirTex let the user rotate model,
-// camera and light independently). World axes are the scan's (DESIGN.md):
+// camera and light independently). World axes are the scan's (docs/design.md "Axes and units"):
 // x right, y up, z toward the camera; with no rotation the swatch lies in
 // the x-y plane as it lay under the rig, and a light of tilt 0 comes from
 // +x. Units are the swatch's: millimetres, or pixels when unknown.

@@ -7,7 +7,7 @@
 //   unit normals without renormalising, so a level's normal is shorter
 //   where the texels it covers disagree (the Toksvig term reads that).
 // Rows are stored bottom row first, as GL's texture t axis runs up the
-// swatch (DESIGN.md: y up).
+// swatch (docs/design.md "Normal-map convention": y up).
 
 #include <vector>
 

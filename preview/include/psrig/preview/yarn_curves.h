@@ -1,6 +1,6 @@
 #pragma once
 // Yarn centrelines: what the knit and woven geometry hands the yarn renderer.
-// Axes are the scan's (DESIGN.md): the cloth's front faces +z when flat,
+// Axes are the scan's (docs/design.md "Axes and units"): the cloth's front faces +z when flat,
 // courses run along +x, wales along +y (row 0 at the bottom). Millimetres.
 
 #include <vector>

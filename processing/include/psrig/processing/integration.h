@@ -1,6 +1,6 @@
 #pragma once
 // Normal integration: a height map from the gradient maps p = dz/dx and
-// q = dz/dy (DESIGN.md axes: x to the image's right, y to its top, so q is
+// q = dz/dy (docs/design.md "Axes and units": x to the image's right, y to its top, so q is
 // minus the derivative along the row index). Heights come out in the units
 // of the grid spacing, i.e. pixels; the caller scales by pixel_size_mm.
 // Both methods fix the free constant by giving the result zero mean.

@@ -11,7 +11,7 @@
 namespace psrig::processing {
 
 // The unit direction toward a light at `tilt_deg` (from +x toward +y) and
-// `slant_deg` (from +z, the camera's axis): DESIGN.md's axes.
+// `slant_deg` (from +z, the camera's axis): docs/design.md "Axes and units".
 [[nodiscard]] cv::Vec3d light_direction(double tilt_deg, double slant_deg);
 
 struct LightMatrix {

@@ -1,5 +1,5 @@
 #pragma once
-// report.json of a maps directory (DESIGN.md "Maps directory"): inputs,
+// report.json of a maps directory (docs/design.md "Maps directory"): inputs,
 // per-stage times, the light matrix and its condition number, mask counts,
 // residual, height range, and errors against ground truth when there is one.
 

@@ -1,5 +1,5 @@
 #pragma once
-// A scan directory in the psrig-scan/1 layout (DESIGN.md "Scan directory"):
+// A scan directory in the psrig-scan/1 layout (docs/design.md "Scan directory"):
 // what scan.json says, and the frames it names.
 
 #include <filesystem>
