@@ -5,13 +5,10 @@
 
 namespace psrig::capture {
 
-Result<std::unique_ptr<Camera>> open_camera(const config::RigConfig& config,
-                                            std::shared_ptr<firmware_host::SimWorld> world) {
+Result<std::unique_ptr<Camera>> open_camera(const config::RigConfig& config) {
   std::unique_ptr<Camera> camera;
   if (config.camera.backend == "sim") {
-    if (!world)
-      return std::unexpected(internal_error("camera.backend \"sim\" needs the simulated world"));
-    camera = open_sim_camera(config, std::move(world));
+    camera = open_sim_camera(config);
   } else if (config.camera.backend == "v4l2") {
     auto v4l2 = open_v4l2_camera(config.camera);
     if (!v4l2) return std::unexpected(v4l2.error());

@@ -6,14 +6,13 @@ namespace psrig::capture {
 
 Result<Rig> open_rig(const config::RigConfig& config, bool with_camera) {
   Rig rig;
-  if (config.lights.backend == "sim" || (with_camera && config.camera.backend == "sim"))
-    rig.world = std::make_shared<firmware_host::SimWorld>(config);
-  auto backend = firmware_host::open_lights(config, rig.world);
+  if (with_camera && config.camera.backend == "sim") rig.world = sim::World::attach(config);
+  auto backend = firmware_host::open_lights(config);
   if (!backend) return std::unexpected(backend.error());
   rig.lights = std::make_unique<firmware_host::SafeLights>(
       std::move(*backend), std::chrono::milliseconds(config.lights.max_on_ms));
   if (with_camera) {
-    auto camera = open_camera(config, rig.world);
+    auto camera = open_camera(config);
     if (!camera) return std::unexpected(camera.error());
     rig.camera = std::move(*camera);
   }

@@ -4,8 +4,8 @@
 #include <cmath>
 #include <thread>
 
-#include "psrig/firmware_host/sim/sim_sensor.h"
-#include "psrig/firmware_host/sim/sim_world.h"
+#include "psrig/sim/sensor.h"
+#include "psrig/sim/world.h"
 
 namespace psrig::capture {
 namespace {
@@ -18,8 +18,8 @@ constexpr std::int64_t kBuffers = 4;
 
 class SimCamera final : public Camera {
  public:
-  SimCamera(const config::RigConfig& config, std::shared_ptr<firmware_host::SimWorld> world)
-      : config_(config), world_(std::move(world)), sensor_(config.sim, config.sim.seed) {}
+  explicit SimCamera(const config::RigConfig& config)
+      : config_(config), world_(sim::World::attach(config)), sensor_(config.sim, config.sim.seed) {}
 
   Status configure(const config::CameraConfig& settings) override {
     if (running_) return std::unexpected(internal_error("sim camera: configure while streaming"));
@@ -90,9 +90,9 @@ class SimCamera final : public Camera {
 
  private:
   config::RigConfig config_;
-  std::shared_ptr<firmware_host::SimWorld> world_;
-  firmware_host::SimSensor sensor_;
-  firmware_host::SensorSettings settings_;
+  std::shared_ptr<sim::World> world_;
+  sim::Sensor sensor_;
+  sim::SensorSettings settings_;
   Clock::time_point t0_;
   std::int64_t next_ = 0;
   bool running_ = false;
@@ -100,9 +100,8 @@ class SimCamera final : public Camera {
 
 }  // namespace
 
-std::unique_ptr<Camera> open_sim_camera(const config::RigConfig& config,
-                                        std::shared_ptr<firmware_host::SimWorld> world) {
-  return std::make_unique<SimCamera>(config, std::move(world));
+std::unique_ptr<Camera> open_sim_camera(const config::RigConfig& config) {
+  return std::make_unique<SimCamera>(config);
 }
 
 }  // namespace psrig::capture

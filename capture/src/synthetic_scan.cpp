@@ -3,14 +3,13 @@
 #include <cmath>
 #include <string>
 
-#include "psrig/firmware_host/sim/lambertian_render.h"
 #include "psrig/processing/light_matrix.h"
 #include "psrig/processing/scan_layout.h"
+#include "psrig/sim/lambertian_render.h"
 
 namespace psrig::capture {
 
 processing::Scan make_synthetic_scan(const SyntheticScanParams& params) {
-  namespace sim = firmware_host::sim;
   const sim::Swatch swatch = sim::make_swatch(params.swatch);
   const double full = params.depth == CV_8U ? 255.0 : 65535.0;
   cv::RNG random(params.swatch.seed * 0x9E3779B97F4A7C15ull + 1);

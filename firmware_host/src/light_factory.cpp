@@ -17,14 +17,9 @@ Result<std::unique_ptr<LightController>> from_file(Result<std::unique_ptr<LightC
 
 }  // namespace
 
-Result<std::unique_ptr<LightController>> open_lights(const config::RigConfig& config,
-                                                     std::shared_ptr<SimWorld> world) {
+Result<std::unique_ptr<LightController>> open_lights(const config::RigConfig& config) {
   const auto& lights = config.lights;
-  if (lights.backend == "sim") {
-    if (!world)
-      return std::unexpected(internal_error("lights.backend \"sim\" needs the simulated world"));
-    return open_sim_lights(lights, std::move(world));
-  }
+  if (lights.backend == "sim") return open_sim_lights(config);
   if (lights.backend == "gpiod") return from_file(open_gpiod_lights(lights), config.source);
   if (lights.backend == "usb") return from_file(open_usb_lights(lights), config.source);
   if (lights.backend == "modbus") return from_file(open_modbus_lights(lights), config.source);

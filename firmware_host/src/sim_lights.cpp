@@ -1,27 +1,27 @@
 #include "psrig/firmware_host/sim_lights.h"
 
-#include "psrig/firmware_host/sim/sim_world.h"
+#include "psrig/firmware_host/simulated_leds.h"
 
 namespace psrig::firmware_host {
 namespace {
 
 class SimLights final : public LightController {
  public:
-  SimLights(int channels, std::vector<double> intensity, std::shared_ptr<SimWorld> world)
-      : channels_(channels), intensity_(std::move(intensity)), world_(std::move(world)) {
+  SimLights(int channels, std::vector<double> intensity, std::shared_ptr<SimulatedLeds> leds)
+      : channels_(channels), intensity_(std::move(intensity)), leds_(std::move(leds)) {
     intensity_.resize(channels_, 1.0);
   }
 
   int channel_count() const override { return channels_; }
 
   Status turn_on(int channel) override {
-    world_->set_led(channel, true, intensity_[channel]);
+    leds_->set_led(channel, true, intensity_[channel]);
     log_.record(channel, true);
     return {};
   }
 
   Status all_off() override {
-    world_->all_off();
+    leds_->all_off();
     log_.record(-1, false);
     return {};
   }
@@ -40,14 +40,14 @@ class SimLights final : public LightController {
  private:
   int channels_;
   std::vector<double> intensity_;
-  std::shared_ptr<SimWorld> world_;
+  std::shared_ptr<SimulatedLeds> leds_;
 };
 
 }  // namespace
 
-std::unique_ptr<LightController> open_sim_lights(const config::LightsConfig& config,
-                                                 std::shared_ptr<SimWorld> world) {
-  return std::make_unique<SimLights>(config.channels, config.intensity, std::move(world));
+std::unique_ptr<LightController> open_sim_lights(const config::RigConfig& config) {
+  return std::make_unique<SimLights>(config.lights.channels, config.lights.intensity,
+                                     SimulatedLeds::attach(config));
 }
 
 }  // namespace psrig::firmware_host

@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "psrig/firmware_host/sim/modbus_driver.h"
+#include "sim_modbus_driver.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -262,7 +262,7 @@ TEST(PsrigCli, DevicesListsEveryKindEvenWhenNoneIsThere) {
 // the test holds, so it sees what the LEDs did from outside psrig.
 TEST(PsrigCli, SignalMidScanTurnsEveryLedOffAndLeavesNoScan) {
   TempDir temp;
-  auto driver = firmware_host::SimModbusDriver::start({});
+  auto driver = SimModbusDriver::start({});
   ASSERT_TRUE(driver) << driver.error().describe();
   const auto config =
       sim_config(temp, {{"backend = \"sim\"\nchannels",

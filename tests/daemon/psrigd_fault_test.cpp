@@ -18,7 +18,7 @@
 #include <nlohmann/json.hpp>
 
 #include "daemon_process.h"
-#include "psrig/firmware_host/sim/modbus_driver.h"
+#include "sim_modbus_driver.h"
 
 namespace psrig::test {
 namespace {
@@ -51,7 +51,7 @@ std::uintmax_t free_bytes(const fs::path& directory) {
   return ec ? 0 : space.available;
 }
 
-int led_on_switches(const firmware_host::SimModbusDriver& driver) {
+int led_on_switches(const SimModbusDriver& driver) {
   int ons = 0;
   for (const auto& event : driver.log().events())
     ons += event.on ? 1 : 0;
@@ -73,7 +73,7 @@ class PsrigdFullDisk : public ::testing::Test {
   void SetUp() override {
     fs::create_directories(temp_ / "scans");
     if (auto why = private_tmpfs_unavailable(temp_ / "scans")) GTEST_SKIP() << *why;
-    auto driver = firmware_host::SimModbusDriver::start({});
+    auto driver = SimModbusDriver::start({});
     ASSERT_TRUE(driver) << driver.error().describe();
     driver_ = std::move(*driver);
     port_ = free_port();
@@ -97,7 +97,7 @@ class PsrigdFullDisk : public ::testing::Test {
   }
 
   TempDir temp_;
-  std::unique_ptr<firmware_host::SimModbusDriver> driver_;
+  std::unique_ptr<SimModbusDriver> driver_;
   int port_ = 0;
 };
 

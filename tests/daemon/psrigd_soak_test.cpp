@@ -17,7 +17,7 @@
 #include <nlohmann/json.hpp>
 
 #include "daemon_process.h"
-#include "psrig/firmware_host/sim/modbus_driver.h"
+#include "sim_modbus_driver.h"
 
 namespace psrig::test {
 namespace {
@@ -81,7 +81,7 @@ TEST(PsrigdSoak, ConsecutiveScansKeepMemoryFilesAndLedsSteady) {
   // from scan to scan and hides a leak. What stays resident is what is live.
   ::setenv("GLIBC_TUNABLES", "glibc.malloc.mmap_threshold=65536", 1);
   TempDir temp;
-  auto driver = firmware_host::SimModbusDriver::start({});
+  auto driver = SimModbusDriver::start({});
   ASSERT_TRUE(driver) << driver.error().describe();
   const int port = free_port();
   const auto config = daemon_config(temp, port, {modbus_lights((*driver)->port())});

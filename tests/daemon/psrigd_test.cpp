@@ -22,7 +22,7 @@
 #include "daemon_process.h"
 #include "psrig/config/config_loader.h"
 #include "psrig/firmware_host/light_controller.h"
-#include "psrig/firmware_host/sim/modbus_driver.h"
+#include "sim_modbus_driver.h"
 
 namespace psrig::test {
 namespace {
@@ -335,7 +335,7 @@ TEST(Psrigd, OffLoopbackItNeedsAToken) {
 // the test holds, so it sees from outside what the LEDs did.
 TEST(Psrigd, SigtermMidScanTurnsEveryLedOffAndExitsZero) {
   TempDir temp;
-  auto driver = firmware_host::SimModbusDriver::start({});
+  auto driver = SimModbusDriver::start({});
   ASSERT_TRUE(driver) << driver.error().describe();
   const int port = free_port();
   const auto config =
@@ -608,14 +608,14 @@ TEST(Psrigd, KilledWhileSavingThenRestartedLeavesNoHalfScan) {
 // the next scan opens the rig again.
 TEST(Psrigd, AnLedDriverFaultFailsTheScanNotTheDaemon) {
   TempDir temp;
-  auto driver = firmware_host::SimModbusDriver::start({});
+  auto driver = SimModbusDriver::start({});
   ASSERT_TRUE(driver) << driver.error().describe();
   const int port = free_port();
   const auto config =
       daemon_config(temp, port, {modbus_lights((*driver)->port(), ", retries = 0")});
   Daemon daemon(config, port, temp / "psrigd.log");
   ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
-  (*driver)->inject(firmware_host::ModbusFault::exception);
+  (*driver)->inject(ModbusFault::exception);
   const auto failed = daemon.wait_finished(daemon.submit({{"sample_id", "F-1"}}));
   EXPECT_EQ(failed["status"], "failed") << failed.dump();
   EXPECT_EQ(failed["error"]["code"], 2) << failed.dump();  // lights, as the PLC reads it
@@ -637,14 +637,14 @@ TEST(Psrigd, AnLedDriverFaultFailsTheScanNotTheDaemon) {
 // failure to switch off on closing is shown, not dropped.
 TEST(Psrigd, LightsOffWithTheRigClosedReachesTheLedDriver) {
   TempDir temp;
-  auto driver = firmware_host::SimModbusDriver::start({});
+  auto driver = SimModbusDriver::start({});
   ASSERT_TRUE(driver) << driver.error().describe();
   const int port = free_port();
   const auto config =
       daemon_config(temp, port, {modbus_lights((*driver)->port(), ", retries = 0")});
   Daemon daemon(config, port, temp / "psrigd.log");
   ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
-  (*driver)->inject(firmware_host::ModbusFault::exception);
+  (*driver)->inject(ModbusFault::exception);
   const auto failed = daemon.wait_finished(daemon.submit({{"sample_id", "F-1"}}));
   EXPECT_EQ(failed["error"]["code_name"], "lights") << failed.dump();
   ASSERT_TRUE(daemon.wait_status([](const json& s) { return s["devices"]["open"] == false; }));
@@ -664,7 +664,7 @@ TEST(Psrigd, LightsOffWithTheRigClosedReachesTheLedDriver) {
   ASSERT_TRUE(rig) << rig.error().describe();
   // (another client of the driver, held open: its own closing would
   // switch the LED off)
-  auto stuck = firmware_host::open_lights(*rig, nullptr);
+  auto stuck = firmware_host::open_lights(*rig);
   ASSERT_TRUE(stuck) << stuck.error().describe();
   ASSERT_TRUE((*stuck)->turn_on(1));
   ASSERT_EQ((*driver)->leds_on(), std::vector<int>{1});
@@ -681,7 +681,7 @@ TEST(Psrigd, LightsOffWithTheRigClosedReachesTheLedDriver) {
 // timeout with every LED off, and the daemon serves on.
 TEST(Psrigd, ACameraTimeoutFailsTheScanWithTheLedsOff) {
   TempDir temp;
-  auto driver = firmware_host::SimModbusDriver::start({});
+  auto driver = SimModbusDriver::start({});
   ASSERT_TRUE(driver) << driver.error().describe();
   const int port = free_port();
   const Edits normal = {modbus_lights((*driver)->port())};

@@ -16,7 +16,7 @@
 #include "psrig/firmware_host/gpiod_lights.h"
 #include "psrig/firmware_host/light_controller.h"
 #include "psrig/firmware_host/safe_lights.h"
-#include "psrig/firmware_host/sim/sim_world.h"
+#include "psrig/firmware_host/simulated_leds.h"
 #include "umockdev_bed.h"
 
 namespace psrig::test {
@@ -210,20 +210,20 @@ TEST_F(GpiodLights, LinesLightTheSimulatedWorld) {
   config::RigConfig rig;
   rig.sim.width = 32;
   rig.sim.height = 24;
-  auto world = std::make_shared<firmware_host::SimWorld>(rig);
+  auto leds = firmware_host::SimulatedLeds::attach(rig);
   const GpioLedWiring wiring{kLines, true};
-  wiring.connect(chip, GpioLedWiring::to_world(world));
+  wiring.connect(chip, GpioLedWiring::to_leds(leds));
   auto lights = open_or_fail(gpiod_config("gpiochip0", true));
   ASSERT_TRUE(lights);
-  EXPECT_EQ(world->leds_on(), std::vector<int>{});
+  EXPECT_EQ(leds->leds_on(), std::vector<int>{});
   for (int channel : {2, 0, 1}) {
     ASSERT_TRUE(lights->all_off());
     ASSERT_TRUE(lights->turn_on(channel));
-    EXPECT_EQ(world->leds_on(), std::vector<int>{channel});
+    EXPECT_EQ(leds->leds_on(), std::vector<int>{channel});
   }
   ASSERT_TRUE(lights->all_off());
-  EXPECT_EQ(world->leds_on(), std::vector<int>{});
-  EXPECT_EQ(world->log().overlap(), std::nullopt);
+  EXPECT_EQ(leds->leds_on(), std::vector<int>{});
+  EXPECT_EQ(leds->log().overlap(), std::nullopt);
 }
 
 TEST_F(GpiodLights, DimmingIsRefusedAndZeroIntensityKeepsTheChannelDark) {
@@ -390,13 +390,13 @@ TEST_F(GpiodLights, FactoryOpensGpiodAndBlamesTheConfigFile) {
   config::RigConfig rig;
   rig.source = "/etc/psrig/rig.toml";
   rig.lights = gpiod_config("gpiochip0");
-  auto lights = firmware_host::open_lights(rig, nullptr);
+  auto lights = firmware_host::open_lights(rig);
   ASSERT_TRUE(lights) << lights.error().describe();
   EXPECT_EQ((*lights)->describe().rfind("gpiod gpiochip0", 0), 0u) << (*lights)->describe();
   lights->reset();
 
   rig.lights.gpiod.lines = {17, 99, 22};
-  auto bad = firmware_host::open_lights(rig, nullptr);
+  auto bad = firmware_host::open_lights(rig);
   ASSERT_FALSE(bad);
   EXPECT_EQ(bad.error().describe().rfind("/etc/psrig/rig.toml: lights.gpiod.lines[1]: ", 0), 0u)
       << bad.error().describe();

@@ -23,8 +23,8 @@
 #include "gpio_led_wiring.h"
 #include "psrig/capture/rig.h"
 #include "psrig/capture/scan_sequencer.h"
-#include "psrig/firmware_host/sim/sim_sensor.h"
-#include "psrig/firmware_host/sim/sim_world.h"
+#include "psrig/sim/sensor.h"
+#include "psrig/sim/world.h"
 #include "test_support.h"
 #include "umockdev_bed.h"
 
@@ -32,7 +32,6 @@ namespace psrig::capture {
 namespace {
 
 using namespace std::chrono_literals;
-using firmware_host::SimWorld;
 
 #define SKIP_WITHOUT_UMOCKDEV() \
   if (!test::UmockdevBed::available()) GTEST_SKIP() << "not under umockdev-wrapper"
@@ -66,14 +65,17 @@ config::RigConfig hil_config() {
 // 8-bit grey and `sensor_format`, which "auto" picks for its depth.
 struct EmulatedRig {
   explicit EmulatedRig(std::uint32_t sensor_format = V4L2_PIX_FMT_Y12) : format(sensor_format) {
-    wiring.connect(chip, test::GpioLedWiring::to_world(world));
+    wiring.connect(chip,
+                   test::GpioLedWiring::to_leds(firmware_host::SimulatedLeds::attach(config)));
   }
 
   std::uint32_t format;
   config::RigConfig config = hil_config();
-  std::shared_ptr<SimWorld> world = std::make_shared<SimWorld>(config);
+  // Found through the configuration, as the sim backends find it; lit by
+  // the same LEDs the chip's wiring switches.
+  std::shared_ptr<sim::World> world = sim::World::attach(config);
   test::GpioLedWiring wiring{config.lights.gpiod.lines, config.lights.gpiod.active_low};
-  firmware_host::SimSensor sensor{config.sim, 11};
+  sim::Sensor sensor{config.sim, 11};
   test::UmockdevBed bed;
   test::EmulatedGpioChip chip{
       bed, {.name = "gpiochip0", .label = "psrig-sim", .lines = 8, .initial_level = 1}};
@@ -85,7 +87,7 @@ struct EmulatedRig {
                                    .readout = 15ms,
                                    .auto_exposure = true},
                                   [this](const test::FrameRequest& r) {
-                                    firmware_host::SensorSettings settings;
+                                    sim::SensorSettings settings;
                                     settings.exposure_us = r.exposure_us;
                                     settings.gain = r.gain;
                                     settings.channels = r.channels;
@@ -102,8 +104,8 @@ struct EmulatedRig {
     }
     EXPECT_LE(wiring.most_lit(chip.history()), 1);
     EXPECT_TRUE(wiring.lit_channels(chip.levels()).empty());
-    EXPECT_FALSE(world->log().overlap()) << *world->log().overlap();
-    EXPECT_TRUE(world->leds_on().empty());
+    EXPECT_FALSE(world->leds()->log().overlap()) << *world->leds()->log().overlap();
+    EXPECT_TRUE(world->leds()->leds_on().empty());
   }
 };
 

@@ -424,7 +424,7 @@ TEST(UsbHil, TheFactoryOpensTheUsbBackend) {
   EmulatedStrobeController controller(bed);
   config::RigConfig rig;
   rig.lights = usb_config();
-  auto lights = firmware_host::open_lights(rig, nullptr);
+  auto lights = firmware_host::open_lights(rig);
   ASSERT_TRUE(lights) << lights.error().describe();
   EXPECT_TRUE(contains((*lights)->describe(), "usb strobe controller 1209:5053"));
 }

@@ -45,7 +45,7 @@ config::RigConfig v4l2_config(const std::string& device, const std::string& form
 
 // The factory, as the rig opens its camera; started.
 std::unique_ptr<Camera> open_started(const config::RigConfig& rig) {
-  auto camera = open_camera(rig, nullptr);
+  auto camera = open_camera(rig);
   EXPECT_TRUE(camera.has_value()) << (camera ? "" : camera.error().describe());
   if (!camera) return nullptr;
   auto started = (*camera)->start();
@@ -346,7 +346,7 @@ TEST(V4l2Hil, ConfigurationErrorsNameTheDeviceAndTheKey) {
   options.formats = {V4L2_PIX_FMT_GREY, V4L2_PIX_FMT_YUYV};
   EmulatedV4l2Camera device(bed, options, ramp_scene);
 
-  auto not_offered = open_camera(v4l2_config(device.devnode(), "Y16"), nullptr);
+  auto not_offered = open_camera(v4l2_config(device.devnode(), "Y16"));
   ASSERT_FALSE(not_offered.has_value());
   EXPECT_EQ(not_offered.error().key, "camera.format");
   EXPECT_EQ(not_offered.error().file, device.devnode());
@@ -357,13 +357,13 @@ TEST(V4l2Hil, ConfigurationErrorsNameTheDeviceAndTheKey) {
   auto rig = v4l2_config(device.devnode(), "GREY");
   rig.camera.width = 640;
   rig.camera.height = 480;
-  auto wrong_size = open_camera(rig, nullptr);
+  auto wrong_size = open_camera(rig);
   ASSERT_FALSE(wrong_size.has_value());
   EXPECT_EQ(wrong_size.error().key, "camera.width");
   EXPECT_NE(wrong_size.error().message.find("32x24"), std::string::npos)
       << wrong_size.error().describe();
 
-  auto missing = open_camera(v4l2_config("/dev/psrig-no-such-video"), nullptr);
+  auto missing = open_camera(v4l2_config("/dev/psrig-no-such-video"));
   ASSERT_FALSE(missing.has_value());
   EXPECT_EQ(missing.error().key, "camera.device");
 }
@@ -376,7 +376,7 @@ TEST(V4l2Hil, ExposureInDriverUnitsWithoutALineTimeIsRefusedByKey) {
   options.exposure = {V4L2_CID_EXPOSURE, 4, 2000, 1,
                       1000};  // lines, and no pixel rate to say how long
   EmulatedV4l2Camera device(bed, options, ramp_scene);
-  auto camera = open_camera(v4l2_config(device.devnode()), nullptr);
+  auto camera = open_camera(v4l2_config(device.devnode()));
   ASSERT_FALSE(camera.has_value());
   EXPECT_EQ(camera.error().key, "camera.exposure_us");
   EXPECT_NE(camera.error().message.find("V4L2_CID_EXPOSURE"), std::string::npos)

@@ -20,12 +20,17 @@
 #include <gtest/gtest.h>
 
 #include "psrig/firmware_host/safe_lights.h"
-#include "psrig/firmware_host/sim/modbus_driver.h"
+#include "sim_modbus_driver.h"
 
 namespace psrig::firmware_host {
 namespace {
 
 using std::chrono::milliseconds;
+using test::kModbusStatusDriverFault;
+using test::kModbusStatusInterlock;
+using test::ModbusFault;
+using test::SimModbusDriver;
+using test::SimModbusDriverOptions;
 using ::testing::AllOf;
 using ::testing::ElementsAre;
 using ::testing::HasSubstr;
@@ -612,7 +617,7 @@ TEST_P(ModbusLightsTest, FactoryOpensTheModbusBackend) {
   rig.source = "/etc/psrig/rig.toml";
   rig.lights = config_;
   rig.lights.backend = "modbus";
-  auto opened = open_lights(rig, nullptr);
+  auto opened = open_lights(rig);
   ASSERT_TRUE(opened.has_value()) << opened.error().describe();
   EXPECT_THAT((*opened)->describe(), HasSubstr(endpoint()));
   ASSERT_TRUE((*opened)->turn_on(1).has_value());
@@ -621,7 +626,7 @@ TEST_P(ModbusLightsTest, FactoryOpensTheModbusBackend) {
   EXPECT_TRUE(driver_->leds_on().empty());
 
   rig.lights.modbus.timeout_ms = 0;
-  opened = open_lights(rig, nullptr);
+  opened = open_lights(rig);
   ASSERT_FALSE(opened.has_value());
   EXPECT_EQ(opened.error().key, "lights.modbus.timeout_ms");
   EXPECT_EQ(opened.error().file, rig.source);

@@ -11,8 +11,8 @@
 
 #include "psrig/capture/scan_writer.h"
 #include "psrig/capture/synthetic_scan.h"
-#include "psrig/firmware_host/sim/swatch_model.h"
 #include "psrig/processing/map_encoding.h"
+#include "psrig/sim/swatch_model.h"
 #include "synthetic_scene.h"
 #include "test_support.h"
 
@@ -93,7 +93,7 @@ class SyntheticSwatch : public ::testing::TestWithParam<const char*> {};
 TEST_P(SyntheticSwatch, NoiseFreeNormalsAreExact) {
   test::TempDir temp;
   capture::SyntheticScanParams params;
-  params.swatch.pattern = *firmware_host::sim::parse_swatch_pattern(GetParam());
+  params.swatch.pattern = *sim::parse_swatch_pattern(GetParam());
   params.swatch.size = {240, 180};
   ASSERT_TRUE(capture::write_scan(capture::make_synthetic_scan(params), temp / "scan"));
   auto summary = process_scan(temp / "scan");
@@ -111,11 +111,11 @@ TEST_P(SyntheticSwatch, NoiseFreeNormalsAreExact) {
 TEST_P(SyntheticSwatch, NoisyNormalsMatchTheDerivedBound) {
   const double sigma = 0.004;
   capture::SyntheticScanParams params;
-  params.swatch.pattern = *firmware_host::sim::parse_swatch_pattern(GetParam());
+  params.swatch.pattern = *sim::parse_swatch_pattern(GetParam());
   params.swatch.size = {240, 180};
   params.noise = sigma;
   const Scan scan = capture::make_synthetic_scan(params);
-  const auto swatch = firmware_host::sim::make_swatch(params.swatch);
+  const auto swatch = sim::make_swatch(params.swatch);
   auto result = solve(scan);
   ASSERT_TRUE(result);
   const cv::Mat valid = encode_valid_mask(result->flags);

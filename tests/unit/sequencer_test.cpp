@@ -60,8 +60,8 @@ TEST(ScanSequencer, SimulatedScanRecoversTheSwatchNormals) {
                                              "light 3 of 3", "writing", "processing"}));
   // Both sides of the switch agree: never two on, all off at the end.
   expect_all_off_and_never_two_on(*rig->lights);
-  EXPECT_FALSE(rig->world->log().overlap());
-  EXPECT_TRUE(rig->world->leds_on().empty());
+  EXPECT_FALSE(rig->world->leds()->log().overlap());
+  EXPECT_TRUE(rig->world->leds()->leds_on().empty());
 
   // The scan directory reads back with its capture record.
   auto scan = processing::read_scan(request.directory);
@@ -151,13 +151,7 @@ struct ScriptedRig {
     c.camera.timeout_ms = 50;
     return c;
   }();
-  std::shared_ptr<firmware_host::SimWorld> world = std::make_shared<firmware_host::SimWorld>([] {
-    config::RigConfig c;
-    c.sim.width = 8;
-    c.sim.height = 8;
-    return c;
-  }());
-  SafeLights lights{firmware_host::open_sim_lights(config.lights, world), 5s};
+  SafeLights lights{firmware_host::open_sim_lights(config), 5s};
   ScriptedCamera camera{lights};
   ScanSequencer sequencer{config, lights, camera};
 };
@@ -283,7 +277,7 @@ TEST(ScanSequencer, LightFailureEndsTheScanWithAllLedsOff) {
 
 TEST(ScanSequencer, WatchdogCuttingAnExposureShortFailsTheScan) {
   ScriptedRig rig;
-  SafeLights short_fuse(firmware_host::open_sim_lights(rig.config.lights, rig.world), 20ms);
+  SafeLights short_fuse(firmware_host::open_sim_lights(rig.config), 20ms);
   ScriptedCamera camera(short_fuse);
   camera.on_grab = [](int) { std::this_thread::sleep_for(15ms); };
   ScanSequencer sequencer(rig.config, short_fuse, camera);

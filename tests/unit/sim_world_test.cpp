@@ -1,16 +1,17 @@
 // The simulated world and sensor: what the camera records is what the LEDs
-// did during each exposure, with realistic noise.
-
-#include "psrig/firmware_host/sim/sim_world.h"
+// did during each exposure, with realistic noise; the world a configuration
+// describes is the one the sim backends find.
 
 #include <chrono>
 #include <cmath>
 
 #include <gtest/gtest.h>
 
-#include "psrig/firmware_host/sim/sim_sensor.h"
+#include "psrig/firmware_host/simulated_leds.h"
+#include "psrig/sim/sensor.h"
+#include "psrig/sim/world.h"
 
-namespace psrig::firmware_host {
+namespace psrig::sim {
 namespace {
 
 using namespace std::chrono_literals;
@@ -28,50 +29,39 @@ config::RigConfig small_world() {
   return c;
 }
 
-TEST(SimWorld, ExposureWeightsFollowTheSwitches) {
-  SimWorld world(small_world());
-  const auto t0 = Clock::now();
-  world.set_led(1, true, 1.0, t0 + 10ms);
-  world.all_off(t0 + 20ms);
-  world.set_led(2, true, 0.5, t0 + 20ms);
-  const auto w = world.exposure_weights(t0, t0 + 40ms);
-  EXPECT_NEAR(w[0], 0.0, 1e-9);
-  EXPECT_NEAR(w[1], 0.25, 1e-6);  // on for 10 of 40 ms
-  EXPECT_NEAR(w[2], 0.25, 1e-6);  // on at half level for 20 of 40 ms
-  EXPECT_EQ(world.leds_on(), std::vector<int>{2});
-  const auto later = world.exposure_weights(t0 + 30ms, t0 + 40ms);
-  EXPECT_NEAR(later[2], 0.5, 1e-6);
-  EXPECT_FALSE(world.log().overlap());
-}
-
-TEST(SimWorld, LongRunsDoNotGrowTheHistory) {
-  SimWorld world(small_world());
-  auto t = Clock::now();
-  for (int i = 0; i < 20000; ++i) {
-    world.set_led(i % 3, true, 1.0, t);
-    t += 1ms;
-    world.all_off(t);
-    t += 1ms;
-  }
-  world.set_led(1, true, 1.0, t);
-  // The state survives the folding of old history.
-  EXPECT_EQ(world.leds_on(), std::vector<int>{1});
-  EXPECT_NEAR(world.exposure_weights(t, t + 10ms)[1], 1.0, 1e-6);
-}
-
 TEST(SimWorld, RadianceIsTheRenderedSwatch) {
-  SimWorld world(small_world());
+  World world(small_world());
   ASSERT_EQ(world.channel_count(), 3);
   EXPECT_EQ(world.radiance(0).size(), cv::Size(64, 48));
   EXPECT_NEAR(world.light_directions()[1][1], std::sin(2 * CV_PI / 3) * std::sqrt(0.5), 1e-9);
   EXPECT_GT(brightness(world.radiance(0)), 0.1);
 }
 
+TEST(SimWorld, AttachFindsTheRigsWorldThroughTheConfiguration) {
+  const config::RigConfig config = small_world();
+  auto world = World::attach(config);
+  // The sim camera and the sim lights, opened apart, meet in it.
+  EXPECT_EQ(World::attach(config), world);
+  EXPECT_EQ(world->leds(), firmware_host::SimulatedLeds::attach(config));
+  config::RigConfig other = config;
+  other.sim.seed = 2;
+  EXPECT_NE(World::attach(other), world);
+  other = config;
+  other.camera.exposure_us = 5000;  // not what makes the world
+  EXPECT_EQ(World::attach(other), world);
+  // Nobody holding it: the next rig opened gets a fresh world.
+  const std::weak_ptr<World> held = world;
+  const std::weak_ptr<firmware_host::SimulatedLeds> leds = world->leds();
+  world.reset();
+  EXPECT_TRUE(held.expired());
+  EXPECT_TRUE(leds.expired());
+}
+
 class SimSensorTest : public ::testing::Test {
  protected:
   config::RigConfig config_ = small_world();
-  SimWorld world_{config_};
-  SimSensor sensor_{config_.sim, 7};
+  World world_{config_};
+  Sensor sensor_{config_.sim, 7};
 };
 
 TEST_F(SimSensorTest, DarkFrameSitsAtTheBlackLevel) {
@@ -87,13 +77,13 @@ TEST_F(SimSensorTest, DarkFrameSitsAtTheBlackLevel) {
 
 TEST_F(SimSensorTest, AnLedOnForTheExposureBrightensTheFrame) {
   const auto t0 = Clock::now();
-  world_.set_led(0, true, 1.0, t0 - 1s);
+  world_.leds()->set_led(0, true, 1.0, t0 - 1s);
   const cv::Mat lit = sensor_.expose(world_, t0, {}, 2);
-  world_.all_off(t0 + 1s);
+  world_.leds()->all_off(t0 + 1s);
   const cv::Mat dark = sensor_.expose(world_, t0 + 2s, {}, 3);
   EXPECT_GT(brightness(lit), brightness(dark) + 300);
   // Half the exposure under the LED: about half the signal above black.
-  world_.set_led(0, true, 1.0, t0 + 3s + 10ms);
+  world_.leds()->set_led(0, true, 1.0, t0 + 3s + 10ms);
   const cv::Mat half = sensor_.expose(world_, t0 + 3s, {}, 4);
   const double black = brightness(dark);
   EXPECT_NEAR((brightness(half) - black) / (brightness(lit) - black), 0.5, 0.05);
@@ -103,7 +93,7 @@ TEST_F(SimSensorTest, ShotNoiseGrowsWithTheSignal) {
   // Two frames of the same light: their difference is noise only. Its
   // variance in electrons must match the mean signal (Poisson) plus read noise.
   const auto t0 = Clock::now();
-  world_.set_led(1, true, 1.0, t0 - 1s);
+  world_.leds()->set_led(1, true, 1.0, t0 - 1s);
   const cv::Mat a = sensor_.expose(world_, t0, {}, 10), b = sensor_.expose(world_, t0, {}, 11);
   cv::Mat a_f, b_f;
   a.convertTo(a_f, CV_64F);
@@ -121,7 +111,7 @@ TEST_F(SimSensorTest, ShotNoiseGrowsWithTheSignal) {
 
 TEST_F(SimSensorTest, SameFrameNumberSameFrame) {
   const auto t0 = Clock::now();
-  world_.set_led(2, true, 1.0, t0 - 1s);
+  world_.leds()->set_led(2, true, 1.0, t0 - 1s);
   EXPECT_EQ(
       cv::norm(sensor_.expose(world_, t0, {}, 5), sensor_.expose(world_, t0, {}, 5), cv::NORM_INF),
       0);
@@ -132,7 +122,7 @@ TEST_F(SimSensorTest, SameFrameNumberSameFrame) {
 
 TEST_F(SimSensorTest, ExposureAndGainScaleTheSignalAndVignettingDarkensCorners) {
   const auto t0 = Clock::now();
-  world_.set_led(0, true, 1.0, t0 - 1s);
+  world_.leds()->set_led(0, true, 1.0, t0 - 1s);
   SensorSettings base;
   SensorSettings longer = base;
   longer.exposure_us *= 2;
@@ -141,7 +131,7 @@ TEST_F(SimSensorTest, ExposureAndGainScaleTheSignalAndVignettingDarkensCorners) 
   const double black = config_.sim.black_level;
   config::SimConfig dim = config_.sim;  // so that twice the exposure does not clip
   dim.led_irradiance = 0.5;
-  const SimSensor dim_sensor(dim, 3);
+  const Sensor dim_sensor(dim, 3);
   const double one = brightness(dim_sensor.expose(world_, t0, base, 1)) - black;
   const double two = brightness(dim_sensor.expose(world_, t0, longer, 2)) - black;
   EXPECT_NEAR(two / one, 2.0, 0.1);
@@ -150,7 +140,7 @@ TEST_F(SimSensorTest, ExposureAndGainScaleTheSignalAndVignettingDarkensCorners) 
   // corners with the centre over many pixels.
   config::RigConfig strong = small_world();
   strong.sim.vignetting = 0.5;
-  SimSensor vignetted(strong.sim, 1);
+  Sensor vignetted(strong.sim, 1);
   const cv::Mat frame = vignetted.expose(world_, t0, base, 9);
   const double centre = brightness(frame(cv::Rect(24, 16, 16, 16)));
   const double corner = brightness(frame(cv::Rect(0, 0, 8, 8)));
@@ -158,4 +148,4 @@ TEST_F(SimSensorTest, ExposureAndGainScaleTheSignalAndVignettingDarkensCorners) 
 }
 
 }  // namespace
-}  // namespace psrig::firmware_host
+}  // namespace psrig::sim

@@ -1,7 +1,7 @@
 // The simulated world's textile (make_swatch) and its image formation
 // (render_lambertian, cast_shadow_mask).
 
-#include "psrig/firmware_host/sim/swatch_model.h"
+#include "psrig/sim/swatch_model.h"
 
 #include <algorithm>
 #include <array>
@@ -14,10 +14,10 @@
 #include <gtest/gtest.h>
 #include <opencv2/core.hpp>
 
-#include "psrig/firmware_host/sim/lambertian_render.h"
 #include "psrig/processing/light_matrix.h"
+#include "psrig/sim/lambertian_render.h"
 
-namespace psrig::firmware_host::sim {
+namespace psrig::sim {
 namespace {
 
 constexpr std::array<SwatchPattern, 5> kPatterns{SwatchPattern::jersey, SwatchPattern::rib,
@@ -502,4 +502,4 @@ TEST(CastShadowTest, RenderIsBlackInCastShadow) {
 }
 
 }  // namespace
-}  // namespace psrig::firmware_host::sim
+}  // namespace psrig::sim

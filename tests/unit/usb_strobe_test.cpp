@@ -9,18 +9,18 @@
 
 #include <gtest/gtest.h>
 
-#include "psrig/firmware_host/sim/strobe_firmware.h"
 #include "psrig/firmware_host/strobe_protocol.h"
+#include "strobe_firmware.h"
 
 namespace psrig::firmware_host {
 namespace {
 
 using namespace std::chrono_literals;
 namespace fault = strobe::fault;
-using sim::StrobeFirmware;
 using strobe::Frame;
 using strobe::Opcode;
 using strobe::StatusCode;
+using test::StrobeFirmware;
 
 // ---------------------------------------------------------------- codec
 

@@ -63,7 +63,7 @@ Command add_synth_command(CLI::App& parent) {
                                      "expected WxH from 8x8 to 16384x16384, e.g. 640x480; got '" +
                                          args->size + "'"));
             SyntheticScanParams params;
-            params.swatch.pattern = *firmware_host::sim::parse_swatch_pattern(args->pattern);
+            params.swatch.pattern = *sim::parse_swatch_pattern(args->pattern);
             params.swatch.size = {std::stoi(match[1]), std::stoi(match[2])};
             params.swatch.pixel_size_mm = args->pixel_size;
             params.swatch.seed = args->seed;

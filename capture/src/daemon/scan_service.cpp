@@ -10,7 +10,7 @@
 #include "psrig/base/log.h"
 #include "psrig/capture/scan_sequencer.h"
 #include "psrig/firmware_host/emergency_stop.h"
-#include "psrig/firmware_host/sim/sim_world.h"
+#include "psrig/sim/world.h"
 
 namespace psrig::capture {
 namespace {
@@ -365,13 +365,13 @@ Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
   };
   try {
     if (config.lights.backend == "sim" || config.camera.backend == "sim")
-      rig->world = std::make_shared<firmware_host::SimWorld>(config);
-    auto backend = firmware_host::open_lights(config, rig->world);
+      rig->world = sim::World::attach(config);
+    auto backend = firmware_host::open_lights(config);
     if (!backend) return failed(ScanErrorCode::lights, backend.error());
     rig->lights = std::make_unique<firmware_host::SafeLights>(
         record_light_faults(std::move(*backend), faults),
         std::chrono::milliseconds(config.lights.max_on_ms));
-    auto camera = open_camera(config, rig->world);
+    auto camera = open_camera(config);
     if (!camera) return failed(ScanErrorCode::camera, camera.error());
     rig->camera = record_camera_faults(std::move(*camera), faults);
   } catch (const std::exception& e) {

@@ -1,6 +1,6 @@
 #pragma once
 // The rig's USB strobe controller as the hardware-in-the-loop tests plug
-// it in: the simulated firmware (sim/strobe_firmware.h) behind an emulated
+// it in: the simulated firmware (strobe_firmware.h) behind an emulated
 // usbfs device with the descriptors of firmware_host/PROTOCOL.md, so that
 // the real libusb backend talks to it through the kernel's interface.
 
@@ -11,8 +11,8 @@
 #include <string>
 #include <vector>
 
-#include "psrig/firmware_host/sim/strobe_firmware.h"
 #include "psrig/firmware_host/strobe_protocol.h"
+#include "strobe_firmware.h"
 #include "usbfs_device.h"
 
 namespace psrig::test {
@@ -23,7 +23,7 @@ class EmulatedStrobeController {
     std::string serial = "A17";
     int devnum = 2;  // on bus 1
     int port = 1;
-    firmware_host::sim::StrobeFirmwareOptions firmware;
+    StrobeFirmwareOptions firmware;
   };
   // The wire, for tests that meddle with it: sees each command and the
   // firmware's answer (on the bed's thread) and returns what to send back,
@@ -49,7 +49,7 @@ class EmulatedStrobeController {
     device_.unplug();
   }
 
-  [[nodiscard]] firmware_host::sim::StrobeFirmware& firmware() { return firmware_; }
+  [[nodiscard]] StrobeFirmware& firmware() { return firmware_; }
   [[nodiscard]] UsbfsDevice& device() { return device_; }
 
  private:
@@ -81,7 +81,7 @@ class EmulatedStrobeController {
     if (sent) device_.queue_in(firmware_host::strobe::endpoint_in, std::move(*sent));
   }
 
-  firmware_host::sim::StrobeFirmware firmware_;
+  StrobeFirmware firmware_;
   std::mutex wire_mutex_;
   Wire wire_;
   UsbfsDevice device_;  // last: it calls into the others until it is gone

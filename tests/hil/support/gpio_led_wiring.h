@@ -2,7 +2,7 @@
 // LEDs wired to lines of an emulated GPIO chip: which line drives which LED,
 // and at which level it lights. Reads the chip's line levels as LEDs, and
 // connected to the chip, reports each LED that lights up or goes dark, so
-// that the real gpiod backend can switch the simulated world's LEDs.
+// that the real gpiod backend can switch the simulated rig's LEDs.
 
 #include <algorithm>
 #include <functional>
@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "emulated_gpio_chip.h"
-#include "psrig/firmware_host/sim/sim_world.h"
+#include "psrig/firmware_host/simulated_leds.h"
 
 namespace psrig::test {
 
@@ -54,9 +54,11 @@ struct GpioLedWiring {
     });
   }
 
-  // Switches `world`'s LEDs, at full level (GPIO is on or off).
-  [[nodiscard]] static LedSwitch to_world(std::shared_ptr<firmware_host::SimWorld> world) {
-    return [world = std::move(world)](int channel, bool lit) { world->set_led(channel, lit); };
+  // Switches the simulated rig's LEDs (SimulatedLeds::attach with the
+  // test's configuration, as the sim camera finds them), at full level:
+  // GPIO is on or off.
+  [[nodiscard]] static LedSwitch to_leds(std::shared_ptr<firmware_host::SimulatedLeds> leds) {
+    return [leds = std::move(leds)](int channel, bool lit) { leds->set_led(channel, lit); };
   }
 };
 

@@ -14,10 +14,6 @@
 #include "psrig/firmware_host/switch_log.h"
 #include "psrig/processing/scan.h"
 
-namespace psrig::firmware_host {
-class SimWorld;
-}
-
 namespace psrig::capture {
 
 using Clock = firmware_host::Clock;
@@ -55,7 +51,6 @@ class Camera {
 
 // The backend `camera.backend` names, opened and configured; errors name
 // the device, the configuration key and the fix.
-[[nodiscard]] Result<std::unique_ptr<Camera>> open_camera(
-    const config::RigConfig& config, std::shared_ptr<firmware_host::SimWorld> world);
+[[nodiscard]] Result<std::unique_ptr<Camera>> open_camera(const config::RigConfig& config);
 
 }  // namespace psrig::capture

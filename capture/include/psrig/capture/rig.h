@@ -9,12 +9,14 @@
 #include "psrig/capture/scan_sequencer.h"
 #include "psrig/config/rig_config.h"
 #include "psrig/firmware_host/safe_lights.h"
-#include "psrig/firmware_host/sim/sim_world.h"
+#include "psrig/sim/world.h"
 
 namespace psrig::capture {
 
 struct Rig {
-  std::shared_ptr<firmware_host::SimWorld> world;  // null on an all-hardware rig
+  // The simulated camera's world (sim::World::attach), for the ground truth;
+  // null when the camera is real or not asked for.
+  std::shared_ptr<sim::World> world;
   std::unique_ptr<firmware_host::SafeLights> lights;
   std::unique_ptr<Camera> camera;  // null when not asked for
 

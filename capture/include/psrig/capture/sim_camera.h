@@ -1,6 +1,7 @@
 #pragma once
 // The sim camera backend: the simulated world's sensor with real frame timing (camera.backend =
-// "sim").
+// "sim"). It finds its world through the configuration (sim::World::attach), so it sees what
+// the simulated rig's LEDs do.
 
 #include <memory>
 
@@ -8,7 +9,6 @@
 
 namespace psrig::capture {
 
-[[nodiscard]] std::unique_ptr<Camera> open_sim_camera(
-    const config::RigConfig& config, std::shared_ptr<firmware_host::SimWorld> world);
+[[nodiscard]] std::unique_ptr<Camera> open_sim_camera(const config::RigConfig& config);
 
 }  // namespace psrig::capture

@@ -4,13 +4,13 @@
 
 #include <cstdint>
 
-#include "psrig/firmware_host/sim/swatch_model.h"
 #include "psrig/processing/scan.h"
+#include "psrig/sim/swatch_model.h"
 
 namespace psrig::capture {
 
 struct SyntheticScanParams {
-  firmware_host::sim::SwatchParams swatch;
+  sim::SwatchParams swatch;
   double slant_deg = 45;  // all three lights; tilts 0, 120, 240
   double noise = 0;       // Gaussian, standard deviation as a fraction of full scale
   int depth = CV_16U;     // CV_8U or CV_16U

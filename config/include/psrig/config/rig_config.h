@@ -17,6 +17,8 @@ struct Geometry {
   std::vector<double> tilts_deg = {0, 120, 240};  // one per light, in channel order
   double working_distance_mm = 200;               // camera to swatch
   std::optional<double> pixel_size_mm;            // on the swatch; absent: heights in pixels
+
+  bool operator==(const Geometry&) const = default;
 };
 
 // A GPIO line per LED, through libgpiod.
@@ -113,6 +115,8 @@ struct SimConfig {
   double led_irradiance = 1.5;
   int readout_us = 15000;     // sensor readout after each exposure
   int frame_interval_us = 0;  // 0: exposure + readout
+
+  bool operator==(const SimConfig&) const = default;
 };
 
 // psrigd, the rig's daemon: where its HTTP API listens, who may use it, how

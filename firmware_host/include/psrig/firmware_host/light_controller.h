@@ -37,8 +37,6 @@ class LightController {
 
 // The backend `lights.backend` names, opened and ready; errors name the
 // device, the configuration key and the fix.
-class SimWorld;
-[[nodiscard]] Result<std::unique_ptr<LightController>> open_lights(const config::RigConfig& config,
-                                                                   std::shared_ptr<SimWorld> world);
+[[nodiscard]] Result<std::unique_ptr<LightController>> open_lights(const config::RigConfig& config);
 
 }  // namespace psrig::firmware_host

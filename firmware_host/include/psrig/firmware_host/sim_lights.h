@@ -1,5 +1,6 @@
 #pragma once
-// The sim light backend: the simulated world's LEDs (lights.backend = "sim").
+// The sim light backend (lights.backend = "sim"): switches the simulated
+// rig's LEDs (simulated_leds.h), found through the configuration.
 
 #include <memory>
 
@@ -8,8 +9,6 @@
 
 namespace psrig::firmware_host {
 
-class SimWorld;
-[[nodiscard]] std::unique_ptr<LightController> open_sim_lights(const config::LightsConfig& config,
-                                                               std::shared_ptr<SimWorld> world);
+[[nodiscard]] std::unique_ptr<LightController> open_sim_lights(const config::RigConfig& config);
 
 }  // namespace psrig::firmware_host

@@ -11,7 +11,7 @@
 
 #include "yarn_raster.h"
 
-namespace psrig::firmware_host::sim::detail {
+namespace psrig::sim::detail {
 
 // Samples the centripetal Catmull-Rom spline through points[1 .. n-2] (the
 // first and last points only steer the ends) as a polyline whose segments
@@ -73,4 +73,4 @@ namespace psrig::firmware_host::sim::detail {
   return out;
 }
 
-}  // namespace psrig::firmware_host::sim::detail
+}  // namespace psrig::sim::detail

@@ -1,4 +1,4 @@
-#include "psrig/firmware_host/sim/swatch_model.h"
+#include "psrig/sim/swatch_model.h"
 
 #include <algorithm>
 #include <array>
@@ -16,7 +16,7 @@
 #include "woven_structure.h"
 #include "yarn_raster.h"
 
-namespace psrig::firmware_host::sim {
+namespace psrig::sim {
 namespace {
 
 using detail::jitter;
@@ -261,4 +261,4 @@ Swatch make_swatch(const SwatchParams& params) {
   return swatch;
 }
 
-}  // namespace psrig::firmware_host::sim
+}  // namespace psrig::sim

@@ -1,10 +1,14 @@
-#include "psrig/firmware_host/sim/strobe_firmware.h"
+#include "strobe_firmware.h"
 
 #include <algorithm>
 #include <chrono>
 #include <utility>
 
-namespace psrig::firmware_host::sim {
+namespace psrig::test {
+
+namespace strobe = firmware_host::strobe;
+using firmware_host::Clock;
+using firmware_host::SwitchEvent;
 
 namespace fault = strobe::fault;
 using strobe::AllOff, strobe::ChannelOn, strobe::ClearFaults, strobe::Command, strobe::DeviceInfo,
@@ -286,4 +290,4 @@ int StrobeFirmware::handled(Opcode opcode) const {
   return it == handled_.end() ? 0 : it->second;
 }
 
-}  // namespace psrig::firmware_host::sim
+}  // namespace psrig::test

@@ -23,7 +23,7 @@
 #include "sim_hash.h"
 #include "yarn_raster.h"
 
-namespace psrig::firmware_host::sim::detail {
+namespace psrig::sim::detail {
 
 enum class KnitStructure { jersey, rib, garter };
 
@@ -177,4 +177,4 @@ struct Layout {
   return yarns;
 }
 
-}  // namespace psrig::firmware_host::sim::detail
+}  // namespace psrig::sim::detail

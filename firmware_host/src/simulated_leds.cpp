@@ -1,47 +1,28 @@
-#include "psrig/firmware_host/sim/sim_world.h"
+#include "psrig/firmware_host/simulated_leds.h"
 
 #include <algorithm>
-#include <cmath>
+#include <utility>
 
-#include "psrig/firmware_host/sim/lambertian_render.h"
-#include "psrig/processing/light_matrix.h"
+#include "psrig/firmware_host/simulated_rig.h"
 
 namespace psrig::firmware_host {
 namespace {
 
 // Older switches than this many are folded into the state they left: a
-// kiosk runs for months, its world must not grow.
+// kiosk runs for months, its LEDs' history must not grow.
 constexpr std::size_t kMaxHistory = 4096;
-
-sim::Swatch make_world_swatch(const config::SimConfig& sim) {
-  sim::SwatchParams params;
-  params.pattern = sim::parse_swatch_pattern(sim.pattern).value_or(sim::SwatchPattern::jersey);
-  params.size = {sim.width, sim.height};
-  params.pixel_size_mm = sim.pixel_size_mm;
-  params.seed = sim.seed;
-  return sim::make_swatch(params);
-}
 
 }  // namespace
 
-SimWorld::SimWorld(const config::RigConfig& config) : swatch_(make_world_swatch(config.sim)) {
-  for (int k = 0; k < config.lights.channels; ++k) {
-    const auto& tilts = config.geometry.tilts_deg;
-    const double tilt_deg =
-        k < static_cast<int>(tilts.size()) ? tilts[k] : 360.0 * k / config.lights.channels;
-    directions_.push_back(processing::light_direction(tilt_deg, config.geometry.slant_deg));
-    radiance_.push_back(sim::render_lambertian(swatch_, {directions_.back(), {1, 1, 1}}, true));
-  }
-  // Room light: a bright overcast sky, so a facet sees (1 + n_z) / 2 of it.
-  std::vector<cv::Mat> normal;
-  cv::split(swatch_.normal, normal);
-  cv::Mat sky = (normal[2] + 1) * 0.5;
-  cv::Mat sky3;
-  cv::merge(std::vector<cv::Mat>{sky, sky, sky}, sky3);
-  ambient_ = swatch_.albedo.mul(sky3);
+SimulatedLeds::SimulatedLeds(int channels) : channels_(std::max(channels, 0)) {}
+
+std::shared_ptr<SimulatedLeds> SimulatedLeds::attach(const config::RigConfig& config) {
+  static SimulatedRigRegistry<SimulatedLeds> registry;
+  return registry.attach(config,
+                         [&] { return std::make_shared<SimulatedLeds>(config.lights.channels); });
 }
 
-void SimWorld::set_led(int channel, bool on, double level, Clock::time_point at) {
+void SimulatedLeds::set_led(int channel, bool on, double level, Clock::time_point at) {
   std::lock_guard lock(mutex_);
   history_.push_back({at, channel, on, std::clamp(level, 0.0, 1.0)});
   log_.record(channel, on);
@@ -49,7 +30,7 @@ void SimWorld::set_led(int channel, bool on, double level, Clock::time_point at)
     // Fold the oldest half into one entry per channel that is on.
     const std::size_t keep_from = history_.size() / 2;
     std::vector<Switch> folded;
-    std::vector<std::pair<bool, double>> state(directions_.size(), {false, 0.0});
+    std::vector<std::pair<bool, double>> state(static_cast<std::size_t>(channels_), {false, 0.0});
     for (std::size_t i = 0; i < keep_from; ++i) {
       const auto& s = history_[i];
       if (s.channel < 0)
@@ -67,14 +48,14 @@ void SimWorld::set_led(int channel, bool on, double level, Clock::time_point at)
   }
 }
 
-void SimWorld::all_off(Clock::time_point at) {
+void SimulatedLeds::all_off(Clock::time_point at) {
   std::lock_guard lock(mutex_);
   history_.push_back({at, -1, false, 0});
   log_.record(-1, false);
 }
 
-std::vector<int> SimWorld::leds_on() const {
-  std::vector<double> level(directions_.size(), 0);
+std::vector<int> SimulatedLeds::leds_on() const {
+  std::vector<double> level(static_cast<std::size_t>(channels_), 0);
   std::lock_guard lock(mutex_);
   for (const auto& s : history_) {
     if (s.channel < 0)
@@ -88,9 +69,9 @@ std::vector<int> SimWorld::leds_on() const {
   return on;
 }
 
-std::vector<double> SimWorld::exposure_weights(Clock::time_point begin,
-                                               Clock::time_point end) const {
-  const std::size_t n = directions_.size();
+std::vector<double> SimulatedLeds::exposure_weights(Clock::time_point begin,
+                                                    Clock::time_point end) const {
+  const auto n = static_cast<std::size_t>(channels_);
   std::vector<double> weights(n, 0.0);
   const double span = std::chrono::duration<double>(end - begin).count();
   if (span <= 0) return weights;

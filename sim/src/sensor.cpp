@@ -1,4 +1,4 @@
-#include "psrig/firmware_host/sim/sim_sensor.h"
+#include "psrig/sim/sensor.h"
 
 #include <algorithm>
 #include <chrono>
@@ -6,7 +6,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-namespace psrig::firmware_host {
+namespace psrig::sim {
 namespace {
 
 // The exposure at which `led_irradiance` is specified.
@@ -26,7 +26,7 @@ cv::Mat vignette(cv::Size size, double strength) {
 
 }  // namespace
 
-SimSensor::SimSensor(const config::SimConfig& config, std::uint64_t seed)
+Sensor::Sensor(const config::SimConfig& config, std::uint64_t seed)
     : bit_depth_(std::clamp(config.bit_depth, 8, 16)),
       full_well_(std::max(config.full_well, 1.0)),
       read_noise_(std::max(config.read_noise, 0.0)),
@@ -36,8 +36,8 @@ SimSensor::SimSensor(const config::SimConfig& config, std::uint64_t seed)
       ambient_(config.ambient),
       seed_(seed) {}
 
-cv::Mat SimSensor::expose(const SimWorld& world, Clock::time_point begin,
-                          const SensorSettings& settings, std::uint64_t frame_number) const {
+cv::Mat Sensor::expose(const World& world, Clock::time_point begin, const SensorSettings& settings,
+                       std::uint64_t frame_number) const {
   const auto end = begin + std::chrono::microseconds(settings.exposure_us);
   const std::vector<double> weights = world.exposure_weights(begin, end);
   const double scale = settings.gain * settings.exposure_us / kReferenceExposureUs;
@@ -77,4 +77,4 @@ cv::Mat SimSensor::expose(const SimWorld& world, Clock::time_point begin,
   return frame;
 }
 
-}  // namespace psrig::firmware_host
+}  // namespace psrig::sim

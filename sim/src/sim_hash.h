@@ -6,7 +6,7 @@
 #include <cmath>
 #include <cstdint>
 
-namespace psrig::firmware_host::sim::detail {
+namespace psrig::sim::detail {
 
 // The splitmix64 finaliser: a cheap, well-mixed 64-bit hash.
 [[nodiscard]] constexpr std::uint64_t mix64(std::uint64_t x) {
@@ -54,4 +54,4 @@ namespace psrig::firmware_host::sim::detail {
   return top + v * (bottom - top);
 }
 
-}  // namespace psrig::firmware_host::sim::detail
+}  // namespace psrig::sim::detail

@@ -10,7 +10,7 @@
 
 #include <opencv2/core.hpp>
 
-namespace psrig::firmware_host::sim {
+namespace psrig::sim {
 
 enum class SwatchPattern { jersey, rib, garter, plain, twill };
 
@@ -34,4 +34,4 @@ struct Swatch {
 
 [[nodiscard]] Swatch make_swatch(const SwatchParams& params);
 
-}  // namespace psrig::firmware_host::sim
+}  // namespace psrig::sim

@@ -16,7 +16,7 @@
 #include "sim_hash.h"
 #include "yarn_raster.h"
 
-namespace psrig::firmware_host::sim::detail {
+namespace psrig::sim::detail {
 
 enum class Weave { plain, twill };
 
@@ -117,4 +117,4 @@ struct WovenYarns {
   return out;
 }
 
-}  // namespace psrig::firmware_host::sim::detail
+}  // namespace psrig::sim::detail

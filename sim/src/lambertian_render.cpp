@@ -1,9 +1,9 @@
-#include "psrig/firmware_host/sim/lambertian_render.h"
+#include "psrig/sim/lambertian_render.h"
 
 #include <algorithm>
 #include <cmath>
 
-namespace psrig::firmware_host::sim {
+namespace psrig::sim {
 namespace {
 
 // Below this horizontal component the light counts as overhead.
@@ -98,4 +98,4 @@ cv::Mat render_lambertian(const Swatch& swatch, const DistantLight& light, bool 
   return out;
 }
 
-}  // namespace psrig::firmware_host::sim
+}  // namespace psrig::sim

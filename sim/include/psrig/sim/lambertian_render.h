@@ -4,9 +4,9 @@
 
 #include <opencv2/core.hpp>
 
-#include "psrig/firmware_host/sim/swatch_model.h"
+#include "psrig/sim/swatch_model.h"
 
-namespace psrig::firmware_host::sim {
+namespace psrig::sim {
 
 struct DistantLight {
   cv::Vec3d direction{0, 0, 1};  // from the swatch toward the light, camera axes; need not be unit
@@ -26,4 +26,4 @@ struct DistantLight {
 [[nodiscard]] cv::Mat cast_shadow_mask(const cv::Mat& height_mm, double pixel_size_mm,
                                        const cv::Vec3d& direction);
 
-}  // namespace psrig::firmware_host::sim
+}  // namespace psrig::sim

@@ -24,7 +24,7 @@
 #include "psrig/firmware_host/light_controller.h"
 #include "psrig/firmware_host/switch_log.h"
 
-namespace psrig::firmware_host {
+namespace psrig::test {
 
 // Bits of the status input register. Nonzero means "fault" to the host.
 inline constexpr std::uint16_t kModbusStatusDriverFault = 0x0001;  // LED open/short, overheating
@@ -52,9 +52,9 @@ class SimModbusDriver {
  public:
   // Called from the server thread for every LED change, in order (offs
   // before ons), before the reply leaves: `level` is the LED's intensity
-  // register over the full scale. Shaped for SimWorld::set_led.
-  using SwitchCallback =
-      std::function<void(int channel, bool on, double level, Clock::time_point time)>;
+  // register over the full scale. Shaped for firmware_host::SimulatedLeds::set_led.
+  using SwitchCallback = std::function<void(int channel, bool on, double level,
+                                            firmware_host::Clock::time_point time)>;
 
   [[nodiscard]] static Result<std::unique_ptr<SimModbusDriver>> start(
       const SimModbusDriverOptions& options, SwitchCallback on_switch = {});
@@ -74,7 +74,7 @@ class SimModbusDriver {
   [[nodiscard]] std::uint16_t status() const;
   void set_status(std::uint16_t status);  // e.g. kModbusStatusDriverFault
   // Every LED switch the driver made (its record of "never two on").
-  [[nodiscard]] const SwitchLog& log() const { return log_; }
+  [[nodiscard]] const firmware_host::SwitchLog& log() const { return log_; }
 
   // The next `requests` requests addressed to this driver (-1: all, until
   // cleared) meet `fault`; `exception_code` for ModbusFault::exception
@@ -126,7 +126,7 @@ class SimModbusDriver {
   std::vector<int> requests_by_function_ = std::vector<int>(256, 0);
   int interlock_refusals_ = 0;
   int connections_ = 0;
-  SwitchLog log_;
+  firmware_host::SwitchLog log_;
 };
 
-}  // namespace psrig::firmware_host
+}  // namespace psrig::test

@@ -1,4 +1,4 @@
-#include "psrig/firmware_host/sim/modbus_driver.h"
+#include "sim_modbus_driver.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -16,7 +16,9 @@
 #include <unistd.h>
 #include <utility>
 
-namespace psrig::firmware_host {
+namespace psrig::test {
+
+using firmware_host::Clock;
 
 // Everything the server thread owns at the C level.
 struct SimModbusDriver::Link {
@@ -454,4 +456,4 @@ std::vector<std::uint8_t> SimModbusDriver::capture_exception(int fd, const std::
   return replied ? read_captured(link.capture[1]) : std::vector<std::uint8_t>{};
 }
 
-}  // namespace psrig::firmware_host
+}  // namespace psrig::test

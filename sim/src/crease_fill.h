@@ -17,7 +17,7 @@
 
 #include "yarn_raster.h"
 
-namespace psrig::firmware_host::sim::detail {
+namespace psrig::sim::detail {
 
 inline void fill_creases(YarnRaster& raster, double px, double slope) {
   const int rows = raster.top.rows;
@@ -69,4 +69,4 @@ inline void fill_creases(YarnRaster& raster, double px, double slope) {
   }
 }
 
-}  // namespace psrig::firmware_host::sim::detail
+}  // namespace psrig::sim::detail

@@ -20,7 +20,7 @@
 
 #include <opencv2/core.hpp>
 
-namespace psrig::firmware_host::sim::detail {
+namespace psrig::sim::detail {
 
 struct YarnVertex {
   double x = 0;  // mm, image axes: x to the right, y down the rows
@@ -202,4 +202,4 @@ inline void draw_segment(const Segment& s, double px, int row_begin, int row_end
   return out;
 }
 
-}  // namespace psrig::firmware_host::sim::detail
+}  // namespace psrig::sim::detail

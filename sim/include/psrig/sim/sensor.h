@@ -10,9 +10,9 @@
 #include <opencv2/core.hpp>
 
 #include "psrig/config/rig_config.h"
-#include "psrig/firmware_host/sim/sim_world.h"
+#include "psrig/sim/world.h"
 
-namespace psrig::firmware_host {
+namespace psrig::sim {
 
 struct SensorSettings {
   int exposure_us = 20000;
@@ -20,12 +20,12 @@ struct SensorSettings {
   int channels = 3;  // 3: BGR, 1: grey (the mean of the channels)
 };
 
-class SimSensor {
+class Sensor {
  public:
-  SimSensor(const config::SimConfig& config, std::uint64_t seed);
+  Sensor(const config::SimConfig& config, std::uint64_t seed);
 
   // The frame of an exposure over [begin, begin + exposure), CV_16UC3 or C1.
-  [[nodiscard]] cv::Mat expose(const SimWorld& world, Clock::time_point begin,
+  [[nodiscard]] cv::Mat expose(const World& world, Clock::time_point begin,
                                const SensorSettings& settings, std::uint64_t frame_number) const;
 
   [[nodiscard]] double white_level() const { return (1 << bit_depth_) - 1; }
@@ -42,4 +42,4 @@ class SimSensor {
   std::uint64_t seed_;
 };
 
-}  // namespace psrig::firmware_host
+}  // namespace psrig::sim

@@ -1,0 +1,52 @@
+#include "psrig/sim/world.h"
+
+#include <cmath>
+
+#include "psrig/firmware_host/simulated_rig.h"
+#include "psrig/processing/light_matrix.h"
+#include "psrig/sim/lambertian_render.h"
+
+namespace psrig::sim {
+namespace {
+
+Swatch make_world_swatch(const config::SimConfig& sim) {
+  SwatchParams params;
+  params.pattern = parse_swatch_pattern(sim.pattern).value_or(SwatchPattern::jersey);
+  params.size = {sim.width, sim.height};
+  params.pixel_size_mm = sim.pixel_size_mm;
+  params.seed = sim.seed;
+  return make_swatch(params);
+}
+
+}  // namespace
+
+World::World(const config::RigConfig& config, std::shared_ptr<firmware_host::SimulatedLeds> leds)
+    : swatch_(make_world_swatch(config.sim)),
+      leds_(leds ? std::move(leds)
+                 : std::make_shared<firmware_host::SimulatedLeds>(config.lights.channels)) {
+  for (int k = 0; k < config.lights.channels; ++k) {
+    const auto& tilts = config.geometry.tilts_deg;
+    const double tilt_deg =
+        k < static_cast<int>(tilts.size()) ? tilts[k] : 360.0 * k / config.lights.channels;
+    directions_.push_back(processing::light_direction(tilt_deg, config.geometry.slant_deg));
+    radiance_.push_back(render_lambertian(swatch_, {directions_.back(), {1, 1, 1}}, true));
+  }
+  // Room light: a bright overcast sky, so a facet sees (1 + n_z) / 2 of it.
+  std::vector<cv::Mat> normal;
+  cv::split(swatch_.normal, normal);
+  cv::Mat sky = (normal[2] + 1) * 0.5;
+  cv::Mat sky3;
+  cv::merge(std::vector<cv::Mat>{sky, sky, sky}, sky3);
+  ambient_ = swatch_.albedo.mul(sky3);
+}
+
+std::shared_ptr<World> World::attach(const config::RigConfig& config) {
+  // Rendering under the registry's lock: a second caller waits for the
+  // world rather than rendering another.
+  static firmware_host::SimulatedRigRegistry<World> registry;
+  return registry.attach(config, [&] {
+    return std::make_shared<World>(config, firmware_host::SimulatedLeds::attach(config));
+  });
+}
+
+}  // namespace psrig::sim
