@@ -3,8 +3,8 @@
 
 #include <gtest/gtest.h>
 
-#include "psrig/capture/http_api.h"
 #include "psrig/config/config_loader.h"
+#include "psrig/daemon/http_api.h"
 
 namespace psrig::test {
 namespace {
@@ -67,7 +67,7 @@ TEST(DaemonConfig, LoopbackAddresses) {
 }
 
 TEST(DaemonConfig, TokensCompareWhole) {
-  using capture::constant_time_equal;
+  using daemon::constant_time_equal;
   EXPECT_TRUE(constant_time_equal("Bearer abc", "Bearer abc"));
   EXPECT_FALSE(constant_time_equal("Bearer abc", "Bearer abd"));
   EXPECT_FALSE(constant_time_equal("Bearer ab", "Bearer abc"));
@@ -76,8 +76,8 @@ TEST(DaemonConfig, TokensCompareWhole) {
 }
 
 TEST(DaemonConfig, OnlyWhitelistedFilesAreServed) {
-  using capture::scan_file_home;
-  using capture::ScanFileHome;
+  using daemon::scan_file_home;
+  using daemon::ScanFileHome;
   EXPECT_EQ(scan_file_home("scan.json"), ScanFileHome::scan);
   EXPECT_EQ(scan_file_home("led2.png"), ScanFileHome::scan);
   EXPECT_EQ(scan_file_home("normal.png"), ScanFileHome::maps);

@@ -4,7 +4,7 @@
 // included), refusals as error codes, and a server that shrugs off clients
 // that hang up, stall or send garbage, and stops promptly.
 
-#include "psrig/capture/modbus_server.h"
+#include "psrig/daemon/modbus_server.h"
 
 #include <arpa/inet.h>
 #include <chrono>
@@ -20,7 +20,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-namespace psrig::capture {
+namespace psrig::daemon {
 namespace {
 
 using std::chrono::milliseconds;
@@ -504,4 +504,4 @@ TEST(ModbusServerOptionsTest, BadAddressPortAndBusyPortAreErrorsNamingTheKey) {
 }
 
 }  // namespace
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -3,6 +3,7 @@
 // layer, its camera configured, and the simulated world when either is
 // simulated.
 
+#include <functional>
 #include <memory>
 
 #include "psrig/capture/camera.h"
@@ -23,6 +24,18 @@ struct Rig {
   [[nodiscard]] ScanRequest request(const config::RigConfig& config) const;
 };
 
-[[nodiscard]] Result<Rig> open_rig(const config::RigConfig& config, bool with_camera = true);
+// What open_rig() puts round each device it opens, before the lights go
+// behind the safety layer (the daemon records which device fails). Unset:
+// the device as opened.
+struct RigWrappers {
+  std::function<std::unique_ptr<firmware_host::LightController>(
+      std::unique_ptr<firmware_host::LightController>)>
+      lights;
+  std::function<std::unique_ptr<Camera>(std::unique_ptr<Camera>)> camera;
+};
+
+// An error opening a device says which: ErrorCode::lights or ErrorCode::camera.
+[[nodiscard]] Result<Rig> open_rig(const config::RigConfig& config, bool with_camera = true,
+                                   const RigWrappers& wrappers = {});
 
 }  // namespace psrig::capture

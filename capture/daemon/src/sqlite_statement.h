@@ -9,7 +9,7 @@
 
 #include "psrig/base/error.h"
 
-namespace psrig::capture::sqlite {
+namespace psrig::daemon::sqlite {
 
 inline Error error(sqlite3* db, const std::string& what) {
   return io_error("catalogue", what + ": " + sqlite3_errmsg(db));
@@ -80,4 +80,4 @@ class Statement {
   sqlite3_stmt* statement_;
 };
 
-}  // namespace psrig::capture::sqlite
+}  // namespace psrig::daemon::sqlite

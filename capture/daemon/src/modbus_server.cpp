@@ -1,4 +1,4 @@
-#include "psrig/capture/modbus_server.h"
+#include "psrig/daemon/modbus_server.h"
 
 #include <algorithm>
 #include <arpa/inet.h>
@@ -22,7 +22,7 @@
 
 #include "psrig/base/log.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 namespace {
 
@@ -394,4 +394,4 @@ void ModbusServer::Impl::act(bool trigger_edge, bool lights_off_edge) {
   if (trigger_edge || lights_off_edge) refresh(control.status());
 }
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -1,4 +1,4 @@
-#include "psrig/capture/http_api.h"
+#include "psrig/daemon/http_api.h"
 
 #include <array>
 #include <atomic>
@@ -12,7 +12,7 @@
 #include "psrig/base/log.h"
 #include "psrig/processing/scan_layout.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 namespace {
 
 namespace fs = std::filesystem;
@@ -570,4 +570,4 @@ int HttpApi::port() const {
   return impl_->port;
 }
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -1,4 +1,4 @@
-#include "psrig/capture/catalogue.h"
+#include "psrig/daemon/catalogue.h"
 
 #include <cerrno>
 #include <cstdlib>
@@ -12,7 +12,7 @@
 #include "psrig/base/log.h"
 #include "sqlite_statement.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 namespace {
 
 namespace fs = std::filesystem;
@@ -558,4 +558,4 @@ Result<CatalogueRecovery> Catalogue::recover() {
   return recovery;
 }
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -11,7 +11,7 @@
 
 #include "psrig/base/error.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 // Numbered because the PLC reads them as register values: never renumber.
 enum class DaemonState : std::uint16_t {
@@ -76,4 +76,4 @@ class ScanControl {
   [[nodiscard]] virtual Status lights_off() = 0;
 };
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

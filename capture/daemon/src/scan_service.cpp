@@ -1,4 +1,4 @@
-#include "psrig/capture/scan_service.h"
+#include "psrig/daemon/scan_service.h"
 
 #include <algorithm>
 #include <cstdio>
@@ -12,7 +12,7 @@
 #include "psrig/firmware_host/emergency_stop.h"
 #include "psrig/firmware_host/sim/sim_world.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 namespace {
 
 namespace fs = std::filesystem;
@@ -223,7 +223,7 @@ Status ScanService::switch_lights_off() {
   // make sure.
   const config::RigConfig config = this->config();
   const std::string backend = "the LED backend '" + config.lights.backend + "'";
-  auto lights = open_rig(config, /*with_camera=*/false);
+  auto lights = capture::open_rig(config, /*with_camera=*/false);
   if (!lights) return note_lights_off(std::unexpected(lights.error()), backend);
   return note_lights_off(lights->lights->all_off(), lights->lights->describe());
 }
@@ -355,7 +355,7 @@ Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
   auto log = logger("daemon");
   const config::RigConfig config = this->config();
   auto faults = std::make_shared<DeviceFaults>();
-  auto rig = std::make_unique<Rig>();
+  auto rig = std::make_unique<capture::Rig>();
   const auto failed = [&](ScanErrorCode what, const Error& error) -> Status {
     code = what;
     log->error("cannot open the {}: {}", to_string(what), error.describe());
@@ -371,7 +371,7 @@ Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
     rig->lights = std::make_unique<firmware_host::SafeLights>(
         record_light_faults(std::move(*backend), faults),
         std::chrono::milliseconds(config.lights.max_on_ms));
-    auto camera = open_camera(config, rig->world);
+    auto camera = capture::open_camera(config, rig->world);
     if (!camera) return failed(ScanErrorCode::camera, camera.error());
     rig->camera = record_camera_faults(std::move(*camera), faults);
   } catch (const std::exception& e) {
@@ -391,7 +391,7 @@ Status ScanService::open_rig_if_closed(ScanErrorCode& code) {
 }
 
 void ScanService::close_rig() {
-  std::unique_ptr<Rig> closing;
+  std::unique_ptr<capture::Rig> closing;
   {
     std::lock_guard lock(rig_mutex_);
     closing = std::move(rig_);
@@ -513,7 +513,7 @@ void ScanService::run(const Job& job) {
   if (auto ok = check_free_space(config); !ok)
     return finish(job, ScanStatus::failed, ScanErrorCode::storage, ok.error().describe(), {},
                   false);
-  const fs::path directory = default_scan_directory(config, job.submission.sample_id);
+  const fs::path directory = capture::default_scan_directory(config, job.submission.sample_id);
   if (auto ok = catalogue_->mark_running(job.id, directory); !ok)
     return finish(job, ScanStatus::failed, ScanErrorCode::storage, ok.error().describe(), {},
                   false);
@@ -521,7 +521,7 @@ void ScanService::run(const Job& job) {
   attempt_.directory = directory;
 
   faults_->clear();
-  ScanSequencer sequencer(config, *rig_->lights, *rig_->camera);
+  capture::ScanSequencer sequencer(config, *rig_->lights, *rig_->camera);
   {
     std::lock_guard lock(mutex_);
     sequencer_ = &sequencer;
@@ -534,12 +534,12 @@ void ScanService::run(const Job& job) {
     std::lock_guard lock(mutex_);
     sequencer_ = nullptr;
   }};
-  ScanRequest request = rig_->request(config);
+  capture::ScanRequest request = rig_->request(config);
   request.sample_id = job.submission.sample_id;
   request.description = job.submission.description;
   request.directory = directory;
   Stage stage = Stage::acquiring;
-  auto outcome = sequencer.capture(request, [&](const ScanProgress& p) {
+  auto outcome = sequencer.capture(request, [&](const capture::ScanProgress& p) {
     if (p.step == "writing") {
       stage = Stage::writing;
       set_step(p.step, kAcquiredPercent, DaemonState::scanning);
@@ -685,4 +685,4 @@ void ScanService::stop() {
   events_.close();
 }
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

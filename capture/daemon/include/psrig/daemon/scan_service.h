@@ -16,13 +16,13 @@
 #include <string>
 #include <thread>
 
-#include "psrig/capture/catalogue.h"
 #include "psrig/capture/rig.h"
-#include "psrig/capture/scan_control.h"
-#include "psrig/capture/scan_events.h"
 #include "psrig/config/rig_config.h"
+#include "psrig/daemon/catalogue.h"
+#include "psrig/daemon/scan_control.h"
+#include "psrig/daemon/scan_events.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 struct DeviceFaults;
 
@@ -143,7 +143,7 @@ class ScanService final : public ScanControl {
   std::deque<Job> queue_;
   bool stopping_ = false;
   bool abort_current_ = false;
-  ScanSequencer* sequencer_ = nullptr;  // of the running scan
+  capture::ScanSequencer* sequencer_ = nullptr;  // of the running scan
   DaemonStatus status_;
   DeviceStatus devices_;
 
@@ -154,7 +154,7 @@ class ScanService final : public ScanControl {
   // alone to switch them off), so that one device is never opened twice at
   // once. Taken before rig_mutex_ and mutex_, never after.
   std::mutex open_mutex_;
-  std::unique_ptr<Rig> rig_;
+  std::unique_ptr<capture::Rig> rig_;
   std::shared_ptr<DeviceFaults> faults_;
   std::uintmax_t last_scan_bytes_ = 0;  // on disk, maps included; the worker's
   // The running scan's directory and whether it has been written: what an
@@ -172,4 +172,4 @@ class ScanService final : public ScanControl {
   std::thread worker_;
 };
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon
