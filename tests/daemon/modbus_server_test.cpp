@@ -46,7 +46,9 @@ class FakeScanControl : public ScanControl {
     // As ScanService refuses: a full queue names its key, a catalogue
     // that cannot write is a storage error.
     if (refuse_ && !storage_fails_)
-      return std::unexpected(bad_input("rig.toml", kQueueFullKey, "queue full: 4 scans waiting"));
+      return std::unexpected(
+          bad_input("rig.toml", "daemon.queue_limit", "queue full: 4 scans waiting")
+              .with(ErrorCode::queue_full));
     if (refuse_) return std::unexpected(io_error("catalogue.sqlite", "database or disk is full"));
     ++status_.queue_length;
     return next_id_++;

@@ -86,9 +86,8 @@ bool process_alive(pid_t pid) {
   return ::kill(pid, 0) == 0 || errno != ESRCH;
 }
 
-// SQLite's word for SQLITE_FULL, which the statement's error carries.
 bool disk_full(const Error& error) {
-  return error.message.find(sqlite3_errstr(SQLITE_FULL)) != std::string::npos;
+  return error.code == ErrorCode::disk_full;
 }
 
 }  // namespace
@@ -227,10 +226,11 @@ Result<std::unique_ptr<Catalogue>> Catalogue::open(const fs::path& storage_root)
 
 Status Catalogue::execute(const std::string& sql) const {
   char* message = nullptr;
-  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &message) != SQLITE_OK) {
+  const int result = sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &message);
+  if (result != SQLITE_OK) {
     const std::string text = message ? message : "unknown error";
     sqlite3_free(message);
-    return std::unexpected(io_error(root_ / kFileName, text));
+    return std::unexpected(io_error(root_ / kFileName, text).with(sqlite::error_code(result)));
   }
   return {};
 }

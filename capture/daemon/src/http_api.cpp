@@ -315,7 +315,7 @@ void HttpApi::Impl::submit(const httplib::Request& req, httplib::Response& res) 
   auto id = service.submit(std::move(submission));
   if (!id) {
     // A full queue is the service's state, not the request's fault.
-    if (id.error().key == kQueueFullKey) {
+    if (id.error().code == ErrorCode::queue_full) {
       res.set_header("Retry-After", "5");
       return refuse(res, 503, id.error().message);
     }

@@ -382,10 +382,10 @@ void ModbusServer::Impl::act(bool trigger_edge, bool lights_off_edge) {
       ++counters.triggers_accepted;
     } else {
       // Why, as the PLC reads it: a stopping daemon aborts, a full queue
-      // says so (its key), anything else is the catalogue's storage.
-      refused = control.status().state == DaemonState::stopping ? ScanErrorCode::aborted
-                : submitted.error().key == kQueueFullKey        ? ScanErrorCode::queue_full
-                                                                : ScanErrorCode::storage;
+      // says so (its code), anything else is the catalogue's storage.
+      refused = control.status().state == DaemonState::stopping   ? ScanErrorCode::aborted
+                : submitted.error().code == ErrorCode::queue_full ? ScanErrorCode::queue_full
+                                                                  : ScanErrorCode::storage;
       plc_log()->warn("PLC: trigger refused: {}", submitted.error().describe());
       const std::scoped_lock lock(counters_mutex);
       ++counters.triggers_refused;

@@ -174,9 +174,10 @@ Result<std::int64_t> ScanService::submit(ScanSubmission submission) {
   if (queue_.size() >= limit) {
     status_.last_error_code = ScanErrorCode::queue_full;
     status_.last_error = "queue full: " + std::to_string(limit) + " scans waiting";
-    // The key tells the front ends this is the queue, not the request.
-    return std::unexpected(bad_input(config_.source, kQueueFullKey,
-                                     status_.last_error + "; try again when one has run"));
+    // The code tells the front ends this is the queue, not the request.
+    return std::unexpected(bad_input(config_.source, "daemon.queue_limit",
+                                     status_.last_error + "; try again when one has run")
+                               .with(ErrorCode::queue_full));
   }
   auto id = catalogue_->add(submission);
   if (!id) return std::unexpected(id.error());
@@ -454,7 +455,8 @@ ScanErrorCode ScanService::classify(const Error& error, Stage stage) const {
   if (faults_ && faults_->lights) return ScanErrorCode::lights;
   // The sequencer's own findings: an LED cut off by the safety layer, or
   // a camera whose frames never fit the lighting.
-  if (error.message.find("LED") != std::string::npos) return ScanErrorCode::lights;
+  if (error.code == ErrorCode::lights) return ScanErrorCode::lights;
+  if (error.code == ErrorCode::camera) return ScanErrorCode::camera;
   if (error.kind == ErrorKind::bad_input) return ScanErrorCode::storage;
   return ScanErrorCode::camera;
 }
