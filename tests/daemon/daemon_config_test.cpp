@@ -82,8 +82,12 @@ TEST(DaemonConfig, OnlyWhitelistedFilesAreServed) {
   EXPECT_EQ(scan_file_home("led2.png"), ScanFileHome::scan);
   EXPECT_EQ(scan_file_home("normal.png"), ScanFileHome::maps);
   EXPECT_EQ(scan_file_home("report.json"), ScanFileHome::maps);
-  for (const char* name : {"..", "../scan.json", "/etc/passwd", "catalogue.sqlite", "led16.png",
-                           "maps", "", "scan.json/", "NORMAL.PNG"})
+  // Whatever the scan layout allows: float frames are EXR files.
+  EXPECT_EQ(scan_file_home("led2.exr"), ScanFileHome::scan);
+  EXPECT_EQ(scan_file_home("dark.exr"), ScanFileHome::scan);
+  EXPECT_EQ(scan_file_home("mask.png"), ScanFileHome::maps);
+  for (const char* name : {"..", "../scan.json", "/etc/passwd", "catalogue.sqlite", "led01.png",
+                           "led2.jpg", "maps", "", "scan.json/", "NORMAL.PNG"})
     EXPECT_FALSE(scan_file_home(name)) << name;
 }
 
