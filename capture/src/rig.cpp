@@ -4,17 +4,19 @@
 
 namespace psrig::capture {
 
-Result<Rig> open_rig(const config::RigConfig& config, bool with_camera) {
+Result<Rig> open_rig(const config::RigConfig& config, bool with_camera,
+                     const RigWrappers& wrappers) {
   Rig rig;
   if (with_camera && config.camera.backend == "sim") rig.world = sim::World::attach(config);
   auto backend = firmware_host::open_lights(config);
-  if (!backend) return std::unexpected(backend.error());
+  if (!backend) return std::unexpected(std::move(backend.error()).with(ErrorCode::lights));
+  if (wrappers.lights) *backend = wrappers.lights(std::move(*backend));
   rig.lights = std::make_unique<firmware_host::SafeLights>(
       std::move(*backend), std::chrono::milliseconds(config.lights.max_on_ms));
   if (with_camera) {
     auto camera = open_camera(config);
-    if (!camera) return std::unexpected(camera.error());
-    rig.camera = std::move(*camera);
+    if (!camera) return std::unexpected(std::move(camera.error()).with(ErrorCode::camera));
+    rig.camera = wrappers.camera ? wrappers.camera(std::move(*camera)) : std::move(*camera);
   }
   return rig;
 }

@@ -251,7 +251,9 @@ Result<processing::Scan> ScanSequencer::acquire(
   double scale = 1;
   for (std::size_t p = 0; p < phases.size(); ++p) {
     const Phase& phase = phases[p];
-    if (progress) progress({phase.label, static_cast<int>(p), static_cast<int>(phases.size())});
+    if (progress)
+      progress({ScanStage::acquiring, phase.label, static_cast<int>(p),
+                static_cast<int>(phases.size())});
     if (lighting.channel != phase.channel) {
       auto now_lit = switch_lights(phase.channel, lighting);
       if (!now_lit) return std::unexpected(now_lit.error());
@@ -321,18 +323,24 @@ Result<ScanOutcome> ScanSequencer::capture(
         bad_input(outcome.directory, "", "already exists; a scan is never overwritten"));
   auto scan = acquire(request, outcome.timing, progress);
   if (!scan) return std::unexpected(scan.error());
-  if (progress) progress({"writing", 0, 1});
+  if (progress) progress({ScanStage::writing, "writing", 0, 1});
   std::error_code ec;
   fs::create_directories(outcome.directory.parent_path(), ec);
   if (auto ok = write_scan(*scan, outcome.directory); !ok) return std::unexpected(ok.error());
   committed_ = true;
   if (request.process.value_or(config_.capture.process)) {
-    if (progress) progress({"processing", 0, 1});
+    if (progress) progress({ScanStage::processing, "processing", 0, 1});
     auto maps = processing::process_scan(outcome.directory);
     if (!maps) return std::unexpected(maps.error());
     outcome.maps = std::move(*maps);
   }
   return outcome;
+}
+
+milliseconds worst_phase_duration(const config::RigConfig& config) {
+  const auto grabs = static_cast<std::int64_t>(kMaxStaleFrames + config.camera.frames_discard +
+                                               config.camera.frames_average + 1);
+  return milliseconds(grabs * config.camera.timeout_ms + config.capture.settle_ms);
 }
 
 fs::path default_scan_directory(const config::RigConfig& config, const std::string& sample_id) {

@@ -1,5 +1,6 @@
 #include "psrig/processing/atomic_directory.h"
 
+#include <algorithm>
 #include <cerrno>
 #include <cstdlib>
 #include <cstring>
@@ -8,6 +9,7 @@
 #include <signal.h>
 #include <stdio.h>
 #include <string>
+#include <string_view>
 #include <sys/stat.h>
 #include <system_error>
 #include <unistd.h>
@@ -29,16 +31,26 @@ bool sync_path(const fs::path& path) {
   return ok;
 }
 
-// Staging directories of runs that were killed (their process is gone):
-// ".NAME.partial-PID-RANDOM" beside the target.
+// Staging directories are ".NAME.partial-PID-RANDOM" beside the target NAME.
+constexpr std::string_view kStagingMark = ".partial-";
+
+std::string staging_name(const std::string& name, unsigned random) {
+  return "." + name + std::string(kStagingMark) + std::to_string(::getpid()) + "-" +
+         std::to_string(random);
+}
+
+bool all_digits(std::string_view text) {
+  return !text.empty() &&
+         std::all_of(text.begin(), text.end(), [](char c) { return c >= '0' && c <= '9'; });
+}
+
+// Staging directories of runs that were killed (their process is gone).
 void remove_abandoned_staging(const fs::path& parent, const std::string& name) {
-  const std::string prefix = "." + name + ".partial-";
   std::error_code ec;
   for (fs::directory_iterator it(parent, ec), end; !ec && it != end; it.increment(ec)) {
-    const std::string entry = it->path().filename().string();
-    if (!entry.starts_with(prefix)) continue;
-    const long pid = std::strtol(entry.c_str() + prefix.size(), nullptr, 10);
-    if (pid > 0 && ::kill(static_cast<pid_t>(pid), 0) != 0 && errno == ESRCH) {
+    const auto staging = AtomicDirectory::parse_staging(it->path());
+    if (!staging || staging->target != name) continue;
+    if (::kill(staging->writer, 0) != 0 && errno == ESRCH) {
       std::error_code ignored;
       fs::remove_all(it->path(), ignored);
     }
@@ -63,8 +75,7 @@ Result<AtomicDirectory> AtomicDirectory::create(const fs::path& target) {
 
   std::random_device random;
   for (int attempt = 0; attempt < 100; ++attempt) {
-    fs::path staging = parent / ("." + name + ".partial-" + std::to_string(::getpid()) + "-" +
-                                 std::to_string(random()));
+    fs::path staging = parent / staging_name(name, random());
     if (::mkdir(staging.c_str(), 0755) == 0) return AtomicDirectory(absolute, staging);
     if (errno != EEXIST)
       return std::unexpected(
@@ -73,6 +84,21 @@ Result<AtomicDirectory> AtomicDirectory::create(const fs::path& target) {
               : io_error(parent, "cannot create a directory: " + errno_text(errno)));
   }
   return std::unexpected(io_error(parent, "cannot create a unique staging directory"));
+}
+
+std::optional<AtomicDirectory::StagingName> AtomicDirectory::parse_staging(const fs::path& path) {
+  const std::string name = path.filename().string();
+  const auto mark = name.rfind(kStagingMark);
+  if (!name.starts_with('.') || mark == std::string::npos || mark < 2) return std::nullopt;
+  const std::string_view numbers = std::string_view(name).substr(mark + kStagingMark.size());
+  const auto dash = numbers.find('-');
+  if (dash == std::string_view::npos) return std::nullopt;
+  const std::string_view pid = numbers.substr(0, dash);
+  if (!all_digits(pid) || pid.size() > 9 || !all_digits(numbers.substr(dash + 1)))
+    return std::nullopt;
+  const long writer = std::strtol(std::string(pid).c_str(), nullptr, 10);
+  if (writer <= 0) return std::nullopt;
+  return StagingName{name.substr(1, mark - 1), static_cast<pid_t>(writer)};
 }
 
 AtomicDirectory::AtomicDirectory(fs::path target, fs::path staging)

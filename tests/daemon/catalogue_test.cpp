@@ -1,7 +1,7 @@
 // The catalogue on its own: rows through their lives, search, delete, and
 // what start-up makes of an interrupted run.
 
-#include "psrig/capture/catalogue.h"
+#include "psrig/daemon/catalogue.h"
 
 #include <fstream>
 #include <functional>
@@ -16,11 +16,11 @@ namespace psrig::test {
 namespace {
 
 namespace fs = std::filesystem;
-using capture::Catalogue;
-using capture::CatalogueQuery;
-using capture::ScanErrorCode;
-using capture::ScanStatus;
-using capture::ScanSubmission;
+using daemon::Catalogue;
+using daemon::CatalogueQuery;
+using daemon::ScanErrorCode;
+using daemon::ScanStatus;
+using daemon::ScanSubmission;
 
 std::unique_ptr<Catalogue> open(const fs::path& root) {
   auto catalogue = Catalogue::open(root);
@@ -42,7 +42,7 @@ void make_scan(const fs::path& directory) {
   std::ofstream(directory / "maps" / "report.json") << "{}";
 }
 
-std::vector<std::int64_t> ids(const std::vector<capture::CatalogueEntry>& entries) {
+std::vector<std::int64_t> ids(const std::vector<daemon::CatalogueEntry>& entries) {
   std::vector<std::int64_t> out;
   for (const auto& e : entries)
     out.push_back(e.id);
@@ -81,7 +81,7 @@ TEST(Catalogue, ARowThroughItsLife) {
   EXPECT_EQ((*entry)->status, ScanStatus::queued);
   EXPECT_EQ((*entry)->sample_id, "J-0042");
   EXPECT_EQ((*entry)->tags, (std::vector<std::string>{"knit", "cotton"}));  // duplicates once
-  EXPECT_TRUE(capture::normalise_timestamp((*entry)->created, false)) << (*entry)->created;
+  EXPECT_TRUE(daemon::normalise_timestamp((*entry)->created, false)) << (*entry)->created;
   EXPECT_TRUE((*entry)->started.empty());
 
   const fs::path scan = catalogue->storage_root() / "20260504-091233-J-0042";
@@ -152,12 +152,12 @@ TEST(Catalogue, SearchBySampleTagDateAndStatusNewestFirst) {
             Ids{c});
   // A bare date as `to` means the whole of that day.
   EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
-              q.from = capture::normalise_timestamp("2026-05-02", false);
-              q.to = capture::normalise_timestamp("2026-05-03", true);
+              q.from = daemon::normalise_timestamp("2026-05-02", false);
+              q.to = daemon::normalise_timestamp("2026-05-03", true);
             })),
             (Ids{c, b}));
   EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
-              q.from = capture::normalise_timestamp("2026-05-02T12:00:00Z", false);
+              q.from = daemon::normalise_timestamp("2026-05-02T12:00:00Z", false);
             })),
             (Ids{d, c, b}));
   EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.status = ScanStatus::failed; })),
@@ -181,7 +181,7 @@ TEST(Catalogue, SearchBySampleTagDateAndStatusNewestFirst) {
 }
 
 TEST(Catalogue, TimestampsAreCheckedAndNormalised) {
-  using capture::normalise_timestamp;
+  using daemon::normalise_timestamp;
   EXPECT_EQ(normalise_timestamp("2026-05-04", false), "2026-05-04T00:00:00Z");
   EXPECT_EQ(normalise_timestamp("2026-05-04", true), "2026-05-04T23:59:59Z");
   EXPECT_EQ(normalise_timestamp("2026-05-04T09:12:33Z", true), "2026-05-04T09:12:33Z");

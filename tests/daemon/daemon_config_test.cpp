@@ -3,8 +3,8 @@
 
 #include <gtest/gtest.h>
 
-#include "psrig/capture/http_api.h"
 #include "psrig/config/config_loader.h"
+#include "psrig/daemon/http_api.h"
 
 namespace psrig::test {
 namespace {
@@ -67,7 +67,7 @@ TEST(DaemonConfig, LoopbackAddresses) {
 }
 
 TEST(DaemonConfig, TokensCompareWhole) {
-  using capture::constant_time_equal;
+  using daemon::constant_time_equal;
   EXPECT_TRUE(constant_time_equal("Bearer abc", "Bearer abc"));
   EXPECT_FALSE(constant_time_equal("Bearer abc", "Bearer abd"));
   EXPECT_FALSE(constant_time_equal("Bearer ab", "Bearer abc"));
@@ -76,14 +76,18 @@ TEST(DaemonConfig, TokensCompareWhole) {
 }
 
 TEST(DaemonConfig, OnlyWhitelistedFilesAreServed) {
-  using capture::scan_file_home;
-  using capture::ScanFileHome;
+  using daemon::scan_file_home;
+  using daemon::ScanFileHome;
   EXPECT_EQ(scan_file_home("scan.json"), ScanFileHome::scan);
   EXPECT_EQ(scan_file_home("led2.png"), ScanFileHome::scan);
   EXPECT_EQ(scan_file_home("normal.png"), ScanFileHome::maps);
   EXPECT_EQ(scan_file_home("report.json"), ScanFileHome::maps);
-  for (const char* name : {"..", "../scan.json", "/etc/passwd", "catalogue.sqlite", "led16.png",
-                           "maps", "", "scan.json/", "NORMAL.PNG"})
+  // Whatever the scan layout allows: float frames are EXR files.
+  EXPECT_EQ(scan_file_home("led2.exr"), ScanFileHome::scan);
+  EXPECT_EQ(scan_file_home("dark.exr"), ScanFileHome::scan);
+  EXPECT_EQ(scan_file_home("mask.png"), ScanFileHome::maps);
+  for (const char* name : {"..", "../scan.json", "/etc/passwd", "catalogue.sqlite", "led01.png",
+                           "led2.jpg", "maps", "", "scan.json/", "NORMAL.PNG"})
     EXPECT_FALSE(scan_file_home(name)) << name;
 }
 

@@ -4,7 +4,7 @@
 // included), refusals as error codes, and a server that shrugs off clients
 // that hang up, stall or send garbage, and stops promptly.
 
-#include "psrig/capture/modbus_server.h"
+#include "psrig/daemon/modbus_server.h"
 
 #include <arpa/inet.h>
 #include <chrono>
@@ -20,7 +20,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-namespace psrig::capture {
+namespace psrig::daemon {
 namespace {
 
 using std::chrono::milliseconds;
@@ -46,7 +46,9 @@ class FakeScanControl : public ScanControl {
     // As ScanService refuses: a full queue names its key, a catalogue
     // that cannot write is a storage error.
     if (refuse_ && !storage_fails_)
-      return std::unexpected(bad_input("rig.toml", kQueueFullKey, "queue full: 4 scans waiting"));
+      return std::unexpected(
+          bad_input("rig.toml", "daemon.queue_limit", "queue full: 4 scans waiting")
+              .with(ErrorCode::queue_full));
     if (refuse_) return std::unexpected(io_error("catalogue.sqlite", "database or disk is full"));
     ++status_.queue_length;
     return next_id_++;
@@ -504,4 +506,4 @@ TEST(ModbusServerOptionsTest, BadAddressPortAndBusyPortAreErrorsNamingTheKey) {
 }
 
 }  // namespace
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

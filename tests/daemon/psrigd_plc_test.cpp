@@ -10,16 +10,16 @@
 #include <sys/un.h>
 
 #include "daemon_process.h"
-#include "psrig/capture/modbus_server.h"
-#include "psrig/capture/scan_control.h"
+#include "psrig/daemon/modbus_server.h"
+#include "psrig/daemon/scan_control.h"
 
 namespace psrig::test {
 namespace {
 
-using capture::DaemonState;
-namespace coil = capture::modbus_coil;
-namespace input = capture::modbus_input;
-namespace reg = capture::modbus_register;
+using daemon::DaemonState;
+namespace coil = daemon::modbus_coil;
+namespace input = daemon::modbus_input;
+namespace reg = daemon::modbus_register;
 
 // A PLC: a libmodbus TCP client with the daemon's register map.
 class Plc {

@@ -1,7 +1,7 @@
 // ScanService in-process, with the simulated rig at a small size: what the
 // HTTP API and the PLC ask of it, decided where the queue is.
 
-#include "psrig/capture/scan_service.h"
+#include "psrig/daemon/scan_service.h"
 
 #include <chrono>
 #include <thread>
@@ -14,9 +14,9 @@
 namespace psrig::test {
 namespace {
 
-using capture::ScanCancel;
-using capture::ScanService;
-using capture::ScanStatus;
+using daemon::ScanCancel;
+using daemon::ScanService;
+using daemon::ScanStatus;
 
 // A service over config/sim.toml at 160x120, scans in `temp`/scans.
 std::unique_ptr<ScanService> start_service(const TempDir& temp, const Edits& edits = {}) {
@@ -34,9 +34,9 @@ std::int64_t submit(ScanService& service, const std::string& sample_id) {
   return id ? *id : -1;
 }
 
-capture::CatalogueEntry wait_finished(ScanService& service, std::int64_t id) {
+daemon::CatalogueEntry wait_finished(ScanService& service, std::int64_t id) {
   const auto deadline = std::chrono::steady_clock::now() + 30s;
-  capture::CatalogueEntry entry;
+  daemon::CatalogueEntry entry;
   while (std::chrono::steady_clock::now() < deadline) {
     auto got = service.catalogue().get(id);
     EXPECT_TRUE(got && *got);

@@ -2,7 +2,7 @@
 // for the service manager's, named by NOTIFY_SOCKET; WATCHDOG_USEC and
 // WATCHDOG_PID as systemd sets them for a unit with WatchdogSec=.
 
-#include "psrig/capture/systemd_notify.h"
+#include "psrig/daemon/systemd_notify.h"
 
 #include <atomic>
 #include <chrono>
@@ -18,7 +18,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-namespace psrig::capture {
+namespace psrig::daemon {
 namespace {
 
 using std::chrono::microseconds;
@@ -156,4 +156,4 @@ TEST_F(SystemdNotifyTest, PetterIdlesWithoutAWatchdog) {
 }
 
 }  // namespace
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -1,8 +1,9 @@
 #pragma once
 // The rig a configuration describes, opened: its lights behind the safety
-// layer, its camera configured, and the simulated world when either is
-// simulated.
+// layer, its camera configured, and the simulated world when the camera is
+// simulated. The one place that opens a rig, for the command line and psrigd.
 
+#include <functional>
 #include <memory>
 
 #include "psrig/capture/camera.h"
@@ -25,6 +26,18 @@ struct Rig {
   [[nodiscard]] ScanRequest request(const config::RigConfig& config) const;
 };
 
-[[nodiscard]] Result<Rig> open_rig(const config::RigConfig& config, bool with_camera = true);
+// What open_rig() puts round each device it opens, before the lights go
+// behind the safety layer (the daemon records which device fails). Unset:
+// the device as opened.
+struct RigWrappers {
+  std::function<std::unique_ptr<firmware_host::LightController>(
+      std::unique_ptr<firmware_host::LightController>)>
+      lights;
+  std::function<std::unique_ptr<Camera>(std::unique_ptr<Camera>)> camera;
+};
+
+// An error opening a device says which: ErrorCode::lights or ErrorCode::camera.
+[[nodiscard]] Result<Rig> open_rig(const config::RigConfig& config, bool with_camera = true,
+                                   const RigWrappers& wrappers = {});
 
 }  // namespace psrig::capture

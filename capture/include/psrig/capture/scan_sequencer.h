@@ -36,8 +36,12 @@ struct ScanRequest {
   cv::Mat ground_truth_height;
 };
 
+// What a scan is doing, for code that acts on it (the step is for people).
+enum class ScanStage { acquiring, writing, processing };
+
 struct ScanProgress {
-  std::string step;  // "dark", "light 1 of 3", "writing", "processing"
+  ScanStage stage = ScanStage::acquiring;
+  std::string step;  // "dark frame", "light 1 of 3", "writing", "processing"
   int done = 0;
   int total = 0;
 };
@@ -100,6 +104,12 @@ class ScanSequencer {
   std::optional<Clock::duration> period_;
   Clock::duration switch_time_{};  // the longest an LED switch has taken
 };
+
+// The longest one phase of a scan (the dark frame or one LED) may take
+// under `config`: its settling, and every grab it may make (the stale
+// frames it tolerates, the discarded and averaged ones, and the one that
+// switches to the next phase) each taking camera.timeout_ms.
+[[nodiscard]] std::chrono::milliseconds worst_phase_duration(const config::RigConfig& config);
 
 // storage.root/<YYYYMMDD-HHMMSS>-<sample id>, with the id made safe as a name.
 [[nodiscard]] std::filesystem::path default_scan_directory(const config::RigConfig& config,

@@ -4,6 +4,9 @@
 // anything fails, the target is untouched and the sibling is removed.
 
 #include <filesystem>
+#include <optional>
+#include <string>
+#include <sys/types.h>
 
 #include "psrig/base/error.h"
 
@@ -11,6 +14,13 @@ namespace psrig::processing {
 
 class AtomicDirectory {
  public:
+  // What a staging directory's name says: the target it becomes and the
+  // process that was writing it (gone, it was abandoned).
+  struct StagingName {
+    std::string target;  // the target's file name
+    pid_t writer = 0;
+  };
+
   enum class Existing {
     refuse,   // the target must not exist (or be an empty directory)
     replace,  // an existing target is swapped out and removed
@@ -24,6 +34,10 @@ class AtomicDirectory {
   AtomicDirectory(const AtomicDirectory&) = delete;
   AtomicDirectory& operator=(const AtomicDirectory&) = delete;
   ~AtomicDirectory();
+
+  // Whether `path` names a staging directory (by its file name alone),
+  // and whose, for what: others clean up what a killed writer left.
+  [[nodiscard]] static std::optional<StagingName> parse_staging(const std::filesystem::path& path);
 
   // Where to write the files.
   [[nodiscard]] const std::filesystem::path& path() const { return staging_; }

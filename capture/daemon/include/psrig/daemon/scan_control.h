@@ -11,7 +11,7 @@
 
 #include "psrig/base/error.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 // Numbered because the PLC reads them as register values: never renumber.
 enum class DaemonState : std::uint16_t {
@@ -39,10 +39,6 @@ enum class ScanErrorCode : std::uint16_t {
 [[nodiscard]] const char* to_string(DaemonState state);
 [[nodiscard]] const char* to_string(ScanErrorCode code);
 
-// The Error::key of a submission refused because the queue is full: the
-// service's state, not the request's fault (HTTP 503, the PLC's code 6).
-inline constexpr const char* kQueueFullKey = "daemon.queue_limit";
-
 struct ScanSubmission {
   std::string sample_id;  // may be empty
   std::string description;
@@ -69,11 +65,12 @@ class ScanControl {
   virtual ~ScanControl() = default;
   [[nodiscard]] virtual DaemonStatus status() const = 0;
   // Queues a scan; its catalogue id at once (the row exists, status
-  // "queued"), or an error (queue full, stopping).
+  // "queued"), or an error (stopping; a full queue, the service's state
+  // rather than the request's fault, says ErrorCode::queue_full).
   [[nodiscard]] virtual Result<std::int64_t> submit(ScanSubmission submission) = 0;
   // Aborts the running scan (if any) and the queued ones, and turns every
   // LED off.
   [[nodiscard]] virtual Status lights_off() = 0;
 };
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

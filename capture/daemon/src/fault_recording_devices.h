@@ -10,7 +10,7 @@
 #include "psrig/capture/camera.h"
 #include "psrig/firmware_host/light_controller.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 struct DeviceFaults {
   std::atomic<bool> camera{false};
@@ -21,9 +21,9 @@ struct DeviceFaults {
   }
 };
 
-[[nodiscard]] std::unique_ptr<Camera> record_camera_faults(std::unique_ptr<Camera> camera,
-                                                           std::shared_ptr<DeviceFaults> faults);
+[[nodiscard]] std::unique_ptr<capture::Camera> record_camera_faults(
+    std::unique_ptr<capture::Camera> camera, std::shared_ptr<DeviceFaults> faults);
 [[nodiscard]] std::unique_ptr<firmware_host::LightController> record_light_faults(
     std::unique_ptr<firmware_host::LightController> lights, std::shared_ptr<DeviceFaults> faults);
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -1,4 +1,4 @@
-#include "psrig/capture/modbus_server.h"
+#include "psrig/daemon/modbus_server.h"
 
 #include <algorithm>
 #include <arpa/inet.h>
@@ -22,7 +22,7 @@
 
 #include "psrig/base/log.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 namespace {
 
@@ -382,10 +382,10 @@ void ModbusServer::Impl::act(bool trigger_edge, bool lights_off_edge) {
       ++counters.triggers_accepted;
     } else {
       // Why, as the PLC reads it: a stopping daemon aborts, a full queue
-      // says so (its key), anything else is the catalogue's storage.
-      refused = control.status().state == DaemonState::stopping ? ScanErrorCode::aborted
-                : submitted.error().key == kQueueFullKey        ? ScanErrorCode::queue_full
-                                                                : ScanErrorCode::storage;
+      // says so (its code), anything else is the catalogue's storage.
+      refused = control.status().state == DaemonState::stopping   ? ScanErrorCode::aborted
+                : submitted.error().code == ErrorCode::queue_full ? ScanErrorCode::queue_full
+                                                                  : ScanErrorCode::storage;
       plc_log()->warn("PLC: trigger refused: {}", submitted.error().describe());
       const std::scoped_lock lock(counters_mutex);
       ++counters.triggers_refused;
@@ -394,4 +394,4 @@ void ModbusServer::Impl::act(bool trigger_edge, bool lights_off_edge) {
   if (trigger_edge || lights_off_edge) refresh(control.status());
 }
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -17,11 +17,11 @@
 
 #include <nlohmann/json.hpp>
 
-#include "psrig/capture/scan_control.h"
+#include "psrig/daemon/scan_control.h"
 
 struct sqlite3;
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 enum class ScanStatus { queued, running, done, failed, aborted };
 
@@ -147,4 +147,4 @@ class Catalogue {
 [[nodiscard]] std::optional<std::string> normalise_timestamp(const std::string& text,
                                                              bool end_of_day);
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -1,6 +1,6 @@
-#include "psrig/capture/scan_events.h"
+#include "psrig/daemon/scan_events.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 void ScanEvents::publish(std::string type, nlohmann::json data) {
   {
@@ -41,4 +41,4 @@ bool ScanEvents::closed() const {
   return closed_;
 }
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

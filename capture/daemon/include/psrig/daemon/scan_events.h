@@ -16,7 +16,7 @@
 
 #include <nlohmann/json.hpp>
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 struct ScanEvent {
   std::uint64_t sequence = 0;  // 1, 2, 3, ...: the SSE id
@@ -49,4 +49,4 @@ class ScanEvents {
   bool closed_ = false;
 };
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

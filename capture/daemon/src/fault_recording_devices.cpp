@@ -1,6 +1,6 @@
 #include "fault_recording_devices.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 namespace {
 
 template <class T>
@@ -9,22 +9,22 @@ T noted(T result, std::atomic<bool>& failed) {
   return result;
 }
 
-class FaultRecordingCamera final : public Camera {
+class FaultRecordingCamera final : public capture::Camera {
  public:
-  FaultRecordingCamera(std::unique_ptr<Camera> inner, std::shared_ptr<DeviceFaults> faults)
+  FaultRecordingCamera(std::unique_ptr<capture::Camera> inner, std::shared_ptr<DeviceFaults> faults)
       : inner_(std::move(inner)), faults_(std::move(faults)) {}
   Status configure(const config::CameraConfig& settings) override {
     return noted(inner_->configure(settings), faults_->camera);
   }
   Status start() override { return noted(inner_->start(), faults_->camera); }
-  Result<Frame> grab(std::chrono::milliseconds timeout) override {
+  Result<capture::Frame> grab(std::chrono::milliseconds timeout) override {
     return noted(inner_->grab(timeout), faults_->camera);
   }
   Status stop() override { return noted(inner_->stop(), faults_->camera); }
   std::string describe() const override { return inner_->describe(); }
 
  private:
-  std::unique_ptr<Camera> inner_;
+  std::unique_ptr<capture::Camera> inner_;
   std::shared_ptr<DeviceFaults> faults_;
 };
 
@@ -56,8 +56,8 @@ class FaultRecordingLights final : public firmware_host::LightController {
 
 }  // namespace
 
-std::unique_ptr<Camera> record_camera_faults(std::unique_ptr<Camera> camera,
-                                             std::shared_ptr<DeviceFaults> faults) {
+std::unique_ptr<capture::Camera> record_camera_faults(std::unique_ptr<capture::Camera> camera,
+                                                      std::shared_ptr<DeviceFaults> faults) {
   return std::make_unique<FaultRecordingCamera>(std::move(camera), std::move(faults));
 }
 
@@ -66,4 +66,4 @@ std::unique_ptr<firmware_host::LightController> record_light_faults(
   return std::make_unique<FaultRecordingLights>(std::move(lights), std::move(faults));
 }
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -1,4 +1,4 @@
-#include "psrig/capture/http_api.h"
+#include "psrig/daemon/http_api.h"
 
 #include <array>
 #include <atomic>
@@ -6,13 +6,13 @@
 #include <fstream>
 #include <httplib.h>
 #include <limits>
-#include <map>
+#include <set>
 #include <thread>
 
 #include "psrig/base/log.h"
 #include "psrig/processing/scan_layout.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 namespace {
 
 namespace fs = std::filesystem;
@@ -28,22 +28,15 @@ constexpr int kMaxSearchLimit = 1000;
 constexpr auto kHeartbeat = std::chrono::seconds(15);
 constexpr auto kEventPoll = std::chrono::milliseconds(250);
 
-const std::map<std::string, ScanFileHome>& scan_files() {
-  static const auto files = [] {
-    namespace m = processing::map_files;
-    std::map<std::string, ScanFileHome> names = {
-        {"scan.json", ScanFileHome::scan},   {"dark.png", ScanFileHome::scan},
-        {m::kAlbedoPng, ScanFileHome::maps}, {m::kAlbedoExr, ScanFileHome::maps},
-        {m::kNormalPng, ScanFileHome::maps}, {m::kP, ScanFileHome::maps},
-        {m::kQ, ScanFileHome::maps},         {m::kHeightExr, ScanFileHome::maps},
-        {m::kHeightPng, ScanFileHome::maps}, {m::kMask, ScanFileHome::maps},
-        {m::kReport, ScanFileHome::maps},
-    };
-    for (int k = 0; k < 16; ++k)  // lights.channels is at most 16
-      names.emplace("led" + std::to_string(k) + ".png", ScanFileHome::scan);
-    return names;
-  }();
-  return files;
+// The files of `directory` that scan_file_home() places there, by name.
+void add_files_from(const fs::path& directory, ScanFileHome home, std::set<std::string>& names) {
+  if (directory.empty()) return;
+  std::error_code ec;
+  for (fs::directory_iterator it(directory, ec), end; !ec && it != end; it.increment(ec)) {
+    std::error_code type_ec;
+    const std::string name = it->path().filename().string();
+    if (scan_file_home(name) == home && it->is_regular_file(type_ec)) names.insert(name);
+  }
 }
 
 std::string content_type(const std::string& name) {
@@ -78,12 +71,12 @@ std::optional<std::int64_t> parse_id(const std::string& text) {
 }
 
 json entry_json(const CatalogueEntry& e) {
+  std::set<std::string> names;
+  add_files_from(e.scan_directory, ScanFileHome::scan, names);
+  add_files_from(e.maps_directory, ScanFileHome::maps, names);
   json files = json::array();
-  for (const auto& [name, home] : scan_files()) {
-    const fs::path& directory = home == ScanFileHome::scan ? e.scan_directory : e.maps_directory;
-    std::error_code ec;
-    if (!directory.empty() && fs::is_regular_file(directory / name, ec)) files.push_back(name);
-  }
+  for (const auto& name : names)
+    files.push_back(name);
   const auto optional_text = [](const std::string& text) -> json {
     return text.empty() ? json(nullptr) : json(text);
   };
@@ -124,9 +117,10 @@ std::optional<std::string> string_field(const json& body, const char* key, std::
 }  // namespace
 
 std::optional<ScanFileHome> scan_file_home(const std::string& name) {
-  const auto found = scan_files().find(name);
-  if (found == scan_files().end()) return std::nullopt;
-  return found->second;
+  // A map first: the maps' mask.png is the one served by that name.
+  if (processing::map_files::is_map_file(name)) return ScanFileHome::maps;
+  if (processing::scan_files::is_scan_file(name)) return ScanFileHome::scan;
+  return std::nullopt;
 }
 
 bool constant_time_equal(const std::string& a, const std::string& b) {
@@ -315,7 +309,7 @@ void HttpApi::Impl::submit(const httplib::Request& req, httplib::Response& res) 
   auto id = service.submit(std::move(submission));
   if (!id) {
     // A full queue is the service's state, not the request's fault.
-    if (id.error().key == kQueueFullKey) {
+    if (id.error().code == ErrorCode::queue_full) {
       res.set_header("Retry-After", "5");
       return refuse(res, 503, id.error().message);
     }
@@ -570,4 +564,4 @@ int HttpApi::port() const {
   return impl_->port;
 }
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

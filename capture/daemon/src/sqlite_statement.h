@@ -9,10 +9,16 @@
 
 #include "psrig/base/error.h"
 
-namespace psrig::capture::sqlite {
+namespace psrig::daemon::sqlite {
 
-inline Error error(sqlite3* db, const std::string& what) {
-  return io_error("catalogue", what + ": " + sqlite3_errmsg(db));
+// What a failed call's result code means to the caller: a full disk is
+// the one the catalogue acts on.
+inline ErrorCode error_code(int result) {
+  return (result & 0xff) == SQLITE_FULL ? ErrorCode::disk_full : ErrorCode::unspecified;
+}
+
+inline Error error(sqlite3* db, int result, const std::string& what) {
+  return io_error("catalogue", what + ": " + sqlite3_errmsg(db)).with(error_code(result));
 }
 
 class Statement {
@@ -27,8 +33,8 @@ class Statement {
 
   [[nodiscard]] static Result<Statement> prepare(sqlite3* db, const std::string& sql) {
     sqlite3_stmt* statement = nullptr;
-    if (sqlite3_prepare_v2(db, sql.c_str(), -1, &statement, nullptr) != SQLITE_OK)
-      return std::unexpected(error(db, "preparing \"" + sql + "\""));
+    const int result = sqlite3_prepare_v2(db, sql.c_str(), -1, &statement, nullptr);
+    if (result != SQLITE_OK) return std::unexpected(error(db, result, "preparing \"" + sql + "\""));
     return Statement(db, statement);
   }
 
@@ -52,7 +58,8 @@ class Statement {
     const int rc = sqlite3_step(statement_);
     if (rc == SQLITE_ROW) return true;
     if (rc == SQLITE_DONE) return false;
-    return std::unexpected(error(db_, "running \"" + std::string(sqlite3_sql(statement_)) + "\""));
+    return std::unexpected(
+        error(db_, rc, "running \"" + std::string(sqlite3_sql(statement_)) + "\""));
   }
   // Runs a statement that returns no rows.
   [[nodiscard]] Status run() {
@@ -80,4 +87,4 @@ class Statement {
   sqlite3_stmt* statement_;
 };
 
-}  // namespace psrig::capture::sqlite
+}  // namespace psrig::daemon::sqlite

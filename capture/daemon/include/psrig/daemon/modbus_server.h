@@ -11,9 +11,9 @@
 #include <string>
 
 #include "psrig/base/error.h"
-#include "psrig/capture/scan_control.h"
+#include "psrig/daemon/scan_control.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 // Coils (read/write, FC 1, 5, 15).
 namespace modbus_coil {
@@ -97,4 +97,4 @@ class ModbusServer {
   int port_ = 0;
 };
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -14,7 +14,7 @@
 
 #include "psrig/base/error.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 class SystemdNotifier {
  public:
@@ -66,4 +66,4 @@ class WatchdogPetter {
   std::thread thread_;
 };
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -1,4 +1,4 @@
-#include "psrig/capture/catalogue.h"
+#include "psrig/daemon/catalogue.h"
 
 #include <cerrno>
 #include <cstdlib>
@@ -10,12 +10,15 @@
 #include <unistd.h>
 
 #include "psrig/base/log.h"
+#include "psrig/processing/atomic_directory.h"
+#include "psrig/processing/scan_layout.h"
 #include "sqlite_statement.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 namespace {
 
 namespace fs = std::filesystem;
+using processing::AtomicDirectory;
 using sqlite::Statement;
 
 // Each step takes the schema from version N to N + 1; user_version says
@@ -71,24 +74,12 @@ std::optional<double> number_at(const nlohmann::json& report,
   return value.get<double>();
 }
 
-// Staging directories are ".NAME.partial-PID-RANDOM" (atomic_directory.cpp):
-// the PID of the process that was writing, when the name is one.
-std::optional<pid_t> staging_owner(const std::string& name) {
-  const auto at = name.find(".partial-");
-  if (!name.starts_with('.') || at == std::string::npos) return std::nullopt;
-  char* end = nullptr;
-  const long pid = std::strtol(name.c_str() + at + 9, &end, 10);
-  if (pid <= 0 || end == nullptr || *end != '-') return std::nullopt;
-  return static_cast<pid_t>(pid);
-}
-
 bool process_alive(pid_t pid) {
   return ::kill(pid, 0) == 0 || errno != ESRCH;
 }
 
-// SQLite's word for SQLITE_FULL, which the statement's error carries.
 bool disk_full(const Error& error) {
-  return error.message.find(sqlite3_errstr(SQLITE_FULL)) != std::string::npos;
+  return error.code == ErrorCode::disk_full;
 }
 
 }  // namespace
@@ -227,10 +218,11 @@ Result<std::unique_ptr<Catalogue>> Catalogue::open(const fs::path& storage_root)
 
 Status Catalogue::execute(const std::string& sql) const {
   char* message = nullptr;
-  if (sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &message) != SQLITE_OK) {
+  const int result = sqlite3_exec(db_, sql.c_str(), nullptr, nullptr, &message);
+  if (result != SQLITE_OK) {
     const std::string text = message ? message : "unknown error";
     sqlite3_free(message);
-    return std::unexpected(io_error(root_ / kFileName, text));
+    return std::unexpected(io_error(root_ / kFileName, text).with(sqlite::error_code(result)));
   }
   return {};
 }
@@ -508,13 +500,13 @@ Result<CatalogueRecovery> Catalogue::recover() {
       // no row recorded and which may not have reached the disk, go.
       std::error_code type_ec;
       kept = !fs::is_symlink(*directory, type_ec) && fs::is_directory(*directory, type_ec) &&
-             fs::is_regular_file(*directory / "scan.json", type_ec);
+             fs::is_regular_file(*directory / processing::scan_files::kDescription, type_ec);
       if (kept) {
         std::vector<fs::path> maps;
         for (fs::directory_iterator it(*directory, ec), end; !ec && it != end; it.increment(ec)) {
-          const std::string name = it->path().filename().string();
-          if (name == "maps" ||
-              (name.starts_with(".maps") && name.find(".partial-") != std::string::npos))
+          const auto staging = AtomicDirectory::parse_staging(it->path());
+          if (it->path().filename() == processing::scan_files::kMapsDirectory ||
+              (staging && staging->target == processing::scan_files::kMapsDirectory))
             maps.push_back(it->path());
         }
         for (const auto& path : maps)
@@ -524,11 +516,12 @@ Result<CatalogueRecovery> Catalogue::recover() {
       }
       // Its writer's staging directory, whoever's PID it carries: no scan
       // of this daemon is running yet.
-      const std::string prefix = "." + directory->filename().string() + ".partial-";
       std::vector<fs::path> staging;
       for (fs::directory_iterator it(directory->parent_path(), ec), end; !ec && it != end;
            it.increment(ec))
-        if (it->path().filename().string().starts_with(prefix)) staging.push_back(it->path());
+        if (const auto name = AtomicDirectory::parse_staging(it->path());
+            name && name->target == directory->filename())
+          staging.push_back(it->path());
       for (const auto& path : staging)
         remove_directory(path);
     }
@@ -547,10 +540,10 @@ Result<CatalogueRecovery> Catalogue::recover() {
   // Other writers' staging directories, once their process is gone.
   std::vector<fs::path> abandoned;
   for (fs::directory_iterator it(root_, ec), end; !ec && it != end; it.increment(ec)) {
-    const auto owner = staging_owner(it->path().filename().string());
+    const auto staging = AtomicDirectory::parse_staging(it->path());
     std::error_code type_ec;
-    if (owner && *owner != ::getpid() && !process_alive(*owner) && !it->is_symlink(type_ec) &&
-        it->is_directory(type_ec))
+    if (staging && staging->writer != ::getpid() && !process_alive(staging->writer) &&
+        !it->is_symlink(type_ec) && it->is_directory(type_ec))
       abandoned.push_back(it->path());
   }
   for (const auto& path : abandoned)
@@ -558,4 +551,4 @@ Result<CatalogueRecovery> Catalogue::recover() {
   return recovery;
 }
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -1,4 +1,4 @@
-#include "psrig/capture/systemd_notify.h"
+#include "psrig/daemon/systemd_notify.h"
 
 #include <algorithm>
 #include <cerrno>
@@ -10,7 +10,7 @@
 
 #include "psrig/base/log.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 bool SystemdNotifier::enabled() const {
   const char* socket = std::getenv("NOTIFY_SOCKET");
@@ -111,4 +111,4 @@ void WatchdogPetter::run(std::chrono::microseconds interval) {
   }
 }
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

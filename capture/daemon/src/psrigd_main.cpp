@@ -20,11 +20,11 @@
 #include <CLI/CLI.hpp>
 
 #include "psrig/base/log.h"
-#include "psrig/capture/http_api.h"
-#include "psrig/capture/modbus_server.h"
-#include "psrig/capture/scan_service.h"
-#include "psrig/capture/systemd_notify.h"
 #include "psrig/config/config_loader.h"
+#include "psrig/daemon/http_api.h"
+#include "psrig/daemon/modbus_server.h"
+#include "psrig/daemon/scan_service.h"
+#include "psrig/daemon/systemd_notify.h"
 #include "psrig/firmware_host/emergency_stop.h"
 
 namespace {
@@ -40,15 +40,15 @@ using Clock = std::chrono::steady_clock;
 constexpr auto kHealthyLoop = std::chrono::seconds(5);
 
 // systemd's one-line STATUS=: what `systemctl status psrigd` shows.
-std::string status_line(const psrig::capture::DaemonStatus& status) {
-  std::string line = psrig::capture::to_string(status.state);
+std::string status_line(const psrig::daemon::DaemonStatus& status) {
+  std::string line = psrig::daemon::to_string(status.state);
   if (status.current_scan)
     line += " scan " + std::to_string(*status.current_scan) + " (" + status.step + ", " +
             std::to_string(status.progress_percent) + " %)";
   line += "; " + std::to_string(status.queue_length) + " queued; " +
           std::to_string(status.scans_completed) + " done, " + std::to_string(status.scans_failed) +
           " failed since start";
-  if (status.last_error_code != psrig::capture::ScanErrorCode::none)
+  if (status.last_error_code != psrig::daemon::ScanErrorCode::none)
     line += "; last error: " + status.last_error;
   return line;
 }
@@ -69,20 +69,20 @@ int run(const std::string& config_file) {
     log->error("{}", config.error().describe());
     return psrig::exit_code(config.error());
   }
-  auto service = capture::ScanService::start(*config);
+  auto service = daemon::ScanService::start(*config);
   if (!service) {
     log->error("{}", service.error().describe());
     return psrig::exit_code(service.error());
   }
-  auto http = capture::HttpApi::start(**service, capture::http_api_options(config->daemon));
+  auto http = daemon::HttpApi::start(**service, daemon::http_api_options(config->daemon));
   if (!http) {
     log->error("{}", http.error().describe());
     (*service)->stop();
     return psrig::exit_code(http.error());
   }
-  std::unique_ptr<capture::ModbusServer> modbus;
+  std::unique_ptr<daemon::ModbusServer> modbus;
   if (config->daemon.modbus_port != 0) {
-    auto server = capture::ModbusServer::start(
+    auto server = daemon::ModbusServer::start(
         **service, {.address = config->daemon.modbus_address, .port = config->daemon.modbus_port});
     if (!server) {
       log->error("{}", server.error().describe());
@@ -99,13 +99,13 @@ int run(const std::string& config_file) {
   // loop asks the scanning service for its status every tick, so a service
   // that deadlocks, or a worker stuck in a device call, stops the pings and
   // systemd restarts the daemon.
-  capture::SystemdNotifier systemd;
+  daemon::SystemdNotifier systemd;
   std::atomic<Clock::rep> last_tick{Clock::now().time_since_epoch().count()};
   std::atomic<bool> worker_alive{true};
   // How long the worker may go without a heartbeat under the configuration
   // in use; worked out again when SIGHUP brings a new one.
-  auto heartbeat_limit = capture::ScanService::heartbeat_limit(*config);
-  capture::WatchdogPetter petter(systemd, [&] {
+  auto heartbeat_limit = daemon::ScanService::heartbeat_limit(*config);
+  daemon::WatchdogPetter petter(systemd, [&] {
     return worker_alive &&
            Clock::now() - Clock::time_point(Clock::duration(last_tick.load())) < kHealthyLoop;
   });
@@ -123,7 +123,7 @@ int run(const std::string& config_file) {
       (void)systemd.reloading();
       auto fresh = load(config_file);
       if (fresh) {
-        heartbeat_limit = capture::ScanService::heartbeat_limit(*fresh);
+        heartbeat_limit = daemon::ScanService::heartbeat_limit(*fresh);
         (*service)->reload(std::move(*fresh));
       } else {
         log->error("keeping the running configuration: {}", fresh.error().describe());

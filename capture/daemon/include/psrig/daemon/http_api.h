@@ -18,10 +18,10 @@
 #include <memory>
 #include <string>
 
-#include "psrig/capture/scan_service.h"
 #include "psrig/config/rig_config.h"
+#include "psrig/daemon/scan_service.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 struct HttpApiOptions {
   std::string address = "127.0.0.1";
@@ -63,4 +63,4 @@ class HttpApi {
   std::unique_ptr<Impl> impl_;
 };
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

@@ -1,6 +1,6 @@
-#include "psrig/capture/scan_control.h"
+#include "psrig/daemon/scan_control.h"
 
-namespace psrig::capture {
+namespace psrig::daemon {
 
 const char* to_string(DaemonState state) {
   switch (state) {
@@ -44,4 +44,4 @@ const char* to_string(ScanErrorCode code) {
   return "unknown";
 }
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon

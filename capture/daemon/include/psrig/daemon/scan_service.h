@@ -1,42 +1,30 @@
 #pragma once
-// The daemon's scanning service: owns the rig and one worker thread that
-// runs the queued scans one at a time, records each in the catalogue
-// (queued -> running -> done | failed | aborted) and tells the event
-// listeners how it goes. A device that fails fails its scan, never the
-// daemon: the rig is closed and opened again for the next scan. Thread-safe.
+// The daemon's scanning service: one worker thread that runs the queued
+// scans one at a time on the rig and tells how each goes. A device that
+// fails fails its scan, never the daemon: the rig is closed and opened
+// again for the next scan. Thread-safe. Its parts, one job each: the
+// queue (ScanQueue), the rig (RigHolder), the room on disk
+// (StorageBudget) and the telling (ScanRecorder).
 
 #include <atomic>
 #include <chrono>
-#include <condition_variable>
 #include <cstdint>
-#include <deque>
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <optional>
-#include <string>
 #include <thread>
 
-#include "psrig/capture/catalogue.h"
-#include "psrig/capture/rig.h"
-#include "psrig/capture/scan_control.h"
-#include "psrig/capture/scan_events.h"
 #include "psrig/config/rig_config.h"
+#include "psrig/daemon/catalogue.h"
+#include "psrig/daemon/rig_holder.h"
+#include "psrig/daemon/scan_control.h"
+#include "psrig/daemon/scan_events.h"
+#include "psrig/daemon/scan_queue.h"
+#include "psrig/daemon/scan_recorder.h"
+#include "psrig/daemon/storage_budget.h"
 
-namespace psrig::capture {
-
-struct DeviceFaults;
-
-// What the status page says of the devices.
-struct DeviceStatus {
-  bool open = false;
-  std::string lights;  // the backend's description, when open
-  std::string camera;
-  std::string open_error;  // why the last attempt to open them failed
-  // Why the last attempt to switch every LED off failed (closing the rig,
-  // or lights-off with the rig closed): an LED may still be on. Cleared
-  // when switching them off next succeeds. Also shown in open_error.
-  std::string lights_off_error;
-};
+namespace psrig::daemon {
 
 // What DELETE /v1/scans/{id} did.
 enum class ScanRemoval {
@@ -79,7 +67,7 @@ class ScanService final : public ScanControl {
   // A new configuration (SIGHUP), applied between scans: the rig is opened
   // again with it. storage.root and the daemon's addresses keep their
   // start-up values until a restart (the catalogue and the sockets stay
-  // open); queue_limit applies at once.
+  // open); queue_limit applies with it.
   void reload(config::RigConfig config);
 
   // Aborts the running scan (LEDs off), marks the queued ones aborted and
@@ -91,72 +79,47 @@ class ScanService final : public ScanControl {
   // within `limit`. For the systemd watchdog, which otherwise only proves
   // the main loop lives: pet it only while this holds.
   [[nodiscard]] bool healthy(std::chrono::steady_clock::duration limit) const;
-  // The longest a working worker goes without a heartbeat under `config`,
-  // max(60 s, one phase of a scan at its worst: every grab it may make
-  // taking camera.timeout_ms).
+  // The longest a working worker goes without a heartbeat under `config`:
+  // max(60 s, the sequencer's worst phase).
   [[nodiscard]] static std::chrono::steady_clock::duration heartbeat_limit(
       const config::RigConfig& config);
 
-  [[nodiscard]] Catalogue& catalogue() { return *catalogue_; }
-  [[nodiscard]] const ScanEvents& events() const { return events_; }
-  [[nodiscard]] DeviceStatus devices() const;
+  [[nodiscard]] Catalogue& catalogue() { return recorder_.catalogue(); }
+  [[nodiscard]] const ScanEvents& events() const { return recorder_.events(); }
+  [[nodiscard]] DeviceStatus devices() const { return rig_.devices(); }
   // The configuration the next scan uses.
   [[nodiscard]] config::RigConfig config() const;
 
  private:
-  struct Job {
-    std::int64_t id = 0;
-    ScanSubmission submission;
-  };
   // How far a scan got, for blaming the right part when it fails.
-  enum class Stage { opening, acquiring, writing, processing, recording };
+  enum class Stage { acquiring, writing, processing };
 
   ScanService(config::RigConfig config, std::unique_ptr<Catalogue> catalogue);
   void work();
-  void run(const Job& job);
+  void run(const ScanJob& job);
   void apply_pending_config();
-  [[nodiscard]] Status open_rig_if_closed(ScanErrorCode& code);
-  void close_rig();
-  void finish(const Job& job, ScanStatus status, ScanErrorCode code, const std::string& message,
+  // The scan's files removed unless kept, then its end recorded.
+  void finish(const ScanJob& job, ScanStatus status, ScanErrorCode code, const std::string& message,
               const std::filesystem::path& scan_directory, bool keep_files);
-  void set_step(std::string step, int percent, DaemonState state);
+  void set_step(std::int64_t id, const std::string& step, int percent, DaemonState state);
   [[nodiscard]] ScanErrorCode classify(const Error& error, Stage stage) const;
-  // Every LED off: through the open rig, or with the rig closed through
-  // the light backend opened alone for it.
-  [[nodiscard]] Status switch_lights_off();
-  // Records (for status/devices) whether switching the LEDs off worked.
-  Status note_lights_off(Status off, const std::string& device);
-  // Room in the storage root for one more scan and its catalogue rows.
-  [[nodiscard]] Status check_free_space(const config::RigConfig& config) const;
-  void request_abort_locked();
-  // A queued scan's row `aborted` with `message`, and its event.
-  [[nodiscard]] Status mark_cancelled(std::int64_t id, const std::string& message);
+  void beat();
 
-  std::unique_ptr<Catalogue> catalogue_;
-  ScanEvents events_;
   const std::chrono::steady_clock::time_point started_ = std::chrono::steady_clock::now();
+  ScanRecorder recorder_;
+  ScanQueue queue_;
+  RigHolder rig_;
+  StorageBudget storage_;
 
-  mutable std::mutex mutex_;  // everything below, but rig_ (see rig_mutex_)
-  std::condition_variable wake_;
+  // Held while a scan's end is recorded (its row, the status page, the
+  // queue), and by status() and cancel(): whoever sees a scan finished
+  // anywhere finds it finished everywhere. Taken before the queue's and
+  // the recorder's locks, never after.
+  mutable std::mutex outcome_mutex_;
+  mutable std::mutex config_mutex_;
   config::RigConfig config_;
   std::optional<config::RigConfig> pending_config_;
-  std::deque<Job> queue_;
-  bool stopping_ = false;
-  bool abort_current_ = false;
-  ScanSequencer* sequencer_ = nullptr;  // of the running scan
-  DaemonStatus status_;
-  DeviceStatus devices_;
 
-  // Only the worker replaces the rig; others (lights_off) use its lights
-  // under this lock while it is open.
-  mutable std::mutex rig_mutex_;
-  // Held while the light backend is being opened (the rig, or the lights
-  // alone to switch them off), so that one device is never opened twice at
-  // once. Taken before rig_mutex_ and mutex_, never after.
-  std::mutex open_mutex_;
-  std::unique_ptr<Rig> rig_;
-  std::shared_ptr<DeviceFaults> faults_;
-  std::uintmax_t last_scan_bytes_ = 0;  // on disk, maps included; the worker's
   // The running scan's directory and whether it has been written: what an
   // exception out of run() must keep or remove. The worker's.
   struct Attempt {
@@ -167,9 +130,8 @@ class ScanService final : public ScanControl {
   // steady_clock time of the worker's last sign of life.
   std::atomic<std::chrono::steady_clock::rep> heartbeat_{
       std::chrono::steady_clock::now().time_since_epoch().count()};
-  void beat();
-
+  std::atomic<bool> stopped_{false};
   std::thread worker_;
 };
 
-}  // namespace psrig::capture
+}  // namespace psrig::daemon
