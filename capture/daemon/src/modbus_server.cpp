@@ -21,6 +21,7 @@
 #include <vector>
 
 #include "psrig/base/log.h"
+#include "psrig/firmware_host/modbus_reply_capture.h"
 
 namespace psrig::daemon {
 
@@ -45,16 +46,6 @@ std::uint32_t low32(std::int64_t value) {
   return value < 0 ? 0u : static_cast<std::uint32_t>(static_cast<std::uint64_t>(value));
 }
 
-// What modbus_reply wrote into the capture socket.
-std::vector<std::uint8_t> read_captured(int fd) {
-  std::vector<std::uint8_t> bytes;
-  std::uint8_t buffer[MODBUS_TCP_MAX_ADU_LENGTH];
-  ssize_t n = 0;
-  while ((n = ::read(fd, buffer, sizeof buffer)) > 0)
-    bytes.insert(bytes.end(), buffer, buffer + n);
-  return bytes;
-}
-
 // False when the client is gone or stopped reading (SO_SNDTIMEO).
 bool send_all(int fd, const std::vector<std::uint8_t>& bytes) {
   std::size_t done = 0;
@@ -77,7 +68,7 @@ struct ModbusServer::Impl {
   ~Impl() {
     for (const int fd : clients)
       ::close(fd);
-    for (const int fd : {wake, listen, capture[0], capture[1]})
+    for (const int fd : {wake, listen})
       if (fd >= 0) ::close(fd);
     if (mapping) modbus_mapping_free(mapping);
     if (ctx) modbus_free(ctx);  // frees only: the descriptors are ours
@@ -98,9 +89,10 @@ struct ModbusServer::Impl {
   const ModbusServerOptions options;
   modbus_t* ctx = nullptr;
   modbus_mapping_t* mapping = nullptr;
-  int wake = -1;              // eventfd: stop the server thread
-  int listen = -1;            // the listening socket
-  int capture[2] = {-1, -1};  // modbus_reply writes here; we send it on after acting
+  int wake = -1;    // eventfd: stop the server thread
+  int listen = -1;  // the listening socket
+  // libmodbus answers into it; the answer is sent on after acting.
+  std::optional<firmware_host::ModbusReplyCapture> capture;
   std::vector<int> clients;
   std::thread thread;
   std::mutex stop_mutex;  // one stop() joins
@@ -131,8 +123,9 @@ Status ModbusServer::Impl::open() {
 
   wake = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (wake < 0) return std::unexpected(internal_error(system_error("eventfd")));
-  if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0, capture) != 0)
-    return std::unexpected(internal_error(system_error("socketpair")));
+  auto captured = firmware_host::ModbusReplyCapture::create();
+  if (!captured) return std::unexpected(captured.error());
+  capture.emplace(std::move(*captured));
   ctx = modbus_new_tcp(options.address.c_str(), options.port);
   if (!ctx) return std::unexpected(internal_error(system_error("modbus_new_tcp")));
   const timeval timeout = to_timeval(options.request_timeout);
@@ -299,12 +292,9 @@ bool ModbusServer::Impl::serve_one(int fd) {
   const bool trigger_before = mapping->tab_bits[modbus_coil::trigger] != 0;
   const bool lights_off_before = mapping->tab_bits[modbus_coil::lights_off] != 0;
   // libmodbus answers from the mapping (reads, coil writes, and exceptions
-  // for functions and addresses the map does not have) into the capture
-  // socket, so the edge acts before the PLC hears its write acknowledged.
-  modbus_set_socket(ctx, capture[0]);
-  const int replied = modbus_reply(ctx, query, length, mapping);
-  modbus_set_socket(ctx, fd);
-  const auto reply = replied >= 0 ? read_captured(capture[1]) : std::vector<std::uint8_t>{};
+  // for functions and addresses the map does not have), captured, so the
+  // edge acts before the PLC hears its write acknowledged.
+  const auto reply = capture->reply(ctx, fd, query, length, mapping);
   {
     const std::scoped_lock lock(counters_mutex);
     ++counters.requests;

@@ -16,6 +16,8 @@
 #include <unistd.h>
 #include <utility>
 
+#include "psrig/firmware_host/modbus_reply_capture.h"
+
 namespace psrig::test {
 
 using firmware_host::Clock;
@@ -25,18 +27,19 @@ struct SimModbusDriver::Link {
   modbus_t* ctx = nullptr;
   modbus_mapping_t* mapping = nullptr;
   bool tcp = true;
-  int wake = -1;              // eventfd: stop the server thread
-  int listen = -1;            // TCP
-  int master = -1;            // RTU: our end of the pty
-  int slave = -1;             // RTU: kept open so the master never sees a hang-up
-                              // when the host closes and reopens its end
-  int capture[2] = {-1, -1};  // modbus_reply writes here; we decide what reaches the host
-  std::vector<int> clients;   // TCP connections
+  int wake = -1;    // eventfd: stop the server thread
+  int listen = -1;  // TCP
+  int master = -1;  // RTU: our end of the pty
+  int slave = -1;   // RTU: kept open so the master never sees a hang-up
+                    // when the host closes and reopens its end
+  // libmodbus answers into it; we decide what reaches the host.
+  std::optional<firmware_host::ModbusReplyCapture> capture;
+  std::vector<int> clients;  // TCP connections
 
   ~Link() {
     for (const int fd : clients)
       ::close(fd);
-    for (const int fd : {wake, listen, master, slave, capture[0], capture[1]})
+    for (const int fd : {wake, listen, master, slave})
       if (fd >= 0) ::close(fd);
     if (mapping) modbus_mapping_free(mapping);
     if (ctx) modbus_free(ctx);  // frees only: the descriptors are ours
@@ -58,16 +61,6 @@ void write_all(int fd, const std::vector<std::uint8_t>& bytes, bool socket) {
     if (n <= 0) return;  // the host is gone; it will notice
     done += static_cast<std::size_t>(n);
   }
-}
-
-// What modbus_reply wrote into the capture socket.
-std::vector<std::uint8_t> read_captured(int fd) {
-  std::vector<std::uint8_t> bytes;
-  std::uint8_t buffer[MODBUS_MAX_ADU_LENGTH];
-  ssize_t n = 0;
-  while ((n = ::read(fd, buffer, sizeof buffer)) > 0)
-    bytes.insert(bytes.end(), buffer, buffer + n);
-  return bytes;
 }
 
 // An RTU server context on the pty master (never modbus_connect: it is open).
@@ -111,8 +104,9 @@ Status SimModbusDriver::open() {
   link.tcp = options_.transport == "tcp";
   link.wake = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (link.wake < 0) return std::unexpected(internal_error(system_error("eventfd")));
-  if (::socketpair(AF_UNIX, SOCK_STREAM | SOCK_NONBLOCK | SOCK_CLOEXEC, 0, link.capture) != 0)
-    return std::unexpected(internal_error(system_error("socketpair")));
+  auto captured = firmware_host::ModbusReplyCapture::create();
+  if (!captured) return std::unexpected(captured.error());
+  link.capture.emplace(std::move(*captured));
 
   if (link.tcp) {
     link.ctx = modbus_new_tcp("127.0.0.1", 0);  // port 0: the kernel picks a free one
@@ -415,10 +409,7 @@ std::vector<std::uint8_t> SimModbusDriver::apply(int fd, const std::uint8_t* que
     return capture_exception(fd, query, MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE);
   }
 
-  modbus_set_socket(link.ctx, link.capture[0]);
-  const bool replied = modbus_reply(link.ctx, query, length, link.mapping) >= 0;
-  modbus_set_socket(link.ctx, fd);
-  auto reply = replied ? read_captured(link.capture[1]) : std::vector<std::uint8_t>{};
+  auto reply = link.capture->reply(link.ctx, fd, query, length, link.mapping);
   if (all_off_requested) {
     // The command coil acts and reads back 0, like a push button.
     for (int channel = 0; channel < channels; ++channel)
@@ -450,10 +441,7 @@ std::vector<std::uint8_t> SimModbusDriver::apply(int fd, const std::uint8_t* que
 std::vector<std::uint8_t> SimModbusDriver::capture_exception(int fd, const std::uint8_t* query,
                                                              int code) {
   Link& link = *link_;
-  modbus_set_socket(link.ctx, link.capture[0]);
-  const bool replied = modbus_reply_exception(link.ctx, query, static_cast<unsigned>(code)) >= 0;
-  modbus_set_socket(link.ctx, fd);
-  return replied ? read_captured(link.capture[1]) : std::vector<std::uint8_t>{};
+  return link.capture->reply_exception(link.ctx, fd, query, static_cast<unsigned>(code));
 }
 
 }  // namespace psrig::test
