@@ -608,9 +608,10 @@ Result<std::unique_ptr<UsbStrobeLights>> open_usb_strobe(const config::LightsCon
         found += (found.empty() ? "" : ", ") + (match.serial.empty() ? "no serial" : match.serial) +
                  " on " + match.node;
       }
+      const std::size_t how_many = matches.size();  // before close_all() empties the list
       close_all();
       return std::unexpected(bad_input({}, "lights.usb.serial",
-                                       std::to_string(matches.size()) + " usb strobe controllers " +
+                                       std::to_string(how_many) + " usb strobe controllers " +
                                            vid_pid(usb) + " found (" + found +
                                            "): set lights.usb.serial to the one to use"));
     }
