@@ -68,7 +68,7 @@ int run_remote_scan(const RemoteScan& scan) {
     if (firmware_host::stop_requested()) {
       std::fprintf(stderr, "psrig scan: interrupted; scan %lld %s\n", static_cast<long long>(id),
                    cancel(client, path).c_str());
-      return 130;
+      return psrig::cli::exit_interrupted;
     }
     auto entry = client.get(path);
     if (!entry) return report_error("scan", entry.error());

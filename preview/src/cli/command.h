@@ -2,23 +2,20 @@
 // One `psrig-preview` subcommand, and what the subcommands share: frame
 // size parsing, the view and light options, and error reporting.
 
-#include <functional>
 #include <memory>
 #include <string>
 
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 
+#include "psrig/base/cli_command.h"
 #include "psrig/preview/egl_context.h"
 #include "psrig/preview/scene_view.h"
 #include "psrig/preview/swatch_renderer.h"
 
 namespace psrig::preview::cli {
 
-struct Command {
-  CLI::App* app = nullptr;
-  std::function<int()> run;  // returns the exit code
-};
+using psrig::cli::Command;
 
 Command add_render_command(CLI::App& parent);
 Command add_kiosk_command(CLI::App& parent);
@@ -49,7 +46,9 @@ void add_view_options(CLI::App& app, ViewArgs& args);
 }
 
 // Prints "psrig-preview COMMAND: error: ..." to stderr and returns the exit code.
-int report_error(const std::string& command, const Error& error);
+inline int report_error(const std::string& command, const Error& error) {
+  return psrig::cli::report_error("psrig-preview", command, error);
+}
 
 // The multisampling the preview draws with unless told otherwise.
 inline constexpr int kDefaultSamples = 4;

@@ -1,6 +1,5 @@
 #include <GLES3/gl3.h>
 #include <charconv>
-#include <iostream>
 
 #include "command.h"
 
@@ -63,11 +62,6 @@ RendererOptions renderer_options(bool offers_anisotropy) {
     options.max_anisotropy = std::min(most, 8.0f);
   }
   return options;
-}
-
-int report_error(const std::string& command, const Error& error) {
-  std::cerr << "psrig-preview " << command << ": error: " << error.describe() << '\n';
-  return exit_code(error);
 }
 
 }  // namespace psrig::preview::cli
