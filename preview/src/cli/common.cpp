@@ -1,7 +1,7 @@
 #include <GLES3/gl3.h>
-#include <charconv>
 
 #include "command.h"
+#include "psrig/base/width_height.h"
 
 namespace psrig::preview::cli {
 
@@ -43,13 +43,8 @@ SceneView scene_view(const ViewArgs& args) {
 }
 
 Result<cv::Size> parse_size(const std::string& text, const std::string& option) {
-  const auto x = text.find('x');
-  int width = 0, height = 0;
-  const char* end = text.data() + text.size();
-  if (x != std::string::npos &&
-      std::from_chars(text.data(), text.data() + x, width).ptr == text.data() + x &&
-      std::from_chars(text.data() + x + 1, end, height).ptr == end && width > 0 && height > 0)
-    return cv::Size(width, height);
+  if (const auto size = parse_width_height(text); size && size->width > 0 && size->height > 0)
+    return cv::Size(size->width, size->height);
   return std::unexpected(bad_input("", option, "\"" + text + "\" is not a size like 1920x1080"));
 }
 
