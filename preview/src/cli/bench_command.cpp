@@ -82,9 +82,7 @@ Command add_bench_command(CLI::App& parent) {
   app->add_option("--warmup", args->warmup, "Frames drawn first and not timed")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  app->add_option("--samples", args->samples, "Multisampling (0: off)")
-      ->check(CLI::Range(0, 16))
-      ->capture_default_str();
+  add_samples_option(*app, args->samples);
   add_view_options(*app, args->view);
   return {app, [args] { return bench(*args); }};
 }

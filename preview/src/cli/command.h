@@ -52,5 +52,7 @@ inline int report_error(const std::string& command, const Error& error) {
 
 // The multisampling the preview draws with unless told otherwise.
 inline constexpr int kDefaultSamples = 4;
+// --samples, 0 (off) to 16, for every command that draws.
+void add_samples_option(CLI::App& app, int& samples);
 
 }  // namespace psrig::preview::cli

@@ -26,6 +26,12 @@ void add_view_options(CLI::App& app, ViewArgs& args) {
   app.add_flag("--no-light-sphere", args.no_light_sphere, "Do not draw the light as a sphere");
 }
 
+void add_samples_option(CLI::App& app, int& samples) {
+  app.add_option("--samples", samples, "Multisampling (0: off)")
+      ->check(CLI::Range(0, 16))
+      ->capture_default_str();
+}
+
 SceneView scene_view(const ViewArgs& args) {
   SceneView view;
   view.kind = args.view == "flat" ? ViewKind::flat : ViewKind::patch;

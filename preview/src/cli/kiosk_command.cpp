@@ -158,9 +158,7 @@ Command add_kiosk_command(CLI::App& parent) {
   app->add_option("--poll-ms", args->poll_ms, "How often to look for a new scan")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  app->add_option("--samples", args->samples, "Multisampling (0: off)")
-      ->check(CLI::Range(0, 16))
-      ->capture_default_str();
+  add_samples_option(*app, args->samples);
   add_kms_options(*app, args->kms);
   return {app, [args] { return run_kiosk(*args); }};
 }

@@ -206,9 +206,7 @@ Command add_knit_command(CLI::App& parent) {
   app->add_option("--light-slant", args->light_slant, "Light slant in degrees from the normal")
       ->check(CLI::Range(0.0, 90.0))
       ->capture_default_str();
-  app->add_option("--samples", args->samples, "Multisampling (0: off)")
-      ->check(CLI::Range(0, 16))
-      ->capture_default_str();
+  add_samples_option(*app, args->samples);
   app->add_flag("--no-shadows", args->no_shadows,
                 "No yarn-on-yarn shadows (no shadow map: cheaper on a weak GPU)");
   app->add_flag("--plain-fibres", args->plain_fibres,

@@ -52,9 +52,7 @@ Command add_render_command(CLI::App& parent) {
   app->add_option("--out", args->out, "PNG file to write")->required();
   app->add_option("--size", args->size,
                   "Frame size WxH (default: the maps' size for --view flat, else 1280x960)");
-  app->add_option("--samples", args->samples, "Multisampling (0: off)")
-      ->check(CLI::Range(0, 16))
-      ->capture_default_str();
+  add_samples_option(*app, args->samples);
   add_view_options(*app, args->view);
   return {app, [args] { return render(*args); }};
 }
