@@ -10,6 +10,7 @@
 
 #include "psrig/base/cli_command.h"
 #include "psrig/preview/egl_context.h"
+#include "psrig/preview/offscreen_target.h"
 #include "psrig/preview/scene_view.h"
 #include "psrig/preview/swatch_renderer.h"
 
@@ -34,6 +35,14 @@ struct ViewArgs {
 };
 void add_view_options(CLI::App& app, ViewArgs& args);
 [[nodiscard]] SceneView scene_view(const ViewArgs& args);
+
+// What the headless commands draw with: a surfaceless GLES context and an
+// sRGB offscreen target (destroyed first, while the context lives).
+struct HeadlessCanvas {
+  std::unique_ptr<EglContext> context;
+  std::unique_ptr<OffscreenTarget> target;
+};
+[[nodiscard]] Result<HeadlessCanvas> open_headless_canvas(cv::Size size, int samples);
 
 // "1920x1080" -> the size; errors name the option.
 [[nodiscard]] Result<cv::Size> parse_size(const std::string& text, const std::string& option);

@@ -54,6 +54,14 @@ Result<cv::Size> parse_size(const std::string& text, const std::string& option) 
   return std::unexpected(bad_input("", option, "\"" + text + "\" is not a size like 1920x1080"));
 }
 
+Result<HeadlessCanvas> open_headless_canvas(cv::Size size, int samples) {
+  auto context = EglContext::open_surfaceless();
+  if (!context) return std::unexpected(context.error());
+  auto target = OffscreenTarget::create(size, samples, ColourStorage::srgb);
+  if (!target) return std::unexpected(target.error());
+  return HeadlessCanvas{std::move(*context), std::move(*target)};
+}
+
 RendererOptions renderer_options(bool offers_anisotropy) {
   RendererOptions options;
   if (offers_anisotropy) {

@@ -3,7 +3,6 @@
 #include <iostream>
 
 #include "command.h"
-#include "psrig/preview/offscreen_target.h"
 #include "psrig/processing/image_io.h"
 
 namespace psrig::preview::cli {
@@ -27,15 +26,13 @@ int render(const RenderArgs& args) {
     if (!parsed) return report_error("render", parsed.error());
     size = *parsed;
   }
-  auto context = EglContext::open_surfaceless();
-  if (!context) return report_error("render", context.error());
-  auto target = OffscreenTarget::create(size, args.samples, ColourStorage::srgb);
-  if (!target) return report_error("render", target.error());
-  auto renderer = SwatchRenderer::create(*maps, renderer_options(**context));
+  auto canvas = open_headless_canvas(size, args.samples);
+  if (!canvas) return report_error("render", canvas.error());
+  auto renderer = SwatchRenderer::create(*maps, renderer_options(*canvas->context));
   if (!renderer) return report_error("render", renderer.error());
-  (*target)->bind();
+  canvas->target->bind();
   (*renderer)->draw(view, size);
-  if (auto ok = processing::write_image(args.out, (*target)->read()); !ok)
+  if (auto ok = processing::write_image(args.out, canvas->target->read()); !ok)
     return report_error("render", ok.error());
   std::cout << "preview: " << args.out << " (" << size.width << "x" << size.height << ", "
             << args.view.view << " view, " << args.view.light << " light at tilt "
