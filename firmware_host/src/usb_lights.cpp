@@ -69,6 +69,13 @@ Error not_found(const config::UsbLights& usb, const std::string& detail) {
           "lights.usb"};
 }
 
+Status known_channel(int channel, int channels) {
+  if (channel >= 0 && channel < channels) return {};
+  return std::unexpected(bad_input(
+      {}, "lights.channels",
+      "no channel " + std::to_string(channel) + " (" + std::to_string(channels) + " configured)"));
+}
+
 // Device code never throws: whatever escapes becomes an error here.
 template <class F>
 auto guarded(const char* what, F f) -> decltype(f()) {
@@ -375,11 +382,7 @@ void UsbStrobeLights::notice_offs(const strobe::Response& response) {
 
 Status UsbStrobeLights::turn_on(int channel) {
   return guarded("usb lights: turn_on", [&]() -> Status {
-    if (channel < 0 || channel >= channels_) {
-      return std::unexpected(bad_input({}, "lights.channels",
-                                       "no channel " + std::to_string(channel) + " (" +
-                                           std::to_string(channels_) + " configured)"));
-    }
+    if (auto known = known_channel(channel, channels_); !known) return known;
     std::unique_lock link(link_);
     const auto on = command(link, strobe::ChannelOn{static_cast<std::uint8_t>(channel)},
                             "turn channel " + std::to_string(channel) + " on");
@@ -392,11 +395,7 @@ Status UsbStrobeLights::turn_on(int channel) {
 
 Status UsbStrobeLights::strobe(int channel, std::chrono::microseconds duration) {
   return guarded("usb lights: strobe", [&]() -> Status {
-    if (channel < 0 || channel >= channels_) {
-      return std::unexpected(bad_input({}, "lights.channels",
-                                       "no channel " + std::to_string(channel) + " (" +
-                                           std::to_string(channels_) + " configured)"));
-    }
+    if (auto known = known_channel(channel, channels_); !known) return known;
     if (duration.count() < 1 || duration.count() > info_.strobe_max_us) {
       return std::unexpected(bad_input({}, {},
                                        "a strobe lasts 1 to " +
@@ -429,11 +428,7 @@ Status UsbStrobeLights::all_off() {
 
 Status UsbStrobeLights::set_intensity(int channel, double level) {
   return guarded("usb lights: set_intensity", [&]() -> Status {
-    if (channel < 0 || channel >= channels_) {
-      return std::unexpected(bad_input({}, "lights.channels",
-                                       "no channel " + std::to_string(channel) + " (" +
-                                           std::to_string(channels_) + " configured)"));
-    }
+    if (auto known = known_channel(channel, channels_); !known) return known;
     std::unique_lock link(link_);
     return send_intensity(link, channel, level);
   });
