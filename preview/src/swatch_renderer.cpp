@@ -112,10 +112,6 @@ void release(Mesh& mesh) {
   mesh = {};
 }
 
-void set_matrix(int location, const Eigen::Matrix4f& matrix) {
-  glUniformMatrix4fv(location, 1, GL_FALSE, matrix.data());  // Eigen is column-major, as GL
-}
-
 }  // namespace
 
 struct SwatchRenderer::Gl {

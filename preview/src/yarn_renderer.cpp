@@ -42,10 +42,6 @@ std::uint16_t unorm16(float value) {
   return static_cast<std::uint16_t>(std::lround(std::clamp(value, 0.0f, 1.0f) * 65535.0f));
 }
 
-void set_matrix(int location, const Eigen::Matrix4f& matrix) {
-  glUniformMatrix4fv(location, 1, GL_FALSE, matrix.data());  // Eigen is column-major, as GL
-}
-
 }  // namespace
 
 // The points of every yarn back to back, with padding at either end so
