@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "gl_program.h"
-#include "psrig/preview/shading.h"
+#include "psrig/preview/clear_frame.h"
 
 namespace psrig::preview {
 namespace {
@@ -264,13 +264,7 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(target));
   }
 
-  const auto& background = view.background;
-  const auto clear = [&](int c) {
-    return options_.encode_srgb ? srgb_encode(background[c]) : background[c];
-  };
-  glViewport(0, 0, viewport.width, viewport.height);
-  glClearColor(clear(0), clear(1), clear(2), 1.0f);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  clear_frame(view.background, options_.encode_srgb, viewport);
   if (!drawing) {
     glBindVertexArray(0);
     glBindBuffer(GL_ARRAY_BUFFER, 0);

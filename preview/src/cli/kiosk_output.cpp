@@ -1,6 +1,5 @@
 #include "kiosk_output.h"
 
-#include <GLES3/gl3.h>
 #include <cstdio>
 
 #include "psrig/processing/image_io.h"
@@ -51,13 +50,6 @@ Result<std::unique_ptr<KioskOutput>> open_headless_output(const std::string& siz
   auto canvas = open_headless_canvas(*parsed, samples);
   if (!canvas) return std::unexpected(canvas.error());
   return std::make_unique<HeadlessOutput>(std::move(*canvas), out_dir);
-}
-
-void clear_to(cv::Vec3f linear, bool encode_srgb, cv::Size size) {
-  const auto channel = [&](int c) { return encode_srgb ? srgb_encode(linear[c]) : linear[c]; };
-  glViewport(0, 0, size.width, size.height);
-  glClearColor(channel(0), channel(1), channel(2), 1);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
 }
 
 }  // namespace psrig::preview::cli
