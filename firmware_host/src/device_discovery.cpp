@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include "psrig/firmware_host/gpiod_lights.h"
+#include "usb_enumeration.h"
 
 namespace psrig::firmware_host {
 namespace {
@@ -63,34 +64,22 @@ std::vector<FoundDevice> find_gpio_chips() {
 std::vector<FoundDevice> find_usb_strobe_controllers(std::uint16_t vendor_id,
                                                      std::uint16_t product_id) {
   std::vector<FoundDevice> found;
-  libusb_context* context = nullptr;
-  if (libusb_init(&context) != 0) return found;
-  libusb_device** list = nullptr;
-  const ssize_t count = libusb_get_device_list(context, &list);
-  for (ssize_t i = 0; i < count; ++i) {
-    libusb_device_descriptor descriptor{};
-    if (libusb_get_device_descriptor(list[i], &descriptor) != 0) continue;
-    if (descriptor.idVendor != vendor_id || descriptor.idProduct != product_id) continue;
+  const auto context = start_libusb();
+  if (!context) return found;
+  const auto devices = open_usb_devices(context->get(), vendor_id, product_id);
+  if (!devices) return found;
+  for (const MatchingUsbDevice& device : *devices) {
     char where[16];
-    std::snprintf(where, sizeof where, "%03u:%03u", libusb_get_bus_number(list[i]),
-                  libusb_get_device_address(list[i]));
+    std::snprintf(where, sizeof where, "%03u:%03u", device.bus, device.address);
     std::string description = "strobe controller";
-    libusb_device_handle* handle = nullptr;
-    if (const int opened = libusb_open(list[i], &handle); opened == 0) {
-      unsigned char serial[128] = {};
-      if (descriptor.iSerialNumber != 0 &&
-          libusb_get_string_descriptor_ascii(handle, descriptor.iSerialNumber, serial,
-                                             sizeof serial) > 0)
-        description += ", serial " + std::string(reinterpret_cast<const char*>(serial));
-      libusb_close(handle);
-    } else {
-      description += std::string(", cannot open: ") + libusb_strerror(opened) +
+    if (!device.handle) {
+      description += std::string(", cannot open: ") + libusb_strerror(device.open_error) +
                      " (the psrig user needs access to /dev/bus/usb)";
+    } else if (!device.serial.empty()) {
+      description += ", serial " + device.serial;
     }
     found.push_back({where, description});
   }
-  if (count >= 0) libusb_free_device_list(list, 1);
-  libusb_exit(context);
   return found;
 }
 

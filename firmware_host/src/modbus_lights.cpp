@@ -26,6 +26,17 @@ constexpr const char* kStatusKey = "lights.modbus.registers.status_register";
 constexpr const char* kIdKey = "lights.modbus.registers.id_register";
 constexpr const char* kDeviceIdKey = "lights.modbus.registers.device_id";
 
+// Device code never throws: a std::exception that escapes (bad_alloc, say)
+// becomes an error here.
+template <class F>
+auto guarded(F f) -> decltype(f()) {
+  try {
+    return f();
+  } catch (const std::exception& e) {
+    return std::unexpected(internal_error(std::string("modbus lights: ") + e.what()));
+  }
+}
+
 std::string hex(unsigned value) {
   static constexpr char digits[] = "0123456789abcdef";
   std::string text = "0x0000";
@@ -207,7 +218,7 @@ class ModbusLights final : public LightController {
   [[nodiscard]] int channel_count() const override { return config_.channels; }
 
   [[nodiscard]] Status turn_on(int channel) override {
-    try {
+    return guarded([&]() -> Status {
       const std::scoped_lock lock(mutex_);
       if (auto valid = check_channel(channel); !valid) return valid;
       // One request for every coil: the driver never sees two on at once.
@@ -229,22 +240,18 @@ class ModbusLights final : public LightController {
           !healthy)
         return fail_safe(healthy.error());
       return {};
-    } catch (const std::exception& e) {
-      return std::unexpected(internal_error(std::string("modbus lights: ") + e.what()));
-    }
+    });
   }
 
   [[nodiscard]] Status all_off() override {
-    try {
+    return guarded([&]() -> Status {
       const std::scoped_lock lock(mutex_);
       return all_off_locked();
-    } catch (const std::exception& e) {
-      return std::unexpected(internal_error(std::string("modbus lights: ") + e.what()));
-    }
+    });
   }
 
   [[nodiscard]] Status set_intensity(int channel, double level) override {
-    try {
+    return guarded([&]() -> Status {
       const std::scoped_lock lock(mutex_);
       if (auto valid = check_channel(channel); !valid) return valid;
       if (!(level >= 0 && level <= 1))
@@ -259,9 +266,7 @@ class ModbusLights final : public LightController {
            [&](modbus_t* ctx) { return modbus_write_register(ctx, address, value); }});
       if (!written) return fail_safe(written.error());
       return {};
-    } catch (const std::exception& e) {
-      return std::unexpected(internal_error(std::string("modbus lights: ") + e.what()));
-    }
+    });
   }
 
   [[nodiscard]] std::string describe() const override {
@@ -513,7 +518,7 @@ class ModbusLights final : public LightController {
 }  // namespace
 
 Result<std::unique_ptr<LightController>> open_modbus_lights(const config::LightsConfig& config) {
-  try {
+  return guarded([&]() -> Result<std::unique_ptr<LightController>> {
     if (auto invalid = validate(config)) return std::unexpected(*invalid);
     const auto& modbus = config.modbus;
     Context ctx(modbus.transport == "rtu"
@@ -537,9 +542,7 @@ Result<std::unique_ptr<LightController>> open_modbus_lights(const config::Lights
     auto lights = std::make_unique<ModbusLights>(config, std::move(ctx));
     if (auto started = lights->start(); !started) return std::unexpected(started.error());
     return std::unique_ptr<LightController>(std::move(lights));
-  } catch (const std::exception& e) {
-    return std::unexpected(internal_error(std::string("modbus lights: ") + e.what()));
-  }
+  });
 }
 
 }  // namespace psrig::firmware_host

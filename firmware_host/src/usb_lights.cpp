@@ -9,6 +9,8 @@
 #include <utility>
 #include <vector>
 
+#include "usb_enumeration.h"
+
 namespace psrig::firmware_host {
 namespace {
 
@@ -39,10 +41,9 @@ std::string wanted(const config::UsbLights& usb) {
          (usb.serial.empty() ? "" : " with serial \"" + usb.serial + "\"");
 }
 
-std::string node_of(libusb_device* device) {
+std::string node_of(const MatchingUsbDevice& device) {
   char path[40];
-  std::snprintf(path, sizeof path, "/dev/bus/usb/%03u/%03u", libusb_get_bus_number(device),
-                libusb_get_device_address(device));
+  std::snprintf(path, sizeof path, "/dev/bus/usb/%03u/%03u", device.bus, device.address);
   return path;
 }
 
@@ -68,22 +69,12 @@ Error not_found(const config::UsbLights& usb, const std::string& detail) {
           "lights.usb"};
 }
 
-std::string read_serial(libusb_device_handle* handle, std::uint8_t index) {
-  if (index == 0) return {};
-  std::array<unsigned char, 128> text{};
-  const int length =
-      libusb_get_string_descriptor_ascii(handle, index, text.data(), text.size() - 1);
-  return length > 0 ? std::string(reinterpret_cast<const char*>(text.data()),
-                                  static_cast<std::size_t>(length))
-                    : std::string();
+Status known_channel(int channel, int channels) {
+  if (channel >= 0 && channel < channels) return {};
+  return std::unexpected(bad_input(
+      {}, "lights.channels",
+      "no channel " + std::to_string(channel) + " (" + std::to_string(channels) + " configured)"));
 }
-
-struct ContextCloser {
-  void operator()(libusb_context* context) const { libusb_exit(context); }
-};
-struct ListFreer {
-  void operator()(libusb_device** list) const { libusb_free_device_list(list, 1); }
-};
 
 // Device code never throws: whatever escapes becomes an error here.
 template <class F>
@@ -391,11 +382,7 @@ void UsbStrobeLights::notice_offs(const strobe::Response& response) {
 
 Status UsbStrobeLights::turn_on(int channel) {
   return guarded("usb lights: turn_on", [&]() -> Status {
-    if (channel < 0 || channel >= channels_) {
-      return std::unexpected(bad_input({}, "lights.channels",
-                                       "no channel " + std::to_string(channel) + " (" +
-                                           std::to_string(channels_) + " configured)"));
-    }
+    if (auto known = known_channel(channel, channels_); !known) return known;
     std::unique_lock link(link_);
     const auto on = command(link, strobe::ChannelOn{static_cast<std::uint8_t>(channel)},
                             "turn channel " + std::to_string(channel) + " on");
@@ -408,11 +395,7 @@ Status UsbStrobeLights::turn_on(int channel) {
 
 Status UsbStrobeLights::strobe(int channel, std::chrono::microseconds duration) {
   return guarded("usb lights: strobe", [&]() -> Status {
-    if (channel < 0 || channel >= channels_) {
-      return std::unexpected(bad_input({}, "lights.channels",
-                                       "no channel " + std::to_string(channel) + " (" +
-                                           std::to_string(channels_) + " configured)"));
-    }
+    if (auto known = known_channel(channel, channels_); !known) return known;
     if (duration.count() < 1 || duration.count() > info_.strobe_max_us) {
       return std::unexpected(bad_input({}, {},
                                        "a strobe lasts 1 to " +
@@ -445,11 +428,7 @@ Status UsbStrobeLights::all_off() {
 
 Status UsbStrobeLights::set_intensity(int channel, double level) {
   return guarded("usb lights: set_intensity", [&]() -> Status {
-    if (channel < 0 || channel >= channels_) {
-      return std::unexpected(bad_input({}, "lights.channels",
-                                       "no channel " + std::to_string(channel) + " (" +
-                                           std::to_string(channels_) + " configured)"));
-    }
+    if (auto known = known_channel(channel, channels_); !known) return known;
     std::unique_lock link(link_);
     return send_intensity(link, channel, level);
   });
@@ -535,45 +514,25 @@ Result<std::unique_ptr<UsbStrobeLights>> open_usb_strobe(const config::LightsCon
       return std::unexpected(bad_input({}, "lights.usb.watchdog_ms", "must be 1 to 65535 ms"));
     }
 
-    libusb_context* raw_context = nullptr;
-    if (const int code = libusb_init(&raw_context); code < 0) {
+    auto context = start_libusb();
+    if (!context) {
       return std::unexpected(not_found(usb, std::string("libusb cannot start: ") +
-                                                libusb_strerror(code) +
+                                                libusb_strerror(context.error()) +
                                                 "; is there USB on this machine?"));
     }
-    std::unique_ptr<libusb_context, ContextCloser> context(raw_context);
-    libusb_device** raw_list = nullptr;
-    const ssize_t count = libusb_get_device_list(context.get(), &raw_list);
-    if (count < 0) {
-      return std::unexpected(not_found(usb, std::string("cannot list USB devices: ") +
-                                                libusb_strerror(static_cast<int>(count))));
+    auto devices = open_usb_devices(context->get(), usb.vendor_id, usb.product_id);
+    if (!devices) {
+      return std::unexpected(not_found(
+          usb, std::string("cannot list USB devices: ") + libusb_strerror(devices.error())));
     }
-    std::unique_ptr<libusb_device*, ListFreer> list(raw_list);
 
-    struct Match {
-      libusb_device_handle* handle;
-      std::string node;
-      std::string serial;
-    };
-    std::vector<Match> matches;
+    std::vector<MatchingUsbDevice> matches;
     std::vector<std::string> others;  // controllers with another serial
     std::optional<Error> open_error;
-    const auto close_all = [&] {
-      for (const Match& match : matches)
-        libusb_close(match.handle);
-      matches.clear();
-    };
-    for (ssize_t i = 0; i < count; ++i) {
-      libusb_device* device = list.get()[i];
-      libusb_device_descriptor descriptor{};
-      if (libusb_get_device_descriptor(device, &descriptor) != 0 ||
-          descriptor.idVendor != usb.vendor_id || descriptor.idProduct != usb.product_id) {
-        continue;
-      }
+    for (MatchingUsbDevice& device : *devices) {
       const std::string node = node_of(device);
-      libusb_device_handle* handle = nullptr;
-      if (const int code = libusb_open(device, &handle); code < 0) {
-        if (code == LIBUSB_ERROR_ACCESS) {
+      if (!device.handle) {
+        if (device.open_error == LIBUSB_ERROR_ACCESS) {
           open_error = device_error(
               node, "permission denied opening the usb strobe controller " + vid_pid(usb) +
                         ": install the udev rule (firmware_host/PROTOCOL.md) as "
@@ -583,18 +542,18 @@ Result<std::unique_ptr<UsbStrobeLights>> open_usb_strobe(const config::LightsCon
                         "make sure the user is in group plugdev");
         } else {
           open_error = device_error(node, "cannot open the usb strobe controller " + vid_pid(usb) +
-                                              ": " + libusb_strerror(code));
+                                              ": " + libusb_strerror(device.open_error));
         }
         continue;
       }
-      std::string serial = read_serial(handle, descriptor.iSerialNumber);
-      if (!usb.serial.empty() && serial != usb.serial) {
-        others.push_back((serial.empty() ? "no serial" : "serial " + serial) + " on " + node);
-        libusb_close(handle);
-        continue;
+      if (!usb.serial.empty() && device.serial != usb.serial) {
+        others.push_back((device.serial.empty() ? "no serial" : "serial " + device.serial) +
+                         " on " + node);
+        continue;  // its handle closes with `devices`
       }
-      matches.push_back({handle, node, std::move(serial)});
+      matches.push_back(std::move(device));
     }
+    devices->clear();
     if (matches.empty()) {
       if (open_error) return std::unexpected(*open_error);
       std::string detail;
@@ -604,33 +563,32 @@ Result<std::unique_ptr<UsbStrobeLights>> open_usb_strobe(const config::LightsCon
     }
     if (matches.size() > 1) {
       std::string found;
-      for (const Match& match : matches) {
+      for (const MatchingUsbDevice& match : matches) {
         found += (found.empty() ? "" : ", ") + (match.serial.empty() ? "no serial" : match.serial) +
-                 " on " + match.node;
+                 " on " + node_of(match);
       }
-      close_all();
       return std::unexpected(bad_input({}, "lights.usb.serial",
                                        std::to_string(matches.size()) + " usb strobe controllers " +
                                            vid_pid(usb) + " found (" + found +
                                            "): set lights.usb.serial to the one to use"));
     }
-    Match match = matches.front();
+    MatchingUsbDevice match = std::move(matches.front());
     matches.clear();
-    // The handle holds its device; the list must go while the context
-    // lives, and the lights below take the context with them on failure.
-    list.reset();
-    if (const int code = libusb_claim_interface(match.handle, strobe::interface_number); code < 0) {
-      libusb_close(match.handle);
+    const std::string node = node_of(match);
+    // On failure the handle closes before the context exits (declared after it).
+    if (const int code = libusb_claim_interface(match.handle.get(), strobe::interface_number);
+        code < 0) {
       return std::unexpected(device_error(
-          match.node,
+          node,
           "cannot claim the usb strobe controller " + vid_pid(usb) +
               (match.serial.empty() ? "" : " serial " + match.serial) + ": " +
               libusb_strerror(code) +
               (code == LIBUSB_ERROR_BUSY ? " (another program has it: is psrigd already running?)"
                                          : "")));
     }
-    std::unique_ptr<UsbStrobeLights> lights(
-        new UsbStrobeLights(config, context.release(), match.handle, match.node, match.serial));
+    // The lights take the context with them on failure.
+    std::unique_ptr<UsbStrobeLights> lights(new UsbStrobeLights(
+        config, context->release(), match.handle.release(), node, match.serial));
     if (auto ready = lights->handshake(); !ready) return std::unexpected(ready.error());
     return lights;
   });

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include "psrig/base/width_height.h"
+
 namespace psrig::preview {
 namespace {
 
@@ -113,11 +115,10 @@ Result<ModeRequest> parse_mode_request(std::string_view text) {
     if (!parse_whole(refresh, hz) || !std::isfinite(hz) || hz <= 0) return bad();
     request.refresh_hz = hz;
   }
-  const auto x = size.find_first_of("xX");
-  if (x == std::string_view::npos) return bad();
-  if (!parse_whole(size.substr(0, x), request.width) ||
-      !parse_whole(size.substr(x + 1), request.height) || request.width <= 0 || request.height <= 0)
-    return bad();
+  const auto parsed = parse_width_height(size);
+  if (!parsed || parsed->width <= 0 || parsed->height <= 0) return bad();
+  request.width = parsed->width;
+  request.height = parsed->height;
   return request;
 }
 

@@ -3,9 +3,9 @@
 #include <EGL/egl.h>
 #include <EGL/eglext.h>
 #include <GLES3/gl3.h>
-#include <cstring>
 
 #include "gl_context_facts.h"
+#include "psrig/preview/extension_list.h"
 
 namespace psrig::preview {
 namespace {
@@ -19,9 +19,7 @@ Error egl_failure(const std::string& what) {
 }  // namespace
 
 Result<std::unique_ptr<EglContext>> EglContext::open_surfaceless() {
-  const char* client_extensions = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
-  if (client_extensions == nullptr ||
-      std::strstr(client_extensions, "EGL_MESA_platform_surfaceless") == nullptr)
+  if (!extension_listed(egl_extension_list(EGL_NO_DISPLAY), "EGL_MESA_platform_surfaceless"))
     return std::unexpected(
         io_error("EGL",
                  "EGL_MESA_platform_surfaceless is not offered; headless rendering "

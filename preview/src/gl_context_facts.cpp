@@ -20,18 +20,20 @@ std::string gl_description() {
   return text(GL_RENDERER) + ", " + text(GL_VERSION);
 }
 
+std::string_view egl_extension_list(EGLDisplay display) {
+  const char* list = eglQueryString(display, EGL_EXTENSIONS);
+  return list != nullptr ? list : "";
+}
+
 std::string gl_extension_list() {
   GLint count = 0;
   glGetIntegerv(GL_NUM_EXTENSIONS, &count);
-  std::string list = " ";
-  for (GLint i = 0; i < count; ++i)
-    list += reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, static_cast<GLuint>(i))) +
-            std::string(" ");
+  std::string list;
+  for (GLint i = 0; i < count; ++i) {
+    if (i > 0) list += ' ';
+    list += reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, static_cast<GLuint>(i)));
+  }
   return list;
-}
-
-bool extension_listed(const std::string& list, std::string_view name) {
-  return !name.empty() && list.find(" " + std::string(name) + " ") != std::string::npos;
 }
 
 }  // namespace psrig::preview

@@ -1,7 +1,10 @@
 #pragma once
 // What both EGL contexts (surfaceless and KMS) report the same way: EGL
-// errors in words, and the current GL context's name and extensions.
+// errors in words, EGL's extensions, and the current GL context's name and
+// extensions. extension_listed() (psrig/preview/extension_list.h) reads
+// the lists.
 
+#include <EGL/egl.h>
 #include <string>
 #include <string_view>
 
@@ -13,9 +16,11 @@ namespace psrig::preview {
 // The current context's "renderer, version".
 [[nodiscard]] std::string gl_description();
 
-// The current context's GL extensions, space separated with a space on
-// either end, for extension_listed().
+// EGL's extensions of `display`, or its client extensions for
+// EGL_NO_DISPLAY; empty when EGL gives none.
+[[nodiscard]] std::string_view egl_extension_list(EGLDisplay display);
+
+// The current context's GL extensions, space separated.
 [[nodiscard]] std::string gl_extension_list();
-[[nodiscard]] bool extension_listed(const std::string& list, std::string_view name);
 
 }  // namespace psrig::preview

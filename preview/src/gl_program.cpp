@@ -94,4 +94,8 @@ int GlProgram::uniform(const std::string& name) const {
   return location;
 }
 
+void set_matrix(int location, const Eigen::Matrix4f& matrix) {
+  glUniformMatrix4fv(location, 1, GL_FALSE, matrix.data());  // Eigen is column-major, as GL
+}
+
 }  // namespace psrig::preview

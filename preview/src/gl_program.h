@@ -6,6 +6,8 @@
 #include <string_view>
 #include <unordered_map>
 
+#include <Eigen/Core>
+
 #include "psrig/base/error.h"
 #include "shader_sources.h"
 
@@ -33,5 +35,8 @@ class GlProgram {
   unsigned id_ = 0;
   mutable std::unordered_map<std::string, int> locations_;
 };
+
+// Sets a mat4 uniform of the program in use.
+void set_matrix(int location, const Eigen::Matrix4f& matrix);
 
 }  // namespace psrig::preview

@@ -21,6 +21,7 @@
 #include <xf86drmMode.h>
 
 #include "gl_context_facts.h"
+#include "psrig/preview/extension_list.h"
 
 namespace psrig::preview {
 namespace {
@@ -44,19 +45,6 @@ using DrmVersion = std::unique_ptr<drmVersion, DrmFree<drmFreeVersion>>;
 // libdrm's mode calls return -errno.
 std::string drm_error(int ret) {
   return std::strerror(ret < 0 ? -ret : errno);
-}
-
-// A space-separated extension list holds `name` as a whole word.
-bool has_word(const char* list, std::string_view name) {
-  if (list == nullptr || name.empty()) return false;
-  const std::string_view text(list);
-  for (std::size_t at = text.find(name); at != std::string_view::npos;
-       at = text.find(name, at + 1)) {
-    const bool starts = at == 0 || text[at - 1] == ' ';
-    const bool ends = at + name.size() == text.size() || text[at + name.size()] == ' ';
-    if (starts && ends) return true;
-  }
-  return false;
 }
 
 // The mode's refresh as the kernel computes it, in Hz.
@@ -229,9 +217,9 @@ Status KmsDisplay::Impl::start_egl(int samples) {
     return std::unexpected(failure("gbm_surface_create(" + describe_mode(mode_info) +
                                    ", XRGB8888, scanout) failed: " + std::strerror(errno)));
 
-  const char* client_extensions = eglQueryString(EGL_NO_DISPLAY, EGL_EXTENSIONS);
-  if (!has_word(client_extensions, "EGL_KHR_platform_gbm") &&
-      !has_word(client_extensions, "EGL_MESA_platform_gbm"))
+  const std::string_view client_extensions = egl_extension_list(EGL_NO_DISPLAY);
+  if (!extension_listed(client_extensions, "EGL_KHR_platform_gbm") &&
+      !extension_listed(client_extensions, "EGL_MESA_platform_gbm"))
     return std::unexpected(
         failure("EGL offers no GBM platform (EGL_KHR_platform_gbm); the kiosk needs Mesa's EGL "
                 "(libegl-mesa0)"));
@@ -285,9 +273,8 @@ Status KmsDisplay::Impl::start_egl(int samples) {
         failure("EGL offers no GLES 3 window config for XRGB8888 with a 24-bit depth buffer"));
 
   // An sRGB surface encodes on write, so the shaders can stay linear.
-  const char* display_extensions = eglQueryString(display, EGL_EXTENSIONS);
   bool asked_srgb = false;
-  if (has_word(display_extensions, "EGL_KHR_gl_colorspace")) {
+  if (extension_listed(egl_extension_list(display), "EGL_KHR_gl_colorspace")) {
     const EGLAttrib srgb_attributes[] = {EGL_GL_COLORSPACE_KHR, EGL_GL_COLORSPACE_SRGB_KHR,
                                          EGL_NONE};
     window = eglCreatePlatformWindowSurface(display, config, surface, srgb_attributes);

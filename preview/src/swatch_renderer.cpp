@@ -6,6 +6,7 @@
 #include <optional>
 
 #include "gl_program.h"
+#include "psrig/preview/clear_frame.h"
 #include "psrig/preview/texture_levels.h"
 
 namespace psrig::preview {
@@ -112,10 +113,6 @@ void release(Mesh& mesh) {
   mesh = {};
 }
 
-void set_matrix(int location, const Eigen::Matrix4f& matrix) {
-  glUniformMatrix4fv(location, 1, GL_FALSE, matrix.data());  // Eigen is column-major, as GL
-}
-
 }  // namespace
 
 struct SwatchRenderer::Gl {
@@ -179,13 +176,7 @@ SwatchRenderer::~SwatchRenderer() = default;
 void SwatchRenderer::draw(const SceneView& view, cv::Size viewport) {
   const FrameSetup setup = frame_setup(extent_, view, viewport);
   const Eigen::Matrix4f view_projection = setup.projection * setup.view;
-  const auto& background = options_.background;
-  const auto clear = [&](int c) {
-    return options_.encode_srgb ? srgb_encode(background[c]) : background[c];
-  };
-  glViewport(0, 0, viewport.width, viewport.height);
-  glClearColor(clear(0), clear(1), clear(2), 1.0f);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  clear_frame(options_.background, options_.encode_srgb, viewport);
   glEnable(GL_DEPTH_TEST);
   glDisable(GL_CULL_FACE);  // the draped sheet shows its back
   if (gl_->blend) {

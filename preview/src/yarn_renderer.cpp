@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "gl_program.h"
-#include "psrig/preview/shading.h"
+#include "psrig/preview/clear_frame.h"
 
 namespace psrig::preview {
 namespace {
@@ -40,10 +40,6 @@ std::int16_t snorm16(float value) {
 
 std::uint16_t unorm16(float value) {
   return static_cast<std::uint16_t>(std::lround(std::clamp(value, 0.0f, 1.0f) * 65535.0f));
-}
-
-void set_matrix(int location, const Eigen::Matrix4f& matrix) {
-  glUniformMatrix4fv(location, 1, GL_FALSE, matrix.data());  // Eigen is column-major, as GL
 }
 
 }  // namespace
@@ -268,13 +264,7 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(target));
   }
 
-  const auto& background = view.background;
-  const auto clear = [&](int c) {
-    return options_.encode_srgb ? srgb_encode(background[c]) : background[c];
-  };
-  glViewport(0, 0, viewport.width, viewport.height);
-  glClearColor(clear(0), clear(1), clear(2), 1.0f);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  clear_frame(view.background, options_.encode_srgb, viewport);
   if (!drawing) {
     glBindVertexArray(0);
     glBindBuffer(GL_ARRAY_BUFFER, 0);

@@ -1,22 +1,19 @@
 #pragma once
 // One `psrig` subcommand: its CLI11 definition and what runs when chosen.
 
-#include <functional>
 #include <optional>
 #include <string>
 
 #include <CLI/CLI.hpp>
 
+#include "psrig/base/cli_command.h"
 #include "psrig/base/error.h"
 #include "psrig/config/rig_config.h"
 #include "psrig/processing/pipeline.h"
 
 namespace psrig::capture::cli {
 
-struct Command {
-  CLI::App* app = nullptr;
-  std::function<int()> run;  // returns the exit code
-};
+using psrig::cli::Command;
 
 Command add_process_command(CLI::App& parent);
 Command add_synth_command(CLI::App& parent);
@@ -41,6 +38,8 @@ std::optional<config::RigConfig> load_config_or_report(const std::string& comman
                                                        const std::string& file, int& exit_code);
 
 // Prints "psrig COMMAND: error: ..." to stderr and returns the exit code.
-int report_error(const std::string& command, const Error& error);
+inline int report_error(const std::string& command, const Error& error) {
+  return psrig::cli::report_error("psrig", command, error);
+}
 
 }  // namespace psrig::capture::cli

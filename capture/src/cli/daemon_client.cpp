@@ -54,4 +54,8 @@ std::string reply_error(const DaemonReply& reply) {
   return "HTTP " + std::to_string(reply.status);
 }
 
+std::string reply_text(const nlohmann::json& value) {
+  return value.is_string() ? value.get<std::string>() : value.dump();
+}
+
 }  // namespace psrig::capture::cli

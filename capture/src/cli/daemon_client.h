@@ -50,4 +50,7 @@ class DaemonClient {
 // The "error" of a JSON error reply, or the status when it has none.
 [[nodiscard]] std::string reply_error(const DaemonReply& reply);
 
+// A value of a reply as people read it: a string as it is, anything else as JSON.
+[[nodiscard]] std::string reply_text(const nlohmann::json& value);
+
 }  // namespace psrig::capture::cli

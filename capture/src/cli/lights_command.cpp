@@ -66,7 +66,7 @@ Command add_lights_command(CLI::App& parent) {
             }
             if (firmware_host::stop_requested()) {
               std::printf("interrupted: all LEDs off\n");
-              return 130;
+              return psrig::cli::exit_interrupted;
             }
             if (auto overlap = rig->lights->log().overlap()) {
               std::fprintf(stderr, "psrig lights: error: %s\n", overlap->c_str());

@@ -15,10 +15,6 @@ namespace {
 // Often enough to show each light's step, rarely enough not to matter.
 constexpr auto kPollInterval = std::chrono::milliseconds(200);
 
-std::string text(const nlohmann::json& value) {
-  return value.is_string() ? value.get<std::string>() : value.dump();
-}
-
 // Gives up on the scan at `path`: cancelled if queued, aborted if running,
 // never deleted (a scan that finished between two polls is kept). What
 // happened, for the message.
@@ -68,20 +64,20 @@ int run_remote_scan(const RemoteScan& scan) {
     if (firmware_host::stop_requested()) {
       std::fprintf(stderr, "psrig scan: interrupted; scan %lld %s\n", static_cast<long long>(id),
                    cancel(client, path).c_str());
-      return 130;
+      return psrig::cli::exit_interrupted;
     }
     auto entry = client.get(path);
     if (!entry) return report_error("scan", entry.error());
     if (entry->status != 200)
       return report_error(
           "scan", io_error(scan.url, "scan " + std::to_string(id) + ": " + reply_error(*entry)));
-    const std::string status = text(entry->body["status"]);
+    const std::string status = reply_text(entry->body["status"]);
     if (status == "done") {
       const auto& e = entry->body;
       std::printf("scan %lld: done\n", static_cast<long long>(id));
-      std::printf("scan: %s\n", text(e["scan_directory"]).c_str());
+      std::printf("scan: %s\n", reply_text(e["scan_directory"]).c_str());
       if (!e["maps_directory"].is_null())
-        std::printf("maps: %s\n", text(e["maps_directory"]).c_str());
+        std::printf("maps: %s\n", reply_text(e["maps_directory"]).c_str());
       const auto& report = e["report"];
       using Pointer = nlohmann::json::json_pointer;
       const auto metric = [&](const char* at) -> std::optional<double> {
@@ -97,14 +93,14 @@ int run_remote_scan(const RemoteScan& scan) {
     if (status == "failed" || status == "aborted") {
       const auto& error = entry->body["error"];
       std::fprintf(stderr, "psrig scan: error: scan %lld %s (%s): %s\n", static_cast<long long>(id),
-                   status.c_str(), error.is_object() ? text(error["code_name"]).c_str() : "?",
-                   error.is_object() ? text(error["message"]).c_str() : "");
+                   status.c_str(), error.is_object() ? reply_text(error["code_name"]).c_str() : "?",
+                   error.is_object() ? reply_text(error["message"]).c_str() : "");
       return 1;
     }
     if (!scan.quiet && status == "running") {
       auto daemon = client.get("/v1/status");
       if (daemon && daemon->status == 200 && daemon->body["current_scan"] == id) {
-        const std::string step = text(daemon->body["step"]);
+        const std::string step = reply_text(daemon->body["step"]);
         if (!step.empty() && step != last_step)
           std::fprintf(stderr, "psrig scan: %s\n", step.c_str());
         last_step = step;

@@ -83,7 +83,7 @@ Command add_scan_command(CLI::App& parent) {
             });
             if (!outcome) {
               const int code = report_error("scan", outcome.error());
-              return firmware_host::stop_requested() ? 130 : code;
+              return firmware_host::stop_requested() ? psrig::cli::exit_interrupted : code;
             }
             if (!args->quiet) {
               std::printf("scan: %s (%d frames kept, %d skipped, %.0f ms capturing)\n",

@@ -15,10 +15,6 @@ struct StatusArgs {
   bool json = false;
 };
 
-std::string text(const nlohmann::json& value) {
-  return value.is_string() ? value.get<std::string>() : value.dump();
-}
-
 std::string duration_text(double seconds) {
   const auto s = static_cast<long>(seconds);
   char out[64];
@@ -32,27 +28,28 @@ std::string duration_text(double seconds) {
 }
 
 void print_status(const std::string& url, const nlohmann::json& s) {
-  std::printf("psrigd at %s: %s\n", url.c_str(), text(s["state"]).c_str());
+  std::printf("psrigd at %s: %s\n", url.c_str(), reply_text(s["state"]).c_str());
   if (!s["current_scan"].is_null())
-    std::printf("scan %s: %s (%s %%)\n", text(s["current_scan"]).c_str(), text(s["step"]).c_str(),
-                text(s["progress_percent"]).c_str());
-  std::printf("queue: %s waiting (limit %s)\n", text(s["queue_length"]).c_str(),
-              text(s["queue_limit"]).c_str());
-  std::printf("scans: %s done, %s failed in %s; last scan %s\n", text(s["scans_completed"]).c_str(),
-              text(s["scans_failed"]).c_str(), duration_text(s["uptime_s"].get<double>()).c_str(),
-              s["last_scan"].is_null() ? "none" : text(s["last_scan"]).c_str());
+    std::printf("scan %s: %s (%s %%)\n", reply_text(s["current_scan"]).c_str(),
+                reply_text(s["step"]).c_str(), reply_text(s["progress_percent"]).c_str());
+  std::printf("queue: %s waiting (limit %s)\n", reply_text(s["queue_length"]).c_str(),
+              reply_text(s["queue_limit"]).c_str());
+  std::printf("scans: %s done, %s failed in %s; last scan %s\n",
+              reply_text(s["scans_completed"]).c_str(), reply_text(s["scans_failed"]).c_str(),
+              duration_text(s["uptime_s"].get<double>()).c_str(),
+              s["last_scan"].is_null() ? "none" : reply_text(s["last_scan"]).c_str());
   const auto& error = s["last_error"];
   if (error["code"].get<int>() != 0)
-    std::printf("last error: %s: %s\n", text(error["code_name"]).c_str(),
-                text(error["message"]).c_str());
+    std::printf("last error: %s: %s\n", reply_text(error["code_name"]).c_str(),
+                reply_text(error["message"]).c_str());
   const auto& devices = s["devices"];
   if (devices["open"].get<bool>())
-    std::printf("devices: %s; %s\n", text(devices["lights"]).c_str(),
-                text(devices["camera"]).c_str());
+    std::printf("devices: %s; %s\n", reply_text(devices["lights"]).c_str(),
+                reply_text(devices["camera"]).c_str());
   else
-    std::printf("devices: not open%s%s\n", text(devices["error"]).empty() ? "" : ": ",
-                text(devices["error"]).c_str());
-  std::printf("storage: %s\n", text(s["storage_root"]).c_str());
+    std::printf("devices: not open%s%s\n", reply_text(devices["error"]).empty() ? "" : ": ",
+                reply_text(devices["error"]).c_str());
+  std::printf("storage: %s\n", reply_text(s["storage_root"]).c_str());
 }
 
 }  // namespace

@@ -3,9 +3,9 @@
 
 #include <cstdio>
 #include <memory>
-#include <regex>
 
 #include "command.h"
+#include "psrig/base/width_height.h"
 #include "psrig/capture/scan_writer.h"
 #include "psrig/capture/synthetic_scan.h"
 
@@ -52,19 +52,17 @@ Command add_synth_command(CLI::App& parent) {
       ->capture_default_str();
 
   return {app, [args] {
-            std::smatch match;
-            const std::regex size_pattern(R"((\d{1,5})x(\d{1,5}))");
+            const auto size = parse_width_height(args->size);
             constexpr int kMaxSide = 16384;  // 268 MP: beyond any camera the rig takes
-            if (!std::regex_match(args->size, match, size_pattern) || std::stoi(match[1]) < 8 ||
-                std::stoi(match[2]) < 8 || std::stoi(match[1]) > kMaxSide ||
-                std::stoi(match[2]) > kMaxSide)
+            if (!size || size->width < 8 || size->height < 8 || size->width > kMaxSide ||
+                size->height > kMaxSide)
               return report_error(
                   "synth", bad_input({}, "--size",
                                      "expected WxH from 8x8 to 16384x16384, e.g. 640x480; got '" +
                                          args->size + "'"));
             SyntheticScanParams params;
             params.swatch.pattern = *sim::parse_swatch_pattern(args->pattern);
-            params.swatch.size = {std::stoi(match[1]), std::stoi(match[2])};
+            params.swatch.size = {size->width, size->height};
             params.swatch.pixel_size_mm = args->pixel_size;
             params.swatch.seed = args->seed;
             params.slant_deg = args->slant;

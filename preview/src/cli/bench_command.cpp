@@ -8,7 +8,6 @@
 #include <vector>
 
 #include "command.h"
-#include "psrig/preview/offscreen_target.h"
 #include "psrig/preview/scene_motion.h"
 
 namespace psrig::preview::cli {
@@ -34,16 +33,14 @@ int bench(const BenchArgs& args) {
   if (!maps) return report_error("bench", maps.error());
   auto size = parse_size(args.size, "--size");
   if (!size) return report_error("bench", size.error());
-  auto context = EglContext::open_surfaceless();
-  if (!context) return report_error("bench", context.error());
-  auto target = OffscreenTarget::create(*size, args.samples, ColourStorage::srgb);
-  if (!target) return report_error("bench", target.error());
-  auto renderer = SwatchRenderer::create(*maps, renderer_options(**context));
+  auto canvas = open_headless_canvas(*size, args.samples);
+  if (!canvas) return report_error("bench", canvas.error());
+  auto renderer = SwatchRenderer::create(*maps, renderer_options(*canvas->context));
   if (!renderer) return report_error("bench", renderer.error());
 
   const SceneView base = scene_view(args.view);
   const SceneMotion motion;
-  (*target)->bind();
+  canvas->target->bind();
   using Clock = std::chrono::steady_clock;
   std::vector<double> frame_ms;
   for (int frame = -args.warmup; frame < args.frames; ++frame) {
@@ -61,7 +58,7 @@ int bench(const BenchArgs& args) {
       "{\"renderer\": \"%s\", \"size\": [%d, %d], \"samples\": %d, \"view\": \"%s\", "
       "\"frames\": %d, \"fps\": %.1f, \"frame_ms\": {\"mean\": %.2f, \"p50\": %.2f, \"p90\": "
       "%.2f, \"p99\": %.2f, \"max\": %.2f}}\n",
-      (*context)->describe().c_str(), size->width, size->height, (*target)->samples(),
+      canvas->context->describe().c_str(), size->width, size->height, canvas->target->samples(),
       args.view.view.c_str(), args.frames, 1000.0 * args.frames / total_ms, total_ms / args.frames,
       percentile(frame_ms, 0.5), percentile(frame_ms, 0.9), percentile(frame_ms, 0.99),
       percentile(frame_ms, 1.0));
@@ -82,9 +79,7 @@ Command add_bench_command(CLI::App& parent) {
   app->add_option("--warmup", args->warmup, "Frames drawn first and not timed")
       ->check(CLI::NonNegativeNumber)
       ->capture_default_str();
-  app->add_option("--samples", args->samples, "Multisampling (0: off)")
-      ->check(CLI::Range(0, 16))
-      ->capture_default_str();
+  add_samples_option(*app, args->samples);
   add_view_options(*app, args->view);
   return {app, [args] { return bench(*args); }};
 }

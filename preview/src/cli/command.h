@@ -2,23 +2,21 @@
 // One `psrig-preview` subcommand, and what the subcommands share: frame
 // size parsing, the view and light options, and error reporting.
 
-#include <functional>
 #include <memory>
 #include <string>
 
 #include <CLI/CLI.hpp>
 #include <opencv2/core.hpp>
 
+#include "psrig/base/cli_command.h"
 #include "psrig/preview/egl_context.h"
+#include "psrig/preview/offscreen_target.h"
 #include "psrig/preview/scene_view.h"
 #include "psrig/preview/swatch_renderer.h"
 
 namespace psrig::preview::cli {
 
-struct Command {
-  CLI::App* app = nullptr;
-  std::function<int()> run;  // returns the exit code
-};
+using psrig::cli::Command;
 
 Command add_render_command(CLI::App& parent);
 Command add_kiosk_command(CLI::App& parent);
@@ -38,6 +36,14 @@ struct ViewArgs {
 void add_view_options(CLI::App& app, ViewArgs& args);
 [[nodiscard]] SceneView scene_view(const ViewArgs& args);
 
+// What the headless commands draw with: a surfaceless GLES context and an
+// sRGB offscreen target (destroyed first, while the context lives).
+struct HeadlessCanvas {
+  std::unique_ptr<EglContext> context;
+  std::unique_ptr<OffscreenTarget> target;
+};
+[[nodiscard]] Result<HeadlessCanvas> open_headless_canvas(cv::Size size, int samples);
+
 // "1920x1080" -> the size; errors name the option.
 [[nodiscard]] Result<cv::Size> parse_size(const std::string& text, const std::string& option);
 
@@ -49,9 +55,13 @@ void add_view_options(CLI::App& app, ViewArgs& args);
 }
 
 // Prints "psrig-preview COMMAND: error: ..." to stderr and returns the exit code.
-int report_error(const std::string& command, const Error& error);
+inline int report_error(const std::string& command, const Error& error) {
+  return psrig::cli::report_error("psrig-preview", command, error);
+}
 
 // The multisampling the preview draws with unless told otherwise.
 inline constexpr int kDefaultSamples = 4;
+// --samples, 0 (off) to 16, for every command that draws.
+void add_samples_option(CLI::App& app, int& samples);
 
 }  // namespace psrig::preview::cli

@@ -1,8 +1,7 @@
 #include <GLES3/gl3.h>
-#include <charconv>
-#include <iostream>
 
 #include "command.h"
+#include "psrig/base/width_height.h"
 
 namespace psrig::preview::cli {
 
@@ -27,6 +26,12 @@ void add_view_options(CLI::App& app, ViewArgs& args) {
   app.add_flag("--no-light-sphere", args.no_light_sphere, "Do not draw the light as a sphere");
 }
 
+void add_samples_option(CLI::App& app, int& samples) {
+  app.add_option("--samples", samples, "Multisampling (0: off)")
+      ->check(CLI::Range(0, 16))
+      ->capture_default_str();
+}
+
 SceneView scene_view(const ViewArgs& args) {
   SceneView view;
   view.kind = args.view == "flat" ? ViewKind::flat : ViewKind::patch;
@@ -44,14 +49,17 @@ SceneView scene_view(const ViewArgs& args) {
 }
 
 Result<cv::Size> parse_size(const std::string& text, const std::string& option) {
-  const auto x = text.find('x');
-  int width = 0, height = 0;
-  const char* end = text.data() + text.size();
-  if (x != std::string::npos &&
-      std::from_chars(text.data(), text.data() + x, width).ptr == text.data() + x &&
-      std::from_chars(text.data() + x + 1, end, height).ptr == end && width > 0 && height > 0)
-    return cv::Size(width, height);
+  if (const auto size = parse_width_height(text); size && size->width > 0 && size->height > 0)
+    return cv::Size(size->width, size->height);
   return std::unexpected(bad_input("", option, "\"" + text + "\" is not a size like 1920x1080"));
+}
+
+Result<HeadlessCanvas> open_headless_canvas(cv::Size size, int samples) {
+  auto context = EglContext::open_surfaceless();
+  if (!context) return std::unexpected(context.error());
+  auto target = OffscreenTarget::create(size, samples, ColourStorage::srgb);
+  if (!target) return std::unexpected(target.error());
+  return HeadlessCanvas{std::move(*context), std::move(*target)};
 }
 
 RendererOptions renderer_options(bool offers_anisotropy) {
@@ -63,11 +71,6 @@ RendererOptions renderer_options(bool offers_anisotropy) {
     options.max_anisotropy = std::min(most, 8.0f);
   }
   return options;
-}
-
-int report_error(const std::string& command, const Error& error) {
-  std::cerr << "psrig-preview " << command << ": error: " << error.describe() << '\n';
-  return exit_code(error);
 }
 
 }  // namespace psrig::preview::cli

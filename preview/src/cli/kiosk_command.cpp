@@ -13,6 +13,7 @@
 
 #include "command.h"
 #include "kiosk_output.h"
+#include "psrig/preview/clear_frame.h"
 #include "psrig/preview/newest_scan.h"
 #include "psrig/preview/scene_motion.h"
 #include "psrig/processing/map_encoding.h"
@@ -130,7 +131,7 @@ int run_kiosk(const KioskArgs& args) {
     if (renderer)
       renderer->draw(motion.at(now, base), screen.size());
     else
-      clear_to(options.background, options.encode_srgb, screen.size());  // waiting for a scan
+      clear_frame(options.background, options.encode_srgb, screen.size());  // waiting for a scan
     if (auto ok = screen.end_frame(frame); !ok) return report_error("kiosk", ok.error());
   }
   std::cout << "kiosk: stopped" << std::endl;
@@ -158,9 +159,7 @@ Command add_kiosk_command(CLI::App& parent) {
   app->add_option("--poll-ms", args->poll_ms, "How often to look for a new scan")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
-  app->add_option("--samples", args->samples, "Multisampling (0: off)")
-      ->check(CLI::Range(0, 16))
-      ->capture_default_str();
+  add_samples_option(*app, args->samples);
   add_kms_options(*app, args->kms);
   return {app, [args] { return run_kiosk(*args); }};
 }

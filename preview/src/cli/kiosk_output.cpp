@@ -1,9 +1,7 @@
 #include "kiosk_output.h"
 
-#include <GLES3/gl3.h>
 #include <cstdio>
 
-#include "psrig/preview/offscreen_target.h"
 #include "psrig/processing/image_io.h"
 
 namespace psrig::preview::cli {
@@ -11,26 +9,26 @@ namespace {
 
 class HeadlessOutput final : public KioskOutput {
  public:
-  HeadlessOutput(std::unique_ptr<EglContext> context, std::unique_ptr<OffscreenTarget> target,
-                 std::filesystem::path out_dir)
-      : context_(std::move(context)), target_(std::move(target)), out_dir_(std::move(out_dir)) {}
+  HeadlessOutput(HeadlessCanvas canvas, std::filesystem::path out_dir)
+      : canvas_(std::move(canvas)), out_dir_(std::move(out_dir)) {}
 
   std::string describe() const override {
     return "headless " + std::to_string(size().width) + "x" + std::to_string(size().height) +
-           " into " + out_dir_.string() + ", " + context_->describe();
+           " into " + out_dir_.string() + ", " + canvas_.context->describe();
   }
-  cv::Size size() const override { return target_->size(); }
-  RendererOptions renderer_options() const override { return cli::renderer_options(*context_); }
-  void begin_frame() override { target_->bind(); }
+  cv::Size size() const override { return canvas_.target->size(); }
+  RendererOptions renderer_options() const override {
+    return cli::renderer_options(*canvas_.context);
+  }
+  void begin_frame() override { canvas_.target->bind(); }
   Status end_frame(long frame) override {
     char name[32];
     std::snprintf(name, sizeof name, "frame_%06ld.png", frame);
-    return processing::write_image(out_dir_ / name, target_->read());
+    return processing::write_image(out_dir_ / name, canvas_.target->read());
   }
 
  private:
-  std::unique_ptr<EglContext> context_;
-  std::unique_ptr<OffscreenTarget> target_;
+  HeadlessCanvas canvas_;
   std::filesystem::path out_dir_;
 };
 
@@ -49,18 +47,9 @@ Result<std::unique_ptr<KioskOutput>> open_headless_output(const std::string& siz
   std::error_code error;
   std::filesystem::create_directories(out_dir, error);
   if (error) return std::unexpected(io_error(out_dir, "cannot create: " + error.message()));
-  auto context = EglContext::open_surfaceless();
-  if (!context) return std::unexpected(context.error());
-  auto target = OffscreenTarget::create(*parsed, samples, ColourStorage::srgb);
-  if (!target) return std::unexpected(target.error());
-  return std::make_unique<HeadlessOutput>(std::move(*context), std::move(*target), out_dir);
-}
-
-void clear_to(cv::Vec3f linear, bool encode_srgb, cv::Size size) {
-  const auto channel = [&](int c) { return encode_srgb ? srgb_encode(linear[c]) : linear[c]; };
-  glViewport(0, 0, size.width, size.height);
-  glClearColor(channel(0), channel(1), channel(2), 1);
-  glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+  auto canvas = open_headless_canvas(*parsed, samples);
+  if (!canvas) return std::unexpected(canvas.error());
+  return std::make_unique<HeadlessOutput>(std::move(*canvas), out_dir);
 }
 
 }  // namespace psrig::preview::cli

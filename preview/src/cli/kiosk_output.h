@@ -33,7 +33,4 @@ class KioskOutput {
 [[nodiscard]] Result<std::unique_ptr<KioskOutput>> open_kms_output(const KmsArgs& args,
                                                                    int samples);
 
-// Clears the bound framebuffer to a linear colour (the screen between scans).
-void clear_to(cv::Vec3f linear, bool encode_srgb, cv::Size size);
-
 }  // namespace psrig::preview::cli

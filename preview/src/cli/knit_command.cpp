@@ -12,7 +12,6 @@
 
 #include "cloth_model.h"
 #include "command.h"
-#include "psrig/preview/offscreen_target.h"
 #include "psrig/preview/srgb_hex.h"
 #include "psrig/preview/yarn_renderer.h"
 #include "psrig/processing/image_io.h"
@@ -82,24 +81,16 @@ ClothShape cloth_shape(const KnitArgs& args) {
 }
 
 // What both render and bench draw with.
-struct YarnCanvas {
-  std::unique_ptr<EglContext> context;
-  std::unique_ptr<OffscreenTarget> target;
-  std::unique_ptr<YarnRenderer> renderer;
+struct YarnCanvas : HeadlessCanvas {
+  std::unique_ptr<YarnRenderer> renderer;  // destroyed first
 };
 
 Result<YarnCanvas> open_canvas(cv::Size size, int samples) {
-  YarnCanvas canvas;
-  auto context = EglContext::open_surfaceless();
-  if (!context) return std::unexpected(context.error());
-  canvas.context = std::move(*context);
-  auto target = OffscreenTarget::create(size, samples, ColourStorage::srgb);
-  if (!target) return std::unexpected(target.error());
-  canvas.target = std::move(*target);
+  auto canvas = open_headless_canvas(size, samples);
+  if (!canvas) return std::unexpected(canvas.error());
   auto renderer = YarnRenderer::create();
   if (!renderer) return std::unexpected(renderer.error());
-  canvas.renderer = std::move(*renderer);
-  return canvas;
+  return YarnCanvas{std::move(*canvas), std::move(*renderer)};
 }
 
 int render(const KnitArgs& args) {
@@ -206,9 +197,7 @@ Command add_knit_command(CLI::App& parent) {
   app->add_option("--light-slant", args->light_slant, "Light slant in degrees from the normal")
       ->check(CLI::Range(0.0, 90.0))
       ->capture_default_str();
-  app->add_option("--samples", args->samples, "Multisampling (0: off)")
-      ->check(CLI::Range(0, 16))
-      ->capture_default_str();
+  add_samples_option(*app, args->samples);
   app->add_flag("--no-shadows", args->no_shadows,
                 "No yarn-on-yarn shadows (no shadow map: cheaper on a weak GPU)");
   app->add_flag("--plain-fibres", args->plain_fibres,

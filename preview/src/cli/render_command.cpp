@@ -3,7 +3,6 @@
 #include <iostream>
 
 #include "command.h"
-#include "psrig/preview/offscreen_target.h"
 #include "psrig/processing/image_io.h"
 
 namespace psrig::preview::cli {
@@ -27,15 +26,13 @@ int render(const RenderArgs& args) {
     if (!parsed) return report_error("render", parsed.error());
     size = *parsed;
   }
-  auto context = EglContext::open_surfaceless();
-  if (!context) return report_error("render", context.error());
-  auto target = OffscreenTarget::create(size, args.samples, ColourStorage::srgb);
-  if (!target) return report_error("render", target.error());
-  auto renderer = SwatchRenderer::create(*maps, renderer_options(**context));
+  auto canvas = open_headless_canvas(size, args.samples);
+  if (!canvas) return report_error("render", canvas.error());
+  auto renderer = SwatchRenderer::create(*maps, renderer_options(*canvas->context));
   if (!renderer) return report_error("render", renderer.error());
-  (*target)->bind();
+  canvas->target->bind();
   (*renderer)->draw(view, size);
-  if (auto ok = processing::write_image(args.out, (*target)->read()); !ok)
+  if (auto ok = processing::write_image(args.out, canvas->target->read()); !ok)
     return report_error("render", ok.error());
   std::cout << "preview: " << args.out << " (" << size.width << "x" << size.height << ", "
             << args.view.view << " view, " << args.view.light << " light at tilt "
@@ -52,9 +49,7 @@ Command add_render_command(CLI::App& parent) {
   app->add_option("--out", args->out, "PNG file to write")->required();
   app->add_option("--size", args->size,
                   "Frame size WxH (default: the maps' size for --view flat, else 1280x960)");
-  app->add_option("--samples", args->samples, "Multisampling (0: off)")
-      ->check(CLI::Range(0, 16))
-      ->capture_default_str();
+  add_samples_option(*app, args->samples);
   add_view_options(*app, args->view);
   return {app, [args] { return render(*args); }};
 }

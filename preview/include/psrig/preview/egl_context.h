@@ -32,7 +32,7 @@ class EglContext {
   void* display_ = nullptr;  // EGLDisplay
   void* context_ = nullptr;  // EGLContext
   int major_ = 0, minor_ = 0;
-  std::string extensions_;  // space separated, with a space on either end
+  std::string extensions_;  // space separated
 };
 
 }  // namespace psrig::preview
