@@ -127,9 +127,20 @@ TEST(PsrigdSoak, ConsecutiveScansKeepMemoryFilesAndLedsSteady) {
     series += " " + std::to_string(i + 1) + ":" + std::to_string(rss[i]);
   ASSERT_GT(baseline, 0);
   const long allowed_kib = 1024 + 3L * scans;
-  EXPECT_LE(end - baseline, allowed_kib)
-      << "RSS floor grew from " << baseline << " to " << end << " KiB over " << scans
-      << " scans; RSS after scan n (n:KiB):" << series;
+#if defined(__SANITIZE_ADDRESS__)
+  // AddressSanitizer keeps freed memory in quarantine (256 MiB) before it
+  // reuses any, so the RSS climbs until the quarantine is full whatever
+  // the daemon frees: the bound holds for glibc's allocator only. Under
+  // ASan, LeakSanitizer checks for leaks when the daemon exits instead.
+  const bool rss_measures_leaks = false;
+#else
+  const bool rss_measures_leaks = true;
+#endif
+  if (rss_measures_leaks) {
+    EXPECT_LE(end - baseline, allowed_kib)
+        << "RSS floor grew from " << baseline << " to " << end << " KiB over " << scans
+        << " scans; RSS after scan n (n:KiB):" << series;
+  }
   // Files: the catalogue, the log, the Modbus link, the listening sockets
   // and the pool's pipes are all open by the warm-up; a scan must give back
   // every file and socket it opened.

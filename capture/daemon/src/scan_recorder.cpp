@@ -51,12 +51,9 @@ Result<std::int64_t> ScanRecorder::add(const ScanSubmission& submission) {
   if (!id) return std::unexpected(id.error());
   logger("daemon")->info("scan {} queued (sample '{}', from {})", *id, submission.sample_id,
                          submission.source.empty() ? "?" : submission.source);
-  return *id;
-}
-
-void ScanRecorder::queued() {
   std::lock_guard lock(mutex_);
   if (status_.state == DaemonState::error) status_.state = DaemonState::idle;
+  return *id;
 }
 
 void ScanRecorder::refused(ScanErrorCode code, std::string message) {
@@ -144,8 +141,9 @@ Status ScanRecorder::done(std::int64_t id, const fs::path& scan_directory,
                 {"percent", 100},
                 {"scan_directory", scan_directory.string()},
                 {"maps_directory", maps_directory.string()}});
-  if (report.contains("ground_truth") && report["ground_truth"].contains("angular_error_deg"))
-    event["angular_error_deg"] = report["ground_truth"]["angular_error_deg"]["mean"];
+  if (const nlohmann::json::json_pointer mean("/ground_truth/angular_error_deg/mean");
+      report.contains(mean))
+    event["angular_error_deg"] = report.at(mean);
   events_.publish("done", std::move(event));
   return {};
 }

@@ -111,7 +111,6 @@ Result<std::int64_t> ScanService::submit(ScanSubmission submission) {
     }
     return std::unexpected(std::move(error));
   }
-  recorder_.queued();
   return *id;
 }
 

@@ -28,10 +28,10 @@ class ScanRecorder {
   // how many wait) and the uptime.
   [[nodiscard]] DaemonStatus status() const;
 
-  // A submission's row, `queued`.
+  // A submission's row, `queued`; an error state gives way to the new
+  // scan. Called before the worker can see the scan (under the queue's
+  // lock), so that the scan's own failure is never overwritten.
   [[nodiscard]] Result<std::int64_t> add(const ScanSubmission& submission);
-  // A scan was queued: an error state gives way to the next scan.
-  void queued();
   // A submission was refused for the service's state (a full queue).
   void refused(ScanErrorCode code, std::string message);
   // The worker is ready for scans; the daemon is stopping (the state says
