@@ -42,6 +42,7 @@ void add_files_from(const fs::path& directory, ScanFileHome home, std::set<std::
 std::string content_type(const std::string& name) {
   if (name.ends_with(".png")) return "image/png";
   if (name.ends_with(".exr")) return "image/x-exr";
+  if (name.ends_with(".tif") || name.ends_with(".tiff")) return "image/tiff";
   if (name.ends_with(".json")) return "application/json";
   return "application/octet-stream";
 }
