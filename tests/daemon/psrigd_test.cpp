@@ -65,6 +65,28 @@ std::string body_of(const std::string& answer) {
   return at == std::string::npos ? "" : answer.substr(at + 4);
 }
 
+// A psrigd whose LEDs are on a simulated Modbus LED driver the test holds
+// (modbus_lights with `modbus_extra`, then `edits`), started but not yet
+// ready. The test asserts `driver` started before it uses `led_driver()` or
+// `daemon()`, which exist only then.
+struct DaemonOnLedDriver {
+  explicit DaemonOnLedDriver(const std::string& modbus_extra = "", const Edits& edits = {}) {
+    if (!driver) return;
+    Edits all = {modbus_lights((*driver)->port(), modbus_extra)};
+    all.insert(all.end(), edits.begin(), edits.end());
+    config = daemon_config(temp, port, all);
+    running.emplace(config, port, temp / "psrigd.log");
+  }
+  SimModbusDriver& led_driver() { return **driver; }
+  Daemon& daemon() { return *running; }
+
+  TempDir temp;
+  Result<std::unique_ptr<SimModbusDriver>> driver = SimModbusDriver::start({});
+  int port = free_port();
+  fs::path config;
+  std::optional<Daemon> running;
+};
+
 TEST(Psrigd, ScanRoundTripSearchDownloadAndDelete) {
   TempDir temp;
   const int port = free_port();
@@ -334,31 +356,26 @@ TEST(Psrigd, OffLoopbackItNeedsAToken) {
 // SIGTERM while an LED is lit, with the LEDs on a (simulated) Modbus driver
 // the test holds, so it sees from outside what the LEDs did.
 TEST(Psrigd, SigtermMidScanTurnsEveryLedOffAndExitsZero) {
-  TempDir temp;
-  auto driver = SimModbusDriver::start({});
-  ASSERT_TRUE(driver) << driver.error().describe();
-  const int port = free_port();
-  const auto config =
-      daemon_config(temp, port,
-                    {modbus_lights((*driver)->port()),
-                     {"exposure_us = 20000", "exposure_us = 200000"}});  // a slow scan
-  Daemon daemon(config, port, temp / "psrigd.log");
+  DaemonOnLedDriver setup("", {{"exposure_us = 20000", "exposure_us = 200000"}});  // a slow scan
+  ASSERT_TRUE(setup.driver) << setup.driver.error().describe();
+  SimModbusDriver& driver = setup.led_driver();
+  Daemon& daemon = setup.daemon();
   ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
   const auto id = daemon.submit({{"sample_id", "S-1"}});
   const auto deadline = std::chrono::steady_clock::now() + 15s;
-  while ((*driver)->leds_on().empty() && std::chrono::steady_clock::now() < deadline)
+  while (driver.leds_on().empty() && std::chrono::steady_clock::now() < deadline)
     std::this_thread::sleep_for(1ms);
-  ASSERT_FALSE((*driver)->leds_on().empty()) << "no LED came on\n" << daemon.log();
+  ASSERT_FALSE(driver.leds_on().empty()) << "no LED came on\n" << daemon.log();
 
   EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
-  EXPECT_TRUE((*driver)->leds_on().empty());
-  EXPECT_FALSE((*driver)->log().overlap());
-  EXPECT_TRUE((*driver)->log().on_now().empty());
+  EXPECT_TRUE(driver.leds_on().empty());
+  EXPECT_FALSE(driver.log().overlap());
+  EXPECT_TRUE(driver.log().on_now().empty());
   EXPECT_TRUE(contains(daemon.log(), "aborted")) << daemon.log();
   // Nothing half-made is left, and the row says what happened.
-  for (const auto& name : list_directory(temp / "scans"))
+  for (const auto& name : list_directory(setup.temp / "scans"))
     EXPECT_TRUE(name.starts_with("catalogue.sqlite")) << name;
-  Daemon again(config, port, temp / "psrigd.log");
+  Daemon again(setup.config, setup.port, setup.temp / "psrigd.log");
   ASSERT_TRUE(again.wait_ready()) << again.log();
   const auto entry = again.get("/v1/scans/" + std::to_string(id));
   EXPECT_EQ(entry["status"], "aborted") << entry.dump();
@@ -607,28 +624,25 @@ TEST(Psrigd, KilledWhileSavingThenRestartedLeavesNoHalfScan) {
 // A fault fails its scan, names the device, and leaves the daemon serving:
 // the next scan opens the rig again.
 TEST(Psrigd, AnLedDriverFaultFailsTheScanNotTheDaemon) {
-  TempDir temp;
-  auto driver = SimModbusDriver::start({});
-  ASSERT_TRUE(driver) << driver.error().describe();
-  const int port = free_port();
-  const auto config =
-      daemon_config(temp, port, {modbus_lights((*driver)->port(), ", retries = 0")});
-  Daemon daemon(config, port, temp / "psrigd.log");
+  DaemonOnLedDriver setup(", retries = 0");
+  ASSERT_TRUE(setup.driver) << setup.driver.error().describe();
+  SimModbusDriver& driver = setup.led_driver();
+  Daemon& daemon = setup.daemon();
   ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
-  (*driver)->inject(ModbusFault::exception);
+  driver.inject(ModbusFault::exception);
   const auto failed = daemon.wait_finished(daemon.submit({{"sample_id", "F-1"}}));
   EXPECT_EQ(failed["status"], "failed") << failed.dump();
   EXPECT_EQ(failed["error"]["code"], 2) << failed.dump();  // lights, as the PLC reads it
   const auto status = daemon.get("/v1/status");
   EXPECT_EQ(status["state"], "error") << status.dump();
   EXPECT_EQ(status["last_error"]["code_name"], "lights") << status.dump();
-  EXPECT_TRUE((*driver)->leds_on().empty());
+  EXPECT_TRUE(driver.leds_on().empty());
 
-  (*driver)->clear_fault();
+  driver.clear_fault();
   const auto next = daemon.wait_finished(daemon.submit({{"sample_id", "F-2"}}));
   EXPECT_EQ(next["status"], "done") << next.dump() << daemon.log();
   EXPECT_EQ(daemon.get("/v1/status")["state"], "idle");
-  EXPECT_FALSE((*driver)->log().overlap());
+  EXPECT_FALSE(driver.log().overlap());
   EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
 }
 
@@ -636,15 +650,12 @@ TEST(Psrigd, AnLedDriverFaultFailsTheScanNotTheDaemon) {
 // driver (the light backend opened alone), says when it cannot, and the
 // failure to switch off on closing is shown, not dropped.
 TEST(Psrigd, LightsOffWithTheRigClosedReachesTheLedDriver) {
-  TempDir temp;
-  auto driver = SimModbusDriver::start({});
-  ASSERT_TRUE(driver) << driver.error().describe();
-  const int port = free_port();
-  const auto config =
-      daemon_config(temp, port, {modbus_lights((*driver)->port(), ", retries = 0")});
-  Daemon daemon(config, port, temp / "psrigd.log");
+  DaemonOnLedDriver setup(", retries = 0");
+  ASSERT_TRUE(setup.driver) << setup.driver.error().describe();
+  SimModbusDriver& driver = setup.led_driver();
+  Daemon& daemon = setup.daemon();
   ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
-  (*driver)->inject(ModbusFault::exception);
+  driver.inject(ModbusFault::exception);
   const auto failed = daemon.wait_finished(daemon.submit({{"sample_id", "F-1"}}));
   EXPECT_EQ(failed["error"]["code_name"], "lights") << failed.dump();
   ASSERT_TRUE(daemon.wait_status([](const json& s) { return s["devices"]["open"] == false; }));
@@ -659,19 +670,19 @@ TEST(Psrigd, LightsOffWithTheRigClosedReachesTheLedDriver) {
   EXPECT_TRUE(contains(refused->body, "modbus")) << refused->body;
 
   // An LED left on behind the closed rig's back is switched off.
-  (*driver)->clear_fault();
-  auto rig = config::load_config(config);
+  driver.clear_fault();
+  auto rig = config::load_config(setup.config);
   ASSERT_TRUE(rig) << rig.error().describe();
   // (another client of the driver, held open: its own closing would
   // switch the LED off)
   auto stuck = firmware_host::open_lights(*rig);
   ASSERT_TRUE(stuck) << stuck.error().describe();
   ASSERT_TRUE((*stuck)->turn_on(1));
-  ASSERT_EQ((*driver)->leds_on(), std::vector<int>{1});
+  ASSERT_EQ(driver.leds_on(), std::vector<int>{1});
   auto off = daemon.http().Post("/v1/lights/off", "", "application/json");
   ASSERT_TRUE(off);
   EXPECT_EQ(off->status, 200) << off->body;
-  EXPECT_TRUE((*driver)->leds_on().empty());
+  EXPECT_TRUE(driver.leds_on().empty());
   EXPECT_EQ(daemon.get("/v1/status")["devices"]["error"], "") << daemon.log();
   EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
 }
@@ -680,31 +691,27 @@ TEST(Psrigd, LightsOffWithTheRigClosedReachesTheLedDriver) {
 // frame in 5 s against a 300 ms grab timeout): the scan fails as a camera
 // timeout with every LED off, and the daemon serves on.
 TEST(Psrigd, ACameraTimeoutFailsTheScanWithTheLedsOff) {
-  TempDir temp;
-  auto driver = SimModbusDriver::start({});
-  ASSERT_TRUE(driver) << driver.error().describe();
-  const int port = free_port();
-  const Edits normal = {modbus_lights((*driver)->port())};
-  Edits stalled = normal;
-  stalled.push_back({"timeout_ms = 2000", "timeout_ms = 300"});
-  stalled.push_back({"readout_us = 15000", "readout_us = 15000\nframe_interval_us = 5000000"});
-  const auto config = daemon_config(temp, port, stalled);
-  Daemon daemon(config, port, temp / "psrigd.log");
+  DaemonOnLedDriver setup(
+      "", {{"timeout_ms = 2000", "timeout_ms = 300"},
+           {"readout_us = 15000", "readout_us = 15000\nframe_interval_us = 5000000"}});
+  ASSERT_TRUE(setup.driver) << setup.driver.error().describe();
+  SimModbusDriver& driver = setup.led_driver();
+  Daemon& daemon = setup.daemon();
   ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
   const auto failed = daemon.wait_finished(daemon.submit({{"sample_id", "T"}}));
   EXPECT_EQ(failed["status"], "failed") << failed.dump();
   EXPECT_EQ(failed["error"]["code_name"], "camera") << failed.dump();
   EXPECT_TRUE(contains(failed["error"]["message"].get<std::string>(), "camera.timeout_ms"))
       << failed.dump();
-  EXPECT_TRUE((*driver)->leds_on().empty());
-  EXPECT_FALSE((*driver)->log().overlap());
-  for (const auto& name : list_directory(temp / "scans"))
+  EXPECT_TRUE(driver.leds_on().empty());
+  EXPECT_FALSE(driver.log().overlap());
+  for (const auto& name : list_directory(setup.temp / "scans"))
     EXPECT_TRUE(name.starts_with("catalogue.sqlite")) << "no half scan: " << name;
 
   // The camera back to its pace: once the daemon has read the file again
   // (its main loop takes SIGHUP within 200 ms; the worker applies it before
   // the next scan), it scans again.
-  daemon_config(temp, port, normal);
+  daemon_config(setup.temp, setup.port, {modbus_lights(driver.port())});
   ::kill(daemon.pid(), SIGHUP);
   const auto deadline = std::chrono::steady_clock::now() + 10s;
   while (!contains(daemon.log(), "SIGHUP") && std::chrono::steady_clock::now() < deadline)
@@ -713,7 +720,7 @@ TEST(Psrigd, ACameraTimeoutFailsTheScanWithTheLedsOff) {
   std::this_thread::sleep_for(50ms);
   EXPECT_EQ(daemon.wait_finished(daemon.submit({{"sample_id", "T"}}))["status"], "done")
       << daemon.log();
-  EXPECT_TRUE((*driver)->leds_on().empty());
+  EXPECT_TRUE(driver.leds_on().empty());
   EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
 }
 
