@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "pattern_error.h"
 #include "test_support.h"
 
 namespace psrig::preview {
@@ -180,15 +181,8 @@ TEST(StitchChart, PaletteMayComeAfterTheRowsThatUseIt) {
   EXPECT_TRUE(chart.palette[1].isApprox(Eigen::Vector3f(1, 0, 0)));
 }
 
-struct BadChart {
-  const char* text;
-  int line;
-  int column;
-  const char* says;
-};
-
 TEST(StitchChart, ErrorsNameTheFileLineAndColumn) {
-  const BadChart cases[] = {
+  const test::BadPattern cases[] = {
       {"KKK\nKK\n", 2, 1, "row 1 has 2 stitches, expected 3"},
       {"KK\n\nK X\n", 3, 3, "unknown symbol 'X'"},
       {"colour A #FFFFFF\nKKK\n= AA\n", 3, 1, "colour row has 2 letters"},
@@ -203,16 +197,10 @@ TEST(StitchChart, ErrorsNameTheFileLineAndColumn) {
       {"colour AB #000000\nK\n", 1, 8, "one letter or digit"},
       {"name: a\nname: b\nK\n", 2, 1, "second `name:`"},
   };
-  for (const BadChart& bad : cases) {
+  for (const test::BadPattern& bad : cases) {
     auto chart = parse_stitch_chart(bad.text, "bad.chart");
     ASSERT_FALSE(chart) << bad.text;
-    const Error& error = chart.error();
-    EXPECT_EQ(error.kind, ErrorKind::bad_input) << bad.text;
-    EXPECT_EQ(error.line, bad.line) << bad.text;
-    EXPECT_EQ(error.column, bad.column) << bad.text;
-    const std::string where = "bad.chart:" + std::to_string(bad.line) + ":";
-    EXPECT_TRUE(error.describe().starts_with(where)) << error.describe();
-    EXPECT_NE(error.describe().find(bad.says), std::string::npos) << error.describe();
+    test::expect_bad_pattern_error(chart.error(), "bad.chart", bad);
   }
 }
 

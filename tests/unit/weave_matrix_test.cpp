@@ -6,6 +6,7 @@
 
 #include <gtest/gtest.h>
 
+#include "pattern_error.h"
 #include "test_support.h"
 
 namespace psrig::preview {
@@ -97,28 +98,16 @@ TEST(WeaveMatrix, FirstRowIsTheFirstWeftAndTheRepeatTiles) {
 }
 
 TEST(WeaveMatrix, ErrorsNameTheFileLineAndColumn) {
-  struct Bad {
-    const char* text;
-    int line;
-    int column;
-    const char* says;
-  };
-  const Bad cases[] = {
+  const test::BadPattern cases[] = {
       {"# twill\n1100\n011\n", 3, 1, "row 1 has 3 crossings, expected 4"},
       {"1 0\n0 x\n", 2, 3, "unknown symbol 'x'"},
       {"1 0\n0 K\n", 2, 3, "unknown symbol 'K'"},
       {"name: a\nname: b\n1\n", 2, 1, "second `name:`"},
   };
-  for (const Bad& bad : cases) {
+  for (const test::BadPattern& bad : cases) {
     auto matrix = parse_weave_matrix(bad.text, "bad.weave");
     ASSERT_FALSE(matrix) << bad.text;
-    EXPECT_EQ(matrix.error().kind, ErrorKind::bad_input);
-    EXPECT_EQ(matrix.error().line, bad.line) << bad.text;
-    EXPECT_EQ(matrix.error().column, bad.column) << bad.text;
-    const std::string where = "bad.weave:" + std::to_string(bad.line) + ":";
-    EXPECT_TRUE(matrix.error().describe().starts_with(where)) << matrix.error().describe();
-    EXPECT_NE(matrix.error().describe().find(bad.says), std::string::npos)
-        << matrix.error().describe();
+    test::expect_bad_pattern_error(matrix.error(), "bad.weave", bad);
   }
   auto empty = parse_weave_matrix("# nothing\n\n", "empty.weave");
   ASSERT_FALSE(empty);
