@@ -117,6 +117,9 @@ TEST(UnitFilesTest, ServiceIsANotifyServiceWithWatchdogUserAndSandbox) {
   EXPECT_EQ(setting(unit, "NotifyAccess"), "main");
   EXPECT_EQ(setting(unit, "ExecStart"), "/usr/bin/psrigd --config /etc/psrig/rig.toml");
   EXPECT_EQ(setting(unit, "ExecReload"), "/bin/kill -HUP $MAINPID");
+  // Every LED off after the daemon ends for any reason, with its own rig.toml.
+  EXPECT_EQ(setting(unit, "ExecStopPost"),
+            "/usr/bin/psrig lights --config /etc/psrig/rig.toml --off");
   EXPECT_EQ(setting(unit, "KillSignal"), "SIGTERM");
   EXPECT_EQ(setting(unit, "Restart"), "on-failure");
   EXPECT_FALSE(setting(unit, "WatchdogSec").empty());
@@ -141,14 +144,17 @@ TEST(UnitFilesTest, ServiceIsANotifyServiceWithWatchdogUserAndSandbox) {
 TEST(UnitFilesTest, SystemdAnalyzeVerifiesTheUnit) {
   const auto tool = find_tool("systemd-analyze");
   if (tool.empty()) GTEST_SKIP() << "systemd-analyze is not installed (Debian package systemd)";
-  // psrigd is not installed on a build machine, and verify checks that
-  // ExecStart's program exists: the same unit, started as something that does.
+  // psrigd and psrig are not installed on a build machine, and verify
+  // checks that the programs the unit runs exist: the same unit, running
+  // something that does.
   TempRoot dir;
   ASSERT_FALSE(dir.path().empty());
   std::string unit = read_file(kConfig / "systemd/psrigd.service");
-  const auto at = unit.find("/usr/bin/psrigd");
-  ASSERT_NE(at, std::string::npos);
-  unit.replace(at, std::string("/usr/bin/psrigd").size(), "/bin/true");
+  for (const std::string program : {"/usr/bin/psrigd ", "/usr/bin/psrig "}) {
+    const auto at = unit.find(program);
+    ASSERT_NE(at, std::string::npos) << program;
+    unit.replace(at, program.size(), "/bin/true ");
+  }
   std::ofstream(dir.path() / "psrigd.service") << unit;
   const auto run = run_tool(tool + " verify --man=no " + (dir.path() / "psrigd.service").string());
   EXPECT_EQ(run.exit_code, 0) << run.output;
