@@ -319,6 +319,16 @@ TEST(Psrigd, BadRequestsGetA4xxWithAMessage) {
   EXPECT_EQ(daemon.get("/v1/scans/12345", 404).value("error", ""), "no scan 12345");
   EXPECT_EQ(daemon.get("/v1/scans/abc", 404).value("error", ""), "no such scan");
   EXPECT_EQ(daemon.get("/v1/nothing", 404).value("error", ""), "no such endpoint");
+  // Dates and times that are not real ones, naming the parameter.
+  for (const auto& [query, must_name] : std::vector<std::pair<std::string, std::string>>{
+           {"from=2026-02-30", "from: "},
+           {"to=9999-12-31T99:99:99Z", "to: "},
+           {"from=2026-05-04T24:00:00Z", "from: "},
+           {"to=2027-02-29", "to: "},
+       })
+    EXPECT_TRUE(contains(daemon.get("/v1/scans?" + query, 400).value("error", ""), must_name))
+        << query;
+  EXPECT_EQ(daemon.get("/v1/scans?from=2028-02-29&to=9999-12-31T23:59:59Z")["scans"].size(), 0U);
   auto res = daemon.http().Delete("/v1/scans/99999999999999999999999");
   ASSERT_TRUE(res);
   EXPECT_EQ(res->status, 404);

@@ -432,7 +432,7 @@ void HttpApi::Impl::search(const httplib::Request& req, httplib::Response& res) 
       if (!normal)
         return refuse(res, 400,
                       key +
-                          ": expected a UTC date or date-time, e.g. 2026-05-04 or "
+                          ": expected a real UTC date or date-time, e.g. 2026-05-04 or "
                           "2026-05-04T09:00:00Z");
       (key == "from" ? query.from : query.to) = *normal;
     } else if (key == "status") {
