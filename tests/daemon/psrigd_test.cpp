@@ -61,6 +61,27 @@ std::pair<int, std::string> raw_http(int port, const std::string& request) {
   return {status, answer};
 }
 
+// `request` on a raw socket, then everything the server sends until it
+// closes the connection (or 5 s pass).
+std::string raw_http_until_closed(int port, const std::string& request) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  timeval timeout{5, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  std::string answer;
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0) {
+    (void)!::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+    char buffer[4096];
+    for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
+      answer.append(buffer, static_cast<std::size_t>(n));
+  }
+  ::close(fd);
+  return answer;
+}
+
 // `request`'s headers, then `total` bytes of body in chunks of `chunk`
 // (chunked transfer coding), on a raw socket; stops sending when the server
 // closes. The status code (-1 for none) and the whole answer.
@@ -329,6 +350,30 @@ TEST(Psrigd, BadRequestsGetA4xxWithAMessage) {
     EXPECT_TRUE(contains(daemon.get("/v1/scans?" + query, 400).value("error", ""), must_name))
         << query;
   EXPECT_EQ(daemon.get("/v1/scans?from=2028-02-29&to=9999-12-31T23:59:59Z")["scans"].size(), 0U);
+  // httplib's bounds: a request line up to 8192 bytes (414 past it), each
+  // header line up to 8192 (400 past it).
+  const auto request_line = [&](std::size_t value) {
+    return raw_http(port, "GET /v1/scans?sample_id=" + std::string(value, 'a') +
+                              " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  };
+  const auto [long_query, long_answer] = request_line(9000);
+  EXPECT_EQ(long_query, 414) << long_answer;
+  EXPECT_TRUE(contains(body_of(long_answer), "URI too long")) << long_answer;
+  EXPECT_EQ(request_line(8000).first, 200);
+  const auto [long_header, header_answer] =
+      raw_http(port, "GET /v1/status HTTP/1.1\r\nHost: x\r\nX-Long: " + std::string(9000, 'a') +
+                         "\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(long_header, 400) << header_answer;
+  // A GET's body, which httplib does not read, is not taken for a request:
+  // one answer (413), then the connection is closed.
+  const std::string smuggled = "DELETE /v1/scans/1 HTTP/1.1\r\nHost: x\r\n\r\n";
+  const auto start = std::chrono::steady_clock::now();
+  const std::string get_answer =
+      raw_http_until_closed(port, "GET /v1/status HTTP/1.1\r\nHost: x\r\nContent-Length: " +
+                                      std::to_string(smuggled.size()) + "\r\n\r\n" + smuggled);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 1s);
+  EXPECT_TRUE(get_answer.starts_with("HTTP/1.1 413")) << get_answer;
+  EXPECT_EQ(get_answer.find("HTTP/1.1", 1), std::string::npos) << get_answer;
   auto res = daemon.http().Delete("/v1/scans/99999999999999999999999");
   ASSERT_TRUE(res);
   EXPECT_EQ(res->status, 404);

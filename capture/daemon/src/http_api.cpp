@@ -269,8 +269,13 @@ void HttpApi::Impl::routes() {
       return close_with(415, "Content-Encoding: bodies are taken uncompressed only");
     // Refused from the headers: httplib would first read (or wait for) a
     // body it is going to refuse, holding a thread for its read timeout.
-    if (has_length && req.get_header_value<std::uint64_t>("Content-Length") > max_body)
-      return close_with(413, too_large);
+    const auto length = has_length ? req.get_header_value<std::uint64_t>("Content-Length") : 0;
+    if (length > max_body) return close_with(413, too_large);
+    // httplib reads no body for the other methods (GET, HEAD, OPTIONS):
+    // one sent would be read as the next request.
+    static const std::set<std::string> with_body = {"POST", "PUT", "PATCH", "DELETE", "PRI"};
+    if (length > 0 && !with_body.contains(req.method))
+      return close_with(413, req.method + " takes no request body");
     // Neither header: the body is empty (RFC 9112 6.3), as curl -X POST
     // sends it. httplib 0.11 would read it until the connection closes
     // (its read timeout, then 400); it reads the body only after this
