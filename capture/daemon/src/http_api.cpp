@@ -10,6 +10,7 @@
 #include <limits>
 #include <regex>
 #include <set>
+#include <string_view>
 #include <thread>
 
 #include "psrig/base/log.h"
@@ -149,9 +150,10 @@ bool reads_body(const httplib::Request& req) {
          });
 }
 
-bool is_chunked(std::string coding) {
-  std::ranges::transform(coding, coding.begin(), [](unsigned char c) { return std::tolower(c); });
-  return coding == "chunked";
+// A header's value is `word` (a coding's name), in any case.
+bool names(std::string value, std::string_view word) {
+  std::ranges::transform(value, value.begin(), [](unsigned char c) { return std::tolower(c); });
+  return value == word;
 }
 
 // The request's body, however it is sent (Content-Length, chunked, none),
@@ -238,53 +240,53 @@ void HttpApi::Impl::routes() {
   auto log = logger("http");
   const std::string token = options.token;
   const std::size_t max_body = options.max_body_bytes;
-  server.set_pre_routing_handler([token, max_body](const httplib::Request& req,
-                                                   httplib::Response& res) {
-    // Every refusal closes the connection: a body left unread must not be
-    // taken for the next request.
-    const auto close_with = [&res](int status, const std::string& message) {
-      refuse_and_close(res, status, message);
-      return httplib::Server::HandlerResponse::Handled;
-    };
-    if (!token.empty() &&
-        !constant_time_equal(req.get_header_value("Authorization"), "Bearer " + token)) {
-      res.set_header("WWW-Authenticate", "Bearer");
-      return close_with(401, "missing or wrong bearer token (Authorization: Bearer TOKEN)");
-    }
-    const std::string too_large = "request body larger than " + std::to_string(max_body) + " bytes";
-    const bool has_length = req.has_header("Content-Length");
-    if (req.has_header("Transfer-Encoding")) {
-      // httplib 0.11 reads a chunked body whole into memory, unbounded
-      // (its payload limit applies to Content-Length only), and reads any
-      // other coding until the connection closes. Only the routes that read
-      // their body through read_body(), which stops at the limit, take one.
-      if (has_length) return close_with(400, "both Content-Length and Transfer-Encoding");
-      if (!is_chunked(req.get_header_value("Transfer-Encoding")))
-        return close_with(501, "Transfer-Encoding: only chunked is understood");
-      if (!reads_body(req)) return close_with(413, "this endpoint takes no request body");
-    }
-    if (req.has_header("Content-Encoding") &&
-        req.get_header_value("Content-Encoding") != "identity")
-      // A compressed body would be inflated past the limit.
-      return close_with(415, "Content-Encoding: bodies are taken uncompressed only");
-    // Refused from the headers: httplib would first read (or wait for) a
-    // body it is going to refuse, holding a thread for its read timeout.
-    const auto length = has_length ? req.get_header_value<std::uint64_t>("Content-Length") : 0;
-    if (length > max_body) return close_with(413, too_large);
-    // httplib reads no body for the other methods (GET, HEAD, OPTIONS):
-    // one sent would be read as the next request.
-    static const std::set<std::string> with_body = {"POST", "PUT", "PATCH", "DELETE", "PRI"};
-    if (length > 0 && !with_body.contains(req.method))
-      return close_with(413, req.method + " takes no request body");
-    // Neither header: the body is empty (RFC 9112 6.3), as curl -X POST
-    // sends it. httplib 0.11 would read it until the connection closes
-    // (its read timeout, then 400); it reads the body only after this
-    // handler, from a Request it owns as non-const, so the length is
-    // stated for it.
-    if (!has_length && !req.has_header("Transfer-Encoding"))
-      const_cast<httplib::Request&>(req).headers.emplace("Content-Length", "0");
-    return httplib::Server::HandlerResponse::Unhandled;
-  });
+  server.set_pre_routing_handler(
+      [token, max_body](const httplib::Request& req, httplib::Response& res) {
+        // Every refusal closes the connection: a body left unread must not be
+        // taken for the next request.
+        const auto close_with = [&res](int status, const std::string& message) {
+          refuse_and_close(res, status, message);
+          return httplib::Server::HandlerResponse::Handled;
+        };
+        if (!token.empty() &&
+            !constant_time_equal(req.get_header_value("Authorization"), "Bearer " + token)) {
+          res.set_header("WWW-Authenticate", "Bearer");
+          return close_with(401, "missing or wrong bearer token (Authorization: Bearer TOKEN)");
+        }
+        const bool has_length = req.has_header("Content-Length");
+        if (req.has_header("Transfer-Encoding")) {
+          // httplib 0.11 reads a chunked body whole into memory, unbounded
+          // (its payload limit applies to Content-Length only), and reads any
+          // other coding until the connection closes. Only the routes that read
+          // their body through read_body(), which stops at the limit, take one.
+          if (has_length) return close_with(400, "both Content-Length and Transfer-Encoding");
+          if (!names(req.get_header_value("Transfer-Encoding"), "chunked"))
+            return close_with(501, "Transfer-Encoding: only chunked is understood");
+          if (!reads_body(req)) return close_with(413, "this endpoint takes no request body");
+        }
+        if (req.has_header("Content-Encoding") &&
+            !names(req.get_header_value("Content-Encoding"), "identity"))
+          // A compressed body would be inflated past the limit.
+          return close_with(415, "Content-Encoding: bodies are taken uncompressed only");
+        // Refused from the headers: httplib would first read (or wait for) a
+        // body it is going to refuse, holding a thread for its read timeout.
+        const auto length = has_length ? req.get_header_value<std::uint64_t>("Content-Length") : 0;
+        if (length > max_body)
+          return close_with(413, "request body larger than " + std::to_string(max_body) + " bytes");
+        // httplib reads no body for the other methods (GET, HEAD, OPTIONS):
+        // one sent would be read as the next request.
+        static const std::set<std::string> with_body = {"POST", "PUT", "PATCH", "DELETE", "PRI"};
+        if (length > 0 && !with_body.contains(req.method))
+          return close_with(413, req.method + " takes no request body");
+        // Neither header: the body is empty (RFC 9112 6.3), as curl -X POST
+        // sends it. httplib 0.11 would read it until the connection closes
+        // (its read timeout, then 400); it reads the body only after this
+        // handler, from a Request it owns as non-const, so the length is
+        // stated for it.
+        if (!has_length && !req.has_header("Transfer-Encoding"))
+          const_cast<httplib::Request&>(req).headers.emplace("Content-Length", "0");
+        return httplib::Server::HandlerResponse::Unhandled;
+      });
   // Whatever httplib refuses by itself (no route, body too large, bad
   // request line) still answers in JSON.
   server.set_error_handler(httplib::Server::HandlerWithResponse(
