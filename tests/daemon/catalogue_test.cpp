@@ -192,6 +192,20 @@ TEST(Catalogue, TimestampsAreCheckedAndNormalised) {
   EXPECT_FALSE(normalise_timestamp("2026-05-04'; DROP TABLE scans; --", false));
 }
 
+// Real calendar days and times of day only, not whatever has the digits.
+TEST(Catalogue, TimestampsAreRealDatesAndTimes) {
+  using daemon::normalise_timestamp;
+  for (const char* real : {"2028-02-29", "2000-02-29", "2026-01-31", "2026-04-30", "2026-12-31",
+                           "9999-12-31T23:59:59Z", "2026-05-04T00:00:00Z", "2026-05-04 23:59:59"})
+    EXPECT_TRUE(normalise_timestamp(real, false)) << real;
+  for (const char* unreal :
+       {"2026-02-30", "2026-02-29", "1900-02-29", "2026-04-31", "2026-06-31", "2026-01-32",
+        "2026-00-10", "2026-05-00", "2026-13-01", "9999-12-31T99:99:99Z", "2026-05-04T24:00:00Z",
+        "2026-05-04T23:60:00Z", "2026-05-04T23:59:60Z", "2026-02-30T12:00:00Z",
+        "2026-05-04T9:12:33Z", "2026-5-04", "+2026-05-04"})
+    EXPECT_FALSE(normalise_timestamp(unreal, false)) << unreal;
+}
+
 TEST(Catalogue, DeleteRemovesTheFilesThenTheRow) {
   TempDir temp;
   auto catalogue = open(temp / "scans");

@@ -11,6 +11,7 @@
 #include <netinet/in.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sstream>
 #include <sys/socket.h>
 #include <sys/wait.h>
 #include <thread>
@@ -58,6 +59,86 @@ std::pair<int, std::string> raw_http(int port, const std::string& request) {
   int status = -1;
   if (answer.starts_with("HTTP/1.1 ")) status = std::stoi(answer.substr(9, 3));
   return {status, answer};
+}
+
+// `request` on a raw socket, then everything the server sends until it
+// closes the connection (or 5 s pass).
+std::string raw_http_until_closed(int port, const std::string& request) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  timeval timeout{5, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  std::string answer;
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0) {
+    (void)!::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
+    char buffer[4096];
+    for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
+      answer.append(buffer, static_cast<std::size_t>(n));
+  }
+  ::close(fd);
+  return answer;
+}
+
+// `request`'s headers, then `total` bytes of body in chunks of `chunk`
+// (chunked transfer coding), on a raw socket; stops sending when the server
+// closes. The status code (-1 for none) and the whole answer.
+std::pair<int, std::string> chunked_http(int port, const std::string& request, std::size_t total,
+                                         std::size_t chunk) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
+  sockaddr_in address{};
+  address.sin_family = AF_INET;
+  address.sin_port = htons(static_cast<std::uint16_t>(port));
+  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  timeval timeout{5, 0};
+  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &timeout, sizeof timeout);
+  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+    ::close(fd);
+    return {-1, ""};
+  }
+  const auto send_all = [fd](const std::string& data) {
+    for (std::size_t sent = 0; sent < data.size();) {
+      const ssize_t n = ::send(fd, data.data() + sent, data.size() - sent, MSG_NOSIGNAL);
+      if (n <= 0) return false;
+      sent += static_cast<std::size_t>(n);
+    }
+    return true;
+  };
+  std::ostringstream size;
+  size << std::hex << chunk;
+  const std::string piece = size.str() + "\r\n" + std::string(chunk, 'x') + "\r\n";
+  bool open = send_all(request + "Transfer-Encoding: chunked\r\n\r\n");
+  for (std::size_t sent = 0; open && sent < total; sent += chunk)
+    open = send_all(piece);
+  if (open) send_all("0\r\n\r\n");
+  std::string answer;
+  char buffer[4096];
+  for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
+    answer.append(buffer, static_cast<std::size_t>(n));
+  ::close(fd);
+  int status = -1;
+  if (answer.starts_with("HTTP/1.1 ")) status = std::stoi(answer.substr(9, 3));
+  return {status, answer};
+}
+
+// A memory figure of process `pid` from /proc/PID/status, in kB: `field`
+// "VmRSS" (resident now) or "VmHWM" (the peak); -1 where there is none.
+long status_kb(pid_t pid, const std::string& field) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.starts_with(field + ":")) return std::stol(line.substr(field.size() + 1));
+  return -1;
+}
+
+// Resets the peak (VmHWM) of process `pid` to its resident set now
+// (clear_refs); false where that cannot be done.
+bool reset_peak_rss(pid_t pid) {
+  std::ofstream clear_refs("/proc/" + std::to_string(pid) + "/clear_refs");
+  clear_refs << "5" << std::flush;
+  return clear_refs.good();
 }
 
 std::string body_of(const std::string& answer) {
@@ -268,6 +349,40 @@ TEST(Psrigd, BadRequestsGetA4xxWithAMessage) {
   EXPECT_EQ(daemon.get("/v1/scans/12345", 404).value("error", ""), "no scan 12345");
   EXPECT_EQ(daemon.get("/v1/scans/abc", 404).value("error", ""), "no such scan");
   EXPECT_EQ(daemon.get("/v1/nothing", 404).value("error", ""), "no such endpoint");
+  // Dates and times that are not real ones, naming the parameter.
+  for (const auto& [query, must_name] : std::vector<std::pair<std::string, std::string>>{
+           {"from=2026-02-30", "from: "},
+           {"to=9999-12-31T99:99:99Z", "to: "},
+           {"from=2026-05-04T24:00:00Z", "from: "},
+           {"to=2027-02-29", "to: "},
+       })
+    EXPECT_TRUE(contains(daemon.get("/v1/scans?" + query, 400).value("error", ""), must_name))
+        << query;
+  EXPECT_EQ(daemon.get("/v1/scans?from=2028-02-29&to=9999-12-31T23:59:59Z")["scans"].size(), 0U);
+  // httplib's bounds: a request line up to 8192 bytes (414 past it), each
+  // header line up to 8192 (400 past it).
+  const auto request_line = [&](std::size_t value) {
+    return raw_http(port, "GET /v1/scans?sample_id=" + std::string(value, 'a') +
+                              " HTTP/1.1\r\nHost: x\r\nConnection: close\r\n\r\n");
+  };
+  const auto [long_query, long_answer] = request_line(9000);
+  EXPECT_EQ(long_query, 414) << long_answer;
+  EXPECT_TRUE(contains(body_of(long_answer), "URI too long")) << long_answer;
+  EXPECT_EQ(request_line(8000).first, 200);
+  const auto [long_header, header_answer] =
+      raw_http(port, "GET /v1/status HTTP/1.1\r\nHost: x\r\nX-Long: " + std::string(9000, 'a') +
+                         "\r\nConnection: close\r\n\r\n");
+  EXPECT_EQ(long_header, 400) << header_answer;
+  // A GET's body, which httplib does not read, is not taken for a request:
+  // one answer (413), then the connection is closed.
+  const std::string smuggled = "DELETE /v1/scans/1 HTTP/1.1\r\nHost: x\r\n\r\n";
+  const auto start = std::chrono::steady_clock::now();
+  const std::string get_answer =
+      raw_http_until_closed(port, "GET /v1/status HTTP/1.1\r\nHost: x\r\nContent-Length: " +
+                                      std::to_string(smuggled.size()) + "\r\n\r\n" + smuggled);
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 1s);
+  EXPECT_TRUE(get_answer.starts_with("HTTP/1.1 413")) << get_answer;
+  EXPECT_EQ(get_answer.find("HTTP/1.1", 1), std::string::npos) << get_answer;
   auto res = daemon.http().Delete("/v1/scans/99999999999999999999999");
   ASSERT_TRUE(res);
   EXPECT_EQ(res->status, 404);
@@ -685,6 +800,110 @@ TEST(Psrigd, LightsOffWithTheRigClosedReachesTheLedDriver) {
   EXPECT_TRUE(driver.leds_on().empty());
   EXPECT_EQ(daemon.get("/v1/status")["devices"]["error"], "") << daemon.log();
   EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+// A POST with no body and no Content-Length (curl -X POST URL) has an empty
+// body: answered at once, not after httplib's read timeout with a 400.
+TEST(Psrigd, BodilessPostsAreAnsweredAtOnce) {
+  DaemonOnLedDriver setup("", {{"exposure_us = 20000", "exposure_us = 150000"}});  // slow scans
+  ASSERT_TRUE(setup.driver) << setup.driver.error().describe();
+  SimModbusDriver& driver = setup.led_driver();
+  Daemon& daemon = setup.daemon();
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto bodiless = [&](const std::string& path) {
+    const auto start = std::chrono::steady_clock::now();
+    auto answer = raw_http(daemon.port(), "POST " + path + " HTTP/1.1\r\nHost: x\r\n\r\n");
+    EXPECT_LT(std::chrono::steady_clock::now() - start, 1s) << path;
+    return std::pair{answer.first, json::parse(body_of(answer.second), nullptr, false)};
+  };
+  // POST /v1/scans: a scan with the defaults.
+  const auto [first_status, first] = bodiless("/v1/scans");
+  ASSERT_EQ(first_status, 202) << first.dump();
+  const auto [second_status, second] = bodiless("/v1/scans");
+  ASSERT_EQ(second_status, 202) << second.dump();
+  const auto running = first.value("id", std::int64_t{-1});
+  const auto queued = second.value("id", std::int64_t{-1});
+  EXPECT_EQ(daemon.get("/v1/scans/" + std::to_string(queued))["sample_id"], "");
+  ASSERT_TRUE(daemon.wait_status([&](const json& s) { return s["current_scan"] == running; }));
+  // Cancel.
+  const auto [cancel_status, cancelled] =
+      bodiless("/v1/scans/" + std::to_string(queued) + "/cancel");
+  EXPECT_EQ(cancel_status, 200) << cancelled.dump();
+  EXPECT_EQ(cancelled["status"], "aborted") << cancelled.dump();
+  // Lights off, mid-scan and then with an LED left on behind the daemon's back.
+  const auto [off_status, off] = bodiless("/v1/lights/off");
+  EXPECT_EQ(off_status, 200) << off.dump();
+  EXPECT_EQ(daemon.wait_finished(running)["status"], "aborted");
+  EXPECT_TRUE(driver.leds_on().empty());
+  auto rig = config::load_config(setup.config);
+  ASSERT_TRUE(rig) << rig.error().describe();
+  auto stuck = firmware_host::open_lights(*rig);
+  ASSERT_TRUE(stuck) << stuck.error().describe();
+  ASSERT_TRUE((*stuck)->turn_on(2));
+  ASSERT_EQ(driver.leds_on(), std::vector<int>{2});
+  const auto [again_status, again] = bodiless("/v1/lights/off");
+  EXPECT_EQ(again_status, 200) << again.dump();
+  EXPECT_TRUE(driver.leds_on().empty());
+  // DELETE the same way (curl -X DELETE): at once too.
+  const auto start = std::chrono::steady_clock::now();
+  const auto [deleted, answer] =
+      raw_http(daemon.port(),
+               "DELETE /v1/scans/" + std::to_string(running) + " HTTP/1.1\r\nHost: x\r\n\r\n");
+  EXPECT_EQ(deleted, 200) << answer;
+  EXPECT_LT(std::chrono::steady_clock::now() - start, 1s);
+  EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+}
+
+// A chunked body is held to the same limit as one with a Content-Length:
+// 8 MiB of it is refused (413, or the connection closed) without the
+// daemon growing, with a token and without; one under the limit is taken.
+TEST(Psrigd, AChunkedBodyIsBoundedLikeAnyOther) {
+  for (const bool with_token : {false, true}) {
+    SCOPED_TRACE(with_token ? "with a token" : "without a token");
+    TempDir temp;
+    const int port = free_port();
+    Edits edits;
+    if (with_token)
+      edits.push_back({"listen_address = \"127.0.0.1\"",
+                       "listen_address = \"127.0.0.1\"\ntoken = \"" + kToken + "\""});
+    Daemon daemon(daemon_config(temp, port, edits), port, temp / "psrigd.log");
+    ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+    const std::string authorization =
+        with_token ? "Authorization: Bearer " + kToken + "\r\n" : std::string();
+    // Under the limit, chunked: taken.
+    const auto [small, small_answer] = chunked_http(
+        port, "POST /v1/scans HTTP/1.1\r\nHost: x\r\nConnection: close\r\n" + authorization, 0, 1);
+    EXPECT_EQ(small, 202) << small_answer;
+    // (finished before the daemon is measured: a scan takes memory of its own)
+    daemon.wait_finished(
+        json::parse(body_of(small_answer), nullptr, false).value("id", std::int64_t{-1}));
+    const std::vector<std::string> requests = {
+        "POST /v1/scans HTTP/1.1\r\nHost: x\r\n" + authorization,
+        "POST /v1/lights/off HTTP/1.1\r\nHost: x\r\n" + authorization,
+        "POST /v1/nothing HTTP/1.1\r\nHost: x\r\n" + authorization,
+        "DELETE /v1/scans/1 HTTP/1.1\r\nHost: x\r\n" + authorization,
+        "POST /v1/scans HTTP/1.1\r\nHost: x\r\n",  // no token where one is needed
+    };
+    for (const auto& request : requests) {
+      // The peak where it can be had: a body read whole, then freed, leaves
+      // the resident set as it was.
+      const bool peak = reset_peak_rss(daemon.pid());
+      const long before = status_kb(daemon.pid(), "VmRSS");
+      ASSERT_GT(before, 0);
+      const auto [status, answer] = chunked_http(port, request, 8 << 20, 64 << 10);
+      const long after = status_kb(daemon.pid(), peak ? "VmHWM" : "VmRSS");
+      const int expected = with_token && !contains(request, "Authorization") ? 401 : 413;
+      if (status != -1) {  // -1: closed before the answer was read
+        EXPECT_EQ(status, expected) << request << answer;
+      }
+      EXPECT_LT(after - before, 10 * 1024) << request << before << " kB, then " << after << " kB";
+      std::cerr << request.substr(0, request.find(' ', 6)) << (with_token ? " (token)" : "")
+                << ": HTTP " << status << ", VmRSS " << before << " kB, then "
+                << (peak ? "peak " : "") << after << " kB\n";
+    }
+    EXPECT_EQ(daemon.get("/v1/status")["state"], "idle");  // still serving
+    EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
+  }
 }
 
 // A camera that stops delivering frames (the simulated sensor slowed to one

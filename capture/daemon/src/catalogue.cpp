@@ -1,6 +1,7 @@
 #include "psrig/daemon/catalogue.h"
 
 #include <cerrno>
+#include <chrono>
 #include <cstdlib>
 #include <ctime>
 #include <fcntl.h>
@@ -117,20 +118,20 @@ std::string utc_timestamp_now() {
 }
 
 std::optional<std::string> normalise_timestamp(const std::string& text, bool end_of_day) {
-  static const std::regex date(R"((\d{4})-(\d{2})-(\d{2}))");
-  static const std::regex date_time(
-      R"((\d{4}-\d{2}-\d{2})[T ](\d{2}:\d{2}:\d{2})(\.\d+)?(Z|\+00:00|\+0000)?)");
+  static const std::regex form(
+      R"((\d{4})-(\d{2})-(\d{2})(?:[T ](\d{2}):(\d{2}):(\d{2})(\.\d+)?(Z|\+00:00|\+0000)?)?)");
   std::smatch match;
-  if (std::regex_match(text, match, date)) {
-    const int month = std::stoi(match[2]), day = std::stoi(match[3]);
-    if (month < 1 || month > 12 || day < 1 || day > 31) return std::nullopt;
-    return text + (end_of_day ? "T23:59:59Z" : "T00:00:00Z");
-  }
-  if (std::regex_match(text, match, date_time)) {
-    if (!normalise_timestamp(match[1], false)) return std::nullopt;
-    return match[1].str() + "T" + match[2].str() + "Z";
-  }
-  return std::nullopt;
+  if (!std::regex_match(text, match, form)) return std::nullopt;
+  const auto number = [&](int i) { return static_cast<unsigned>(std::stoul(match[i].str())); };
+  // A day of the calendar (the month's length, leap years), not just digits.
+  const std::chrono::year_month_day day{std::chrono::year{static_cast<int>(number(1))},
+                                        std::chrono::month{number(2)}, std::chrono::day{number(3)}};
+  if (!day.ok()) return std::nullopt;
+  const std::string date = match[1].str() + "-" + match[2].str() + "-" + match[3].str();
+  if (!match[4].matched) return date + (end_of_day ? "T23:59:59Z" : "T00:00:00Z");
+  // A time of day: the catalogue writes no leap second (:60), nor takes one.
+  if (number(4) > 23 || number(5) > 59 || number(6) > 59) return std::nullopt;
+  return date + "T" + match[4].str() + ":" + match[5].str() + ":" + match[6].str() + "Z";
 }
 
 Catalogue::Catalogue(fs::path root, sqlite3* db) : root_(std::move(root)), db_(db) {}

@@ -1,12 +1,16 @@
 #include "psrig/daemon/http_api.h"
 
+#include <algorithm>
 #include <array>
 #include <atomic>
+#include <cctype>
 #include <charconv>
 #include <fstream>
 #include <httplib.h>
 #include <limits>
+#include <regex>
 #include <set>
+#include <string_view>
 #include <thread>
 
 #include "psrig/base/log.h"
@@ -64,6 +68,23 @@ void refuse(httplib::Response& res, int status, const std::string& message) {
   reply(res, status, {{"error", message}});
 }
 
+// A refusal after which the connection is closed, for a request whose body
+// is left unread: the rest of it must not be read as the next request.
+// httplib 0.11 closes a connection only where the request asked for it (or
+// a write fails), whatever the response says; so the answer is written by a
+// provider that then reports failure, which ends the connection once the
+// answer is out.
+void refuse_and_close(httplib::Response& res, int status, const std::string& message) {
+  res.status = status;
+  res.set_header("Connection", "close");
+  auto text = std::make_shared<const std::string>(to_text({{"error", message}}) + "\n");
+  res.set_content_provider(text->size(), "application/json",
+                           [text](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+                             sink.write(text->data() + offset, length);
+                             return false;  // written: now close
+                           });
+}
+
 std::optional<std::int64_t> parse_id(const std::string& text) {
   std::int64_t id = 0;
   const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), id);
@@ -115,6 +136,54 @@ std::optional<std::string> string_field(const json& body, const char* key, std::
   return std::nullopt;
 }
 
+// The POST routes, each reading its body through read_body(): the only
+// ones that take a chunked body.
+const char* const kScansRoute = "/v1/scans";
+const char* const kCancelRoute = R"(/v1/scans/([^/]+)/cancel)";
+const char* const kLightsOffRoute = "/v1/lights/off";
+
+bool reads_body(const httplib::Request& req) {
+  static const std::array<std::regex, 3> routes = {
+      std::regex(kScansRoute), std::regex(kCancelRoute), std::regex(kLightsOffRoute)};
+  return req.method == "POST" && std::ranges::any_of(routes, [&](const std::regex& route) {
+           return std::regex_match(req.path, route);
+         });
+}
+
+// A header's value is `word` (a coding's name), in any case.
+bool names(std::string value, std::string_view word) {
+  std::ranges::transform(value, value.begin(), [](unsigned char c) { return std::tolower(c); });
+  return value == word;
+}
+
+// The request's body, however it is sent (Content-Length, chunked, none),
+// read up to `max` bytes and no further. Nothing (the refusal in `res`,
+// closing the connection) when it is larger or cannot be read.
+std::optional<std::string> read_body(const httplib::Request& req,
+                                     const httplib::ContentReader& reader, std::size_t max,
+                                     httplib::Response& res) {
+  if (req.is_multipart_form_data()) {
+    refuse_and_close(res, 415, "expected a JSON body, not multipart/form-data");
+    return std::nullopt;
+  }
+  std::string body;
+  bool too_large = false;
+  const bool read = reader([&](const char* data, std::size_t length) {
+    if (body.size() + length > max) {
+      too_large = true;
+      return false;  // httplib stops reading here
+    }
+    body.append(data, length);
+    return true;
+  });
+  if (read) return body;
+  if (too_large)
+    refuse_and_close(res, 413, "request body larger than " + std::to_string(max) + " bytes");
+  else
+    refuse_and_close(res, 400, "the request body could not be read");
+  return std::nullopt;
+}
+
 }  // namespace
 
 std::optional<ScanFileHome> scan_file_home(const std::string& name) {
@@ -157,7 +226,7 @@ struct HttpApi::Impl {
 
   void routes();
   void status(httplib::Response& res);
-  void submit(const httplib::Request& req, httplib::Response& res);
+  void submit(const std::string& text, httplib::Response& res);
   void search(const httplib::Request& req, httplib::Response& res);
   void get(const httplib::Request& req, httplib::Response& res);
   void file(const httplib::Request& req, httplib::Response& res);
@@ -173,29 +242,58 @@ void HttpApi::Impl::routes() {
   const std::size_t max_body = options.max_body_bytes;
   server.set_pre_routing_handler(
       [token, max_body](const httplib::Request& req, httplib::Response& res) {
-        // Both refusals close the connection: a body left unread must not
-        // be taken for the next request.
+        // Every refusal closes the connection: a body left unread must not be
+        // taken for the next request.
+        const auto close_with = [&res](int status, const std::string& message) {
+          refuse_and_close(res, status, message);
+          return httplib::Server::HandlerResponse::Handled;
+        };
         if (!token.empty() &&
             !constant_time_equal(req.get_header_value("Authorization"), "Bearer " + token)) {
           res.set_header("WWW-Authenticate", "Bearer");
-          res.set_header("Connection", "close");
-          refuse(res, 401, "missing or wrong bearer token (Authorization: Bearer TOKEN)");
-          return httplib::Server::HandlerResponse::Handled;
+          return close_with(401, "missing or wrong bearer token (Authorization: Bearer TOKEN)");
         }
+        const bool has_length = req.has_header("Content-Length");
+        if (req.has_header("Transfer-Encoding")) {
+          // httplib 0.11 reads a chunked body whole into memory, unbounded
+          // (its payload limit applies to Content-Length only), and reads any
+          // other coding until the connection closes. Only the routes that read
+          // their body through read_body(), which stops at the limit, take one.
+          if (has_length) return close_with(400, "both Content-Length and Transfer-Encoding");
+          if (!names(req.get_header_value("Transfer-Encoding"), "chunked"))
+            return close_with(501, "Transfer-Encoding: only chunked is understood");
+          if (!reads_body(req)) return close_with(413, "this endpoint takes no request body");
+        }
+        if (req.has_header("Content-Encoding") &&
+            !names(req.get_header_value("Content-Encoding"), "identity"))
+          // A compressed body would be inflated past the limit.
+          return close_with(415, "Content-Encoding: bodies are taken uncompressed only");
         // Refused from the headers: httplib would first read (or wait for) a
         // body it is going to refuse, holding a thread for its read timeout.
-        if (req.get_header_value<std::uint64_t>("Content-Length") > max_body) {
-          res.set_header("Connection", "close");
-          refuse(res, 413, "request body larger than " + std::to_string(max_body) + " bytes");
-          return httplib::Server::HandlerResponse::Handled;
-        }
+        const auto length = has_length ? req.get_header_value<std::uint64_t>("Content-Length") : 0;
+        if (length > max_body)
+          return close_with(413, "request body larger than " + std::to_string(max_body) + " bytes");
+        // httplib reads no body for the other methods (GET, HEAD, OPTIONS):
+        // one sent would be read as the next request.
+        static const std::set<std::string> with_body = {"POST", "PUT", "PATCH", "DELETE", "PRI"};
+        if (length > 0 && !with_body.contains(req.method))
+          return close_with(413, req.method + " takes no request body");
+        // Neither header: the body is empty (RFC 9112 6.3), as curl -X POST
+        // sends it. httplib 0.11 would read it until the connection closes
+        // (its read timeout, then 400); it reads the body only after this
+        // handler, from a Request it owns as non-const, so the length is
+        // stated for it.
+        if (!has_length && !req.has_header("Transfer-Encoding"))
+          const_cast<httplib::Request&>(req).headers.emplace("Content-Length", "0");
         return httplib::Server::HandlerResponse::Unhandled;
       });
   // Whatever httplib refuses by itself (no route, body too large, bad
   // request line) still answers in JSON.
   server.set_error_handler(httplib::Server::HandlerWithResponse(
       [max_body](const httplib::Request&, httplib::Response& res) {
-        if (!res.body.empty()) return httplib::Server::HandlerResponse::Unhandled;
+        // Ours already (refuse_and_close() answers through a provider).
+        if (!res.body.empty() || res.has_header("Connection"))
+          return httplib::Server::HandlerResponse::Unhandled;
         std::string message;
         switch (res.status) {
           case 404:
@@ -237,8 +335,10 @@ void HttpApi::Impl::routes() {
 
   server.Get("/v1/status",
              [this](const httplib::Request&, httplib::Response& res) { status(res); });
-  server.Post("/v1/scans",
-              [this](const httplib::Request& req, httplib::Response& res) { submit(req, res); });
+  server.Post(kScansRoute, [this](const httplib::Request& req, httplib::Response& res,
+                                  const httplib::ContentReader& reader) {
+    if (auto body = read_body(req, reader, options.max_body_bytes, res)) submit(*body, res);
+  });
   server.Get("/v1/scans",
              [this](const httplib::Request& req, httplib::Response& res) { search(req, res); });
   server.Get(R"(/v1/scans/([^/]+))",
@@ -247,12 +347,16 @@ void HttpApi::Impl::routes() {
              [this](const httplib::Request& req, httplib::Response& res) { file(req, res); });
   server.Delete(R"(/v1/scans/([^/]+))",
                 [this](const httplib::Request& req, httplib::Response& res) { remove(req, res); });
-  server.Post(R"(/v1/scans/([^/]+)/cancel)",
-              [this](const httplib::Request& req, httplib::Response& res) { cancel(req, res); });
+  server.Post(kCancelRoute, [this](const httplib::Request& req, httplib::Response& res,
+                                   const httplib::ContentReader& reader) {
+    if (read_body(req, reader, options.max_body_bytes, res)) cancel(req, res);
+  });
   server.Get("/v1/events",
              [this](const httplib::Request& req, httplib::Response& res) { events(req, res); });
-  server.Post("/v1/lights/off",
-              [this](const httplib::Request&, httplib::Response& res) { lights_off(res); });
+  server.Post(kLightsOffRoute, [this](const httplib::Request& req, httplib::Response& res,
+                                      const httplib::ContentReader& reader) {
+    if (read_body(req, reader, options.max_body_bytes, res)) lights_off(res);
+  });
 }
 
 void HttpApi::Impl::status(httplib::Response& res) {
@@ -281,8 +385,9 @@ void HttpApi::Impl::status(httplib::Response& res) {
          {"storage_root", service.catalogue().storage_root().string()}});
 }
 
-void HttpApi::Impl::submit(const httplib::Request& req, httplib::Response& res) {
-  const json body = json::parse(req.body, nullptr, false);
+void HttpApi::Impl::submit(const std::string& text, httplib::Response& res) {
+  // No body at all: a scan with the defaults.
+  const json body = text.empty() ? json::object() : json::parse(text, nullptr, false);
   if (body.is_discarded()) return refuse(res, 400, "malformed JSON in the request body");
   if (!body.is_object()) return refuse(res, 400, "expected a JSON object");
   for (const auto& [key, value] : body.items())
@@ -334,7 +439,7 @@ void HttpApi::Impl::search(const httplib::Request& req, httplib::Response& res) 
       if (!normal)
         return refuse(res, 400,
                       key +
-                          ": expected a UTC date or date-time, e.g. 2026-05-04 or "
+                          ": expected a real UTC date or date-time, e.g. 2026-05-04 or "
                           "2026-05-04T09:00:00Z");
       (key == "from" ? query.from : query.to) = *normal;
     } else if (key == "status") {

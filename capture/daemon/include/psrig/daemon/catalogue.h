@@ -142,7 +142,9 @@ class Catalogue {
 // The UTC time now as the catalogue writes it: "2026-05-04T09:12:33Z".
 [[nodiscard]] std::string utc_timestamp_now();
 // A date ("2026-05-04") or date-time ("2026-05-04T09:12:33Z", "…+00:00" and
-// fractions accepted) as the catalogue compares them; nothing if malformed.
+// fractions accepted) as the catalogue compares them; nothing if malformed
+// or not a real one: a day of the calendar (2026-02-30 is not; 2028-02-29
+// is), hours 00-23, minutes and seconds 00-59.
 // `end_of_day` makes a bare date mean its last second.
 [[nodiscard]] std::optional<std::string> normalise_timestamp(const std::string& text,
                                                              bool end_of_day);
