@@ -659,6 +659,59 @@ TEST_F(ModbusServerTest, DrippingClientsDoNotDelayThePlc) {
   EXPECT_GE(server_->counters().dropped, 3u);  // the drippers, each past its deadline
 }
 
+// A connection to the server from `source`, a loopback address of this machine.
+int connect_from(const char* source, int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in from{};
+  from.sin_family = AF_INET;
+  EXPECT_EQ(::inet_pton(AF_INET, source, &from.sin_addr), 1);
+  EXPECT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&from), sizeof from), 0) << source;
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(static_cast<std::uint16_t>(port));
+  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  EXPECT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&to), sizeof to), 0);
+  return fd;
+}
+
+TEST_F(ModbusServerTest, TheAllowListRefusesOtherPeersAtAccept) {
+  ModbusServerOptions options;
+  options.allow = {"192.0.2.10", "127.0.0.1"};
+  start(options);
+  const std::vector<std::uint8_t> read = {0x00, 0x01, 0x00, 0x00, 0x00, 0x06,
+                                          0x01, 0x04, 0x00, 0x00, 0x00, 0x01};
+
+  const int stranger = connect_from("127.0.0.2", server_->port());
+  send_bytes(stranger, read);
+  bool closed = false;
+  const auto nothing = receive_within(stranger, milliseconds(1000), &closed);
+  EXPECT_TRUE(closed) << nothing.size() << " bytes came back";
+  ::close(stranger);
+  EXPECT_EQ(server_->counters().denied, 1u);
+  EXPECT_EQ(server_->counters().connections, 0u);
+  EXPECT_EQ(server_->counters().requests, 0u);
+
+  const int plc = connect_from("127.0.0.1", server_->port());
+  send_bytes(plc, read);
+  const auto answer = receive_within(plc, milliseconds(1000));
+  ASSERT_EQ(answer.size(), 11u);
+  EXPECT_EQ(answer[7], 0x04);
+  ::close(plc);
+  EXPECT_EQ(server_->counters().denied, 1u);
+  EXPECT_EQ(server_->counters().connections, 1u);
+}
+
+TEST(ModbusServerOptionsTest, AnAllowListEntryThatIsNoIpv4AddressIsAnError) {
+  FakeScanControl control;
+  ModbusServerOptions options;
+  options.port = 0;
+  options.allow = {"192.0.2.10", "plc.local"};
+  auto started = ModbusServer::start(control, options);
+  ASSERT_FALSE(started.has_value());
+  EXPECT_EQ(started.error().key, "daemon.modbus_allow");
+  EXPECT_THAT(started.error().message, ::testing::HasSubstr("plc.local"));
+}
+
 TEST(ModbusServerOptionsTest, BadAddressPortAndBusyPortAreErrorsNamingTheKey) {
   FakeScanControl control;
   ModbusServerOptions options;
