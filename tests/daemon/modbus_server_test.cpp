@@ -552,8 +552,8 @@ TEST_F(ModbusServerTest, FunctionsNotServedGetIllegalFunctionAtOnce) {
   EXPECT_EQ(both[1], 0x0B);
   EXPECT_EQ(both[12], 0x0C);
   EXPECT_EQ(both[10], static_cast<int>(DaemonState::idle));
-  ::close(fd);
   EXPECT_EQ(server_->counters().dropped, 0u);
+  ::close(fd);
 }
 
 TEST_F(ModbusServerTest, BadMbapHeadersAreDroppedAtOnce) {

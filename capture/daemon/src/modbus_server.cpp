@@ -364,11 +364,14 @@ void ModbusServer::Impl::accept_one() {
 
 void ModbusServer::Impl::drop(std::size_t index, const char* why) {
   plc_log()->debug("dropping the Modbus client {}: {}", clients[index].peer, why);
-  ::close(clients[index].fd);
+  const int fd = clients[index].fd;
   clients.erase(clients.begin() + static_cast<std::ptrdiff_t>(index));
-  const std::scoped_lock lock(counters_mutex);
-  ++counters.dropped;
-  counters.clients = static_cast<int>(clients.size());
+  {
+    const std::scoped_lock lock(counters_mutex);
+    ++counters.dropped;  // counted before the client can see the close
+    counters.clients = static_cast<int>(clients.size());
+  }
+  ::close(fd);
 }
 
 bool ModbusServer::Impl::receive(Client& client) {
