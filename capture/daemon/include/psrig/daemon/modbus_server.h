@@ -1,9 +1,11 @@
 #pragma once
-// The PLC's view of psrigd: a Modbus TCP server (libmodbus) on its own
-// thread that turns a rising edge of the trigger coil into one submitted
-// scan and shows the daemon's status in discrete inputs and input
-// registers. The register map is capture/modbus-register-map.md; the
-// numbers below are that map and, like ScanControl's enums, never move.
+// The PLC's view of psrigd: a Modbus TCP server on its own thread, which
+// polls every client without blocking, assembles each one's requests from
+// its own buffer and has libmodbus answer only whole frames. It turns a
+// rising edge of the trigger coil into one submitted scan and shows the
+// daemon's status in discrete inputs and input registers. The register map
+// is capture/modbus-register-map.md; the numbers below are that map and,
+// like ScanControl's enums, never move.
 
 #include <chrono>
 #include <cstdint>
@@ -87,7 +89,8 @@ class ModbusServer {
   ModbusServer& operator=(const ModbusServer&) = delete;
 
   // Closes every connection and the listening socket and joins the thread;
-  // returns within about one request_timeout. Idempotent.
+  // returns at once (the thread waits only in poll, which stop() wakes).
+  // Idempotent.
   void stop();
 
   // The port listened on (the chosen one when options.port was 0).
