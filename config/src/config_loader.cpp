@@ -1,6 +1,7 @@
 #include "psrig/config/config_loader.h"
 
 #include <algorithm>
+#include <arpa/inet.h>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -153,6 +154,32 @@ class Section {
     }
     out = std::move(values);
     return {};
+  }
+
+  Status get(const std::string& name, std::vector<std::string>& out) {
+    const toml::node* n = node(name);
+    if (!n) return {};
+    const toml::array* array = n->as_array();
+    if (!array) return std::unexpected(error_at(n, name, "expected an array of strings"));
+    std::vector<std::string> values;
+    for (const auto& element : *array) {
+      if (!element.is_string())
+        return std::unexpected(error_at(&element, name, "expected an array of strings"));
+      values.push_back(*element.value<std::string>());
+    }
+    out = std::move(values);
+    return {};
+  }
+
+  // A warning about `name` (at its line when present), as finish() words them.
+  void warn(const std::string& name, const std::string& message) const {
+    if (!warnings_) return;
+    std::ostringstream line;
+    line << file_.string();
+    if (const toml::node* n = find(name))
+      line << ":" << n->source().begin.line << ":" << n->source().begin.column;
+    line << ": " << key(name) << ": " << message;
+    warnings_->push_back(line.str());
   }
 
   // A sub-table, or nullptr when absent; an error when `name` is not a table.
@@ -381,7 +408,17 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   PSRIG_TRY(daemon->get("queue_limit", d.queue_limit, 1, 10000));
   PSRIG_TRY(daemon->get("modbus_address", d.modbus_address));
   PSRIG_TRY(daemon->get("modbus_port", d.modbus_port, 0, 65535));
+  PSRIG_TRY(daemon->get("modbus_allow", d.modbus_allow));
   daemon->finish();
+  for (std::size_t i = 0; i < d.modbus_allow.size(); ++i) {
+    in_addr parsed{};
+    if (::inet_pton(AF_INET, d.modbus_allow[i].c_str(), &parsed) != 1)
+      return std::unexpected(
+          daemon->error_at(daemon->find("modbus_allow")->as_array()->get(i), "modbus_allow",
+                           "\"" + d.modbus_allow[i] +
+                               "\" is not an IPv4 address; list the PLCs that may connect, e.g. "
+                               "[\"192.0.2.10\"]"));
+  }
   for (const auto& [key, value] :
        {std::pair<const char*, const std::string&>{"listen_address", d.listen_address},
         {"modbus_address", d.modbus_address}})
@@ -402,6 +439,17 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
         "is \"" + d.listen_address +
             "\", reachable from other machines, but daemon.token is not set; set a token "
             "(e.g. `openssl rand -hex 24`) or listen on 127.0.0.1"));
+  // The Modbus server has no authentication: whoever reaches it can
+  // trigger scans and turn the lights off.
+  if (d.modbus_port != 0 && d.modbus_allow.empty() && !is_loopback_address(d.modbus_address))
+    daemon->warn("modbus_address",
+                 "is \"" + d.modbus_address +
+                     "\", reachable from other machines, and daemon.modbus_allow is empty: "
+                     "anyone who can reach port " +
+                     std::to_string(d.modbus_port) +
+                     " can trigger scans and turn the lights off (Modbus has no "
+                     "authentication); list the PLC in daemon.modbus_allow (e.g. "
+                     "modbus_allow = [\"192.0.2.10\"]) or listen on 127.0.0.1");
 
   top.finish();
   return c;

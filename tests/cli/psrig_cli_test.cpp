@@ -226,6 +226,30 @@ TEST(PsrigCli, ConfigErrorsNameFileLineColumnAndKey) {
   EXPECT_TRUE(contains(good.out, "ok")) << good.out;
 }
 
+TEST(PsrigCli, ConfigCheckWarnsOfAModbusServerOpenToAnyone) {
+  TempDir temp;
+  const fs::path file = temp / "rig.toml";
+  std::ofstream(file) << "[daemon]\nmodbus_address = \"0.0.0.0\"\nmodbus_port = 502\n";
+  auto open = run_program("psrig", {"config", "check", file.string()});
+  EXPECT_EQ(open.exit_code, 0) << open.err;  // a warning, not an error
+  EXPECT_TRUE(contains(open.err, "psrig config check: warning: " + file.string() + ":2:"))
+      << open.err;
+  EXPECT_TRUE(contains(open.err, "daemon.modbus_address")) << open.err;
+  EXPECT_TRUE(contains(open.err, "daemon.modbus_allow")) << open.err;  // the fix
+
+  std::ofstream(file) << "[daemon]\nmodbus_address = \"0.0.0.0\"\nmodbus_port = 502\n"
+                         "modbus_allow = [\"192.0.2.10\"]\n";
+  auto allowed = run_program("psrig", {"config", "check", file.string()});
+  EXPECT_EQ(allowed.exit_code, 0) << allowed.err;
+  EXPECT_FALSE(contains(allowed.err, "warning")) << allowed.err;
+  EXPECT_TRUE(contains(allowed.out, "192.0.2.10")) << allowed.out;
+  auto example = run_program(
+      "psrig",
+      {"config", "check", (fs::path(PSRIG_SOURCE_DIR) / "config/rig.example.toml").string()});
+  EXPECT_EQ(example.exit_code, 0) << example.err;
+  EXPECT_FALSE(contains(example.err, "warning")) << example.err;
+}
+
 TEST(PsrigCli, MissingHardwareNamesTheDeviceAndTheKey) {
   TempDir temp;
   const auto config =

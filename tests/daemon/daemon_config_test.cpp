@@ -1,6 +1,9 @@
 // The [daemon] table of rig.toml: defaults, checks that name the key, and
 // the rule that nothing listens off this machine without a token.
 
+#include <string>
+#include <vector>
+
 #include <gtest/gtest.h>
 
 #include "psrig/config/config_loader.h"
@@ -56,6 +59,49 @@ TEST(DaemonConfig, ErrorsNameTheKey) {
     EXPECT_NE(config.error().describe().find(bad.key), std::string::npos)
         << bad.text << ": " << config.error().describe();
     EXPECT_NE(config.error().describe().find("rig.toml:"), std::string::npos);
+  }
+}
+
+TEST(DaemonConfig, ModbusAllowListsThePlcsIpv4Addresses) {
+  auto config = parse_config(
+      "[daemon]\nmodbus_port = 502\nmodbus_allow = [\"192.0.2.10\", \"192.0.2.11\"]\n", "rig.toml");
+  ASSERT_TRUE(config) << config.error().describe();
+  EXPECT_EQ(config->daemon.modbus_allow, (std::vector<std::string>{"192.0.2.10", "192.0.2.11"}));
+  auto defaults = parse_config("", "rig.toml");
+  ASSERT_TRUE(defaults) << defaults.error().describe();
+  EXPECT_TRUE(defaults->daemon.modbus_allow.empty());
+
+  for (const char* bad :
+       {"[daemon]\nmodbus_allow = \"192.0.2.10\"\n",
+        "[daemon]\nmodbus_allow = [\"192.0.2.10\", 7]\n",
+        "[daemon]\nmodbus_allow = [\"plc.local\"]\n", "[daemon]\nmodbus_allow = [\"::1\"]\n"}) {
+    auto refused = parse_config(bad, "rig.toml");
+    ASSERT_FALSE(refused) << bad;
+    EXPECT_NE(refused.error().describe().find("daemon.modbus_allow"), std::string::npos)
+        << refused.error().describe();
+    EXPECT_NE(refused.error().describe().find("rig.toml:"), std::string::npos);
+  }
+}
+
+TEST(DaemonConfig, ModbusOffLoopbackWithoutAnAllowListIsAWarning) {
+  std::vector<std::string> warnings;
+  auto open = parse_config("[daemon]\nmodbus_address = \"0.0.0.0\"\nmodbus_port = 502\n",
+                           "rig.toml", &warnings);
+  ASSERT_TRUE(open) << open.error().describe();
+  ASSERT_EQ(warnings.size(), 1u);
+  for (const char* part : {"rig.toml:2:", "daemon.modbus_address", "0.0.0.0", "daemon.modbus_allow",
+                           "502", "trigger scans", "127.0.0.1"})
+    EXPECT_NE(warnings[0].find(part), std::string::npos) << part << " in " << warnings[0];
+
+  // An allow-list, a loopback address, or no Modbus server at all: nothing to say.
+  for (const char* fine : {"[daemon]\nmodbus_address = \"0.0.0.0\"\nmodbus_port = 502\n"
+                           "modbus_allow = [\"192.0.2.10\"]\n",
+                           "[daemon]\nmodbus_address = \"127.0.0.1\"\nmodbus_port = 502\n",
+                           "[daemon]\nmodbus_address = \"0.0.0.0\"\nmodbus_port = 0\n"}) {
+    warnings.clear();
+    auto config = parse_config(fine, "rig.toml", &warnings);
+    ASSERT_TRUE(config) << config.error().describe();
+    EXPECT_TRUE(warnings.empty()) << fine << ": " << warnings.front();
   }
 }
 

@@ -6,12 +6,17 @@
 
 #include "psrig/daemon/modbus_server.h"
 
+#include <algorithm>
 #include <arpa/inet.h>
+#include <atomic>
 #include <chrono>
 #include <cstdint>
+#include <cstdio>
 #include <modbus.h>
 #include <mutex>
 #include <netinet/in.h>
+#include <poll.h>
+#include <string>
 #include <sys/socket.h>
 #include <thread>
 #include <unistd.h>
@@ -157,6 +162,29 @@ int raw_connect(int port) {
 void send_bytes(int fd, const std::vector<std::uint8_t>& bytes) {
   EXPECT_EQ(::send(fd, bytes.data(), bytes.size(), MSG_NOSIGNAL),
             static_cast<ssize_t>(bytes.size()));
+}
+
+// What arrives on `fd` within `timeout`: an answer, or empty once the server
+// closed the connection (or nothing came).
+std::vector<std::uint8_t> receive_within(int fd, milliseconds timeout, bool* closed = nullptr) {
+  std::vector<std::uint8_t> bytes;
+  if (closed) *closed = false;
+  pollfd p{fd, POLLIN, 0};
+  if (::poll(&p, 1, static_cast<int>(timeout.count())) <= 0) return bytes;
+  std::uint8_t buffer[300];
+  const ssize_t n = ::recv(fd, buffer, sizeof buffer, MSG_DONTWAIT);
+  if (n > 0)
+    bytes.assign(buffer, buffer + n);
+  else if (closed)
+    *closed = true;
+  return bytes;
+}
+
+// The 99th percentile of `samples` (sorted in place).
+std::int64_t p99_us(std::vector<std::chrono::microseconds>& samples) {
+  std::sort(samples.begin(), samples.end());
+  const std::size_t index = (samples.size() * 99 + 99) / 100 - 1;
+  return samples[std::min(index, samples.size() - 1)].count();
 }
 
 class ModbusServerTest : public ::testing::Test {
@@ -475,6 +503,213 @@ TEST_F(ModbusServerTest, DestructorStopsAServerInTheMiddleOfServing) {
   EXPECT_LT(Clock::now() - began, milliseconds(500));
   done = true;
   poller.join();
+}
+
+TEST_F(ModbusServerTest, FunctionsNotServedGetIllegalFunctionAtOnce) {
+  const int fd = raw_connect(server_->port());
+  // 7 (read exception status), which libmodbus never answers; 17 (report
+  // server id), outside the map; 0x41, which no Modbus device knows.
+  std::uint8_t transaction = 0;
+  for (const std::uint8_t function : std::vector<std::uint8_t>{0x07, 0x11, 0x41}) {
+    ++transaction;
+    const auto began = Clock::now();
+    send_bytes(fd, {0x00, transaction, 0x00, 0x00, 0x00, 0x02, 0x01, function});
+    const auto answer = receive_within(fd, milliseconds(1000));
+    const auto took = Clock::now() - began;
+    EXPECT_LT(took, milliseconds(100)) << "function " << int{function};
+    ASSERT_EQ(answer.size(), 9u) << "function " << int{function};
+    EXPECT_EQ(answer[1], transaction);
+    EXPECT_EQ(answer[5], 3);  // length: unit, function, code
+    EXPECT_EQ(answer[6], 0x01);
+    EXPECT_EQ(answer[7], function | 0x80);
+    EXPECT_EQ(answer[8], MODBUS_EXCEPTION_ILLEGAL_FUNCTION);
+  }
+  // A served function whose PDU is the wrong size: illegal data value, at once.
+  const auto began = Clock::now();
+  send_bytes(fd, {0x00, 0x09, 0x00, 0x00, 0x00, 0x03, 0x01, 0x04, 0x00});
+  const auto answer = receive_within(fd, milliseconds(1000));
+  EXPECT_LT(Clock::now() - began, milliseconds(100));
+  ASSERT_EQ(answer.size(), 9u);
+  EXPECT_EQ(answer[7], 0x84);
+  EXPECT_EQ(answer[8], MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE);
+  // A bad count of values (libmodbus's own check): also at once.
+  const auto counted = Clock::now();
+  send_bytes(fd, {0x00, 0x0A, 0x00, 0x00, 0x00, 0x06, 0x01, 0x04, 0x00, 0x00, 0x00, 0x00});
+  const auto zero_count = receive_within(fd, milliseconds(1000));
+  EXPECT_LT(Clock::now() - counted, milliseconds(100));
+  ASSERT_EQ(zero_count.size(), 9u);
+  EXPECT_EQ(zero_count[8], MODBUS_EXCEPTION_ILLEGAL_DATA_VALUE);
+  // Two reads in one segment: both answered, in order; the connection stays.
+  send_bytes(fd, {0x00, 0x0B, 0x00, 0x00, 0x00, 0x06, 0x01, 0x04, 0x00, 0x00, 0x00, 0x01,
+                  0x00, 0x0C, 0x00, 0x00, 0x00, 0x06, 0x01, 0x04, 0x00, 0x00, 0x00, 0x01});
+  std::vector<std::uint8_t> both;
+  const auto deadline = Clock::now() + milliseconds(1000);
+  while (both.size() < 22 && Clock::now() < deadline) {
+    const auto more = receive_within(fd, milliseconds(100));
+    both.insert(both.end(), more.begin(), more.end());
+  }
+  ASSERT_EQ(both.size(), 22u);  // 2 x (7 + function + byte count + one register)
+  EXPECT_EQ(both[1], 0x0B);
+  EXPECT_EQ(both[12], 0x0C);
+  EXPECT_EQ(both[10], static_cast<int>(DaemonState::idle));
+  EXPECT_EQ(server_->counters().dropped, 0u);
+  ::close(fd);
+}
+
+TEST_F(ModbusServerTest, BadMbapHeadersAreDroppedAtOnce) {
+  const std::vector<std::vector<std::uint8_t>> bad = {
+      {0x00, 0x01, 0x00, 0x01, 0x00, 0x06, 0x01, 0x04, 0x00, 0x00, 0x00, 0x01},  // protocol 1
+      {0x00, 0x01, 0x12, 0x34, 0x00, 0x06, 0x01, 0x04, 0x00, 0x00, 0x00, 0x01},  // protocol 0x1234
+      {0x00, 0x01, 0x00, 0x00, 0x00, 0x01, 0x01},                                // length 1
+      {0x00, 0x01, 0x00, 0x00, 0x01, 0x00, 0x01, 0x04},                          // length 256
+  };
+  std::uint64_t dropped = 0;
+  for (const auto& request : bad) {
+    const int fd = raw_connect(server_->port());
+    const auto began = Clock::now();
+    send_bytes(fd, request);
+    bool closed = false;
+    const auto answer = receive_within(fd, milliseconds(1000), &closed);
+    EXPECT_TRUE(closed) << answer.size() << " bytes came back";
+    EXPECT_LT(Clock::now() - began, milliseconds(100));
+    ::close(fd);
+    ++dropped;
+  }
+  EXPECT_EQ(server_->counters().dropped, dropped);
+  EXPECT_EQ(server_->counters().requests, 0u);
+  Plc plc(server_->port());
+  EXPECT_EQ(plc.registers()[modbus_register::state], static_cast<int>(DaemonState::idle));
+}
+
+TEST_F(ModbusServerTest, ARequestMayArriveInPiecesWithinTheTimeoutFromItsFirstByte) {
+  const int fd = raw_connect(server_->port());
+  send_bytes(fd, {0x00, 0x01, 0x00, 0x00});
+  std::this_thread::sleep_for(milliseconds(60));
+  send_bytes(fd, {0x00, 0x06, 0x01, 0x04, 0x00});
+  std::this_thread::sleep_for(milliseconds(60));
+  send_bytes(fd, {0x00, 0x00, 0x01});
+  const auto answer = receive_within(fd, milliseconds(1000));
+  ASSERT_EQ(answer.size(), 11u);
+  EXPECT_EQ(answer[7], 0x04);
+  // A byte every 150 ms: not whole 200 ms after its first byte, dropped,
+  // though no gap between bytes reaches the timeout.
+  const auto began = Clock::now();
+  bool closed = false;
+  for (const std::uint8_t byte : std::vector<std::uint8_t>{0x00, 0x02, 0x00, 0x00, 0x00, 0x06}) {
+    if (::send(fd, &byte, 1, MSG_NOSIGNAL) != 1) break;
+    receive_within(fd, milliseconds(150), &closed);
+    if (closed) break;
+  }
+  EXPECT_TRUE(closed);
+  EXPECT_LT(Clock::now() - began, milliseconds(400));
+  ::close(fd);
+}
+
+TEST_F(ModbusServerTest, DrippingClientsDoNotDelayThePlc) {
+  Plc plc(server_->port());
+  ASSERT_TRUE(plc.connected());
+  // 100 reads of the whole input-register map, one every 10 ms.
+  const auto measure = [&] {
+    std::vector<std::chrono::microseconds> latencies;
+    std::uint16_t words[modbus_register::count] = {};
+    for (int i = 0; i < 100; ++i) {
+      const auto began = Clock::now();
+      const int read = modbus_read_input_registers(plc.ctx(), 0, modbus_register::count, words);
+      latencies.push_back(
+          std::chrono::duration_cast<std::chrono::microseconds>(Clock::now() - began));
+      EXPECT_EQ(read, modbus_register::count) << modbus_strerror(errno);
+      std::this_thread::sleep_for(milliseconds(10));
+    }
+    return latencies;
+  };
+  auto alone = measure();
+
+  // Three clients each dripping a read one byte every 150 ms, connecting
+  // again whenever the server drops them.
+  std::atomic<bool> done = false;
+  std::vector<std::thread> drippers;
+  for (int d = 0; d < 3; ++d)
+    drippers.emplace_back([&] {
+      const std::uint8_t request[] = {0x00, 0x01, 0x00, 0x00, 0x00, 0x06,
+                                      0x01, 0x04, 0x00, 0x00, 0x00, 0x01};
+      while (!done) {
+        const int fd = raw_connect(server_->port());
+        for (const std::uint8_t byte : request) {
+          if (done || ::send(fd, &byte, 1, MSG_NOSIGNAL) != 1) break;
+          bool closed = false;
+          receive_within(fd, milliseconds(150), &closed);
+          if (closed) break;
+        }
+        ::close(fd);
+      }
+    });
+  std::this_thread::sleep_for(milliseconds(100));  // the drippers are mid-request
+  auto dripped = measure();
+  done = true;
+  for (auto& dripper : drippers)
+    dripper.join();
+
+  const auto p99_alone = p99_us(alone);
+  const auto p99_dripped = p99_us(dripped);
+  std::printf("PLC read p99: %lld us alone, %lld us beside 3 drippers\n",
+              static_cast<long long>(p99_alone), static_cast<long long>(p99_dripped));
+  RecordProperty("plc_read_p99_us_alone", std::to_string(p99_alone));
+  RecordProperty("plc_read_p99_us_dripped", std::to_string(p99_dripped));
+  EXPECT_LE(p99_dripped, 100'000);
+  EXPECT_GE(server_->counters().dropped, 3u);  // the drippers, each past its deadline
+}
+
+// A connection to the server from `source`, a loopback address of this machine.
+int connect_from(const char* source, int port) {
+  const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
+  sockaddr_in from{};
+  from.sin_family = AF_INET;
+  EXPECT_EQ(::inet_pton(AF_INET, source, &from.sin_addr), 1);
+  EXPECT_EQ(::bind(fd, reinterpret_cast<sockaddr*>(&from), sizeof from), 0) << source;
+  sockaddr_in to{};
+  to.sin_family = AF_INET;
+  to.sin_port = htons(static_cast<std::uint16_t>(port));
+  to.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
+  EXPECT_EQ(::connect(fd, reinterpret_cast<sockaddr*>(&to), sizeof to), 0);
+  return fd;
+}
+
+TEST_F(ModbusServerTest, TheAllowListRefusesOtherPeersAtAccept) {
+  ModbusServerOptions options;
+  options.allow = {"192.0.2.10", "127.0.0.1"};
+  start(options);
+  const std::vector<std::uint8_t> read = {0x00, 0x01, 0x00, 0x00, 0x00, 0x06,
+                                          0x01, 0x04, 0x00, 0x00, 0x00, 0x01};
+
+  const int stranger = connect_from("127.0.0.2", server_->port());
+  send_bytes(stranger, read);
+  bool closed = false;
+  const auto nothing = receive_within(stranger, milliseconds(1000), &closed);
+  EXPECT_TRUE(closed) << nothing.size() << " bytes came back";
+  ::close(stranger);
+  EXPECT_EQ(server_->counters().denied, 1u);
+  EXPECT_EQ(server_->counters().connections, 0u);
+  EXPECT_EQ(server_->counters().requests, 0u);
+
+  const int plc = connect_from("127.0.0.1", server_->port());
+  send_bytes(plc, read);
+  const auto answer = receive_within(plc, milliseconds(1000));
+  ASSERT_EQ(answer.size(), 11u);
+  EXPECT_EQ(answer[7], 0x04);
+  ::close(plc);
+  EXPECT_EQ(server_->counters().denied, 1u);
+  EXPECT_EQ(server_->counters().connections, 1u);
+}
+
+TEST(ModbusServerOptionsTest, AnAllowListEntryThatIsNoIpv4AddressIsAnError) {
+  FakeScanControl control;
+  ModbusServerOptions options;
+  options.port = 0;
+  options.allow = {"192.0.2.10", "plc.local"};
+  auto started = ModbusServer::start(control, options);
+  ASSERT_FALSE(started.has_value());
+  EXPECT_EQ(started.error().key, "daemon.modbus_allow");
+  EXPECT_THAT(started.error().message, ::testing::HasSubstr("plc.local"));
 }
 
 TEST(ModbusServerOptionsTest, BadAddressPortAndBusyPortAreErrorsNamingTheKey) {

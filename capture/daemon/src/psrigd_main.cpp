@@ -82,8 +82,9 @@ int run(const std::string& config_file) {
   }
   std::unique_ptr<daemon::ModbusServer> modbus;
   if (config->daemon.modbus_port != 0) {
-    auto server = daemon::ModbusServer::start(
-        **service, {.address = config->daemon.modbus_address, .port = config->daemon.modbus_port});
+    auto server = daemon::ModbusServer::start(**service, {.address = config->daemon.modbus_address,
+                                                          .port = config->daemon.modbus_port,
+                                                          .allow = config->daemon.modbus_allow});
     if (!server) {
       log->error("{}", server.error().describe());
       (*http)->stop();

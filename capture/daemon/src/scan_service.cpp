@@ -184,7 +184,7 @@ void ScanService::reload(config::RigConfig config) {
     const auto& next = config.daemon;
     if (next.listen_address != now.listen_address || next.port != now.port ||
         next.token != now.token || next.modbus_address != now.modbus_address ||
-        next.modbus_port != now.modbus_port)
+        next.modbus_port != now.modbus_port || next.modbus_allow != now.modbus_allow)
       log->warn("daemon addresses and token take effect at the next start");
     pending_config_ = std::move(config);
   }

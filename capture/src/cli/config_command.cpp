@@ -3,6 +3,7 @@
 
 #include <cstdio>
 #include <memory>
+#include <string>
 
 #include "command.h"
 
@@ -29,11 +30,17 @@ Command add_config_command(CLI::App& parent) {
                     config->camera.exposure_us, config->camera.gain, config->camera.frames_average);
         std::printf("scans go to: %s\n", config->storage.root.string().c_str());
         const auto& d = config->daemon;
-        std::printf(
-            "psrigd: http://%s:%d (%s), %d scans may wait, Modbus %s\n", d.listen_address.c_str(),
-            d.port, d.token.empty() ? "no token" : "bearer token", d.queue_limit,
-            d.modbus_port == 0 ? "off"
-                               : (d.modbus_address + ":" + std::to_string(d.modbus_port)).c_str());
+        std::string modbus = "off";
+        if (d.modbus_port != 0) {
+          modbus = d.modbus_address + ":" + std::to_string(d.modbus_port) + " (from ";
+          if (d.modbus_allow.empty()) modbus += "anyone";
+          for (std::size_t i = 0; i < d.modbus_allow.size(); ++i)
+            modbus += (i == 0 ? "" : ", ") + d.modbus_allow[i];
+          modbus += ")";
+        }
+        std::printf("psrigd: http://%s:%d (%s), %d scans may wait, Modbus %s\n",
+                    d.listen_address.c_str(), d.port, d.token.empty() ? "no token" : "bearer token",
+                    d.queue_limit, modbus.c_str());
         return 0;
       }};
 }

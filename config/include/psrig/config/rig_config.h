@@ -131,6 +131,9 @@ struct DaemonConfig {
   int queue_limit = 16;                      // scans waiting, not counting the running one
   std::string modbus_address = "127.0.0.1";  // the PLC's Modbus TCP server
   int modbus_port = 0;                       // 0: no Modbus server
+  // IPv4 addresses of the PLCs that may connect to it; empty: anyone who
+  // can reach modbus_address (Modbus has no authentication).
+  std::vector<std::string> modbus_allow;
 };
 
 // A loopback address (127.0.0.0/8, ::1, "localhost"): only this machine can connect.

@@ -1,14 +1,17 @@
 #pragma once
-// The PLC's view of psrigd: a Modbus TCP server (libmodbus) on its own
-// thread that turns a rising edge of the trigger coil into one submitted
-// scan and shows the daemon's status in discrete inputs and input
-// registers. The register map is capture/modbus-register-map.md; the
-// numbers below are that map and, like ScanControl's enums, never move.
+// The PLC's view of psrigd: a Modbus TCP server on its own thread, which
+// polls every client without blocking, assembles each one's requests from
+// its own buffer and has libmodbus answer only whole frames. It turns a
+// rising edge of the trigger coil into one submitted scan and shows the
+// daemon's status in discrete inputs and input registers. The register map
+// is capture/modbus-register-map.md; the numbers below are that map and,
+// like ScanControl's enums, never move.
 
 #include <chrono>
 #include <cstdint>
 #include <memory>
 #include <string>
+#include <vector>
 
 #include "psrig/base/error.h"
 #include "psrig/daemon/scan_control.h"
@@ -53,9 +56,13 @@ struct ModbusServerOptions {
   std::string address = "127.0.0.1";  // an IPv4 address to listen on; "0.0.0.0" for all
   int port = 502;                     // 0: the kernel picks a free one (tests)
   int max_clients = 8;                // further connections are closed at once
-  // How long one request may take to arrive whole once it has begun, so a
-  // stalled or broken client holds the others up no longer than this.
+  // How long one request may take to arrive whole from its first byte; a
+  // client slower than that is dropped. Each client is read without
+  // blocking, so a slow one never delays another.
   std::chrono::milliseconds request_timeout{200};
+  // IPv4 addresses of the PLCs that may connect; empty: anyone. Others are
+  // closed at accept.
+  std::vector<std::string> allow = {};
 };
 
 // What the server has done, for the daemon's status page and the tests.
@@ -64,6 +71,7 @@ struct ModbusServerCounters {
   std::uint64_t requests = 0;     // answered or refused with an exception
   std::uint64_t dropped = 0;      // connections closed for garbage, a stall or a hang-up
   std::uint64_t rejected = 0;     // connections over max_clients
+  std::uint64_t denied = 0;       // connections from peers not in options.allow
   std::uint64_t triggers_accepted = 0;
   std::uint64_t triggers_refused = 0;
   std::uint64_t lights_off = 0;  // lights-off edges acted on
@@ -81,7 +89,8 @@ class ModbusServer {
   ModbusServer& operator=(const ModbusServer&) = delete;
 
   // Closes every connection and the listening socket and joins the thread;
-  // returns within about one request_timeout. Idempotent.
+  // returns at once (the thread waits only in poll, which stop() wakes).
+  // Idempotent.
   void stop();
 
   // The port listened on (the chosen one when options.port was 0).
