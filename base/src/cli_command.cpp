@@ -13,10 +13,12 @@ int report_error(std::string_view program, std::string_view command, const Error
   return exit_code(error);
 }
 
-SubcommandProgram::SubcommandProgram(std::string name, std::string description,
-                                     spdlog::level::level_enum quiet_level)
+SubcommandProgram::SubcommandProgram(std::string name, std::string_view version,
+                                     std::string description, spdlog::level::level_enum quiet_level)
     : name_(std::move(name)), quiet_level_(quiet_level), app_(std::move(description)) {
   app_.require_subcommand(1);
+  app_.set_version_flag("--version", name_ + ' ' + std::string(version),
+                        "Print the program's version and exit");
   app_.add_flag("-v,--verbose", verbose_, "Log what each stage does");
 }
 
@@ -24,7 +26,7 @@ int SubcommandProgram::run(int argc, char** argv, const std::vector<Command>& co
   try {
     app_.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    const int code = app_.exit(e);  // prints help or the usage error
+    const int code = app_.exit(e);  // prints help, the version or the usage error
     return code == 0 ? exit_done : exit_bad_input;
   }
   set_log_level(verbose_ ? spdlog::level::debug : quiet_level_);

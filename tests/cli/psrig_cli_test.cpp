@@ -52,6 +52,12 @@ TEST(PsrigCli, UsageErrorsExitTwo) {
   EXPECT_EQ(run_program("psrig", {"--help"}).exit_code, 0);
 }
 
+TEST(PsrigCli, VersionPrintsTheProjectVersion) {
+  auto run = run_program("psrig", {"--version"});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.out, "psrig " PSRIG_VERSION "\n");
+}
+
 // One way a scan can be wrong, what the message must name, and the change
 // that makes it so.
 struct BadScan {

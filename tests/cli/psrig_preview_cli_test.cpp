@@ -38,6 +38,12 @@ fs::path make_maps(const TempDir& temp, const std::string& name, const std::stri
   return scan / "maps";
 }
 
+TEST(PsrigPreviewCli, VersionPrintsTheProjectVersion) {
+  auto run = run_program("psrig-preview", {"--version"});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.out, "psrig-preview " PSRIG_VERSION "\n");
+}
+
 TEST(PsrigPreviewCli, RenderWritesAPreviewOfTheAskedSize) {
   TempDir temp;
   const fs::path maps = make_maps(temp, "scan", "jersey");

@@ -32,16 +32,17 @@ struct Command {
 int report_error(std::string_view program, std::string_view command, const Error& error);
 
 // A program of subcommands, exactly one of which runs. -v/--verbose logs at
-// debug level, else at quiet_level.
+// debug level, else at quiet_level; --version prints "NAME VERSION" and
+// exits 0.
 class SubcommandProgram {
  public:
-  SubcommandProgram(std::string name, std::string description,
+  SubcommandProgram(std::string name, std::string_view version, std::string description,
                     spdlog::level::level_enum quiet_level);
 
   // Where the subcommands are added.
   [[nodiscard]] CLI::App& app() { return app_; }
 
-  // Help is exit 0 and a usage error 2 (CLI11 prints both); an exception
+  // Help and --version are exit 0 and a usage error 2 (CLI11 prints both); an exception
   // that escapes a command is "PROGRAM: internal error: ..." and exit 1.
   int run(int argc, char** argv, const std::vector<Command>& commands);
 
