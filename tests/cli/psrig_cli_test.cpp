@@ -40,6 +40,19 @@ TEST(PsrigCli, SynthThenProcess) {
   EXPECT_TRUE(fs::exists(temp / "scan" / "maps" / "normal.png"));
 }
 
+TEST(PsrigCli, RejectWithThreeLightsWarnsThatItDoesNothing) {
+  TempDir temp;
+  const auto scan = (temp / "scan").string();
+  ASSERT_EQ(run_program("psrig", {"synth", "--out", scan, "--size", "32x24"}).exit_code, 0);
+  auto run = run_program("psrig", {"process", scan, "--reject", "--quiet"});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(contains(run.err, "warning: --reject needs four or more lights; this scan has 3"))
+      << run.err;
+  auto without = run_program("psrig", {"process", scan, "--quiet"});
+  EXPECT_EQ(without.exit_code, 0) << without.err;
+  EXPECT_TRUE(without.err.empty()) << without.err;
+}
+
 TEST(PsrigCli, UsageErrorsExitTwo) {
   EXPECT_EQ(run_program("psrig", {}).exit_code, 2);
   EXPECT_EQ(run_program("psrig", {"process"}).exit_code, 2);
