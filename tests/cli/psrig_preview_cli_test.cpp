@@ -121,6 +121,22 @@ bool wait_for(const fs::path& file, const std::string& text) {
   return false;
 }
 
+TEST(PsrigPreviewCli, KioskOfAPathThatIsNotThereExitsTwoNamingIt) {
+  TempDir temp;
+  const fs::path frames = temp / "frames";
+  for (const std::string option : {"MAPS_DIR", "--catalogue"}) {
+    const std::string missing = (temp / "no-such-scans").string();
+    std::vector<std::string> args = {"kiosk",  "--headless", "--frames",  "2",
+                                     "--size", "32x24",      "--out-dir", frames.string()};
+    if (option == "--catalogue") args.push_back("--catalogue");
+    args.push_back(missing);
+    const auto kiosk = run_program("psrig-preview", args);
+    EXPECT_EQ(kiosk.exit_code, 2) << option << ": " << kiosk.out;
+    EXPECT_TRUE(contains(kiosk.err, missing + ": " + option + ": not a directory")) << kiosk.err;
+    EXPECT_FALSE(fs::exists(frames)) << option << ": no blank frames";
+  }
+}
+
 TEST(PsrigPreviewCli, KioskFollowsNewScansAndSkipsABrokenOne) {
   TempDir temp;
   const fs::path catalogue = temp / "catalogue";

@@ -83,6 +83,10 @@ int run_kiosk(const KioskArgs& args) {
                         bad_input("", "MAPS_DIR", "give a maps directory or --catalogue DIR"));
   if (args.headless && args.out_dir.empty())
     return report_error("kiosk", bad_input("", "--out-dir", "--headless needs --out-dir DIR"));
+  // A path that is not there is a typo, not a scan still to come: say so
+  // rather than show an empty screen.
+  if (!args.maps.empty() && !fs::is_directory(args.maps))
+    return report_error("kiosk", bad_input(args.maps, "MAPS_DIR", "not a directory"));
   if (!args.catalogue.empty() && !fs::is_directory(args.catalogue))
     return report_error("kiosk", bad_input(args.catalogue, "--catalogue", "not a directory"));
   stop_on_signals();
