@@ -14,7 +14,9 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
+#include "psrig/processing/image_io.h"
 #include "sim_modbus_driver.h"
 #include "test_support.h"
 
@@ -37,6 +39,7 @@ TEST(PsrigCli, SynthThenProcess) {
   ASSERT_EQ(process.exit_code, 0) << process.err;
   EXPECT_TRUE(contains(process.out, "maps: " + scan + "/maps")) << process.out;
   EXPECT_TRUE(contains(process.out, "ground truth: mean angular error")) << process.out;
+  EXPECT_FALSE(contains(process.out, "outside mask")) << process.out;  // no mask, none outside
   EXPECT_TRUE(fs::exists(temp / "scan" / "maps" / "normal.png"));
 }
 
@@ -128,6 +131,20 @@ TEST(PsrigCli, EveryBadScanExitsTwoNamingTheProblemAndWritesNothing) {
     EXPECT_TRUE(contains(run.err, bad.must_name)) << bad.name << ": " << run.err;
     EXPECT_EQ(list_directory(temp.path()), (std::vector<std::string>{"scan", "small"})) << bad.name;
   }
+}
+
+TEST(PsrigCli, SummaryCountsThePixelsOutsideTheMask) {
+  TempDir temp;
+  const auto scan = temp / "scan";
+  ASSERT_EQ(run_program("psrig", {"synth", "--out", scan.string(), "--size", "32x24"}).exit_code,
+            0);
+  cv::Mat mask(24, 32, CV_8U, cv::Scalar(255));
+  mask.colRange(0, 8).setTo(0);  // a quarter of the swatch left out
+  ASSERT_TRUE(processing::write_image(scan / "mask.png", mask));
+  edit_json(scan, [](auto& d) { d["mask"] = "mask.png"; });
+  auto run = run_program("psrig", {"process", scan.string()});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(contains(run.out, "(outside mask 25.0 %, shadowed")) << run.out;
 }
 
 TEST(PsrigCli, MissingScanDirectory) {
