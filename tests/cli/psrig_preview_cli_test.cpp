@@ -83,6 +83,17 @@ TEST(PsrigPreviewCli, BadInputIsAClearErrorAndWritesNothing) {
   EXPECT_FALSE(fs::exists(temp / "p.png"));
 }
 
+TEST(PsrigPreviewCli, RenderOfAScanDirectorySuggestsItsMaps) {
+  TempDir temp;
+  const fs::path maps = make_maps(temp, "scan", "jersey");
+  const fs::path scan = maps.parent_path();
+  const auto run =
+      run_program("psrig-preview", {"render", scan.string(), "--out", (temp / "p.png").string()});
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_TRUE(contains(run.err, "did you mean " + maps.string() + "?")) << run.err;
+  EXPECT_FALSE(fs::exists(temp / "p.png"));
+}
+
 TEST(PsrigPreviewCli, HeadlessKioskOrbitsTheLight) {
   TempDir temp;
   const fs::path maps = make_maps(temp, "scan", "jersey");

@@ -29,7 +29,7 @@ double percentile(std::vector<double> values, double fraction) {
 }
 
 int bench(const BenchArgs& args) {
-  auto maps = load_swatch_maps(args.maps);
+  auto maps = load_maps_argument(args.maps);
   if (!maps) return report_error("bench", maps.error());
   auto size = parse_size(args.size, "--size");
   if (!size) return report_error("bench", size.error());

@@ -55,7 +55,7 @@ Result<std::optional<Eigen::Vector3f>> yarn_colour(const KnitArgs& args) {
     return colour;
   }
   if (!args.from_scan.empty()) {
-    auto maps = load_swatch_maps(args.from_scan);
+    auto maps = load_maps_argument(args.from_scan);
     if (!maps) return std::unexpected(maps.error());
     const cv::Scalar mean = cv::mean(maps->albedo);
     return Eigen::Vector3f(static_cast<float>(mean[0]), static_cast<float>(mean[1]),
