@@ -177,6 +177,23 @@ TEST(PsrigCli, SynthRefusesToOverwrite) {
   EXPECT_TRUE(contains(again.err, "already exists")) << again.err;
 }
 
+TEST(PsrigCli, SynthMakesMissingParentsAndQuietPrintsNothing) {
+  TempDir temp;
+  const auto scan = temp / "swatches" / "2026" / "scan";
+  auto run = run_program("psrig", {"synth", "--out", scan.string(), "--size", "32x24", "-q"});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(run.out.empty()) << run.out;
+  EXPECT_TRUE(run.err.empty()) << run.err;
+  EXPECT_TRUE(fs::exists(scan / "scan.json"));
+  auto long_flag = run_program(
+      "psrig", {"synth", "--out", (temp / "a" / "b").string(), "--size", "32x24", "--quiet"});
+  EXPECT_EQ(long_flag.exit_code, 0) << long_flag.err;
+  EXPECT_TRUE(long_flag.out.empty()) << long_flag.out;
+  auto again = run_program("psrig", {"synth", "--out", scan.string(), "--size", "32x24", "-q"});
+  EXPECT_EQ(again.exit_code, 2);
+  EXPECT_TRUE(contains(again.err, "already exists")) << again.err;
+}
+
 using Edits = std::vector<std::pair<std::string, std::string>>;
 
 // config/sim.toml at a size a test affords, with scans going into `temp`
