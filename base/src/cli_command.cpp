@@ -2,6 +2,7 @@
 
 #include <exception>
 #include <iostream>
+#include <string>
 #include <utility>
 
 #include "psrig/base/log.h"
@@ -11,6 +12,37 @@ namespace psrig::cli {
 int report_error(std::string_view program, std::string_view command, const Error& error) {
   std::cerr << program << ' ' << command << ": error: " << error.describe() << '\n';
   return exit_code(error);
+}
+
+namespace {
+
+// A validator accepting what parses as T and is at least `minimum` (above
+// it when `strictly`); its message says `expected`.
+template <class T>
+CLI::Validator at_least(T minimum, bool strictly, std::string expected, std::string description) {
+  return CLI::Validator(
+      [=](std::string& input) -> std::string {
+        T value{};
+        if (CLI::detail::lexical_cast(input, value) &&
+            (strictly ? value > minimum : value >= minimum))
+          return {};
+        return "expected " + expected + "; got '" + input + "'";
+      },
+      std::move(description));
+}
+
+}  // namespace
+
+CLI::Validator non_negative_number() {
+  return at_least(0.0, false, "a number, 0 or more", "NONNEGATIVE");
+}
+
+CLI::Validator positive_number() {
+  return at_least(0.0, true, "a number above 0", "POSITIVE");
+}
+
+CLI::Validator thread_count() {
+  return at_least(0L, false, "a whole number of threads, 0 (one per core) or more", "NONNEGATIVE");
 }
 
 SubcommandProgram::SubcommandProgram(std::string name, std::string_view version,

@@ -68,6 +68,20 @@ TEST(PsrigCli, UsageErrorsExitTwo) {
   EXPECT_EQ(run_program("psrig", {"--help"}).exit_code, 0);
 }
 
+TEST(PsrigCli, ABadThreadCountSaysTheRangeInAFewWords) {
+  for (const std::string command : {"process", "scan"}) {
+    std::vector<std::string> args = {command, "--threads", "-1"};
+    args.insert(args.begin() + 1, command == "process" ? "scan-dir" : "--config=rig.toml");
+    auto run = run_program("psrig", args);
+    EXPECT_EQ(run.exit_code, 2) << command;
+    EXPECT_TRUE(contains(
+        run.err,
+        "--threads: expected a whole number of threads, 0 (one per core) or more; got '-1'"))
+        << run.err;
+    EXPECT_LT(run.err.size(), 200U) << run.err;  // not CLI11's largest double
+  }
+}
+
 TEST(PsrigCli, VersionPrintsTheProjectVersion) {
   auto run = run_program("psrig", {"--version"});
   EXPECT_EQ(run.exit_code, 0) << run.err;

@@ -44,6 +44,16 @@ TEST(PsrigPreviewCli, VersionPrintsTheProjectVersion) {
   EXPECT_EQ(run.out, "psrig-preview " PSRIG_VERSION "\n");
 }
 
+TEST(PsrigPreviewCli, ABadNumberSaysTheRangeInAFewWords) {
+  auto fps = run_program("psrig-preview", {"kiosk", "--headless", "--fps", "0"});
+  EXPECT_EQ(fps.exit_code, 2);
+  EXPECT_TRUE(contains(fps.err, "--fps: expected a number above 0; got '0'")) << fps.err;
+  auto distance = run_program("psrig-preview", {"knit", "x.chart", "--distance", "-5"});
+  EXPECT_EQ(distance.exit_code, 2);
+  EXPECT_TRUE(contains(distance.err, "--distance: expected a number, 0 or more; got '-5'"))
+      << distance.err;
+}
+
 TEST(PsrigPreviewCli, RenderWritesAPreviewOfTheAskedSize) {
   TempDir temp;
   const fs::path maps = make_maps(temp, "scan", "jersey");

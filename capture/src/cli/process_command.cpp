@@ -33,7 +33,7 @@ Command add_process_command(CLI::App& parent) {
       ->check(CLI::IsMember({"fc", "poisson", "none"}))
       ->capture_default_str();
   app->add_option("--threads", args->threads, "Worker threads (0: one per core)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(psrig::cli::thread_count())
       ->capture_default_str();
   app->add_flag("--reject", args->reject,
                 "With four or more lights, drop shadowed and saturated measurements per pixel");

@@ -153,15 +153,15 @@ Command add_kiosk_command(CLI::App& parent) {
                   "Directory of scans: show the newest, switch when a new one lands");
   app->add_flag("--headless", args->headless, "Draw offscreen and write PNG frames (tests)");
   app->add_option("--frames", args->frames, "Stop after this many frames (0: run until a signal)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(psrig::cli::non_negative_number())
       ->capture_default_str();
   app->add_option("--out-dir", args->out_dir, "Headless: where the frames go (frame_NNNNNN.png)");
   app->add_option("--size", args->size, "Headless: frame size WxH")->capture_default_str();
   app->add_option("--fps", args->fps, "Headless: frames per second of the motion's clock")
-      ->check(CLI::PositiveNumber)
+      ->check(psrig::cli::positive_number())
       ->capture_default_str();
   app->add_option("--poll-ms", args->poll_ms, "How often to look for a new scan")
-      ->check(CLI::PositiveNumber)
+      ->check(psrig::cli::positive_number())
       ->capture_default_str();
   add_samples_option(*app, args->samples);
   add_kms_options(*app, args->kms);

@@ -31,6 +31,13 @@ struct Command {
 // Prints "PROGRAM COMMAND: error: ..." to stderr and returns the exit code.
 int report_error(std::string_view program, std::string_view command, const Error& error);
 
+// Option checks whose messages say the range in a few words (CLI11's
+// NonNegativeNumber and PositiveNumber print the largest double there is).
+[[nodiscard]] CLI::Validator non_negative_number();
+[[nodiscard]] CLI::Validator positive_number();
+// --threads: a whole number, 0 (one per core) or more.
+[[nodiscard]] CLI::Validator thread_count();
+
 // A program of subcommands, exactly one of which runs. -v/--verbose logs at
 // debug level, else at quiet_level; --version prints "NAME VERSION" and
 // exits 0.
