@@ -82,6 +82,19 @@ TEST(PsrigCli, ABadThreadCountSaysTheRangeInAFewWords) {
   }
 }
 
+TEST(PsrigCli, ADaemonAddressThatIsNotAUrlExitsTwo) {
+  for (const std::string url : {"notaurl", "127.0.0.1:8470", "http://", "http://host:port"}) {
+    auto status = run_program("psrig", {"status", "--url", url});
+    EXPECT_EQ(status.exit_code, 2) << url << ": " << status.err;
+    EXPECT_TRUE(contains(status.err, "psrig status: error: " + url +
+                                         ": --url: not a URL (expected http://HOST:PORT"))
+        << status.err;
+  }
+  auto remote = run_program("psrig", {"scan", "--remote", "notaurl"});
+  EXPECT_EQ(remote.exit_code, 2) << remote.err;
+  EXPECT_TRUE(contains(remote.err, "notaurl: --remote: not a URL")) << remote.err;
+}
+
 TEST(PsrigCli, VersionPrintsTheProjectVersion) {
   auto run = run_program("psrig", {"--version"});
   EXPECT_EQ(run.exit_code, 0) << run.err;
