@@ -321,6 +321,20 @@ TEST(PsrigCli, MissingHardwareNamesTheDeviceAndTheKey) {
   EXPECT_FALSE(fs::exists(temp / "scan"));
 }
 
+TEST(PsrigCli, AGpioChipThatIsNotThereIsBadInput) {
+  TempDir temp;
+  const auto config = sim_config(
+      temp,
+      {{"backend = \"sim\"\nchannels", "backend = \"gpiod\"\nchannels"},
+       {"max_on_ms = 5000\n",
+        "max_on_ms = 5000\n\n[lights.gpiod]\nchip = \"gpiochip99\"\nlines = [17, 27, 22]\n"}});
+  auto run = run_program("psrig", {"lights", "--config", config.string(), "--cycle"});
+  EXPECT_EQ(run.exit_code, 2) << run.err;  // the fix is the configuration
+  EXPECT_TRUE(
+      contains(run.err, config.string() + ": lights.gpiod.chip: GPIO chip 'gpiochip99' not found"))
+      << run.err;
+}
+
 TEST(PsrigCli, LightsCycleBlinksEachLedOnce) {
   TempDir temp;
   auto run = run_program(
