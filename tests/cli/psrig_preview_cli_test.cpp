@@ -293,6 +293,17 @@ TEST(PsrigPreviewCli, KnitBadInputNamesTheFileAndLine) {
   EXPECT_FALSE(fs::exists(temp / "k.png"));
 }
 
+TEST(PsrigPreviewCli, KnitOfAMissingPatternExitsTwo) {
+  TempDir temp;
+  for (const char* name : {"absent.chart", "absent.weave"}) {
+    const auto run = run_program(
+        "psrig-preview", {"knit", (temp / name).string(), "--out", (temp / "knit.png").string()});
+    EXPECT_EQ(run.exit_code, 2) << run.err;
+    EXPECT_TRUE(contains(run.err, (temp / name).string() + ": no such pattern file")) << run.err;
+  }
+  EXPECT_FALSE(fs::exists(temp / "knit.png"));
+}
+
 TEST(PsrigPreviewCli, KnitBenchTimesThreeSizes) {
   const auto bench =
       run_program("psrig-preview", {"knit", shipped_pattern("stockinette.chart").string(),
