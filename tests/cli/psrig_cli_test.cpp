@@ -90,6 +90,12 @@ TEST(PsrigCli, ADaemonAddressThatIsNotAUrlExitsTwo) {
                                          ": --url: not a URL (expected http://HOST:PORT"))
         << status.err;
   }
+  // Well-formed addresses with no daemon there: a machine error, not a bad URL.
+  for (const std::string url : {"http://127.0.0.1:1", "http://[::1]", "http://[::1]:1/"}) {
+    auto status = run_program("psrig", {"status", "--url", url});
+    EXPECT_EQ(status.exit_code, 1) << url << ": " << status.err;
+    EXPECT_FALSE(contains(status.err, "not a URL")) << status.err;
+  }
   auto remote = run_program("psrig", {"scan", "--remote", "notaurl"});
   EXPECT_EQ(remote.exit_code, 2) << remote.err;
   EXPECT_TRUE(contains(remote.err, "notaurl: --remote: not a URL")) << remote.err;

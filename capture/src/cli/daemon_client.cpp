@@ -13,7 +13,10 @@ Status check_daemon_url(const std::string& url, const std::string& option) {
   if (ok) {
     rest.remove_prefix(kScheme.size());
     if (rest.ends_with('/')) rest.remove_suffix(1);
-    const auto colon = rest.rfind(':');
+    auto colon = rest.rfind(':');
+    if (const auto bracket = rest.rfind(']');  // http://[::1]: the colons are the address's
+        bracket != std::string_view::npos && colon != std::string_view::npos && colon < bracket)
+      colon = std::string_view::npos;
     const std::string_view host = rest.substr(0, colon);
     ok = !host.empty() && host.find_first_of("/?#@ ") == std::string_view::npos;
     if (ok && colon != std::string_view::npos) {
