@@ -51,6 +51,12 @@ Error device_error(std::string key, std::filesystem::path node, std::string mess
   return error;
 }
 
+// A chip the configuration names that is not there (or not a chip): the fix
+// is the configuration, so it is bad input (exit 2), not a failing machine.
+Error config_error(std::string key, std::filesystem::path node, std::string message) {
+  return bad_input(std::move(node), std::move(key), std::move(message));
+}
+
 std::string join(const std::vector<unsigned>& values, const char* separator) {
   std::string text;
   for (unsigned value : values)
@@ -128,14 +134,14 @@ Result<ChipPtr> find_chip(const std::string& spec) {
       return std::unexpected(
           device_error(kChipKey, path, "cannot open GPIO chip: " + explain_errno(error, path)));
     if (error == ENOTTY || error == ENODEV)
-      return std::unexpected(device_error(kChipKey, path,
+      return std::unexpected(config_error(kChipKey, path,
                                           "not a GPIO character device; " +
                                               describe_chips(list_gpio_chips()) +
                                               "; `gpiodetect` lists them"));
     if (error != ENOENT)
       return std::unexpected(device_error(
           kChipKey, path, "cannot open GPIO chip: " + std::string(std::strerror(error))));
-    return std::unexpected(device_error(
+    return std::unexpected(config_error(
         kChipKey, {},
         "GPIO chip '" + spec + "' not found; " + describe_chips(list_gpio_chips()) +
             "; set lights.gpiod.chip to one of them (name, /dev path or label); `gpiodetect` lists "
@@ -149,10 +155,14 @@ Result<ChipPtr> find_chip(const std::string& spec) {
     if (ChipPtr open{gpiod_chip_open(("/dev/" + chip.name).c_str())}) return open;
   }
   std::string message = "no GPIO chip labelled '" + spec + "'; " + describe_chips(chips);
-  if (std::any_of(chips.begin(), chips.end(), [](const GpioChipEntry& c) { return c.open_error; }))
-    message += "; some could not be opened: " + std::string(kPermissionFix);
-  return std::unexpected(
-      device_error(kChipKey, {}, message + "; `gpiodetect` lists the chips and their labels"));
+  // Chips it could not open may hold the label: then the fix is the
+  // permissions, not the configuration.
+  const bool unopened =
+      std::any_of(chips.begin(), chips.end(), [](const GpioChipEntry& c) { return c.open_error; });
+  if (unopened) message += "; some could not be opened: " + std::string(kPermissionFix);
+  message += "; `gpiodetect` lists the chips and their labels";
+  return std::unexpected(unopened ? device_error(kChipKey, {}, message)
+                                  : config_error(kChipKey, {}, message));
 }
 
 class GpiodLights final : public LightController {

@@ -54,6 +54,10 @@ Result<std::string> read_text_file(const std::filesystem::path& file) {
   std::error_code ignored;
   if (std::filesystem::is_directory(file, ignored))
     return std::unexpected(bad_input(file, {}, "is a directory, not a pattern file"));
+  // A pattern that is not there is the user's to fix (exit 2), like any
+  // file named wrongly; one that cannot be read is the machine's.
+  if (!std::filesystem::exists(file, ignored))
+    return std::unexpected(bad_input(file, {}, "no such pattern file"));
   std::ifstream in(file, std::ios::binary);
   if (!in)
     return std::unexpected(io_error(file, std::string("cannot read: ") + std::strerror(errno)));

@@ -48,7 +48,8 @@ struct Line {
 [[nodiscard]] Error error_at(const std::filesystem::path& source, int line, int column,
                              std::string message);
 
-// The whole file, or an io error naming it.
+// The whole file; else a bad_input error naming it when it is not there
+// (or a directory), an io error when it cannot be read.
 [[nodiscard]] Result<std::string> read_text_file(const std::filesystem::path& file);
 
 }  // namespace psrig::preview::pattern_text

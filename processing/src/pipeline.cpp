@@ -67,7 +67,14 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   const auto start = Clock::now();
   std::vector<std::pair<std::string, double>> stages;
 
-  // Where the maps go is checked first: a bad --out should not wait for a
+  // A scan directory that is not there is the error, not the maps
+  // directory inside it that cannot be made.
+  std::error_code ec;
+  if (!fs::is_directory(scan_directory, ec))
+    return std::unexpected(
+        bad_input(scan_directory, "",
+                  fs::exists(scan_directory, ec) ? "not a directory" : "no such scan directory"));
+  // Where the maps go is checked next: a bad --out should not wait for a
   // 12 MP read. Nothing is visible there until the commit.
   const fs::path output =
       options.output.empty() ? scan_directory / scan_files::kMapsDirectory : options.output;

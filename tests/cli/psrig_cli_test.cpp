@@ -14,7 +14,9 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
+#include "psrig/processing/image_io.h"
 #include "sim_modbus_driver.h"
 #include "test_support.h"
 
@@ -37,7 +39,21 @@ TEST(PsrigCli, SynthThenProcess) {
   ASSERT_EQ(process.exit_code, 0) << process.err;
   EXPECT_TRUE(contains(process.out, "maps: " + scan + "/maps")) << process.out;
   EXPECT_TRUE(contains(process.out, "ground truth: mean angular error")) << process.out;
+  EXPECT_FALSE(contains(process.out, "outside mask")) << process.out;  // no mask, none outside
   EXPECT_TRUE(fs::exists(temp / "scan" / "maps" / "normal.png"));
+}
+
+TEST(PsrigCli, RejectWithThreeLightsWarnsThatItDoesNothing) {
+  TempDir temp;
+  const auto scan = (temp / "scan").string();
+  ASSERT_EQ(run_program("psrig", {"synth", "--out", scan, "--size", "32x24"}).exit_code, 0);
+  auto run = run_program("psrig", {"process", scan, "--reject", "--quiet"});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(contains(run.err, "warning: --reject needs four or more lights; this scan has 3"))
+      << run.err;
+  auto without = run_program("psrig", {"process", scan, "--quiet"});
+  EXPECT_EQ(without.exit_code, 0) << without.err;
+  EXPECT_TRUE(without.err.empty()) << without.err;
 }
 
 TEST(PsrigCli, UsageErrorsExitTwo) {
@@ -50,6 +66,45 @@ TEST(PsrigCli, UsageErrorsExitTwo) {
   EXPECT_TRUE(contains(bad_size.err, "--size")) << bad_size.err;
   EXPECT_FALSE(fs::exists(temp / "s"));
   EXPECT_EQ(run_program("psrig", {"--help"}).exit_code, 0);
+}
+
+TEST(PsrigCli, ABadThreadCountSaysTheRangeInAFewWords) {
+  for (const std::string command : {"process", "scan"}) {
+    std::vector<std::string> args = {command, "--threads", "-1"};
+    args.insert(args.begin() + 1, command == "process" ? "scan-dir" : "--config=rig.toml");
+    auto run = run_program("psrig", args);
+    EXPECT_EQ(run.exit_code, 2) << command;
+    EXPECT_TRUE(contains(
+        run.err,
+        "--threads: expected a whole number of threads, 0 (one per core) or more; got '-1'"))
+        << run.err;
+    EXPECT_LT(run.err.size(), 200U) << run.err;  // not CLI11's largest double
+  }
+}
+
+TEST(PsrigCli, ADaemonAddressThatIsNotAUrlExitsTwo) {
+  for (const std::string url : {"notaurl", "127.0.0.1:8470", "http://", "http://host:port"}) {
+    auto status = run_program("psrig", {"status", "--url", url});
+    EXPECT_EQ(status.exit_code, 2) << url << ": " << status.err;
+    EXPECT_TRUE(contains(status.err, "psrig status: error: " + url +
+                                         ": --url: not a URL (expected http://HOST:PORT"))
+        << status.err;
+  }
+  // Well-formed addresses with no daemon there: a machine error, not a bad URL.
+  for (const std::string url : {"http://127.0.0.1:1", "http://[::1]", "http://[::1]:1/"}) {
+    auto status = run_program("psrig", {"status", "--url", url});
+    EXPECT_EQ(status.exit_code, 1) << url << ": " << status.err;
+    EXPECT_FALSE(contains(status.err, "not a URL")) << status.err;
+  }
+  auto remote = run_program("psrig", {"scan", "--remote", "notaurl"});
+  EXPECT_EQ(remote.exit_code, 2) << remote.err;
+  EXPECT_TRUE(contains(remote.err, "notaurl: --remote: not a URL")) << remote.err;
+}
+
+TEST(PsrigCli, VersionPrintsTheProjectVersion) {
+  auto run = run_program("psrig", {"--version"});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.out, "psrig " PSRIG_VERSION "\n");
 }
 
 // One way a scan can be wrong, what the message must name, and the change
@@ -111,10 +166,26 @@ TEST(PsrigCli, EveryBadScanExitsTwoNamingTheProblemAndWritesNothing) {
   }
 }
 
+TEST(PsrigCli, SummaryCountsThePixelsOutsideTheMask) {
+  TempDir temp;
+  const auto scan = temp / "scan";
+  ASSERT_EQ(run_program("psrig", {"synth", "--out", scan.string(), "--size", "32x24"}).exit_code,
+            0);
+  cv::Mat mask(24, 32, CV_8U, cv::Scalar(255));
+  mask.colRange(0, 8).setTo(0);  // a quarter of the swatch left out
+  ASSERT_TRUE(processing::write_image(scan / "mask.png", mask));
+  edit_json(scan, [](auto& d) { d["mask"] = "mask.png"; });
+  auto run = run_program("psrig", {"process", scan.string()});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(contains(run.out, "(outside mask 25.0 %, shadowed")) << run.out;
+}
+
 TEST(PsrigCli, MissingScanDirectory) {
   auto run = run_program("psrig", {"process", "/nonexistent/scan"});
   EXPECT_EQ(run.exit_code, 2);
-  EXPECT_TRUE(contains(run.err, "/nonexistent/scan")) << run.err;
+  // The input named, not the maps directory it would have held.
+  EXPECT_TRUE(contains(run.err, "error: /nonexistent/scan: no such scan directory")) << run.err;
+  EXPECT_FALSE(contains(run.err, "maps")) << run.err;
 }
 
 TEST(PsrigCli, ReadOnlyScanNeedsOut) {
@@ -135,6 +206,23 @@ TEST(PsrigCli, SynthRefusesToOverwrite) {
   const auto scan = (temp / "scan").string();
   ASSERT_EQ(run_program("psrig", {"synth", "--out", scan, "--size", "32x24"}).exit_code, 0);
   auto again = run_program("psrig", {"synth", "--out", scan, "--size", "32x24"});
+  EXPECT_EQ(again.exit_code, 2);
+  EXPECT_TRUE(contains(again.err, "already exists")) << again.err;
+}
+
+TEST(PsrigCli, SynthMakesMissingParentsAndQuietPrintsNothing) {
+  TempDir temp;
+  const auto scan = temp / "swatches" / "2026" / "scan";
+  auto run = run_program("psrig", {"synth", "--out", scan.string(), "--size", "32x24", "-q"});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(run.out.empty()) << run.out;
+  EXPECT_TRUE(run.err.empty()) << run.err;
+  EXPECT_TRUE(fs::exists(scan / "scan.json"));
+  auto long_flag = run_program(
+      "psrig", {"synth", "--out", (temp / "a" / "b").string(), "--size", "32x24", "--quiet"});
+  EXPECT_EQ(long_flag.exit_code, 0) << long_flag.err;
+  EXPECT_TRUE(long_flag.out.empty()) << long_flag.out;
+  auto again = run_program("psrig", {"synth", "--out", scan.string(), "--size", "32x24", "-q"});
   EXPECT_EQ(again.exit_code, 2);
   EXPECT_TRUE(contains(again.err, "already exists")) << again.err;
 }
@@ -261,6 +349,20 @@ TEST(PsrigCli, MissingHardwareNamesTheDeviceAndTheKey) {
   EXPECT_TRUE(contains(run.err, "/dev/video77")) << run.err;
   EXPECT_TRUE(contains(run.err, "camera.device")) << run.err;
   EXPECT_FALSE(fs::exists(temp / "scan"));
+}
+
+TEST(PsrigCli, AGpioChipThatIsNotThereIsBadInput) {
+  TempDir temp;
+  const auto config = sim_config(
+      temp,
+      {{"backend = \"sim\"\nchannels", "backend = \"gpiod\"\nchannels"},
+       {"max_on_ms = 5000\n",
+        "max_on_ms = 5000\n\n[lights.gpiod]\nchip = \"gpiochip99\"\nlines = [17, 27, 22]\n"}});
+  auto run = run_program("psrig", {"lights", "--config", config.string(), "--cycle"});
+  EXPECT_EQ(run.exit_code, 2) << run.err;  // the fix is the configuration
+  EXPECT_TRUE(
+      contains(run.err, config.string() + ": lights.gpiod.chip: GPIO chip 'gpiochip99' not found"))
+      << run.err;
 }
 
 TEST(PsrigCli, LightsCycleBlinksEachLedOnce) {

@@ -38,6 +38,22 @@ fs::path make_maps(const TempDir& temp, const std::string& name, const std::stri
   return scan / "maps";
 }
 
+TEST(PsrigPreviewCli, VersionPrintsTheProjectVersion) {
+  auto run = run_program("psrig-preview", {"--version"});
+  EXPECT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_EQ(run.out, "psrig-preview " PSRIG_VERSION "\n");
+}
+
+TEST(PsrigPreviewCli, ABadNumberSaysTheRangeInAFewWords) {
+  auto fps = run_program("psrig-preview", {"kiosk", "--headless", "--fps", "0"});
+  EXPECT_EQ(fps.exit_code, 2);
+  EXPECT_TRUE(contains(fps.err, "--fps: expected a number above 0; got '0'")) << fps.err;
+  auto distance = run_program("psrig-preview", {"knit", "x.chart", "--distance", "-5"});
+  EXPECT_EQ(distance.exit_code, 2);
+  EXPECT_TRUE(contains(distance.err, "--distance: expected a number, 0 or more; got '-5'"))
+      << distance.err;
+}
+
 TEST(PsrigPreviewCli, RenderWritesAPreviewOfTheAskedSize) {
   TempDir temp;
   const fs::path maps = make_maps(temp, "scan", "jersey");
@@ -77,6 +93,17 @@ TEST(PsrigPreviewCli, BadInputIsAClearErrorAndWritesNothing) {
   EXPECT_FALSE(fs::exists(temp / "p.png"));
 }
 
+TEST(PsrigPreviewCli, RenderOfAScanDirectorySuggestsItsMaps) {
+  TempDir temp;
+  const fs::path maps = make_maps(temp, "scan", "jersey");
+  const fs::path scan = maps.parent_path();
+  const auto run =
+      run_program("psrig-preview", {"render", scan.string(), "--out", (temp / "p.png").string()});
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_TRUE(contains(run.err, "did you mean " + maps.string() + "?")) << run.err;
+  EXPECT_FALSE(fs::exists(temp / "p.png"));
+}
+
 TEST(PsrigPreviewCli, HeadlessKioskOrbitsTheLight) {
   TempDir temp;
   const fs::path maps = make_maps(temp, "scan", "jersey");
@@ -113,6 +140,22 @@ bool wait_for(const fs::path& file, const std::string& text) {
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return false;
+}
+
+TEST(PsrigPreviewCli, KioskOfAPathThatIsNotThereExitsTwoNamingIt) {
+  TempDir temp;
+  const fs::path frames = temp / "frames";
+  for (const std::string option : {"MAPS_DIR", "--catalogue"}) {
+    const std::string missing = (temp / "no-such-scans").string();
+    std::vector<std::string> args = {"kiosk",  "--headless", "--frames",  "2",
+                                     "--size", "32x24",      "--out-dir", frames.string()};
+    if (option == "--catalogue") args.push_back("--catalogue");
+    args.push_back(missing);
+    const auto kiosk = run_program("psrig-preview", args);
+    EXPECT_EQ(kiosk.exit_code, 2) << option << ": " << kiosk.out;
+    EXPECT_TRUE(contains(kiosk.err, missing + ": " + option + ": not a directory")) << kiosk.err;
+    EXPECT_FALSE(fs::exists(frames)) << option << ": no blank frames";
+  }
 }
 
 TEST(PsrigPreviewCli, KioskFollowsNewScansAndSkipsABrokenOne) {
@@ -248,6 +291,17 @@ TEST(PsrigPreviewCli, KnitBadInputNamesTheFileAndLine) {
   EXPECT_NE(missing.exit_code, 0);
   EXPECT_TRUE(contains(missing.err, "none.chart")) << missing.err;
   EXPECT_FALSE(fs::exists(temp / "k.png"));
+}
+
+TEST(PsrigPreviewCli, KnitOfAMissingPatternExitsTwo) {
+  TempDir temp;
+  for (const char* name : {"absent.chart", "absent.weave"}) {
+    const auto run = run_program(
+        "psrig-preview", {"knit", (temp / name).string(), "--out", (temp / "knit.png").string()});
+    EXPECT_EQ(run.exit_code, 2) << run.err;
+    EXPECT_TRUE(contains(run.err, (temp / name).string() + ": no such pattern file")) << run.err;
+  }
+  EXPECT_FALSE(fs::exists(temp / "knit.png"));
 }
 
 TEST(PsrigPreviewCli, KnitBenchTimesThreeSizes) {

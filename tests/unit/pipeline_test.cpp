@@ -160,6 +160,16 @@ TEST(Pipeline, ReprocessingReplacesTheMaps) {
                                       "scan.json"}));
 }
 
+TEST(Pipeline, AMissingScanDirectoryIsTheErrorNotItsMaps) {
+  test::TempDir temp;
+  auto missing = process_scan(temp / "nowhere");
+  ASSERT_FALSE(missing);
+  EXPECT_EQ(missing.error().kind, ErrorKind::bad_input);
+  EXPECT_EQ(missing.error().file, temp / "nowhere");
+  EXPECT_EQ(missing.error().message, "no such scan directory");
+  EXPECT_TRUE(test::list_directory(temp.path()).empty());
+}
+
 TEST(Pipeline, RefusesToReplaceWhatIsNotAMapsDirectory) {
   test::TempDir temp;
   write_plane_scan(temp / "scan", {0, 0, 1});

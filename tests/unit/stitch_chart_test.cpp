@@ -218,7 +218,7 @@ TEST(StitchChart, AnUnreadableFileIsAnIoError) {
   const test::TempDir temp;
   auto chart = load_stitch_chart(temp / "absent.chart");
   ASSERT_FALSE(chart);
-  EXPECT_EQ(chart.error().kind, ErrorKind::io);
+  EXPECT_EQ(chart.error().kind, ErrorKind::bad_input);  // the user's to fix: exit 2
   EXPECT_NE(chart.error().describe().find("absent.chart"), std::string::npos);
 }
 

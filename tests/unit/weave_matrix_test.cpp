@@ -118,7 +118,7 @@ TEST(WeaveMatrix, ErrorsNameTheFileLineAndColumn) {
   const test::TempDir temp;
   auto absent = load_weave_matrix(temp / "absent.weave");
   ASSERT_FALSE(absent);
-  EXPECT_EQ(absent.error().kind, ErrorKind::io);
+  EXPECT_EQ(absent.error().kind, ErrorKind::bad_input);  // the user's to fix: exit 2
   EXPECT_NE(absent.error().describe().find("absent.weave"), std::string::npos);
 }
 

@@ -28,8 +28,14 @@ void print_maps_summary(const processing::ProcessSummary& summary) {
   const double total = px["total"].get<double>();
   const auto percent = [&](const char* key) { return 100.0 * px[key].get<double>() / total; };
   std::printf("maps: %s\n", summary.maps_directory.string().c_str());
-  std::printf("valid pixels: %.1f %% (shadowed %.1f %%, saturated %.1f %%, low signal %.1f %%)\n",
-              percent("valid"), percent("shadowed"), percent("saturated"), percent("low_signal"));
+  // Pixels the scan's mask leaves out count against the valid ones: name
+  // them when there are any, so that the parts account for the whole.
+  char outside[48] = "";
+  if (px["outside_mask"].get<double>() > 0)
+    std::snprintf(outside, sizeof outside, "outside mask %.1f %%, ", percent("outside_mask"));
+  std::printf("valid pixels: %.1f %% (%sshadowed %.1f %%, saturated %.1f %%, low signal %.1f %%)\n",
+              percent("valid"), outside, percent("shadowed"), percent("saturated"),
+              percent("low_signal"));
   std::printf("residual: mean %.5f of full scale\n", r["residual"]["mean"].get<double>());
   if (r.contains("height"))
     std::printf("height: range %.4f %s (%s)\n", r["height"]["range"].get<double>(),

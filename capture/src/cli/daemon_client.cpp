@@ -2,8 +2,35 @@
 
 #include <cstdlib>
 #include <httplib.h>
+#include <string_view>
 
 namespace psrig::capture::cli {
+
+Status check_daemon_url(const std::string& url, const std::string& option) {
+  constexpr std::string_view kScheme = "http://";
+  std::string_view rest(url);
+  bool ok = rest.starts_with(kScheme);
+  if (ok) {
+    rest.remove_prefix(kScheme.size());
+    if (rest.ends_with('/')) rest.remove_suffix(1);
+    auto colon = rest.rfind(':');
+    if (const auto bracket = rest.rfind(']');  // http://[::1]: the colons are the address's
+        bracket != std::string_view::npos && colon != std::string_view::npos && colon < bracket)
+      colon = std::string_view::npos;
+    const std::string_view host = rest.substr(0, colon);
+    ok = !host.empty() && host.find_first_of("/?#@ ") == std::string_view::npos;
+    if (ok && colon != std::string_view::npos) {
+      const std::string_view port = rest.substr(colon + 1);
+      ok = !port.empty() && port.size() <= 5 &&
+           port.find_first_not_of("0123456789") == std::string_view::npos &&
+           std::stoi(std::string(port)) <= 65535;
+    }
+  }
+  if (ok) return {};
+  return std::unexpected(bad_input(
+      url, option,
+      std::string("not a URL (expected http://HOST:PORT, e.g. ") + kDefaultDaemonUrl + ")"));
+}
 
 DaemonClient::DaemonClient(std::string url, std::string token) : url_(std::move(url)) {
   if (token.empty())

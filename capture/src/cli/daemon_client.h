@@ -18,6 +18,10 @@ namespace psrig::capture::cli {
 
 inline constexpr const char* kDefaultDaemonUrl = "http://127.0.0.1:8470";
 
+// Whether `url` is a daemon's address, http://HOST[:PORT]; the error names
+// `option` (--url, --remote) and says what is expected.
+[[nodiscard]] Status check_daemon_url(const std::string& url, const std::string& option);
+
 struct DaemonReply {
   int status = 0;
   nlohmann::json body;

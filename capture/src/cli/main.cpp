@@ -16,7 +16,8 @@ int main(int argc, char** argv) {
     if (signals_end_at_once()) _exit(128 + signal);
   });
   psrig::cli::SubcommandProgram program(
-      "psrig", "psrig: photometric-stereo capture rig for textile swatches", spdlog::level::warn);
+      "psrig", PSRIG_VERSION, "psrig: photometric-stereo capture rig for textile swatches",
+      spdlog::level::warn);
   CLI::App& app = program.app();
   return program.run(argc, argv,
                      {add_process_command(app), add_synth_command(app), add_scan_command(app),

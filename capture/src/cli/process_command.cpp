@@ -33,7 +33,7 @@ Command add_process_command(CLI::App& parent) {
       ->check(CLI::IsMember({"fc", "poisson", "none"}))
       ->capture_default_str();
   app->add_option("--threads", args->threads, "Worker threads (0: one per core)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(psrig::cli::thread_count())
       ->capture_default_str();
   app->add_flag("--reject", args->reject,
                 "With four or more lights, drop shadowed and saturated measurements per pixel");
@@ -47,6 +47,12 @@ Command add_process_command(CLI::App& parent) {
             options.solve.reject_outliers = args->reject;
             auto summary = processing::process_scan(args->scan, options);
             if (!summary) return report_error("process", summary.error());
+            // The solve drops a pixel's outliers only where enough lights remain.
+            if (const auto lights = summary->report["inputs"]["lights"].get<std::size_t>();
+                args->reject && lights < 4)
+              std::cerr << "psrig process: warning: --reject needs four or more lights; this scan "
+                           "has "
+                        << lights << ", so it rejects nothing\n";
             if (!args->quiet) print_maps_summary(*summary);
             return 0;
           }};

@@ -36,6 +36,8 @@ std::optional<double> number(const nlohmann::json& value) {
 }  // namespace
 
 int run_remote_scan(const RemoteScan& scan) {
+  if (auto url = check_daemon_url(scan.url, "--remote"); !url)
+    return report_error("scan", url.error());
   DaemonClient client(scan.url, scan.token);
   auto queued = client.post(
       "/v1/scans",

@@ -44,7 +44,7 @@ Command add_scan_command(CLI::App& parent) {
                                    "Capture only; process later with `psrig process`");
   auto* threads =
       app->add_option("--threads", args->threads, "Worker threads for processing (0: one per core)")
-          ->check(CLI::NonNegativeNumber);
+          ->check(psrig::cli::thread_count());
   app->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
   auto* remote = app->add_option("--remote", args->remote,
                                  "Scan on the psrigd at this URL (e.g. http://127.0.0.1:8470) "

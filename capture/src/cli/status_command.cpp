@@ -61,6 +61,8 @@ Command add_status_command(CLI::App& parent) {
   app->add_option("--token", args->token, "Bearer token (default: $PSRIG_TOKEN)");
   app->add_flag("--json", args->json, "Print the daemon's answer as JSON");
   return {app, [args] {
+            if (auto url = check_daemon_url(args->url, "--url"); !url)
+              return report_error("status", url.error());
             DaemonClient client(args->url, args->token);
             auto reply = client.get("/v1/status");
             if (!reply) return report_error("status", reply.error());

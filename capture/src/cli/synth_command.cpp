@@ -2,6 +2,7 @@
 // ground truth, for demos and tests before (or without) a rig.
 
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 #include "command.h"
@@ -21,6 +22,7 @@ struct SynthArgs {
   std::uint64_t seed = 1;
   double pixel_size = 0.025;
   int bits = 16;
+  bool quiet = false;
 };
 
 }  // namespace
@@ -29,7 +31,9 @@ Command add_synth_command(CLI::App& parent) {
   auto args = std::make_shared<SynthArgs>();
   CLI::App* app =
       parent.add_subcommand("synth", "Render a synthetic swatch scan with ground truth");
-  app->add_option("--out", args->out, "Scan directory to create (must not exist)")->required();
+  app->add_option("--out", args->out,
+                  "Scan directory to create (must not exist; missing parents are made)")
+      ->required();
   app->add_option("--pattern", args->pattern,
                   "Swatch: jersey, rib, garter (knitted), plain, twill (woven)")
       ->check(CLI::IsMember({"jersey", "rib", "garter", "plain", "twill"}))
@@ -50,6 +54,7 @@ Command add_synth_command(CLI::App& parent) {
   app->add_option("--bits", args->bits, "Bit depth of the frames")
       ->check(CLI::IsMember({8, 16}))
       ->capture_default_str();
+  app->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
 
   return {app, [args] {
             const auto size = parse_width_height(args->size);
@@ -69,11 +74,16 @@ Command add_synth_command(CLI::App& parent) {
             params.noise = args->noise;
             params.depth = args->bits == 8 ? CV_8U : CV_16U;
             const processing::Scan scan = make_synthetic_scan(params);
+            // As `psrig scan --out`: missing parents are made (write_scan
+            // still refuses an existing scan directory).
+            std::error_code ec;
+            std::filesystem::create_directories(std::filesystem::path(args->out).parent_path(), ec);
             if (auto ok = write_scan(scan, args->out); !ok)
               return report_error("synth", ok.error());
-            std::printf("scan: %s (%s, %dx%d, %.3f mm/px, slant %.0f deg, noise %g)\n",
-                        args->out.c_str(), args->pattern.c_str(), params.swatch.size.width,
-                        params.swatch.size.height, args->pixel_size, args->slant, args->noise);
+            if (!args->quiet)
+              std::printf("scan: %s (%s, %dx%d, %.3f mm/px, slant %.0f deg, noise %g)\n",
+                          args->out.c_str(), args->pattern.c_str(), params.swatch.size.width,
+                          params.swatch.size.height, args->pixel_size, args->slant, args->noise);
             return 0;
           }};
 }

@@ -29,7 +29,7 @@ double percentile(std::vector<double> values, double fraction) {
 }
 
 int bench(const BenchArgs& args) {
-  auto maps = load_swatch_maps(args.maps);
+  auto maps = load_maps_argument(args.maps);
   if (!maps) return report_error("bench", maps.error());
   auto size = parse_size(args.size, "--size");
   if (!size) return report_error("bench", size.error());
@@ -74,10 +74,10 @@ Command add_bench_command(CLI::App& parent) {
   app->add_option("maps", args->maps, "Maps directory")->required();
   app->add_option("--size", args->size, "Frame size WxH")->capture_default_str();
   app->add_option("--frames", args->frames, "Frames timed")
-      ->check(CLI::PositiveNumber)
+      ->check(psrig::cli::positive_number())
       ->capture_default_str();
   app->add_option("--warmup", args->warmup, "Frames drawn first and not timed")
-      ->check(CLI::NonNegativeNumber)
+      ->check(psrig::cli::non_negative_number())
       ->capture_default_str();
   add_samples_option(*app, args->samples);
   add_view_options(*app, args->view);

@@ -2,6 +2,7 @@
 // One `psrig-preview` subcommand, and what the subcommands share: frame
 // size parsing, the view and light options, and error reporting.
 
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -43,6 +44,10 @@ struct HeadlessCanvas {
   std::unique_ptr<OffscreenTarget> target;
 };
 [[nodiscard]] Result<HeadlessCanvas> open_headless_canvas(cv::Size size, int samples);
+
+// load_swatch_maps for a directory the user named: given a scan directory
+// instead of its maps, the error says which directory was meant.
+[[nodiscard]] Result<SwatchMaps> load_maps_argument(const std::filesystem::path& directory);
 
 // "1920x1080" -> the size; errors name the option.
 [[nodiscard]] Result<cv::Size> parse_size(const std::string& text, const std::string& option);

@@ -2,6 +2,7 @@
 
 #include "command.h"
 #include "psrig/base/width_height.h"
+#include "psrig/processing/scan_layout.h"
 
 namespace psrig::preview::cli {
 
@@ -46,6 +47,22 @@ SceneView scene_view(const ViewArgs& args) {
     view.camera_pitch_deg = 30;
   }
   return view;
+}
+
+Result<SwatchMaps> load_maps_argument(const std::filesystem::path& directory) {
+  namespace fs = std::filesystem;
+  auto maps = load_swatch_maps(directory);
+  if (maps || !fs::is_regular_file(directory / processing::scan_files::kDescription)) return maps;
+  Error error = std::move(maps.error());
+  const fs::path scan_maps = directory / processing::scan_files::kMapsDirectory;
+  if (fs::is_directory(scan_maps))
+    error.message += "; " + directory.string() + " is a scan directory: did you mean " +
+                     scan_maps.string() + "?";
+  else
+    error.message += "; " + directory.string() +
+                     " is a scan directory not yet processed: run `psrig process " +
+                     directory.string() + "` first";
+  return std::unexpected(std::move(error));
 }
 
 Result<cv::Size> parse_size(const std::string& text, const std::string& option) {

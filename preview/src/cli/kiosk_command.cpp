@@ -83,6 +83,10 @@ int run_kiosk(const KioskArgs& args) {
                         bad_input("", "MAPS_DIR", "give a maps directory or --catalogue DIR"));
   if (args.headless && args.out_dir.empty())
     return report_error("kiosk", bad_input("", "--out-dir", "--headless needs --out-dir DIR"));
+  // A path that is not there is a typo, not a scan still to come: say so
+  // rather than show an empty screen.
+  if (!args.maps.empty() && !fs::is_directory(args.maps))
+    return report_error("kiosk", bad_input(args.maps, "MAPS_DIR", "not a directory"));
   if (!args.catalogue.empty() && !fs::is_directory(args.catalogue))
     return report_error("kiosk", bad_input(args.catalogue, "--catalogue", "not a directory"));
   stop_on_signals();
@@ -149,15 +153,15 @@ Command add_kiosk_command(CLI::App& parent) {
                   "Directory of scans: show the newest, switch when a new one lands");
   app->add_flag("--headless", args->headless, "Draw offscreen and write PNG frames (tests)");
   app->add_option("--frames", args->frames, "Stop after this many frames (0: run until a signal)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(psrig::cli::non_negative_number())
       ->capture_default_str();
   app->add_option("--out-dir", args->out_dir, "Headless: where the frames go (frame_NNNNNN.png)");
   app->add_option("--size", args->size, "Headless: frame size WxH")->capture_default_str();
   app->add_option("--fps", args->fps, "Headless: frames per second of the motion's clock")
-      ->check(CLI::PositiveNumber)
+      ->check(psrig::cli::positive_number())
       ->capture_default_str();
   app->add_option("--poll-ms", args->poll_ms, "How often to look for a new scan")
-      ->check(CLI::PositiveNumber)
+      ->check(psrig::cli::positive_number())
       ->capture_default_str();
   add_samples_option(*app, args->samples);
   add_kms_options(*app, args->kms);

@@ -55,7 +55,7 @@ Result<std::optional<Eigen::Vector3f>> yarn_colour(const KnitArgs& args) {
     return colour;
   }
   if (!args.from_scan.empty()) {
-    auto maps = load_swatch_maps(args.from_scan);
+    auto maps = load_maps_argument(args.from_scan);
     if (!maps) return std::unexpected(maps.error());
     const cv::Scalar mean = cv::mean(maps->albedo);
     return Eigen::Vector3f(static_cast<float>(mean[0]), static_cast<float>(mean[1]),
@@ -190,7 +190,7 @@ Command add_knit_command(CLI::App& parent) {
       ->capture_default_str();
   app->add_option("--pitch", args->pitch, "Camera pitch in degrees")->capture_default_str();
   app->add_option("--distance", args->distance, "Camera distance in mm (0: fit the cloth)")
-      ->check(CLI::NonNegativeNumber)
+      ->check(psrig::cli::non_negative_number())
       ->capture_default_str();
   app->add_option("--light-tilt", args->light_tilt, "Light tilt in degrees from +x toward +y")
       ->capture_default_str();
@@ -208,7 +208,7 @@ Command add_knit_command(CLI::App& parent) {
       "--bench", args->bench,
       "Time the yarn update and the frames at 1 K, 10 K and 50 K stitches; prints JSON");
   app->add_option("--frames", args->frames, "Frames timed per size (--bench)")
-      ->check(CLI::PositiveNumber)
+      ->check(psrig::cli::positive_number())
       ->capture_default_str();
   out->excludes(timed);
   return {app, [args, out] {

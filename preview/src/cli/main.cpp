@@ -8,8 +8,9 @@
 
 int main(int argc, char** argv) {
   using namespace psrig::preview::cli;
-  psrig::cli::SubcommandProgram program(
-      "psrig-preview", "psrig-preview: the GLES preview of a scanned swatch", spdlog::level::info);
+  psrig::cli::SubcommandProgram program("psrig-preview", PSRIG_VERSION,
+                                        "psrig-preview: the GLES preview of a scanned swatch",
+                                        spdlog::level::info);
   CLI::App& app = program.app();
   return program.run(argc, argv,
                      {add_render_command(app), add_kiosk_command(app), add_bench_command(app),

@@ -17,7 +17,7 @@ struct RenderArgs {
 };
 
 int render(const RenderArgs& args) {
-  auto maps = load_swatch_maps(args.maps);
+  auto maps = load_maps_argument(args.maps);
   if (!maps) return report_error("render", maps.error());
   const SceneView view = scene_view(args.view);
   cv::Size size = view.kind == ViewKind::flat ? maps->size() : cv::Size(1280, 960);

@@ -31,17 +31,25 @@ struct Command {
 // Prints "PROGRAM COMMAND: error: ..." to stderr and returns the exit code.
 int report_error(std::string_view program, std::string_view command, const Error& error);
 
+// Option checks whose messages say the range in a few words (CLI11's
+// NonNegativeNumber and PositiveNumber print the largest double there is).
+[[nodiscard]] CLI::Validator non_negative_number();
+[[nodiscard]] CLI::Validator positive_number();
+// --threads: a whole number, 0 (one per core) or more.
+[[nodiscard]] CLI::Validator thread_count();
+
 // A program of subcommands, exactly one of which runs. -v/--verbose logs at
-// debug level, else at quiet_level.
+// debug level, else at quiet_level; --version prints "NAME VERSION" and
+// exits 0.
 class SubcommandProgram {
  public:
-  SubcommandProgram(std::string name, std::string description,
+  SubcommandProgram(std::string name, std::string_view version, std::string description,
                     spdlog::level::level_enum quiet_level);
 
   // Where the subcommands are added.
   [[nodiscard]] CLI::App& app() { return app_; }
 
-  // Help is exit 0 and a usage error 2 (CLI11 prints both); an exception
+  // Help and --version are exit 0 and a usage error 2 (CLI11 prints both); an exception
   // that escapes a command is "PROGRAM: internal error: ..." and exit 1.
   int run(int argc, char** argv, const std::vector<Command>& commands);
 
