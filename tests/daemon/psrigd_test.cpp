@@ -28,9 +28,9 @@
 namespace psrig::test {
 namespace {
 
-// One raw HTTP exchange, byte for byte as given (no client tidies the path):
-// the status code and the whole answer.
-std::pair<int, std::string> raw_http(int port, const std::string& request) {
+// A TCP connection to the daemon on loopback whose reads and writes give
+// up after 5 s; -1 when it cannot connect.
+int connect_loopback(int port) {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
   sockaddr_in address{};
   address.sin_family = AF_INET;
@@ -38,10 +38,24 @@ std::pair<int, std::string> raw_http(int port, const std::string& request) {
   address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   timeval timeout{5, 0};
   ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
+  ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &timeout, sizeof timeout);
   if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
     ::close(fd);
-    return {-1, ""};
+    return -1;
   }
+  return fd;
+}
+
+// The status code of an HTTP/1.1 answer, -1 for none.
+int status_of(const std::string& answer) {
+  return answer.starts_with("HTTP/1.1 ") ? std::stoi(answer.substr(9, 3)) : -1;
+}
+
+// One raw HTTP exchange, byte for byte as given (no client tidies the path):
+// the status code and the whole answer.
+std::pair<int, std::string> raw_http(int port, const std::string& request) {
+  const int fd = connect_loopback(port);
+  if (fd < 0) return {-1, ""};
   (void)!::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
   std::string answer;
   char buffer[4096];
@@ -56,29 +70,21 @@ std::pair<int, std::string> raw_http(int port, const std::string& request) {
   for (ssize_t n; !complete() && (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
     answer.append(buffer, static_cast<std::size_t>(n));
   ::close(fd);
-  int status = -1;
-  if (answer.starts_with("HTTP/1.1 ")) status = std::stoi(answer.substr(9, 3));
-  return {status, answer};
+  return {status_of(answer), answer};
 }
 
 // `request` on a raw socket, then everything the server sends until it
 // closes the connection (or 5 s pass).
 std::string raw_http_until_closed(int port, const std::string& request) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(static_cast<std::uint16_t>(port));
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  timeval timeout{5, 0};
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
   std::string answer;
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) == 0) {
+  const int fd = connect_loopback(port);
+  if (fd >= 0) {
     (void)!::send(fd, request.data(), request.size(), MSG_NOSIGNAL);
     char buffer[4096];
     for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
       answer.append(buffer, static_cast<std::size_t>(n));
+    ::close(fd);
   }
-  ::close(fd);
   return answer;
 }
 
@@ -87,18 +93,8 @@ std::string raw_http_until_closed(int port, const std::string& request) {
 // closes. The status code (-1 for none) and the whole answer.
 std::pair<int, std::string> chunked_http(int port, const std::string& request, std::size_t total,
                                          std::size_t chunk) {
-  const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
-  sockaddr_in address{};
-  address.sin_family = AF_INET;
-  address.sin_port = htons(static_cast<std::uint16_t>(port));
-  address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
-  timeval timeout{5, 0};
-  ::setsockopt(fd, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-  ::setsockopt(fd, SOL_SOCKET, SO_SNDTIMEO, &timeout, sizeof timeout);
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
-    ::close(fd);
-    return {-1, ""};
-  }
+  const int fd = connect_loopback(port);
+  if (fd < 0) return {-1, ""};
   const auto send_all = [fd](const std::string& data) {
     for (std::size_t sent = 0; sent < data.size();) {
       const ssize_t n = ::send(fd, data.data() + sent, data.size() - sent, MSG_NOSIGNAL);
@@ -119,9 +115,7 @@ std::pair<int, std::string> chunked_http(int port, const std::string& request, s
   for (ssize_t n; (n = ::recv(fd, buffer, sizeof buffer, 0)) > 0;)
     answer.append(buffer, static_cast<std::size_t>(n));
   ::close(fd);
-  int status = -1;
-  if (answer.starts_with("HTTP/1.1 ")) status = std::stoi(answer.substr(9, 3));
-  return {status, answer};
+  return {status_of(answer), answer};
 }
 
 // A memory figure of process `pid` from /proc/PID/status, in kB: `field`
