@@ -15,6 +15,7 @@
 
 #include "psrig/base/log.h"
 #include "psrig/processing/scan_layout.h"
+#include "fronted_server.h"
 
 namespace psrig::daemon {
 namespace {
@@ -213,12 +214,29 @@ HttpApiOptions http_api_options(const config::DaemonConfig& daemon) {
   return options;
 }
 
+namespace {
+
+// What the front serves on threads of their own: switching the LEDs off,
+// and seeing that they are.
+bool is_safety_route(std::string_view method, std::string_view path) {
+  return (method == "POST" && path == kLightsOffRoute) || (method == "GET" && path == "/v1/status");
+}
+
+ServingLimits serving_limits(const HttpApiOptions& options) {
+  ServingLimits limits;
+  limits.general_threads = std::max(2, options.threads);
+  return limits;
+}
+
+}  // namespace
+
 struct HttpApi::Impl {
-  Impl(ScanService& s, HttpApiOptions o) : service(s), options(std::move(o)) {}
+  Impl(ScanService& s, HttpApiOptions o)
+      : service(s), options(std::move(o)), server(serving_limits(options), is_safety_route) {}
 
   ScanService& service;
   const HttpApiOptions options;
-  httplib::Server server;
+  FrontedServer server;
   std::thread listener;
   std::atomic<bool> stopping{false};
   std::atomic<int> event_streams{0};
@@ -639,13 +657,7 @@ Result<std::unique_ptr<HttpApi>> HttpApi::start(ScanService& service, HttpApiOpt
         "listening on " + where + " reaches other machines; set a token or listen on 127.0.0.1"));
   auto impl = std::make_unique<Impl>(service, options);
   auto& server = impl->server;
-  const int threads = std::max(2, options.threads);
-  server.new_task_queue = [threads] { return new httplib::ThreadPool(threads); };
   server.set_payload_max_length(options.max_body_bytes);
-  server.set_read_timeout(std::chrono::seconds(5));
-  server.set_write_timeout(std::chrono::seconds(5));
-  server.set_keep_alive_timeout(5);
-  server.set_keep_alive_max_count(100);
   impl->routes();
   if (!server.bind_to_port(options.address, options.port))
     return std::unexpected(
@@ -664,6 +676,7 @@ void HttpApi::stop() {
   if (!impl_ || impl_->stopping.exchange(true)) return;
   impl_->server.stop();
   if (impl_->listener.joinable()) impl_->listener.join();
+  impl_->server.stop_serving();
 }
 
 int HttpApi::port() const {

@@ -28,7 +28,8 @@ struct HttpApiOptions {
   int port = 8470;
   std::string token;  // empty: no authentication (loopback only)
   std::size_t max_body_bytes = 64 * 1024;
-  int threads = 8;            // requests served at once, event streams included
+  int threads = 8;  // general requests served at once, event streams included (lights-off
+                    // and status have threads of their own: fronted_server.h)
   int max_event_streams = 4;  // so that listeners cannot take every thread
 };
 
