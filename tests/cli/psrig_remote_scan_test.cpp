@@ -2,6 +2,7 @@
 // `psrig scan --config` on the same rig: the same steps, the same summary,
 // the same exit codes.
 
+#include <algorithm>
 #include <regex>
 #include <sstream>
 #include <string>
@@ -87,18 +88,20 @@ TEST(PsrigCliRemote, ShowsEveryStepAndTheSummaryOfALocalScan) {
   // Every step of the local scan, in its order: the dark frame, each
   // light, writing, processing (psrigd adds "opening the rig").
   const auto local_steps = steps_of(local.err);
-  for (const std::string step : {"dark frame", "light 1 of 3", "light 2 of 3", "light 3 of 3",
-                                 "writing", "processing"})
+  for (const std::string step :
+       {"dark frame", "light 1 of 3", "light 2 of 3", "light 3 of 3", "writing", "processing"})
     EXPECT_TRUE(in_order({step}, local_steps)) << step << " missing from\n" << local.err;
   const auto remote_steps = steps_of(remote.err);
-  EXPECT_TRUE(in_order(local_steps, remote_steps))
-      << "local:\n" << joined(local_steps) << "remote:\n" << joined(remote_steps);
+  EXPECT_TRUE(in_order(local_steps, remote_steps)) << "local:\n"
+                                                   << joined(local_steps) << "remote:\n"
+                                                   << joined(remote_steps);
   EXPECT_TRUE(contains(remote.err, "scan 1 queued on " + daemon.url())) << remote.err;
   EXPECT_TRUE(contains(remote.err, "scan 1 done")) << remote.err;
 
   // The same summary, line for line, but for paths and numbers.
   const auto local_summary = shapes(local.out);
-  EXPECT_EQ(shapes(remote.out), local_summary) << "local:\n" << local.out << "remote:\n"
+  EXPECT_EQ(shapes(remote.out), local_summary) << "local:\n"
+                                               << local.out << "remote:\n"
                                                << remote.out;
   for (const std::string line : {"scan: PATH (N frames kept, N skipped, N ms capturing)",
                                  "maps: PATH", "residual: mean N of full scale", "time: N ms"})
@@ -141,16 +144,17 @@ TEST(PsrigCliRemote, AFailedScanExitsAsALocalOneWithTheDaemonsCodeAndMessage) {
                      {"readout_us = 15000", "readout_us = 15000\nframe_interval_us = 1000000"}});
   Daemon daemon(config, port, temp / "psrigd.log");
   ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
-  auto local = run_program("psrig", {"scan", "--config", config.string(), "--out",
-                                     (temp / "local").string()});
+  auto local = run_program(
+      "psrig", {"scan", "--config", config.string(), "--out", (temp / "local").string()});
   auto remote = run_program("psrig", {"scan", "--remote", daemon.url()});
   EXPECT_EQ(local.exit_code, 1) << local.err;
   EXPECT_EQ(remote.exit_code, local.exit_code) << remote.err;
   EXPECT_TRUE(contains(local.err, "camera.timeout_ms")) << local.err;
   EXPECT_TRUE(contains(remote.err, "psrig scan: error: scan 1 failed (camera): ")) << remote.err;
   EXPECT_TRUE(contains(remote.err, "camera.timeout_ms")) << remote.err;
-  EXPECT_TRUE(in_order(steps_of(local.err), steps_of(remote.err)))
-      << "local:\n" << local.err << "remote:\n" << remote.err;
+  EXPECT_TRUE(in_order(steps_of(local.err), steps_of(remote.err))) << "local:\n"
+                                                                   << local.err << "remote:\n"
+                                                                   << remote.err;
   EXPECT_EQ(remote.out, "");
   EXPECT_EQ(daemon.signal_and_wait(SIGTERM), 0) << daemon.log();
 }

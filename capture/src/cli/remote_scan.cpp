@@ -248,9 +248,9 @@ int run_remote_scan(const RemoteScan& scan) {
       try {
         print_scan_summary(remote_summary(client, path, entry->body));
       } catch (const nlohmann::json::exception& e) {
-        return report_error("scan", io_error(scan.url, "scan " + std::to_string(id) +
-                                                           ": a report this psrig cannot read (" +
-                                                           e.what() + ")"));
+        return report_error(
+            "scan", io_error(scan.url, "scan " + std::to_string(id) +
+                                           ": a report this psrig cannot read (" + e.what() + ")"));
       }
       return 0;
     }
