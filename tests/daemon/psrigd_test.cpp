@@ -887,7 +887,7 @@ TEST(Psrigd, PsrigStatusAndRemoteScan) {
   auto scan = run_program("psrig", {"scan", "--remote", daemon.url(), "--sample-id", "R-1",
                                     "--description", "remote", "--tag", "a", "--tag", "b"});
   ASSERT_EQ(scan.exit_code, 0) << scan.err;
-  EXPECT_TRUE(contains(scan.out, "scan 1: done")) << scan.out;
+  EXPECT_TRUE(contains(scan.err, "scan 1 done")) << scan.err;
   EXPECT_TRUE(contains(scan.out, "maps: ")) << scan.out;
   EXPECT_TRUE(contains(scan.err, "queued")) << scan.err;
   const auto entry = daemon.get("/v1/scans/1");

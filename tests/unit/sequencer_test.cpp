@@ -181,6 +181,11 @@ TEST(ScanSequencer, FramesExposedAcrossASwitchAreNeverUsed) {
   EXPECT_EQ(timing.frames_kept, 8);
   EXPECT_GE(timing.frames_skipped, 3);  // at least one straddles each switch
   EXPECT_EQ(scan->description.document["capture"]["frames_skipped_stale"], timing.frames_skipped);
+  // What `psrig scan --remote` prints from the report, as `psrig scan` from the timing.
+  const auto& facts = scan->description.document["capture"];
+  EXPECT_EQ(facts["frames_kept"], timing.frames_kept);
+  EXPECT_EQ(facts["frames_skipped"], timing.frames_skipped);
+  EXPECT_NEAR(facts["capture_ms"].get<double>(), timing.total.count(), 0.05);
   expect_all_off_and_never_two_on(rig.lights);
 }
 

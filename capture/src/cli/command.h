@@ -1,6 +1,7 @@
 #pragma once
 // One `psrig` subcommand: its CLI11 definition and what runs when chosen.
 
+#include <filesystem>
 #include <optional>
 #include <string>
 
@@ -32,6 +33,24 @@ bool signals_end_at_once();
 
 // The maps summary `process` and `scan` print.
 void print_maps_summary(const processing::ProcessSummary& summary);
+
+// What `psrig scan` prints once a scan is done, on the rig here or on psrigd
+// (`--remote`): the scan directory, its frames and capture time, then the
+// maps summary.
+struct ScanSummary {
+  std::filesystem::path directory;
+  // Unknown (a scan.json from an older writer): left out of the summary.
+  std::optional<int> frames_kept;
+  std::optional<int> frames_skipped;  // stale or discarded
+  std::optional<double> capture_ms;   // camera start to the last frame
+  std::optional<processing::ProcessSummary> maps;
+};
+
+// The frames and capture time from scan.json's `capture` facts (also the
+// report's `inputs.capture`), as the sequencer wrote them.
+void add_capture_facts(ScanSummary& summary, const nlohmann::json& capture);
+
+void print_scan_summary(const ScanSummary& summary);
 
 // Loads --config, printing its warnings; errors as report_error would.
 std::optional<config::RigConfig> load_config_or_report(const std::string& command,

@@ -50,6 +50,28 @@ void print_maps_summary(const processing::ProcessSummary& summary) {
   std::printf("time: %.0f ms\n", r["timings_ms"]["total"].get<double>());
 }
 
+void add_capture_facts(ScanSummary& summary, const nlohmann::json& capture) {
+  if (!capture.is_object()) return;
+  const auto integer = [&](const char* key) -> std::optional<int> {
+    if (!capture.contains(key) || !capture[key].is_number_integer()) return std::nullopt;
+    return capture[key].get<int>();
+  };
+  summary.frames_kept = integer("frames_kept");
+  summary.frames_skipped = integer("frames_skipped");
+  if (capture.contains("capture_ms") && capture["capture_ms"].is_number())
+    summary.capture_ms = capture["capture_ms"].get<double>();
+}
+
+void print_scan_summary(const ScanSummary& summary) {
+  if (summary.frames_kept && summary.frames_skipped && summary.capture_ms)
+    std::printf("scan: %s (%d frames kept, %d skipped, %.0f ms capturing)\n",
+                summary.directory.string().c_str(), *summary.frames_kept, *summary.frames_skipped,
+                *summary.capture_ms);
+  else
+    std::printf("scan: %s\n", summary.directory.string().c_str());
+  if (summary.maps) print_maps_summary(*summary.maps);
+}
+
 std::optional<config::RigConfig> load_config_or_report(const std::string& command,
                                                        const std::string& file, int& exit_code) {
   std::vector<std::string> warnings;

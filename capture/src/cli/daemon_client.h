@@ -3,6 +3,8 @@
 // `scan --remote`): its URL, the bearer token, and JSON requests whose
 // failures come back as Errors that say what to check.
 
+#include <cstdint>
+#include <functional>
 #include <memory>
 #include <string>
 
@@ -27,6 +29,13 @@ struct DaemonReply {
   nlohmann::json body;
 };
 
+// One server-sent event of GET /v1/events.
+struct DaemonEvent {
+  std::uint64_t sequence = 0;  // its `id:`, for Last-Event-ID
+  std::string type;            // "progress", "done", "error"
+  nlohmann::json data;         // carries the scan's "id"
+};
+
 class DaemonClient {
  public:
   // `token` empty: $PSRIG_TOKEN, if set.
@@ -40,6 +49,17 @@ class DaemonClient {
   // --token.
   [[nodiscard]] Result<DaemonReply> get(const std::string& path);
   [[nodiscard]] Result<DaemonReply> post(const std::string& path, const nlohmann::json& body);
+
+  // Follows GET /v1/events on this client's connection: `on_open` once
+  // psrigd has answered (every event it publishes from then on comes),
+  // then each event as it arrives (those after `after` first, when psrigd
+  // still holds them), until `on_event` returns false (then success),
+  // stop() is called, or the stream fails or ends (then an error saying
+  // why: no daemon, too many streams, the daemon stopping).
+  [[nodiscard]] Status follow_events(std::uint64_t after, const std::function<void()>& on_open,
+                                     const std::function<bool(DaemonEvent)>& on_event);
+  // From another thread: ends the request in progress (follow_events).
+  void stop();
 
   [[nodiscard]] const std::string& url() const { return url_; }
 

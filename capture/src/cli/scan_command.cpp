@@ -85,12 +85,10 @@ Command add_scan_command(CLI::App& parent) {
               const int code = report_error("scan", outcome.error());
               return firmware_host::stop_requested() ? psrig::cli::exit_interrupted : code;
             }
-            if (!args->quiet) {
-              std::printf("scan: %s (%d frames kept, %d skipped, %.0f ms capturing)\n",
-                          outcome->directory.string().c_str(), outcome->timing.frames_kept,
-                          outcome->timing.frames_skipped, outcome->timing.total.count());
-              if (outcome->maps) print_maps_summary(*outcome->maps);
-            }
+            if (!args->quiet)
+              print_scan_summary({outcome->directory, outcome->timing.frames_kept,
+                                  outcome->timing.frames_skipped, outcome->timing.total.count(),
+                                  outcome->maps});
             return 0;
           }};
 }
