@@ -376,15 +376,19 @@ WHERE id = ?)sql");
 Status Catalogue::mark_failed(std::int64_t id, ScanStatus status, ScanErrorCode code,
                               const std::string& message, bool keep_scan_directory) {
   const Outcome outcome{status, code, message, keep_scan_directory, utc_timestamp_now()};
-  flush_pending();
+  // Under the flush's lock, so that no older end of this scan, being
+  // flushed, lands after this one.
+  std::lock_guard flushing(flush_mutex_);
+  (void)flush_pending_locked();
   auto written = write_with_room([&] { return write_outcome(id, outcome); });
-  if (written) return written;
+  std::lock_guard lock(pending_mutex_);
+  if (written) {
+    pending_.erase(id);  // an older end still waiting must not overwrite this one
+    return written;
+  }
   // The scan has ended whatever the disk says: its end waits in memory for
   // the next write rather than leaving the row `queued` or `running`.
-  {
-    std::lock_guard lock(pending_mutex_);
-    pending_[id] = outcome;
-  }
+  pending_[id] = outcome;
   Error error = written.error();
   error.message += "; scan " + std::to_string(id) + " is recorded " + to_string(status) +
                    " as soon as the catalogue can write";
@@ -409,6 +413,10 @@ Status Catalogue::write_outcome(std::int64_t id, const Outcome& outcome) {
 
 std::size_t Catalogue::flush_pending() {
   std::lock_guard flushing(flush_mutex_);
+  return flush_pending_locked();
+}
+
+std::size_t Catalogue::flush_pending_locked() {
   std::map<std::int64_t, Outcome> pending;
   {
     std::lock_guard lock(pending_mutex_);

@@ -156,6 +156,8 @@ class Catalogue {
     bool operator==(const Outcome&) const = default;
   };
   [[nodiscard]] Status write_outcome(std::int64_t id, const Outcome& outcome);
+  // flush_pending() with flush_mutex_ held.
+  std::size_t flush_pending_locked();
   // `entry` as its pending outcome says, if it has one.
   void overlay_pending(CatalogueEntry& entry) const;
   void hold_reserve();
@@ -174,8 +176,9 @@ class Catalogue {
   bool reserve_held_ = false;
   // Scans' ends the disk refused, by id (kept in memory: nowhere else to
   // keep them while the disk is full; a handful at most, as a full disk
-  // refuses new scans). flush_mutex_ is held while they are written, so
-  // each goes once and in order, and is taken before mutex_, never after;
+  // refuses new scans). flush_mutex_ is held while they are written and
+  // while mark_failed() writes one, so each goes once and none overwrites
+  // a newer one; it is taken before the other locks, never after.
   // pending_mutex_ guards the map alone, briefly.
   std::mutex flush_mutex_;
   mutable std::mutex pending_mutex_;
