@@ -50,7 +50,8 @@ TEST(SwitchLogFile, TheSimLightsAppendEverySwitchAsALine) {
   auto read = read_switch_log_file(temp / "switches.log");
   ASSERT_TRUE(read) << read.error().describe();
   ASSERT_EQ(read->size(), 4U);
-  const std::vector<std::pair<int, bool>> expected = {{1, true}, {-1, false}, {2, true}, {-1, false}};
+  const std::vector<std::pair<int, bool>> expected = {
+      {1, true}, {-1, false}, {2, true}, {-1, false}};
   for (std::size_t i = 0; i < expected.size(); ++i) {
     const auto& s = (*read)[i];
     EXPECT_EQ(s.event.channel, expected[i].first) << i;

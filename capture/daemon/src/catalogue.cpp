@@ -172,11 +172,12 @@ auto Catalogue::write_with_room(Write&& write) -> decltype(write()) {
   }
   std::error_code ec;
   const auto space = fs::space(root_, ec);
-  return std::unexpected(io_error(
-      root_ / kFileName, "the disk is full (" + std::to_string(ec ? 0 : space.available >> 10) +
-                             " KiB free), the catalogue cannot record scans; delete or move old "
-                             "scans, or point storage.root at a larger disk")
-                             .with(ErrorCode::disk_full));
+  return std::unexpected(
+      io_error(root_ / kFileName,
+               "the disk is full (" + std::to_string(ec ? 0 : space.available >> 10) +
+                   " KiB free), the catalogue cannot record scans; delete or move old "
+                   "scans, or point storage.root at a larger disk")
+          .with(ErrorCode::disk_full));
 }
 
 void Catalogue::hold_reserve() {
@@ -427,8 +428,9 @@ std::size_t Catalogue::flush_pending_locked() {
   // be refused too.
   for (const auto& [id, outcome] : pending) {
     if (!write_with_room([&] { return write_outcome(id, outcome); })) break;
-    logger("catalogue")->info("scan {}: recorded {} now that the catalogue can write", id,
-                              to_string(outcome.status));
+    logger("catalogue")
+        ->info("scan {}: recorded {} now that the catalogue can write", id,
+               to_string(outcome.status));
     std::lock_guard lock(pending_mutex_);
     if (const auto it = pending_.find(id); it != pending_.end() && it->second == outcome)
       pending_.erase(it);
