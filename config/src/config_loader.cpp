@@ -321,6 +321,17 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
       registers->finish();
     }
     modbus->finish();
+
+    auto sim_lights = sub(*lights, "sim");
+    if (!sim_lights) return std::unexpected(sim_lights.error());
+    std::string switch_log;
+    PSRIG_TRY(sim_lights->get("switch_log", switch_log));
+    // Relative to the configuration file, as storage.root is.
+    if (!switch_log.empty())
+      c.lights.sim.switch_log = fs::path(switch_log).is_absolute()
+                                    ? fs::path(switch_log)
+                                    : (file.parent_path() / switch_log).lexically_normal();
+    sim_lights->finish();
   }
   lights->finish();
   if (!c.lights.intensity.empty() &&

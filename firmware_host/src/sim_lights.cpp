@@ -1,28 +1,40 @@
 #include "psrig/firmware_host/sim_lights.h"
 
 #include "psrig/firmware_host/simulated_leds.h"
+#include "psrig/firmware_host/switch_log_file.h"
 
 namespace psrig::firmware_host {
 namespace {
 
 class SimLights final : public LightController {
  public:
-  SimLights(int channels, std::vector<double> intensity, std::shared_ptr<SimulatedLeds> leds)
-      : channels_(channels), intensity_(std::move(intensity)), leds_(std::move(leds)) {
+  SimLights(int channels, std::vector<double> intensity, std::shared_ptr<SimulatedLeds> leds,
+            std::unique_ptr<SwitchLogFile> file)
+      : channels_(channels),
+        intensity_(std::move(intensity)),
+        leds_(std::move(leds)),
+        file_(std::move(file)) {
     intensity_.resize(channels_, 1.0);
   }
 
   int channel_count() const override { return channels_; }
 
   Status turn_on(int channel) override {
-    leds_->set_led(channel, true, intensity_[channel]);
+    const auto now = Clock::now();
+    leds_->set_led(channel, true, intensity_[channel], now);
     log_.record(channel, true);
+    if (file_) file_->record(channel, true, now);
     return {};
   }
 
   Status all_off() override {
-    leds_->all_off();
+    const auto now = Clock::now();
+    leds_->all_off(now);
     log_.record(-1, false);
+    // Also from a process that never switched one on (`psrig lights
+    // --off` after a crash): the file is the simulated LEDs' only memory
+    // across processes.
+    if (file_) file_->record(-1, false, now);
     return {};
   }
 
@@ -41,13 +53,20 @@ class SimLights final : public LightController {
   int channels_;
   std::vector<double> intensity_;
   std::shared_ptr<SimulatedLeds> leds_;
+  std::unique_ptr<SwitchLogFile> file_;  // lights.sim.switch_log, if set
 };
 
 }  // namespace
 
-std::unique_ptr<LightController> open_sim_lights(const config::RigConfig& config) {
+Result<std::unique_ptr<LightController>> open_sim_lights(const config::RigConfig& config) {
+  std::unique_ptr<SwitchLogFile> file;
+  if (!config.lights.sim.switch_log.empty()) {
+    auto opened = SwitchLogFile::open(config.lights.sim.switch_log);
+    if (!opened) return std::unexpected(opened.error());
+    file = std::move(*opened);
+  }
   return std::make_unique<SimLights>(config.lights.channels, config.lights.intensity,
-                                     SimulatedLeds::attach(config));
+                                     SimulatedLeds::attach(config), std::move(file));
 }
 
 }  // namespace psrig::firmware_host

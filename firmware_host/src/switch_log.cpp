@@ -7,8 +7,12 @@
 namespace psrig::firmware_host {
 
 void SwitchLog::record(int channel, bool on) {
+  record({Clock::now(), channel, on});
+}
+
+void SwitchLog::record(const SwitchEvent& event) {
   std::lock_guard lock(mutex_);
-  events_.push_back({Clock::now(), channel, on});
+  events_.push_back(event);
 }
 
 std::vector<SwitchEvent> SwitchLog::events() const {

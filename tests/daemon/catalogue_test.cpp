@@ -314,6 +314,107 @@ TEST(Catalogue, RecoveryCleansAnInterruptedScanAndNothingElse) {
   EXPECT_TRUE(again->removed_leftovers.empty());
 }
 
+// The disk as SQLite sees it when full.
+Error disk_full() {
+  return io_error("catalogue.sqlite", "database or disk is full").with(ErrorCode::disk_full);
+}
+
+// What the database file says, read by a second connection: what the
+// process would leave behind if it died now.
+std::optional<daemon::CatalogueEntry> on_disk(const fs::path& root, std::int64_t id) {
+  auto reader = open(root);
+  if (!reader) return std::nullopt;
+  auto entry = reader->get(id);
+  EXPECT_TRUE(entry) << entry.error().describe();
+  return entry ? *entry : std::nullopt;
+}
+
+// A scan's end the disk refuses is kept and shown at once, then written at
+// the next write (or flush) once the disk has room: no row stays `queued`.
+TEST(Catalogue, AnEndTheDiskRefusesIsKeptThenWrittenWhenItCan) {
+  TempDir temp;
+  auto catalogue = open(temp.path());
+  ASSERT_TRUE(catalogue);
+  const auto first = add(*catalogue, "FULL-1");
+  const auto second = add(*catalogue, "FULL-2");
+  catalogue->inject_write_failure(disk_full());
+
+  auto refused = catalogue->mark_failed(first, ScanStatus::failed, ScanErrorCode::storage,
+                                        "not enough free space for a scan", false);
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().message.find("disk is full"), std::string::npos)
+      << refused.error().describe();
+  EXPECT_NE(refused.error().message.find("as soon as the catalogue can write"), std::string::npos)
+      << refused.error().describe();
+  EXPECT_EQ(catalogue->pending_count(), 1U);
+  // The daemon tells the truth meanwhile; the file still says queued.
+  auto shown = catalogue->get(first);
+  ASSERT_TRUE(shown && *shown);
+  EXPECT_EQ((*shown)->status, ScanStatus::failed);
+  EXPECT_EQ((*shown)->error_code, ScanErrorCode::storage);
+  EXPECT_FALSE((*shown)->finished.empty());
+  EXPECT_EQ(search(*catalogue, query([](auto& q) { q.status = ScanStatus::queued; })),
+            std::vector<std::int64_t>{second});
+  EXPECT_EQ(on_disk(temp.path(), first)->status, ScanStatus::queued);
+  // Still full: a flush changes nothing, and a cancel is kept too.
+  EXPECT_EQ(catalogue->flush_pending(), 1U);
+  EXPECT_FALSE(catalogue->mark_failed(second, ScanStatus::aborted, ScanErrorCode::aborted,
+                                      "cancelled before it started", false));
+  EXPECT_EQ(catalogue->pending_count(), 2U);
+
+  // Room again: the next write writes them first.
+  catalogue->inject_write_failure(std::nullopt);
+  const auto third = add(*catalogue, "AFTER");
+  EXPECT_EQ(catalogue->pending_count(), 0U);
+  const auto written = on_disk(temp.path(), first);
+  ASSERT_TRUE(written);
+  EXPECT_EQ(written->status, ScanStatus::failed);
+  EXPECT_EQ(written->error_code, ScanErrorCode::storage);
+  EXPECT_EQ(written->error_message, "not enough free space for a scan");
+  EXPECT_EQ(written->finished, (*shown)->finished) << "the time it ended, not when it was written";
+  EXPECT_EQ(on_disk(temp.path(), second)->status, ScanStatus::aborted);
+  EXPECT_EQ(search(*catalogue, query([](auto& q) { q.status = ScanStatus::queued; })),
+            std::vector<std::int64_t>{third});
+}
+
+// The process ends before the disk has room: its pending ends die with it,
+// and the next start marks those rows failed, saying why. A disk still full
+// at that start does not keep the daemon from starting.
+TEST(Catalogue, RowsLeftQueuedOrRunningByADeadRunFailAtTheNextStart) {
+  TempDir temp;
+  std::int64_t queued = 0, running = 0;
+  {
+    auto catalogue = open(temp.path());
+    ASSERT_TRUE(catalogue);
+    queued = add(*catalogue, "Q");
+    running = add(*catalogue, "R");
+    ASSERT_TRUE(catalogue->mark_running(running, temp / "20260504-000000-R"));
+    catalogue->inject_write_failure(disk_full());
+    EXPECT_FALSE(catalogue->mark_failed(queued, ScanStatus::failed, ScanErrorCode::storage,
+                                        "the disk is full", false));
+  }  // the last flush is refused too: as if psrigd died here
+  EXPECT_EQ(on_disk(temp.path(), queued)->status, ScanStatus::queued);
+  EXPECT_EQ(on_disk(temp.path(), running)->status, ScanStatus::running);
+
+  auto catalogue = open(temp.path());
+  ASSERT_TRUE(catalogue);
+  catalogue->inject_write_failure(disk_full());
+  auto recovery = catalogue->recover();
+  ASSERT_TRUE(recovery) << recovery.error().describe();
+  EXPECT_EQ(recovery->interrupted, (std::vector<std::int64_t>{queued, running}));
+  EXPECT_EQ(catalogue->pending_count(), 2U);
+  catalogue->inject_write_failure(std::nullopt);
+  EXPECT_EQ(catalogue->flush_pending(), 0U);
+  for (const auto id : {queued, running}) {
+    const auto entry = on_disk(temp.path(), id);
+    ASSERT_TRUE(entry);
+    EXPECT_EQ(entry->status, ScanStatus::failed) << id;
+    EXPECT_EQ(entry->error_message, "interrupted: psrigd stopped before this scan finished");
+  }
+  EXPECT_TRUE(search(*catalogue, query([](auto& q) { q.status = ScanStatus::queued; })).empty());
+  EXPECT_TRUE(search(*catalogue, query([](auto& q) { q.status = ScanStatus::running; })).empty());
+}
+
 TEST(Catalogue, ANewerSchemaIsRefused) {
   TempDir temp;
   { ASSERT_TRUE(open(temp.path())); }

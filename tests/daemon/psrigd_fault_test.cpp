@@ -206,6 +206,12 @@ TEST_F(PsrigdFullDisk, AFullDiskIsRecordedThenRefusedAndTheDaemonServesOn) {
   const auto next = daemon->wait_finished(daemon->submit({{"sample_id", "NONE-2"}}));
   EXPECT_EQ(next["status"], "done") << next.dump() << daemon->log();
   EXPECT_TRUE(fs::exists(storage / "catalogue.sqlite-reserve")) << "the reserve is set aside again";
+  // No accepted scan was left `queued` or `running` (issue 14): an end the
+  // disk refused was written before the new row.
+  for (const char* status : {"queued", "running"})
+    EXPECT_TRUE(daemon->get(std::string("/v1/scans?status=") + status)["scans"].empty())
+        << status << "\n"
+        << daemon->log();
   expect_leds_safe();
   EXPECT_EQ(daemon->signal_and_wait(SIGTERM), 0) << daemon->log();
 }

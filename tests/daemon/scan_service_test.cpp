@@ -108,6 +108,79 @@ TEST(PsrigdScanService, CancelAbortsTheRunningScanAndCancelsAQueuedOne) {
   EXPECT_EQ((*row)->status, ScanStatus::aborted);
 }
 
+// The issue 14 stuck row: a scan accepted just before the catalogue's disk
+// filled (its row added, nothing written after) fails with the storage
+// code; the status says so at once, and the row says so as soon as the
+// catalogue can write again, with no new scan needed to get it there.
+TEST(PsrigdScanService, AScanAcceptedAsTheCatalogueStopsWritingEndsFailedNotQueued) {
+  TempDir temp;
+  auto service = start_service(temp);
+  ASSERT_TRUE(service);
+  // The row is added; every write after it fails, as on a full disk.
+  service->catalogue().inject_write_failure(
+      io_error("catalogue.sqlite", "database or disk is full").with(ErrorCode::disk_full), 1);
+  const auto id = submit(*service, "STUCK");
+  ASSERT_GT(id, 0);
+  ASSERT_TRUE(wait_for([&] { return service->status().state == daemon::DaemonState::error; }));
+  const auto status = service->status();
+  EXPECT_EQ(status.last_error_code, daemon::ScanErrorCode::storage);
+  EXPECT_NE(status.last_error.find("disk is full"), std::string::npos) << status.last_error;
+  EXPECT_EQ(service->catalogue().pending_count(), 1U);
+  // The row as the database file has it, through a second connection.
+  const auto on_disk = [&] {
+    daemon::CatalogueEntry row;
+    auto reader = daemon::Catalogue::open(temp / "scans");
+    EXPECT_TRUE(reader) << reader.error().describe();
+    if (!reader) return row;
+    auto entry = (*reader)->get(id);
+    EXPECT_TRUE(entry && *entry);
+    if (entry && *entry) row = **entry;
+    return row;
+  };
+  EXPECT_EQ(on_disk().status, ScanStatus::queued) << "written while the disk refuses writes?";
+
+  service->catalogue().inject_write_failure(std::nullopt);
+  ASSERT_TRUE(wait_for([&] { return service->catalogue().pending_count() == 0; }));
+  const auto row = on_disk();
+  EXPECT_EQ(row.status, ScanStatus::failed);
+  EXPECT_EQ(row.error_code, daemon::ScanErrorCode::storage);
+  EXPECT_EQ(row.error_message, status.last_error);
+  EXPECT_TRUE(row.scan_directory.empty());
+  for (const auto unfinished : {ScanStatus::queued, ScanStatus::running}) {
+    daemon::CatalogueQuery query;
+    query.status = unfinished;
+    auto rows = service->catalogue().search(query);
+    ASSERT_TRUE(rows);
+    EXPECT_TRUE(rows->empty()) << rows->size() << " rows " << daemon::to_string(unfinished);
+  }
+  // And the daemon scans on.
+  EXPECT_EQ(wait_finished(*service, submit(*service, "NEXT")).status, ScanStatus::done);
+}
+
+// A run that ended with rows unfinished (killed, or stopped with the disk
+// still full): the next start marks them failed, saying the daemon stopped.
+TEST(PsrigdScanService, RowsLeftUnfinishedByTheLastRunFailAtStartUp) {
+  TempDir temp;
+  std::int64_t queued = 0, running = 0;
+  {
+    auto config = config::load_config(daemon_config(temp, free_port()));
+    ASSERT_TRUE(config) << config.error().describe();
+    auto catalogue = daemon::Catalogue::open(config->storage.root);
+    ASSERT_TRUE(catalogue) << catalogue.error().describe();
+    queued = (*catalogue)->add({"Q", "", {}, "test"}).value_or(-1);
+    running = (*catalogue)->add({"R", "", {}, "test"}).value_or(-1);
+    ASSERT_TRUE((*catalogue)->mark_running(running, config->storage.root / "20260504-000000-R"));
+  }
+  auto service = start_service(temp);
+  ASSERT_TRUE(service);
+  for (const auto id : {queued, running}) {
+    auto entry = service->catalogue().get(id);
+    ASSERT_TRUE(entry && *entry);
+    EXPECT_EQ((*entry)->status, ScanStatus::failed) << id;
+    EXPECT_EQ((*entry)->error_message, "interrupted: psrigd stopped before this scan finished");
+  }
+}
+
 // The worker shows it lives while it waits and while it scans, for the
 // systemd watchdog.
 TEST(PsrigdScanService, TheWorkerHeartbeatGoesOnWhileIdleAndScanning) {

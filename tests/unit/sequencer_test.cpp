@@ -151,7 +151,7 @@ struct ScriptedRig {
     c.camera.timeout_ms = 50;
     return c;
   }();
-  SafeLights lights{firmware_host::open_sim_lights(config), 5s};
+  SafeLights lights{firmware_host::open_sim_lights(config).value(), 5s};
   ScriptedCamera camera{lights};
   ScanSequencer sequencer{config, lights, camera};
 };
@@ -282,7 +282,7 @@ TEST(ScanSequencer, LightFailureEndsTheScanWithAllLedsOff) {
 
 TEST(ScanSequencer, WatchdogCuttingAnExposureShortFailsTheScan) {
   ScriptedRig rig;
-  SafeLights short_fuse(firmware_host::open_sim_lights(rig.config), 20ms);
+  SafeLights short_fuse(firmware_host::open_sim_lights(rig.config).value(), 20ms);
   ScriptedCamera camera(short_fuse);
   camera.on_grab = [](int) { std::this_thread::sleep_for(15ms); };
   ScanSequencer sequencer(rig.config, short_fuse, camera);

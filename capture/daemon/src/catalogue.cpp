@@ -138,7 +138,26 @@ Catalogue::Catalogue(fs::path root, sqlite3* db) : root_(std::move(root)), db_(d
 
 template <class Write>
 auto Catalogue::with_room(Write&& write) -> decltype(write()) {
-  auto result = write();
+  flush_pending();
+  return write_with_room(std::forward<Write>(write));
+}
+
+template <class Write>
+auto Catalogue::write_with_room(Write&& write) -> decltype(write()) {
+  const auto injected = [&]() -> std::optional<Error> {
+    std::lock_guard lock(fault_mutex_);
+    if (!write_fault_) return std::nullopt;
+    if (writes_before_fault_ > 0) {
+      --writes_before_fault_;
+      return std::nullopt;
+    }
+    return write_fault_;
+  };
+  const auto attempt = [&]() -> decltype(write()) {
+    if (auto fault = injected()) return std::unexpected(*fault);
+    return write();
+  };
+  auto result = attempt();
   if (result) {
     hold_reserve();
     return result;
@@ -148,15 +167,17 @@ auto Catalogue::with_room(Write&& write) -> decltype(write()) {
     logger("catalogue")
         ->warn("{}: the disk is full; gave back the catalogue's reserve ({} KiB) to record this",
                root_.string(), kReserveBytes >> 10);
-    result = write();
+    result = attempt();
     if (result || !disk_full(result.error())) return result;
   }
   std::error_code ec;
   const auto space = fs::space(root_, ec);
-  return std::unexpected(io_error(
-      root_ / kFileName, "the disk is full (" + std::to_string(ec ? 0 : space.available >> 10) +
-                             " KiB free), the catalogue cannot record scans; delete or move old "
-                             "scans, or point storage.root at a larger disk"));
+  return std::unexpected(
+      io_error(root_ / kFileName,
+               "the disk is full (" + std::to_string(ec ? 0 : space.available >> 10) +
+                   " KiB free), the catalogue cannot record scans; delete or move old "
+                   "scans, or point storage.root at a larger disk")
+          .with(ErrorCode::disk_full));
 }
 
 void Catalogue::hold_reserve() {
@@ -185,6 +206,11 @@ bool Catalogue::release_reserve() {
 }
 
 Catalogue::~Catalogue() {
+  // A last try; what is still pending is marked failed by the next start.
+  if (const std::size_t lost = flush_pending(); lost > 0)
+    logger("catalogue")
+        ->error("{} scan(s) ended but could not be recorded; the next start marks them failed",
+                lost);
   sqlite3_close_v2(db_);
 }
 
@@ -350,21 +376,93 @@ WHERE id = ?)sql");
 
 Status Catalogue::mark_failed(std::int64_t id, ScanStatus status, ScanErrorCode code,
                               const std::string& message, bool keep_scan_directory) {
-  return with_room([&]() -> Status {
-    std::lock_guard lock(mutex_);
-    auto update = Statement::prepare(
-        db_, std::string("UPDATE scans SET status = ?, finished = ?, error_code = ?, "
-                         "error_message = ?") +
-                 (keep_scan_directory ? "" : ", scan_path = NULL, maps_path = NULL") +
-                 " WHERE id = ?");
-    if (!update) return std::unexpected(update.error());
-    update->bind(1, std::string(to_string(status)));
-    update->bind(2, utc_timestamp_now());
-    update->bind(3, static_cast<std::int64_t>(code));
-    update->bind(4, message);
-    update->bind(5, id);
-    return update->run();
-  });
+  const Outcome outcome{status, code, message, keep_scan_directory, utc_timestamp_now()};
+  // Under the flush's lock, so that no older end of this scan, being
+  // flushed, lands after this one.
+  std::lock_guard flushing(flush_mutex_);
+  (void)flush_pending_locked();
+  auto written = write_with_room([&] { return write_outcome(id, outcome); });
+  std::lock_guard lock(pending_mutex_);
+  if (written) {
+    pending_.erase(id);  // an older end still waiting must not overwrite this one
+    return written;
+  }
+  // The scan has ended whatever the disk says: its end waits in memory for
+  // the next write rather than leaving the row `queued` or `running`.
+  pending_[id] = outcome;
+  Error error = written.error();
+  error.message += "; scan " + std::to_string(id) + " is recorded " + to_string(status) +
+                   " as soon as the catalogue can write";
+  return std::unexpected(std::move(error));
+}
+
+Status Catalogue::write_outcome(std::int64_t id, const Outcome& outcome) {
+  std::lock_guard lock(mutex_);
+  auto update = Statement::prepare(
+      db_, std::string("UPDATE scans SET status = ?, finished = ?, error_code = ?, "
+                       "error_message = ?") +
+               (outcome.keep_scan_directory ? "" : ", scan_path = NULL, maps_path = NULL") +
+               " WHERE id = ?");
+  if (!update) return std::unexpected(update.error());
+  update->bind(1, std::string(to_string(outcome.status)));
+  update->bind(2, outcome.finished);
+  update->bind(3, static_cast<std::int64_t>(outcome.code));
+  update->bind(4, outcome.message);
+  update->bind(5, id);
+  return update->run();
+}
+
+std::size_t Catalogue::flush_pending() {
+  std::lock_guard flushing(flush_mutex_);
+  return flush_pending_locked();
+}
+
+std::size_t Catalogue::flush_pending_locked() {
+  std::map<std::int64_t, Outcome> pending;
+  {
+    std::lock_guard lock(pending_mutex_);
+    if (pending_.empty()) return 0;
+    pending = pending_;
+  }
+  // In id order, and no further once the disk refuses one: the rest would
+  // be refused too.
+  for (const auto& [id, outcome] : pending) {
+    if (!write_with_room([&] { return write_outcome(id, outcome); })) break;
+    logger("catalogue")
+        ->info("scan {}: recorded {} now that the catalogue can write", id,
+               to_string(outcome.status));
+    std::lock_guard lock(pending_mutex_);
+    if (const auto it = pending_.find(id); it != pending_.end() && it->second == outcome)
+      pending_.erase(it);
+  }
+  std::lock_guard lock(pending_mutex_);
+  return pending_.size();
+}
+
+std::size_t Catalogue::pending_count() const {
+  std::lock_guard lock(pending_mutex_);
+  return pending_.size();
+}
+
+void Catalogue::inject_write_failure(std::optional<Error> error, int writes_first) {
+  std::lock_guard lock(fault_mutex_);
+  write_fault_ = std::move(error);
+  writes_before_fault_ = writes_first;
+}
+
+void Catalogue::overlay_pending(CatalogueEntry& entry) const {
+  std::lock_guard lock(pending_mutex_);
+  const auto it = pending_.find(entry.id);
+  if (it == pending_.end()) return;
+  const Outcome& outcome = it->second;
+  entry.status = outcome.status;
+  entry.finished = outcome.finished;
+  entry.error_code = outcome.code;
+  entry.error_message = outcome.message;
+  if (!outcome.keep_scan_directory) {
+    entry.scan_directory.clear();
+    entry.maps_directory.clear();
+  }
 }
 
 namespace {
@@ -395,14 +493,19 @@ CatalogueEntry read_entry(const Statement& row, const fs::path& root) {
 }  // namespace
 
 Result<std::optional<CatalogueEntry>> Catalogue::get(std::int64_t id) const {
-  std::lock_guard lock(mutex_);
-  auto select = Statement::prepare(db_, std::string(kSelectEntry) + " WHERE s.id = ?");
-  if (!select) return std::unexpected(select.error());
-  select->bind(1, id);
-  auto row = select->step();
-  if (!row) return std::unexpected(row.error());
-  if (!*row) return std::optional<CatalogueEntry>();
-  return std::optional<CatalogueEntry>(read_entry(*select, root_));
+  std::optional<CatalogueEntry> entry;
+  {
+    std::lock_guard lock(mutex_);
+    auto select = Statement::prepare(db_, std::string(kSelectEntry) + " WHERE s.id = ?");
+    if (!select) return std::unexpected(select.error());
+    select->bind(1, id);
+    auto row = select->step();
+    if (!row) return std::unexpected(row.error());
+    if (!*row) return entry;
+    entry = read_entry(*select, root_);
+  }
+  overlay_pending(*entry);
+  return entry;
 }
 
 Result<std::vector<CatalogueEntry>> Catalogue::search(const CatalogueQuery& query) const {
@@ -420,22 +523,31 @@ Result<std::vector<CatalogueEntry>> Catalogue::search(const CatalogueQuery& quer
   if (query.to) condition("s.created <= ?", *query.to);
   if (query.status) condition("s.status = ?", to_string(*query.status));
 
-  std::lock_guard lock(mutex_);
-  auto select = Statement::prepare(
-      db_, std::string(kSelectEntry) + where + " ORDER BY s.id DESC LIMIT ? OFFSET ?");
-  if (!select) return std::unexpected(select.error());
-  int index = 1;
-  for (const auto& text : texts)
-    select->bind(index++, text);
-  select->bind(index++, static_cast<std::int64_t>(query.limit));
-  select->bind(index, static_cast<std::int64_t>(query.offset));
   std::vector<CatalogueEntry> entries;
-  for (;;) {
-    auto row = select->step();
-    if (!row) return std::unexpected(row.error());
-    if (!*row) break;
-    entries.push_back(read_entry(*select, root_));
+  {
+    std::lock_guard lock(mutex_);
+    auto select = Statement::prepare(
+        db_, std::string(kSelectEntry) + where + " ORDER BY s.id DESC LIMIT ? OFFSET ?");
+    if (!select) return std::unexpected(select.error());
+    int index = 1;
+    for (const auto& text : texts)
+      select->bind(index++, text);
+    select->bind(index++, static_cast<std::int64_t>(query.limit));
+    select->bind(index, static_cast<std::int64_t>(query.offset));
+    for (;;) {
+      auto row = select->step();
+      if (!row) return std::unexpected(row.error());
+      if (!*row) break;
+      entries.push_back(read_entry(*select, root_));
+    }
   }
+  // Rows as their pending ends say. A status search matches what is
+  // written, less the rows whose pending end no longer matches (a page may
+  // come up short while the disk is full; simpler than merging in SQL).
+  for (auto& entry : entries)
+    overlay_pending(entry);
+  if (query.status)
+    std::erase_if(entries, [&](const CatalogueEntry& e) { return e.status != *query.status; });
   return entries;
 }
 
@@ -529,8 +641,10 @@ Result<CatalogueRecovery> Catalogue::recover() {
     const std::string message =
         kept ? "interrupted during processing; raw frames kept, reprocess with psrig process"
              : "interrupted: psrigd stopped before this scan finished";
+    // A disk still full keeps the end pending (written at the next write)
+    // rather than keeping the daemon from starting.
     if (auto ok = mark_failed(id, ScanStatus::failed, ScanErrorCode::internal, message, kept); !ok)
-      return std::unexpected(ok.error());
+      log->error("scan {}: {}", id, ok.error().describe());
     recovery.interrupted.push_back(id);
     if (kept)
       log->warn("scan {} was interrupted by the last shutdown; marked failed, its raw frames kept",

@@ -95,8 +95,9 @@ void ScanRecorder::progress(std::int64_t id, const std::string& step, int percen
 void ScanRecorder::failed(std::int64_t id, ScanStatus status, ScanErrorCode code,
                           const std::string& message, bool files_kept) {
   auto log = logger("daemon");
+  // A row that cannot be written now waits in the catalogue (catalogue.h).
   if (auto ok = catalogue_->mark_failed(id, status, code, message, files_kept); !ok)
-    log->error("scan {}: cannot record its failure: {}", id, ok.error().describe());
+    log->error("scan {}: cannot record its failure yet: {}", id, ok.error().describe());
   log->error("scan {} {}: {}", id, to_string(status), message);
   {
     std::lock_guard lock(mutex_);
@@ -149,10 +150,12 @@ Status ScanRecorder::done(std::int64_t id, const fs::path& scan_directory,
 }
 
 Status ScanRecorder::cancelled(std::int64_t id, const std::string& message) {
+  // The scan has left the queue, so it is cancelled whether or not its row
+  // can be written now: the catalogue keeps its end until it can.
   if (auto ok =
           catalogue_->mark_failed(id, ScanStatus::aborted, ScanErrorCode::aborted, message, false);
       !ok)
-    return ok;
+    logger("daemon")->error("scan {}: {}", id, ok.error().describe());
   auto event = scan_event(id);
   event.update({{"status", "aborted"},
                 {"code", static_cast<int>(ScanErrorCode::aborted)},

@@ -357,6 +357,9 @@ void ScanService::work() {
   for (;;) {
     auto next = queue_.wait_next(kIdleBeat);
     beat();
+    // A scan's end the full disk refused is written once there is room:
+    // checked every idle second, so it needs no new scan to get there.
+    recorder_.retry_pending();
     if (next.stopping) break;
     if (!next.job) {
       apply_pending_config();

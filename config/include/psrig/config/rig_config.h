@@ -65,6 +65,14 @@ struct ModbusLights {
   ModbusRegisters registers;
 };
 
+// The simulated rig's LEDs (backend "sim").
+struct SimLights {
+  // Every switch appended to this file, one line each
+  // (firmware_host/switch_log_file.h), for tests to read from outside the
+  // process; relative to the configuration file. Empty: none.
+  std::filesystem::path switch_log;
+};
+
 struct LightsConfig {
   std::string backend = "sim";  // "gpiod" | "usb" | "modbus" | "sim"
   int channels = 3;
@@ -73,6 +81,7 @@ struct LightsConfig {
   GpiodLights gpiod;
   UsbLights usb;
   ModbusLights modbus;
+  SimLights sim;
 };
 
 struct CameraConfig {

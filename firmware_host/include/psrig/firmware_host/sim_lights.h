@@ -1,6 +1,8 @@
 #pragma once
 // The sim light backend (lights.backend = "sim"): switches the simulated
-// rig's LEDs (simulated_leds.h), found through the configuration.
+// rig's LEDs (simulated_leds.h), found through the configuration, and
+// appends each switch to lights.sim.switch_log when set
+// (switch_log_file.h); an error only when that file cannot be opened.
 
 #include <memory>
 
@@ -9,6 +11,7 @@
 
 namespace psrig::firmware_host {
 
-[[nodiscard]] std::unique_ptr<LightController> open_sim_lights(const config::RigConfig& config);
+[[nodiscard]] Result<std::unique_ptr<LightController>> open_sim_lights(
+    const config::RigConfig& config);
 
 }  // namespace psrig::firmware_host

@@ -22,6 +22,8 @@ struct SwitchEvent {
 class SwitchLog {
  public:
   void record(int channel, bool on);
+  // An event as it happened elsewhere (read back from a file, say).
+  void record(const SwitchEvent& event);
   [[nodiscard]] std::vector<SwitchEvent> events() const;
   void clear();
 

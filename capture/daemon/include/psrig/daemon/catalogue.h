@@ -5,10 +5,16 @@
 // only after its scan and maps directories are whole on disk, so a crash
 // leaves at worst files without a `done` row, which recover() removes (all
 // but a whole raw scan, which it keeps with its row `failed`).
+// A scan's end that cannot be written (the disk is full) is not lost: it is
+// kept in memory, shown by get() and search(), and written before the next
+// write and whenever flush_pending() is called; if the daemon ends first,
+// recover() marks the row failed at the next start. So no row is left
+// `queued` or `running` by a scan that has ended.
 // Thread-safe (one connection behind a mutex).
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -94,9 +100,21 @@ class Catalogue {
   [[nodiscard]] Status mark_done(std::int64_t id, const std::filesystem::path& maps_directory,
                                  const nlohmann::json& report);
   // `failed` or `aborted`, with why. `keep_scan_directory` false forgets the
-  // scan directory (its files were removed).
+  // scan directory (its files were removed). When the row cannot be
+  // written, the error, and the outcome is kept as pending (see above):
+  // the caller need not retry.
   [[nodiscard]] Status mark_failed(std::int64_t id, ScanStatus status, ScanErrorCode code,
                                    const std::string& message, bool keep_scan_directory);
+
+  // Writes the pending outcomes (each write does this first); what is
+  // still pending.
+  std::size_t flush_pending();
+  [[nodiscard]] std::size_t pending_count() const;
+
+  // A test's fault (never set in production): after `writes_first` more
+  // writes succeed, every write fails with `error` before it reaches
+  // SQLite, as on a full disk, until called again with nothing.
+  void inject_write_failure(std::optional<Error> error, int writes_first = 0);
 
   [[nodiscard]] Result<std::optional<CatalogueEntry>> get(std::int64_t id) const;
   [[nodiscard]] Result<std::vector<CatalogueEntry>> search(const CatalogueQuery& query) const;
@@ -106,7 +124,8 @@ class Catalogue {
   [[nodiscard]] Result<bool> remove(std::int64_t id);
 
   // Start-up: rows left `queued` or `running` by a run that ended without
-  // finishing them become `failed` ("interrupted"). A scan directory that
+  // finishing them become `failed` ("interrupted"); a row that cannot be
+  // written now stays pending rather than stopping the start. A scan directory that
   // was written whole (it holds scan.json) is kept, minus its unrecorded
   // maps, and its row keeps naming it (reprocess with psrig process);
   // anything less is removed, as are the scan writer's staging directories
@@ -119,10 +138,28 @@ class Catalogue {
   Catalogue(std::filesystem::path root, sqlite3* db);
   [[nodiscard]] Status execute(const std::string& sql) const;
   [[nodiscard]] Status migrate();
-  // Runs a write; when SQLite finds the disk full, gives the reserve back
-  // and tries once more. Sets the reserve aside again when there is room.
+  // Runs a write after the pending outcomes (older news first); when
+  // SQLite finds the disk full, gives the reserve back and tries once
+  // more. Sets the reserve aside again when there is room.
   template <class Write>
   auto with_room(Write&& write) -> decltype(write());
+  // with_room() without writing the pending outcomes first.
+  template <class Write>
+  auto write_with_room(Write&& write) -> decltype(write());
+  // A scan's end as it will be written.
+  struct Outcome {
+    ScanStatus status = ScanStatus::failed;
+    ScanErrorCode code = ScanErrorCode::none;
+    std::string message;
+    bool keep_scan_directory = false;
+    std::string finished;  // when it ended, not when it was written
+    bool operator==(const Outcome&) const = default;
+  };
+  [[nodiscard]] Status write_outcome(std::int64_t id, const Outcome& outcome);
+  // flush_pending() with flush_mutex_ held.
+  std::size_t flush_pending_locked();
+  // `entry` as its pending outcome says, if it has one.
+  void overlay_pending(CatalogueEntry& entry) const;
   void hold_reserve();
   [[nodiscard]] Result<std::int64_t> add_row(const ScanSubmission& submission);
   [[nodiscard]] Status mark_done_row(std::int64_t id, const std::optional<std::string>& maps_path,
@@ -137,6 +174,18 @@ class Catalogue {
   mutable std::mutex mutex_;
   std::mutex reserve_mutex_;
   bool reserve_held_ = false;
+  // Scans' ends the disk refused, by id (kept in memory: nowhere else to
+  // keep them while the disk is full; a handful at most, as a full disk
+  // refuses new scans). flush_mutex_ is held while they are written and
+  // while mark_failed() writes one, so each goes once and none overwrites
+  // a newer one; it is taken before the other locks, never after.
+  // pending_mutex_ guards the map alone, briefly.
+  std::mutex flush_mutex_;
+  mutable std::mutex pending_mutex_;
+  std::map<std::int64_t, Outcome> pending_;
+  mutable std::mutex fault_mutex_;
+  std::optional<Error> write_fault_;
+  int writes_before_fault_ = 0;
 };
 
 // The UTC time now as the catalogue writes it: "2026-05-04T09:12:33Z".

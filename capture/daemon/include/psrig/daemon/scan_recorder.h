@@ -54,11 +54,15 @@ class ScanRecorder {
                             const std::filesystem::path& maps_directory,
                             const nlohmann::json& report);
 
-  // A queued scan that will not run: its row `aborted` with `message`,
-  // and its event.
+  // A queued scan that will not run: its row `aborted` with `message`
+  // (now, or once the catalogue can write), and its event.
   [[nodiscard]] Status cancelled(std::int64_t id, const std::string& message);
   // A queued scan dropped as the daemon stops: its row only.
   void abandoned(std::int64_t id);
+
+  // Writes the scans' ends the catalogue could not write when they came
+  // (a full disk); the worker calls it between scans and every idle second.
+  void retry_pending() { (void)catalogue_->flush_pending(); }
 
   // The event stream ends: the daemon is stopping.
   void close();
