@@ -101,9 +101,15 @@ std::string EmulatedUvcCamera::camera_id() const {
          options_.product_id;
 }
 
+// In uvcvideo's order (uvc_unregister_video): the video node first, the
+// media device last. libcamera learns of the unplug from the media device's
+// "remove" uevent and then takes the camera for stopped (0.0.3 sets it
+// Configured); a frame completing after that aborts the process ("Trying to
+// complete a request when stopped"), which the kernel's order rules out:
+// by then every request to the video node fails with ENODEV.
 void EmulatedUvcCamera::unplug() {
-  media_->unplug();
   video_->unplug();
+  media_->unplug();
 }
 
 }  // namespace psrig::test

@@ -45,7 +45,7 @@ class EmulatedUvcCamera {
   [[nodiscard]] EmulatedV4l2Camera& video() { return *video_; }
   [[nodiscard]] EmulatedMediaDevice& media() { return *media_; }
 
-  // Unplugged: the media device and the video node leave with "remove"
+  // Unplugged: the video node, then the media device, leave with "remove"
   // uevents; both answer ENODEV from then on.
   void unplug();
 
