@@ -29,8 +29,9 @@
 //   regular file.
 // - unplug(): every later request fails with ENODEV, as the V4L2 core
 //   answers for a device that was unregistered, and the device leaves the
-//   testbed (sysfs and /dev). Mappings stay valid, as a driver's do until
-//   unmapped.
+//   testbed (sysfs and /dev) after a "remove" uevent. Mappings stay valid,
+//   as a driver's do until unmapped. A kernel node polls POLLERR|POLLHUP
+//   from then on; a pollable one here just stays unreadable.
 //
 // - A pollable node (EmulatedV4l2Options::pollable, for libcamera, whose
 //   event loop waits in ppoll() and maps only exported buffers) is a PTY
