@@ -179,6 +179,35 @@ TEST(LibcameraHil, CapturesTheSimulatedSwatchUnderEachLed) {
   EXPECT_FALSE(rig.camera.video().streaming());
 }
 
+TEST(LibcameraHil, AutoTakesTheDeepestLinearFormatOffered) {
+  SKIP_WITHOUT_EMULATION();
+  EmulatedRig rig({V4L2_PIX_FMT_YUYV, V4L2_PIX_FMT_GREY, V4L2_PIX_FMT_SRGGB12});
+  auto camera = open_started(rig.config);
+  ASSERT_NE(camera, nullptr);
+  EXPECT_EQ(rig.camera.video().pixel_format(), V4L2_PIX_FMT_SRGGB12);
+  auto frame = camera->grab(1s);
+  ASSERT_TRUE(frame) << frame.error().describe();
+  EXPECT_EQ(frame->white_level, 4095);
+  EXPECT_EQ(frame->image.type(), CV_16UC3);  // demosaiced
+  EXPECT_EQ(frame->encoding, processing::Encoding::linear);
+}
+
+TEST(LibcameraHil, ConfigurationErrorsNameTheCameraAndTheKey) {
+  SKIP_WITHOUT_EMULATION();
+  EmulatedRig rig;
+  auto config = rig.config;
+  config.camera.format = "Y16";
+  auto not_offered = open_camera(config);
+  ASSERT_FALSE(not_offered);
+  // The backend names the key in its message (unlike v4l2's, not in `key`).
+  EXPECT_NE(not_offered.error().describe().find("camera.format"), std::string::npos)
+      << not_offered.error().describe();
+  EXPECT_NE(not_offered.error().describe().find("does not offer Y16"), std::string::npos)
+      << not_offered.error().describe();
+  EXPECT_NE(not_offered.error().describe().find(rig.camera.camera_id()), std::string::npos)
+      << not_offered.error().describe();
+}
+
 TEST(LibcameraHil, FramesComeInOrderAtTheDevicesPace) {
   SKIP_WITHOUT_EMULATION();
   EmulatedRig rig;
