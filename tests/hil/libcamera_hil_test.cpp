@@ -28,10 +28,10 @@ using namespace std::chrono_literals;
 using test::EmulatedUvcCamera;
 using test::FrameRequest;
 
-#define SKIP_WITHOUT_EMULATION()                                                      \
-  if (!EmulatedUvcCamera::available())                                                \
-  GTEST_SKIP() << "needs umockdev's preload library and libpsrig_hil_openat_shim.so " \
-                  "(ctest preloads both)"
+#define SKIP_WITHOUT_EMULATION()                                                            \
+  if (!EmulatedUvcCamera::available())                                                      \
+  GTEST_SKIP() << "needs LD_PRELOAD=libpsrig_hil_openat_shim.so:libumockdev-preload.so.0, " \
+                  "in that order (ctest runs it so)"
 
 constexpr int kWidth = 64;
 constexpr int kHeight = 48;

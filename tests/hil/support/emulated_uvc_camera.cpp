@@ -1,5 +1,6 @@
 #include "emulated_uvc_camera.h"
 
+#include <cstdlib>
 #include <dlfcn.h>
 #include <filesystem>
 #include <fstream>
@@ -13,8 +14,13 @@ constexpr const char* kFirmwareNode = "\\_SB_.PCI0.XHC_";
 
 }  // namespace
 
+// The shim must come before umockdev's library, whose wrappers call the C
+// library directly (as umockdev-wrapper alone puts it, it would come after).
 bool EmulatedUvcCamera::available() {
-  return UmockdevBed::available() && dlsym(RTLD_DEFAULT, "psrig_hil_openat_shim_loaded");
+  if (!UmockdevBed::available() || !dlsym(RTLD_DEFAULT, "psrig_hil_openat_shim_loaded"))
+    return false;
+  const std::string preload = std::getenv("LD_PRELOAD");
+  return preload.find("psrig_hil_openat_shim") < preload.find("libumockdev-preload");
 }
 
 EmulatedUvcCamera::EmulatedUvcCamera(UmockdevBed& bed, EmulatedUvcOptions options,

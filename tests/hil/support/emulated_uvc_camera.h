@@ -11,8 +11,8 @@
 //
 // libcamera 0.0.3 opens video nodes with syscall(SYS_openat), past
 // umockdev's preload library: the test process needs
-// libpsrig_hil_openat_shim.so preloaded behind it (openat_syscall_shim.cpp);
-// available() says whether both are there.
+// libpsrig_hil_openat_shim.so preloaded before it (openat_syscall_shim.cpp);
+// available() says whether both are there, in that order.
 
 #include <memory>
 #include <string>
