@@ -3,19 +3,26 @@
 // own V4L2 compatibility layer cannot catch it), which umockdev's preload
 // library, wrapping open() and openat() but not syscall(), never sees: the
 // node would be looked up on the real /dev and not found. This library
-// wraps syscall() and sends SYS_openat through openat(), which resolves to
-// umockdev's wrapper when that library comes first in LD_PRELOAD (as
-// umockdev-wrapper puts it), and so reaches the testbed. It adds O_NOCTTY:
-// an emulated node may be a pseudo-terminal, which must not become the
-// test's controlling terminal. Every other system call goes on unchanged.
+// wraps syscall() and sends SYS_openat through open64() (or openat() for a
+// relative path under a directory descriptor), which reach umockdev's
+// wrappers and so the testbed; umockdev's openat() redirects the path but
+// does not set up its ioctl emulation, its open64() does. It adds
+// O_NOCTTY: an emulated node may be a pseudo-terminal, which must not
+// become the test's controlling terminal. Every other system call goes on
+// unchanged.
 //
 // It also plays udevd's database: libudev (systemd 252) takes a device
 // with a device number for initialised, and udev_enumerate's
 // match_is_initialized (libcamera's enumerator asks for it) lists it, only
 // if /run/udev/data/c<major>:<minor> exists, a path umockdev 0.17 does not
 // redirect. Opening a path under /run/udev/ (open, openat, fopen and their
-// 64-bit names) is sent to the same path under $UMOCKDEV_DIR, where the testbed writes those
-// entries (UmockdevBed::add_udev_entry).
+// 64-bit names) is sent to the same path under $UMOCKDEV_DIR, where the
+// testbed writes those entries (UmockdevBed::add_udev_entry).
+//
+// It must come before umockdev's library in LD_PRELOAD: umockdev's wrappers
+// call the C library's functions directly, never the next library's, so
+// wrappers behind them are skipped. Its own wrappers call the next ones
+// (umockdev's).
 //
 // psrig_hil_openat_shim_loaded() tells a test the library is there.
 
