@@ -7,6 +7,7 @@
 // with the openat shim (ctest runs it so; tests/README.md).
 
 #include <chrono>
+#include <filesystem>
 #include <linux/videodev2.h>
 #include <memory>
 #include <string>
@@ -17,8 +18,11 @@
 #include "emulated_uvc_camera.h"
 #include "psrig/capture/camera.h"
 #include "psrig/capture/libcamera_camera.h"
+#include "psrig/capture/rig.h"
+#include "psrig/capture/scan_sequencer.h"
 #include "psrig/sim/sensor.h"
 #include "psrig/sim/world.h"
+#include "test_support.h"
 #include "umockdev_bed.h"
 
 namespace psrig::capture {
@@ -281,6 +285,96 @@ TEST(LibcameraHil, AnUnpluggedCameraIsAClearErrorNamingIt) {
   ASSERT_FALSE(reopened);
   EXPECT_NE(reopened.error().describe().find("no camera found"), std::string::npos)
       << reopened.error().describe();
+}
+
+// Whole scans through libcamera: the simulated LEDs (the sim light
+// backend, the world's own) and the emulated UVC camera, 12-bit Bayer.
+struct ScanRig {
+  static config::RigConfig scan_config() {
+    config::RigConfig c;
+    c.source = "libcamera_hil_scan.toml";
+    c.lights.backend = "sim";
+    c.camera.backend = "libcamera";
+    c.camera.device = "";
+    c.camera.format = "auto";
+    c.camera.width = 256;
+    c.camera.height = 192;
+    c.camera.exposure_us = 20000;
+    c.camera.frames_average = 2;
+    c.camera.frames_discard = 0;
+    c.camera.timeout_ms = 300;
+    c.capture.settle_ms = 5;
+    c.sim.width = 256;
+    c.sim.height = 192;
+    return c;
+  }
+
+  config::RigConfig config = scan_config();
+  std::shared_ptr<sim::World> world = sim::World::attach(config);
+  sim::Sensor sensor{config.sim, 11};
+  test::UmockdevBed bed;
+  EmulatedUvcCamera camera{bed,
+                           {.card = kModel,
+                            .video = {.formats = {V4L2_PIX_FMT_YUYV, V4L2_PIX_FMT_SRGGB12},
+                                      .sizes = {{256, 192}},
+                                      .frame_interval = 35ms,
+                                      .readout = 15ms}},
+                           [this](const FrameRequest& r) {
+                             sim::SensorSettings settings;
+                             settings.exposure_us = r.exposure_us;
+                             settings.gain = r.gain;
+                             settings.channels = r.channels;
+                             return sensor.expose(*world, r.exposure_start, settings, r.sequence);
+                           }};
+
+  ScanRequest request_into(const test::TempDir& dir) const {
+    ScanRequest request;
+    request.directory = dir / "scan";
+    request.sample_id = "HIL-LIBCAMERA";
+    request.ground_truth_normal = world->swatch().normal;
+    request.ground_truth_height = world->swatch().height_mm;
+    return request;
+  }
+};
+
+TEST(LibcameraHil, AScanThroughLibcameraRecoversTheSwatch) {
+  SKIP_WITHOUT_EMULATION();
+  test::TempDir dir;
+  ScanRig emulated;
+  auto rig = open_rig(emulated.config);
+  ASSERT_TRUE(rig) << rig.error().describe();
+  ScanSequencer sequencer(emulated.config, *rig->lights, *rig->camera);
+  auto outcome = sequencer.capture(emulated.request_into(dir));
+  ASSERT_TRUE(outcome) << outcome.error().describe();
+  ASSERT_TRUE(outcome->maps);
+  const auto& error = outcome->maps->report["ground_truth"]["angular_error_deg"];
+  // As the V4L2 backend's scan of the same Bayer sensor (scan_hil_test).
+  EXPECT_LE(error["mean"].get<double>(), 2.5) << error.dump();
+  EXPECT_LE(error["median"].get<double>(), 1.2) << error.dump();
+  EXPECT_EQ(outcome->timing.frames_kept, 8);
+  EXPECT_EQ(emulated.camera.video().control(V4L2_CID_EXPOSURE_ABSOLUTE), 200);
+  EXPECT_FALSE(emulated.world->leds()->log().overlap());
+  EXPECT_TRUE(emulated.world->leds()->leds_on().empty());
+}
+
+TEST(LibcameraHil, ACameraUnpluggedMidScanEndsItWithAllLedsOff) {
+  SKIP_WITHOUT_EMULATION();
+  test::TempDir dir;
+  ScanRig emulated;
+  auto rig = open_rig(emulated.config);
+  ASSERT_TRUE(rig) << rig.error().describe();
+  ScanSequencer sequencer(emulated.config, *rig->lights, *rig->camera);
+  auto outcome = sequencer.capture(emulated.request_into(dir), [&](const ScanProgress& progress) {
+    if (progress.step == "light 3 of 3") emulated.camera.unplug();
+  });
+  ASSERT_FALSE(outcome);
+  const std::string message = outcome.error().describe();
+  EXPECT_NE(message.find(emulated.camera.camera_id()), std::string::npos) << message;
+  EXPECT_NE(message.find("the camera is gone"), std::string::npos) << message;
+  EXPECT_FALSE(std::filesystem::exists(dir / "scan"));
+  EXPECT_FALSE(rig->lights->log().overlap());
+  EXPECT_TRUE(rig->lights->log().on_now().empty());
+  EXPECT_TRUE(emulated.world->leds()->leds_on().empty());
 }
 
 }  // namespace
