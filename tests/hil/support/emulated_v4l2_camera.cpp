@@ -6,7 +6,11 @@
 #include <cstring>
 #include <fcntl.h>
 #include <stdexcept>
+#include <stdlib.h>
+#include <sys/ioctl.h>
+#include <sys/mman.h>
 #include <sys/stat.h>
+#include <termios.h>
 #include <unistd.h>
 
 #include <opencv2/imgproc.hpp>
@@ -73,14 +77,34 @@ EmulatedV4l2Camera::EmulatedV4l2Camera(UmockdevBed& bed, EmulatedV4l2Options opt
     if (!v4l2_encoding(f))
       throw std::invalid_argument("emulated camera: cannot make " + fourcc_text(f) + " frames");
   bed_.attach(devnode(), [this](UMockdevIoctlClient* client) { return handle(client); });
-  // Contents make umockdev create the node as a regular file (else a
-  // PTY): the file that QUERYBUF's offsets point into.
-  const std::string devpath =
-      "/devices/platform/psrig-emulated-camera/video4linux/" + options_.name;
-  bed_.add_from_string("P: " + devpath + "\nN: " + options_.name +
-                       "=00\nE: SUBSYSTEM=video4linux\nE: DEVNAME=/dev/" + options_.name +
-                       "\nA: dev=81:0\nA: name=" + options_.card + "\n");
+  // Contents make umockdev create the node as a regular file: the file
+  // that QUERYBUF's offsets point into. Without, a PTY: pollable.
+  const std::string devpath = options_.parent + "/video4linux/" + options_.name;
+  bed_.add_from_string(
+      "P: " + devpath + "\nN: " + options_.name + (options_.pollable ? "" : "=00") +
+      "\nE: SUBSYSTEM=video4linux\nE: DEVNAME=/dev/" + options_.name +
+      "\nE: MAJOR=81\nE: MINOR=" + std::to_string(options_.minor) +
+      "\nA: dev=81:" + std::to_string(options_.minor) + "\nA: name=" + options_.card + "\n");
   syspath_ = "/sys" + devpath;
+  if (options_.pollable) {
+    pty_master_ = umockdev_testbed_get_dev_fd(bed_.testbed(), devnode().c_str());
+    if (pty_master_ < 0)
+      throw std::runtime_error("emulated camera: " + devnode() + " is not a PTY");
+    // From the master, not by its /dev/pts path: umockdev takes a path
+    // open of the PTY for one of the node, and would send our own reads
+    // and ioctls on it to our handler.
+    pty_slave_ = ::ioctl(pty_master_, TIOCGPTPEER, O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+    if (pty_slave_ < 0)
+      throw std::runtime_error("emulated camera: cannot open the PTY of " + devnode() + ": " +
+                               std::strerror(errno));
+    // Raw: one byte in is one byte readable, nothing echoed back.
+    termios raw{};
+    ::tcgetattr(pty_slave_, &raw);
+    ::cfmakeraw(&raw);
+    ::tcsetattr(pty_slave_, TCSANOW, &raw);
+    clock_ = std::thread([this] { run_clock(); });
+    return;
+  }
   const std::string backing = bed_.root() + "/dev/" + options_.name;
   backing_fd_ = ::open(backing.c_str(), O_RDWR | O_CLOEXEC);
   if (backing_fd_ < 0)
@@ -89,13 +113,77 @@ EmulatedV4l2Camera::EmulatedV4l2Camera(UmockdevBed& bed, EmulatedV4l2Options opt
 }
 
 EmulatedV4l2Camera::~EmulatedV4l2Camera() {
+  {
+    std::lock_guard lock(mutex_);
+    closing_ = true;
+  }
+  clock_wake_.notify_all();
+  if (clock_.joinable()) clock_.join();
   bed_.detach(devnode());
+  release_buffers();
   if (backing_fd_ >= 0) ::close(backing_fd_);
+  if (pty_slave_ >= 0) ::close(pty_slave_);
+}
+
+void EmulatedV4l2Camera::release_buffers() {
+  for (auto& buffer : buffers_)
+    if (buffer.fd >= 0) ::close(buffer.fd);
+  buffers_.clear();
+  queued_.clear();
+  done_.clear();
+}
+
+// A byte waits in the PTY while a buffer is done: the caller's poll() says
+// readable. It is put in and taken out only here, under the lock, and the
+// device waits until the kernel has moved it (a PTY passes bytes on
+// through a work queue), so readiness is never stale.
+void EmulatedV4l2Camera::update_readiness() {
+  if (!options_.pollable) return;
+  const bool want = !done_.empty() && streaming_ && !unplugged_;
+  if (want == readable_) return;
+  const auto pending = [this] {
+    int bytes = 0;
+    ::ioctl(pty_slave_, FIONREAD, &bytes);
+    return bytes;
+  };
+  const auto deadline = Clock::now() + std::chrono::milliseconds(500);
+  if (want) {
+    const char byte = 'f';
+    if (::write(pty_master_, &byte, 1) != 1) return;
+    while (pending() == 0 && Clock::now() < deadline)
+      std::this_thread::sleep_for(std::chrono::microseconds(20));
+  } else {
+    char bytes[64];
+    while (pending() > 0 && Clock::now() < deadline)
+      if (::read(pty_slave_, bytes, sizeof bytes) <= 0)
+        std::this_thread::sleep_for(std::chrono::microseconds(20));
+  }
+  readable_ = want;
+}
+
+// Pollable nodes: every frame is made when its buffer is due, whether or
+// not the caller asks, and the caller's descriptor turns readable.
+void EmulatedV4l2Camera::run_clock() {
+  std::unique_lock lock(mutex_);
+  while (!closing_) {
+    if (!streaming_ || unplugged_ || stalled_at_) {
+      clock_wake_.wait(lock);
+      continue;
+    }
+    const auto due = frame_start(next_frame_) + exposure() + options_.readout;
+    if (Clock::now() < due) {
+      clock_wake_.wait_until(lock, due);
+      continue;  // the plan may have changed
+    }
+    deliver_due(Clock::now());
+    update_readiness();
+  }
 }
 
 void EmulatedV4l2Camera::stall() {
   std::lock_guard lock(mutex_);
   stalled_at_ = Clock::now();
+  clock_wake_.notify_all();
 }
 
 void EmulatedV4l2Camera::resume() {
@@ -105,15 +193,22 @@ void EmulatedV4l2Camera::resume() {
   // The sensor starts over from now; its frame count goes on.
   timeline_start_ = Clock::now();
   timeline_frame_ = next_frame_;
+  clock_wake_.notify_all();
 }
 
 void EmulatedV4l2Camera::unplug() {
-  {
-    std::lock_guard lock(mutex_);
-    unplugged_ = true;
-    streaming_ = false;
-  }
-  bed_.remove_device(syspath_);
+  bed_.on_bed_thread([this] {
+    {
+      std::lock_guard lock(mutex_);
+      if (unplugged_) return;
+      unplugged_ = true;
+      streaming_ = false;
+      update_readiness();
+      clock_wake_.notify_all();
+    }
+    umockdev_testbed_uevent(bed_.testbed(), syspath_.c_str(), "remove");
+    bed_.remove_device(syspath_);
+  });
 }
 
 std::optional<std::int32_t> EmulatedV4l2Camera::control(std::uint32_t id) const {
@@ -276,9 +371,10 @@ void EmulatedV4l2Camera::deliver(std::uint32_t frame, std::size_t buffer) {
   } else {
     std::vector<std::uint8_t> bytes(image_size(), 0);
     encode_v4l2_frame(normalise_scene(image, encoding), fourcc_, bytes_per_line(), bytes);
-    const auto offset = static_cast<off_t>(buffer * buffer_stride());
-    if (::pwrite(backing_fd_, bytes.data(), bytes.size(), offset) !=
-        static_cast<ssize_t>(bytes.size())) {
+    // A pollable node's buffers are files of their own.
+    const int fd = options_.pollable ? buffers_[buffer].fd : backing_fd_;
+    const auto offset = options_.pollable ? 0 : static_cast<off_t>(buffer * buffer_stride());
+    if (::pwrite(fd, bytes.data(), bytes.size(), offset) != static_cast<ssize_t>(bytes.size())) {
       std::fprintf(stderr, "emulated camera: cannot write frame: %s\n", std::strerror(errno));
       flags |= V4L2_BUF_FLAG_ERROR;
     }
@@ -295,9 +391,12 @@ void EmulatedV4l2Camera::deliver(std::uint32_t frame, std::size_t buffer) {
       to_timeval(options_.start_of_exposure_stamps ? request.exposure_start
                                                    : request.exposure_end + options_.readout);
   b.sequence = request.sequence;
-  b.memory = V4L2_MEMORY_MMAP;
-  b.m.offset = static_cast<std::uint32_t>(buffer * buffer_stride());
-  b.length = static_cast<std::uint32_t>(image_size());
+  b.memory = memory_;
+  if (memory_ == V4L2_MEMORY_DMABUF)
+    b.m.fd = buffers_[buffer].queued_fd;
+  else
+    b.m.offset = static_cast<std::uint32_t>(buffer * buffer_stride());
+  b.length = static_cast<std::uint32_t>(options_.pollable ? buffer_stride() : image_size());
   buffers_[buffer].owner = Owner::done;
   done_.push_back(buffer);
   delivered_.push_back(request);
@@ -320,9 +419,9 @@ int EmulatedV4l2Camera::serve(unsigned long request, UMockdevIoctlClient* client
     case VIDIOC_QUERYCAP: {
       Pointee<v4l2_capability> cap(client);
       *cap = v4l2_capability{};
-      copy_string(cap->driver, sizeof cap->driver, "psrig-emulated");
+      copy_string(cap->driver, sizeof cap->driver, options_.driver);
       copy_string(cap->card, sizeof cap->card, options_.card);
-      copy_string(cap->bus_info, sizeof cap->bus_info, "platform:psrig-emulated-camera");
+      copy_string(cap->bus_info, sizeof cap->bus_info, options_.bus_info);
       cap->version = (6u << 16) | (1u << 8);
       cap->device_caps = V4L2_CAP_VIDEO_CAPTURE | V4L2_CAP_STREAMING;
       cap->capabilities = cap->device_caps | V4L2_CAP_DEVICE_CAPS;
@@ -379,82 +478,19 @@ int EmulatedV4l2Camera::serve(unsigned long request, UMockdevIoctlClient* client
       p->parm.capture.timeperframe.denominator = 1'000'000;
       return 0;
     }
-    case VIDIOC_REQBUFS: {
-      Pointee<v4l2_requestbuffers> r(client);
-      if (r->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || r->memory != V4L2_MEMORY_MMAP) return EINVAL;
-      if (streaming_) return EBUSY;
-      buffers_.clear();
-      queued_.clear();
-      done_.clear();
-      if (r->count == 0) return 0;
-      r->count = std::clamp<std::uint32_t>(r->count, 2, 8);
-      buffers_.resize(r->count);
-      // Room in the backing file for every buffer, so that mapping works.
-      const auto needed = static_cast<off_t>(buffer_stride() * r->count);
-      struct stat st {};
-      if (::fstat(backing_fd_, &st) == 0 && st.st_size < needed &&
-          ::ftruncate(backing_fd_, needed) < 0)
-        return ENOMEM;
-      return 0;
-    }
+    case VIDIOC_REQBUFS:
     case VIDIOC_QUERYBUF:
     case VIDIOC_QBUF:
-    case VIDIOC_DQBUF: {
-      Pointee<v4l2_buffer> b(client);
-      if (b->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || b->memory != V4L2_MEMORY_MMAP) return EINVAL;
-      if (request == VIDIOC_DQBUF) {
-        if (!streaming_) return EINVAL;
-        deliver_due(Clock::now());
-        if (done_.empty()) return EAGAIN;
-        const std::size_t index = done_.front();
-        done_.pop_front();
-        buffers_[index].owner = Owner::caller;
-        *b = buffers_[index].done;
-        return 0;
-      }
-      if (b->index >= buffers_.size()) return EINVAL;
-      Buffer& buffer = buffers_[b->index];
-      if (request == VIDIOC_QBUF) {
-        if (buffer.owner != Owner::caller) return EINVAL;
-        buffer.owner = Owner::queued;
-        queued_.push_back(b->index);
-        b->flags = (b->flags & ~V4L2_BUF_FLAG_DONE) | V4L2_BUF_FLAG_MAPPED | V4L2_BUF_FLAG_QUEUED;
-        return 0;
-      }
-      const std::uint32_t index = b->index;
-      *b = v4l2_buffer{};
-      b->index = index;
-      b->type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
-      b->memory = V4L2_MEMORY_MMAP;
-      b->m.offset = static_cast<std::uint32_t>(index * buffer_stride());
-      b->length = static_cast<std::uint32_t>(image_size());
-      b->flags = V4L2_BUF_FLAG_MAPPED | V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC |
-                 (buffer.owner == Owner::queued ? V4L2_BUF_FLAG_QUEUED : 0u) |
-                 (buffer.owner == Owner::done ? V4L2_BUF_FLAG_DONE : 0u);
-      return 0;
-    }
+    case VIDIOC_DQBUF:
+    case VIDIOC_EXPBUF:
     case VIDIOC_STREAMON:
-    case VIDIOC_STREAMOFF: {
-      Pointee<int> type(client);
-      if (*type != V4L2_BUF_TYPE_VIDEO_CAPTURE) return EINVAL;
-      if (request == VIDIOC_STREAMON) {
-        if (buffers_.empty()) return EINVAL;
-        if (!streaming_) {
-          streaming_ = true;
-          timeline_start_ = Clock::now();
-          timeline_frame_ = 0;
-          next_frame_ = 0;
-        }
-        return 0;
-      }
-      // Off: every buffer back to the caller, done or not.
-      streaming_ = false;
-      queued_.clear();
-      done_.clear();
-      for (auto& buffer : buffers_)
-        buffer.owner = Owner::caller;
-      return 0;
-    }
+    case VIDIOC_STREAMOFF:
+      return serve_buffer(request, client);
+    case VIDIOC_QUERY_EXT_CTRL:
+    case VIDIOC_QUERYMENU:
+    case VIDIOC_G_EXT_CTRLS:
+    case VIDIOC_S_EXT_CTRLS:
+      return serve_ext_controls(request, client);
     case VIDIOC_QUERYCTRL: {
       Pointee<v4l2_queryctrl> q(client);
       const std::uint32_t id = q->id;
@@ -490,6 +526,229 @@ int EmulatedV4l2Camera::serve(unsigned long request, UMockdevIoctlClient* client
       Pointee<v4l2_control> c(client);
       const int error = set_control(c->id, c->value);
       if (error == 0) c->value = *current_control(c->id);
+      return error;
+    }
+    default:
+      return -1;
+  }
+}
+
+// The buffer queue: REQBUFS to STREAMOFF.
+int EmulatedV4l2Camera::serve_buffer(unsigned long request, UMockdevIoctlClient* client) {
+  switch (request) {
+    case VIDIOC_REQBUFS: {
+      Pointee<v4l2_requestbuffers> r(client);
+      const bool dmabuf = options_.pollable && r->memory == V4L2_MEMORY_DMABUF;
+      if (r->type != V4L2_BUF_TYPE_VIDEO_CAPTURE || (r->memory != V4L2_MEMORY_MMAP && !dmabuf))
+        return EINVAL;
+      if (streaming_) return EBUSY;
+      release_buffers();
+      update_readiness();
+      memory_ = r->memory;
+      r->capabilities =
+          V4L2_BUF_CAP_SUPPORTS_MMAP | (options_.pollable ? V4L2_BUF_CAP_SUPPORTS_DMABUF : 0u);
+      if (r->count == 0) return 0;
+      r->count = std::clamp<std::uint32_t>(r->count, 2, 8);
+      buffers_.resize(r->count);
+      if (options_.pollable) {
+        if (dmabuf) return 0;  // the caller brings them, with QBUF
+        // One memfd a buffer, which EXPBUF hands out.
+        for (auto& buffer : buffers_) {
+          buffer.fd = ::memfd_create("psrig-emulated-buffer", MFD_CLOEXEC);
+          if (buffer.fd < 0 || ::ftruncate(buffer.fd, static_cast<off_t>(buffer_stride())) < 0) {
+            release_buffers();
+            return ENOMEM;
+          }
+        }
+        return 0;
+      }
+      // Room in the backing file for every buffer, so that mapping works.
+      const auto needed = static_cast<off_t>(buffer_stride() * r->count);
+      struct stat st {};
+      if (::fstat(backing_fd_, &st) == 0 && st.st_size < needed &&
+          ::ftruncate(backing_fd_, needed) < 0)
+        return ENOMEM;
+      return 0;
+    }
+    case VIDIOC_EXPBUF: {
+      Pointee<v4l2_exportbuffer> e(client);
+      if (!options_.pollable || e->type != V4L2_BUF_TYPE_VIDEO_CAPTURE ||
+          memory_ != V4L2_MEMORY_MMAP || e->index >= buffers_.size() || e->plane != 0)
+        return EINVAL;
+      // The caller is this process: a duplicate is its descriptor too.
+      const int fd =
+          ::fcntl(buffers_[e->index].fd, (e->flags & O_CLOEXEC) ? F_DUPFD_CLOEXEC : F_DUPFD, 0);
+      if (fd < 0) return errno;
+      e->fd = fd;
+      return 0;
+    }
+    case VIDIOC_QUERYBUF:
+    case VIDIOC_QBUF:
+    case VIDIOC_DQBUF: {
+      Pointee<v4l2_buffer> b(client);
+      // Only QBUF must name the queue's memory, as vb2 checks it.
+      if (b->type != V4L2_BUF_TYPE_VIDEO_CAPTURE ||
+          (request == VIDIOC_QBUF && b->memory != memory_))
+        return EINVAL;
+      if (request == VIDIOC_DQBUF) {
+        if (!streaming_) return EINVAL;
+        deliver_due(Clock::now());
+        if (done_.empty()) return EAGAIN;
+        const std::size_t index = done_.front();
+        done_.pop_front();
+        buffers_[index].owner = Owner::caller;
+        *b = buffers_[index].done;
+        update_readiness();
+        return 0;
+      }
+      if (b->index >= buffers_.size()) return EINVAL;
+      Buffer& buffer = buffers_[b->index];
+      if (request == VIDIOC_QBUF) {
+        if (buffer.owner != Owner::caller) return EINVAL;
+        if (memory_ == V4L2_MEMORY_DMABUF) {
+          // Imported: keep it open while queued, as the kernel holds a
+          // reference to the dmabuf.
+          struct stat st {};
+          if (::fstat(b->m.fd, &st) < 0 || st.st_size < static_cast<off_t>(image_size()))
+            return EINVAL;
+          if (buffer.fd >= 0) ::close(buffer.fd);
+          buffer.fd = ::fcntl(b->m.fd, F_DUPFD_CLOEXEC, 0);
+          if (buffer.fd < 0) return errno;
+          buffer.queued_fd = b->m.fd;
+        }
+        buffer.owner = Owner::queued;
+        queued_.push_back(b->index);
+        b->flags = (b->flags & ~V4L2_BUF_FLAG_DONE) | V4L2_BUF_FLAG_MAPPED | V4L2_BUF_FLAG_QUEUED;
+        return 0;
+      }
+      const std::uint32_t index = b->index;
+      *b = v4l2_buffer{};
+      b->index = index;
+      b->type = V4L2_BUF_TYPE_VIDEO_CAPTURE;
+      b->memory = memory_;
+      b->m.offset = static_cast<std::uint32_t>(index * buffer_stride());
+      // A pollable node's buffers are whole pages: what an exported one maps.
+      b->length = static_cast<std::uint32_t>(options_.pollable ? buffer_stride() : image_size());
+      b->flags = V4L2_BUF_FLAG_MAPPED | V4L2_BUF_FLAG_TIMESTAMP_MONOTONIC |
+                 (buffer.owner == Owner::queued ? V4L2_BUF_FLAG_QUEUED : 0u) |
+                 (buffer.owner == Owner::done ? V4L2_BUF_FLAG_DONE : 0u);
+      return 0;
+    }
+    case VIDIOC_STREAMON:
+    case VIDIOC_STREAMOFF: {
+      Pointee<int> type(client);
+      if (*type != V4L2_BUF_TYPE_VIDEO_CAPTURE) return EINVAL;
+      if (request == VIDIOC_STREAMON) {
+        if (buffers_.empty()) return EINVAL;
+        if (!streaming_) {
+          streaming_ = true;
+          timeline_start_ = Clock::now();
+          timeline_frame_ = 0;
+          next_frame_ = 0;
+          clock_wake_.notify_all();
+        }
+        return 0;
+      }
+      // Off: every buffer back to the caller, done or not.
+      streaming_ = false;
+      queued_.clear();
+      done_.clear();
+      for (auto& buffer : buffers_)
+        buffer.owner = Owner::caller;
+      update_readiness();
+      clock_wake_.notify_all();
+      return 0;
+    }
+    default:
+      return -1;
+  }
+}
+
+// The extended controls, over the same exposure, gain and auto-exposure
+// controls VIDIOC_QUERYCTRL describes.
+int EmulatedV4l2Camera::serve_ext_controls(unsigned long request, UMockdevIoctlClient* client) {
+  std::vector<std::uint32_t> ids;
+  if (options_.auto_exposure) ids.push_back(V4L2_CID_EXPOSURE_AUTO);
+  ids.push_back(options_.exposure.id);
+  ids.push_back(options_.gain.id);
+  std::sort(ids.begin(), ids.end());
+  switch (request) {
+    case VIDIOC_QUERY_EXT_CTRL: {
+      Pointee<v4l2_query_ext_ctrl> q(client);
+      const std::uint32_t asked =
+          q->id & ~(V4L2_CTRL_FLAG_NEXT_CTRL | V4L2_CTRL_FLAG_NEXT_COMPOUND);
+      const bool next = q->id & (V4L2_CTRL_FLAG_NEXT_CTRL | V4L2_CTRL_FLAG_NEXT_COMPOUND);
+      std::optional<std::uint32_t> id;
+      for (const auto candidate : ids)
+        if (next ? candidate > asked : candidate == asked) {
+          id = candidate;
+          break;
+        }
+      if (!id) return EINVAL;
+      *q = v4l2_query_ext_ctrl{};
+      q->id = *id;
+      q->elem_size = sizeof(std::int32_t);
+      q->elems = 1;
+      if (*id == V4L2_CID_EXPOSURE_AUTO) {
+        q->type = V4L2_CTRL_TYPE_MENU;
+        copy_string(reinterpret_cast<std::uint8_t*>(q->name), sizeof q->name, "Auto Exposure");
+        q->minimum = V4L2_EXPOSURE_AUTO;
+        q->maximum = V4L2_EXPOSURE_APERTURE_PRIORITY;
+        q->step = 1;
+        q->default_value = V4L2_EXPOSURE_APERTURE_PRIORITY;
+        return 0;
+      }
+      const EmulatedControl* c = find_control(*id);
+      q->type = V4L2_CTRL_TYPE_INTEGER;
+      copy_string(reinterpret_cast<std::uint8_t*>(q->name), sizeof q->name,
+                  *id == options_.gain.id ? "Gain" : "Exposure");
+      q->minimum = c->minimum;
+      q->maximum = c->maximum;
+      q->step = static_cast<std::uint64_t>(c->step);
+      q->default_value = c->default_value;
+      return 0;
+    }
+    case VIDIOC_QUERYMENU: {
+      Pointee<v4l2_querymenu> m(client);
+      // As a UVC camera: manual and aperture priority only.
+      if (m->id != V4L2_CID_EXPOSURE_AUTO || !options_.auto_exposure ||
+          (m->index != V4L2_EXPOSURE_MANUAL && m->index != V4L2_EXPOSURE_APERTURE_PRIORITY))
+        return EINVAL;
+      const char* name =
+          m->index == V4L2_EXPOSURE_MANUAL ? "Manual Mode" : "Aperture Priority Mode";
+      std::memset(m->name, 0, sizeof m->name);
+      std::memcpy(m->name, name, std::strlen(name));
+      return 0;
+    }
+    case VIDIOC_G_EXT_CTRLS:
+    case VIDIOC_S_EXT_CTRLS: {
+      Pointee<v4l2_ext_controls> list(client);
+      if (list->count == 0) return 0;
+      if (list->count > 64) return EINVAL;
+      const std::uint32_t count = list->count;
+      UMockdevIoctlData* array =
+          umockdev_ioctl_data_resolve(list.data(), offsetof(v4l2_ext_controls, controls),
+                                      sizeof(v4l2_ext_control) * count, nullptr);
+      if (!array) return EFAULT;
+      int error = 0;
+      for (std::uint32_t i = 0; i < count && !error; ++i) {
+        v4l2_ext_control c{};
+        std::memcpy(&c, array->data + i * sizeof c, sizeof c);
+        if (request == VIDIOC_S_EXT_CTRLS) error = set_control(c.id, c.value);
+        if (!error) {
+          const auto value = current_control(c.id);
+          if (!value)
+            error = EINVAL;
+          else
+            c.value = *value;
+        }
+        if (error)
+          list->error_idx = i;
+        else
+          std::memcpy(array->data + i * sizeof c, &c, sizeof c);
+      }
+      umockdev_ioctl_data_unref(array);
+      clock_wake_.notify_all();  // a new exposure moves the next frame
       return error;
     }
     default:

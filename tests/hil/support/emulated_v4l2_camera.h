@@ -29,8 +29,24 @@
 //   regular file.
 // - unplug(): every later request fails with ENODEV, as the V4L2 core
 //   answers for a device that was unregistered, and the device leaves the
-//   testbed (sysfs and /dev). Mappings stay valid, as a driver's do until
-//   unmapped.
+//   testbed (sysfs and /dev) after a "remove" uevent. Mappings stay valid,
+//   as a driver's do until unmapped. A kernel node polls POLLERR|POLLHUP
+//   from then on; a pollable one here just stays unreadable.
+//
+// - A pollable node (EmulatedV4l2Options::pollable, for libcamera, whose
+//   event loop waits in ppoll() and maps only exported buffers) is a PTY
+//   instead: no mmap of the node, but a real descriptor that poll() can
+//   wait on. The device makes the caller's descriptor readable, as a
+//   driver does, exactly while a buffer is done and not yet dequeued, by
+//   writing a byte into the PTY's master side and reading it back out on
+//   its own descriptor of the slave side. Frames are then made on a clock
+//   thread of the device's own when they are due, not when the caller asks.
+//   Its MMAP buffers are memfds that VIDIOC_EXPBUF hands out as dmabufs
+//   (the caller is this process, so the descriptor is valid there), and it
+//   takes V4L2_MEMORY_DMABUF buffers, writing each frame into the
+//   descriptor queued with it (any file it can pwrite: memfds included).
+//   The extended controls (QUERY_EXT_CTRL, G/S_EXT_CTRLS, QUERYMENU) are
+//   served in both kinds.
 //
 // Frames run in real time on the steady clock from STREAMON: frame n's
 // exposure starts at n frame periods (the longer of frame_interval and the
@@ -42,6 +58,7 @@
 // handler thread while the caller waits in DQBUF.
 
 #include <chrono>
+#include <condition_variable>
 #include <cstddef>
 #include <cstdint>
 #include <deque>
@@ -50,6 +67,7 @@
 #include <mutex>
 #include <optional>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include <opencv2/core.hpp>
@@ -90,6 +108,13 @@ struct EmulatedControl {
 struct EmulatedV4l2Options {
   std::string name = "video0";  // the node is /dev/<name>
   std::string card = "psrig emulated camera";
+  std::string driver = "psrig-emulated";
+  std::string bus_info = "platform:psrig-emulated-camera";
+  // The sysfs device the node hangs under, without /sys.
+  std::string parent = "/devices/platform/psrig-emulated-camera";
+  std::uint32_t minor = 0;  // the node is char 81:minor
+  // A PTY that poll() waits on, exported and imported dmabufs (above).
+  bool pollable = false;
   // Offered pixel formats, in VIDIOC_ENUM_FMT order; the first is the default.
   std::vector<std::uint32_t> formats{V4L2_PIX_FMT_GREY};
   // Offered sizes (discrete); the first is the default.
@@ -119,6 +144,8 @@ class EmulatedV4l2Camera {
   EmulatedV4l2Camera& operator=(const EmulatedV4l2Camera&) = delete;
 
   [[nodiscard]] std::string devnode() const { return "/dev/" + options_.name; }
+  [[nodiscard]] std::string syspath() const { return syspath_; }
+  [[nodiscard]] std::uint32_t minor() const { return options_.minor; }
 
   // The sensor stops: no frame whose buffer would be done after now is
   // delivered until resume(), from when frames run on as after STREAMON
@@ -143,6 +170,10 @@ class EmulatedV4l2Camera {
   struct Buffer {
     Owner owner = Owner::caller;
     v4l2_buffer done{};  // what DQBUF reports once the buffer is done
+    // Pollable nodes: the buffer's memfd (MMAP), or a duplicate of the
+    // dmabuf queued with it (DMABUF); frames are written there at 0.
+    int fd = -1;
+    std::int32_t queued_fd = -1;  // the caller's number for it, for DQBUF
   };
 
   bool handle(UMockdevIoctlClient* client);
@@ -159,12 +190,22 @@ class EmulatedV4l2Camera {
   std::chrono::steady_clock::time_point frame_start(std::uint32_t frame) const;
   void deliver_due(std::chrono::steady_clock::time_point now);
   void deliver(std::uint32_t frame, std::size_t buffer);
+  int serve_buffer(unsigned long request, UMockdevIoctlClient* client);
+  int serve_ext_controls(unsigned long request, UMockdevIoctlClient* client);
+  void release_buffers();
+  // Pollable nodes: the caller's descriptor readable while a buffer is done.
+  void update_readiness();
+  void run_clock();
 
   UmockdevBed& bed_;
   EmulatedV4l2Options options_;
   FrameSource source_;
   std::string syspath_;
   int backing_fd_ = -1;  // the node's file, which the caller maps
+  int pty_master_ = -1;  // pollable: umockdev's side of the node
+  int pty_slave_ = -1;   // pollable: ours, to take the readiness byte back
+  bool readable_ = false;
+  std::uint32_t memory_ = V4L2_MEMORY_MMAP;  // of the buffers REQBUFS made
 
   mutable std::mutex mutex_;
   std::uint32_t fourcc_;
@@ -185,6 +226,10 @@ class EmulatedV4l2Camera {
   std::uint32_t next_frame_ = 0;  // frames since STREAMON, delivered or dropped
   std::vector<FrameRequest> delivered_;
   int dropped_ = 0;
+  // Pollable nodes: makes frames when due; woken on every change of plan.
+  std::condition_variable clock_wake_;
+  bool closing_ = false;
+  std::thread clock_;
 };
 
 }  // namespace psrig::test

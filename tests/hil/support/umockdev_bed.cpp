@@ -4,6 +4,8 @@
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
+#include <fstream>
+#include <future>
 #include <stdexcept>
 
 namespace psrig::test {
@@ -98,6 +100,13 @@ void UmockdevBed::add_bus_link(const std::string& bus, const std::string& syspat
   fs::create_symlink(fs::path("../../..") / device, link);
 }
 
+void UmockdevBed::add_udev_entry(unsigned major, unsigned minor) {
+  namespace fs = std::filesystem;
+  const fs::path data = fs::path(root()) / "run" / "udev" / "data";
+  fs::create_directories(data);
+  std::ofstream(data / ("c" + std::to_string(major) + ":" + std::to_string(minor))) << "I:1\n";
+}
+
 gboolean UmockdevBed::dispatch_ioctl(UMockdevIoctlBase*, UMockdevIoctlClient* client,
                                      gpointer attached) {
   auto* a = static_cast<Attached*>(attached);
@@ -149,6 +158,32 @@ void UmockdevBed::detach(const std::string& devnode) {
   g_object_unref(it->second->base);
   delete it->second;
   attached_.erase(it);
+}
+
+}  // namespace psrig::test
+
+namespace psrig::test {
+
+void UmockdevBed::on_bed_thread(const std::function<void()>& f) {
+  if (g_main_context_is_owner(context_)) {
+    f();
+    return;
+  }
+  struct Call {
+    const std::function<void()>* f;
+    std::promise<void> done;
+  } call{&f, {}};
+  auto done = call.done.get_future();
+  g_main_context_invoke(
+      context_,
+      [](gpointer data) -> gboolean {
+        auto* c = static_cast<Call*>(data);
+        (*c->f)();
+        c->done.set_value();
+        return G_SOURCE_REMOVE;
+      },
+      &call);
+  done.wait();
 }
 
 }  // namespace psrig::test

@@ -45,6 +45,12 @@ class UmockdevBed {
   // ("/sys/devices/..."), unless umockdev made it already: libgpiod, for
   // one, checks a chip there.
   void add_bus_link(const std::string& bus, const std::string& syspath);
+  // udevd's database entry for the character device major:minor, which
+  // tells libudev the device is initialised (listed by enumerations that
+  // match initialised devices only). libudev reads it from /run/udev/data,
+  // which umockdev does not redirect: only code that runs with the openat
+  // shim preloaded too (openat_syscall_shim.cpp) finds it in the testbed.
+  void add_udev_entry(unsigned major, unsigned minor);
 
   // Serves requests on `devnode` (e.g. "/dev/gpiochip0") with the handlers
   // given (any may be empty: then the request fails with ENOTTY / EIO).
@@ -53,6 +59,12 @@ class UmockdevBed {
   void attach(const std::string& devnode, Handler on_ioctl, Handler on_read = {},
               Handler on_write = {});
   void detach(const std::string& devnode);
+
+  // Runs `f` on the thread that serves the handlers, and waits for it: a
+  // device that changes (unplugs, completes a waiting URB) there cannot
+  // race its own handlers, and touches a request's memory only where
+  // umockdev syncs it to the client.
+  void on_bed_thread(const std::function<void()>& f);
 
   [[nodiscard]] UMockdevTestbed* testbed() const { return bed_; }
   [[nodiscard]] std::string root() const;

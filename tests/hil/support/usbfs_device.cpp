@@ -5,7 +5,6 @@
 #include <cstddef>
 #include <cstdio>
 #include <cstring>
-#include <future>
 #include <linux/usb/ch9.h>
 #include <linux/usbdevice_fs.h>
 #include <optional>
@@ -13,32 +12,6 @@
 
 namespace psrig::test {
 namespace {
-
-// Runs `f` on the bed's thread (umockdev serves handlers on the global
-// default main context, which that thread runs) and waits for it: URB
-// memory is then only ever touched where umockdev syncs it to the client.
-void on_bed_thread(const std::function<void()>& f) {
-  GMainContext* context = g_main_context_default();
-  if (g_main_context_is_owner(context)) {
-    f();
-    return;
-  }
-  struct Call {
-    const std::function<void()>* f;
-    std::promise<void> done;
-  } call{&f, {}};
-  auto done = call.done.get_future();
-  g_main_context_invoke(
-      context,
-      [](gpointer data) -> gboolean {
-        auto* c = static_cast<Call*>(data);
-        (*c->f)();
-        c->done.set_value();
-        return G_SOURCE_REMOVE;
-      },
-      &call);
-  done.wait();
-}
 
 void put16(std::vector<std::uint8_t>& out, unsigned value) {
   out.push_back(static_cast<std::uint8_t>(value & 0xFF));
@@ -184,7 +157,7 @@ void UsbfsDevice::plug() {
 }
 
 void UsbfsDevice::unplug() {
-  on_bed_thread([this] {
+  bed_.on_bed_thread([this] {
     {
       const std::scoped_lock lock(mutex_);
       if (!plugged_ || unplugged_) return;
@@ -200,7 +173,7 @@ void UsbfsDevice::unplug() {
 }
 
 void UsbfsDevice::queue_in(std::uint8_t endpoint, std::vector<std::uint8_t> data) {
-  on_bed_thread([&] {
+  bed_.on_bed_thread([&] {
     const std::scoped_lock lock(mutex_);
     if (unplugged_) return;
     const auto waiting = std::find_if(waiting_.begin(), waiting_.end(),
@@ -216,7 +189,7 @@ void UsbfsDevice::queue_in(std::uint8_t endpoint, std::vector<std::uint8_t> data
 }
 
 void UsbfsDevice::stall(std::uint8_t endpoint, int times) {
-  on_bed_thread([&] {
+  bed_.on_bed_thread([&] {
     const std::scoped_lock lock(mutex_);
     stalls_left_[endpoint] += times;
     const auto waiting = std::find_if(waiting_.begin(), waiting_.end(),
