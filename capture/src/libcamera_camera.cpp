@@ -236,9 +236,11 @@ class LibcameraCamera final : public Camera {
         if (const auto equivalent = v4l2_equivalent(format);
             equivalent && equivalent->fourcc == wanted->fourcc)
           return format;
+      // A setting this camera cannot meet: bad input (exit 2), as v4l2 says it.
       return std::unexpected(
-          io_error(label(), "does not offer " + std::string(wanted->name) +
-                                " (camera.format; `psrig devices` lists what it does)"));
+          bad_input(label(), "camera.format",
+                    "does not offer " + std::string(wanted->name) +
+                        " (camera.format; `psrig devices` lists what it does)"));
     }
     // "auto": the best for photometry of what the camera offers.
     std::optional<lc::PixelFormat> best;
