@@ -97,6 +97,17 @@ void check_frames(const std::string& answer) {
   }
 }
 
+// Exit (libFuzzer's, or the replay's) destroys statics in the reverse order
+// of their making, and the server's threads make some of their own while
+// they work (a logger, the lights' emergency-stop registry), after the
+// fixture was made: destroyed first, under threads still running. So the
+// servers are stopped by an exit handler registered anew with every input,
+// which therefore runs before any static made while the inputs ran is
+// destroyed. (One small entry per input; the second run finds nothing to stop.)
+void stop_servers() {
+  fixture().server.reset();  // stops and destroys it while everything it uses is alive
+}
+
 }  // namespace
 
 extern "C" int LLVMFuzzerInitialize(int*, char***) {
@@ -106,6 +117,8 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 }
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
-  check_frames(psrig::fuzz::exchange(fixture().server->port(), data, size, 500));
+  std::atexit(stop_servers);
+  static const int port = fixture().server->port();
+  check_frames(psrig::fuzz::exchange(port, data, size, 500));
   return 0;
 }
