@@ -83,7 +83,7 @@ int free_loopback_port() {
 }
 
 std::string exchange(int port, const std::uint8_t* data, std::size_t size, int deadline_ms,
-                     std::string_view stop_after) {
+                     int answer_window_ms, std::string_view stop_after) {
   using Clock = std::chrono::steady_clock;
   const auto deadline = Clock::now() + std::chrono::milliseconds(deadline_ms);
   const int fd = ::socket(AF_INET, SOCK_STREAM | SOCK_CLOEXEC, 0);
@@ -116,6 +116,13 @@ std::string exchange(int port, const std::uint8_t* data, std::size_t size, int d
     }
     sent += static_cast<std::size_t>(n);
   }
+  // With a window: wait that long for the first byte of an answer before
+  // shutting the writing side (a server that refuses to write to a
+  // half-closed peer, as httplib does, answers a whole request in time).
+  if (answer_window_ms > 0) {
+    pollfd p{fd, POLLIN, 0};
+    ::poll(&p, 1, std::min(answer_window_ms, remaining()));
+  }
   ::shutdown(fd, SHUT_WR);
   std::string answer;
   char buffer[4096];
@@ -131,6 +138,14 @@ std::string exchange(int port, const std::uint8_t* data, std::size_t size, int d
       if (head_end != std::string::npos && answer.substr(0, head_end).find(stop_after) != std::string::npos)
         break;
     }
+  }
+  static const bool verbose = std::getenv("PSRIG_FUZZ_VERBOSE") != nullptr;
+  if (verbose) {
+    std::string shown = answer.substr(0, std::min<std::size_t>(answer.size(), 60));
+    for (char& c : shown)
+      if (static_cast<unsigned char>(c) < 0x20 || static_cast<unsigned char>(c) >= 0x7F) c = '.';
+    std::fprintf(stderr, "exchange: %zu bytes sent of %zu, %zu bytes back: %s\n", sent, size,
+                 answer.size(), shown.c_str());
   }
   const linger reset{1, 0};
   ::setsockopt(fd, SOL_SOCKET, SO_LINGER, &reset, sizeof reset);
