@@ -4,7 +4,8 @@ kind the reader meets. psrig's fast path: 8/16-bit grey and RGB, each PNG
 filter type, one or several IDAT chunks, stored or compressed, with
 ancillary chunks. OpenCV's fallback: palette, tRNS, grey+alpha, RGBA,
 1/2/4-bit grey, Adam7 interlacing. Standard library only (zlib); rerun it
-to regenerate: python3 tests/fuzz/tools/make_png_seeds.py"""
+to regenerate: python3 tests/fuzz/tools/make_png_seeds.py. The psrig-*.png
+seeds come from psrig's own writer: write_psrig_png_seeds.cpp."""
 import os
 import struct
 import sys
