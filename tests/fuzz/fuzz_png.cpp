@@ -27,7 +27,7 @@ constexpr std::uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '
 // damaged-text-chunk-length-allocates-976mb.png.known-failing): a chunk
 // whose length field runs past the end of the file makes the fast path
 // give up, and cv::imread's libpng (png_read_info) then allocates the
-// declared length (976 MB for a 132-byte file) before it finds the file
+// declared length (976 MB for a 127-byte file) before it finds the file
 // short. Inputs with such a chunk over 8 MB (libpng's own default limit for
 // a chunk) are skipped, so that fuzzing looks for other bugs; remove this
 // with the fix.
