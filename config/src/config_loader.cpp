@@ -3,12 +3,21 @@
 #include <algorithm>
 #include <arpa/inet.h>
 #include <fstream>
+#include <limits>
+#include <optional>
 #include <set>
 #include <sstream>
 #include <toml++/toml.h>
 
 namespace psrig::config {
 namespace {
+
+// A TOML integer's value; nothing for any other node. (toml++'s value<int64_t>()
+// also converts a float, which is undefined behaviour past 2^63.)
+std::optional<std::int64_t> integer_of(const toml::node& n) {
+  if (const auto* integer = n.as_integer()) return integer->get();
+  return std::nullopt;
+}
 
 namespace fs = std::filesystem;
 
@@ -75,8 +84,8 @@ class Section {
   Status get(const std::string& name, int& out, long min, long max) {
     const toml::node* n = node(name);
     if (!n) return {};
-    const auto value = n->value<std::int64_t>();
-    if (!n->is_integer() || !value)
+    const auto value = integer_of(*n);
+    if (!value)
       return std::unexpected(error_at(n, name, "expected a whole number"));
     if (*value < min || *value > max)
       return std::unexpected(error_at(n, name,
@@ -89,8 +98,8 @@ class Section {
   Status get(const std::string& name, std::uint64_t& out) {
     const toml::node* n = node(name);
     if (!n) return {};
-    const auto value = n->value<std::int64_t>();
-    if (!n->is_integer() || !value || *value < 0)
+    const auto value = integer_of(*n);
+    if (!value || *value < 0)
       return std::unexpected(error_at(n, name, "expected a whole number, 0 or more"));
     out = static_cast<std::uint64_t>(*value);
     return {};
@@ -147,9 +156,11 @@ class Section {
     if (!array) return std::unexpected(error_at(n, name, "expected an array of whole numbers"));
     std::vector<unsigned> values;
     for (const auto& element : *array) {
-      const auto value = element.value<std::int64_t>();
-      if (!element.is_integer() || !value || *value < 0)
-        return std::unexpected(error_at(&element, name, "expected whole numbers, 0 or more"));
+      const auto value = integer_of(element);
+      if (!value || *value < 0 || *value > std::numeric_limits<unsigned>::max())
+        return std::unexpected(error_at(&element, name,
+                                        "expected whole numbers, 0 to " +
+                                            std::to_string(std::numeric_limits<unsigned>::max())));
       values.push_back(static_cast<unsigned>(*value));
     }
     out = std::move(values);

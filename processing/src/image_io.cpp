@@ -63,6 +63,8 @@ Result<cv::Mat> read_image(const std::filesystem::path& file, const std::string&
   try {
     if (is_png(file)) {
       if (auto fast = png::read(file)) return std::move(*fast);
+      if (const auto damage = png::chunk_past_end(file))
+        return std::unexpected(bad_input(file, key, "damaged PNG: " + *damage));
     }
     image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& e) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <array>
+#include <cctype>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -460,6 +461,32 @@ Status write(const fs::path& file, const cv::Mat& image, int level) {
   if (!out.close())
     return std::unexpected(io_error(file, std::string("cannot write: ") + std::strerror(errno)));
   return {};
+}
+
+}  // namespace psrig::processing::png
+
+namespace psrig::processing::png {
+
+std::optional<std::string> chunk_past_end(const fs::path& file) {
+  const MappedFile mapped(file);
+  const std::uint8_t* data = mapped.data();
+  const std::size_t size = mapped.size();
+  if (!data || size < kSignature.size() ||
+      !std::equal(kSignature.begin(), kSignature.end(), data))
+    return std::nullopt;
+  for (std::size_t at = kSignature.size(); at + 8 <= size;) {
+    const std::uint32_t length = load_be32(data + at);
+    if (length > size - at - 8) {
+      std::string type(reinterpret_cast<const char*>(data + at + 4), 4);
+      for (char& c : type)
+        if (!std::isalpha(static_cast<unsigned char>(c))) c = '?';
+      return "chunk '" + type + "' at byte " + std::to_string(at) + " declares " +
+             std::to_string(length) + " bytes, but the file ends " +
+             std::to_string(size - at - 8) + " bytes later (truncated or corrupt)";
+    }
+    at += std::size_t{12} + length;
+  }
+  return std::nullopt;
 }
 
 }  // namespace psrig::processing::png

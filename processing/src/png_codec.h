@@ -7,6 +7,7 @@
 
 #include <filesystem>
 #include <optional>
+#include <string>
 
 #include <opencv2/core.hpp>
 
@@ -18,6 +19,12 @@ namespace psrig::processing::png {
 // the file is not a PNG this path handles, including one it finds damaged:
 // then cv::imread decides, so every PNG is judged as OpenCV would.
 [[nodiscard]] std::optional<cv::Mat> read(const std::filesystem::path& file);
+
+// Where a chunk of the PNG `file` declares more bytes than the file holds
+// after it, which chunk and how much; nothing when every chunk fits (or the
+// file is no PNG). libpng would first allocate the declared length, up to
+// 2 GiB, before finding the file short.
+[[nodiscard]] std::optional<std::string> chunk_past_end(const std::filesystem::path& file);
 
 // Whether write() takes this image: CV_8U or CV_16U, one or three channels.
 [[nodiscard]] bool can_write(const cv::Mat& image);

@@ -96,6 +96,18 @@ TEST(Config, GpioLinesMustMatchTheChannels) {
   EXPECT_NE(e.message.find("gpioinfo"), std::string::npos);
 }
 
+// Whole numbers are whole numbers: a float is refused, not converted (found
+// by fuzzing: 1e308 was undefined behaviour), and a GPIO line beyond 32 bits
+// is refused, not wrapped to another line.
+TEST(Config, WholeNumbersAreNotConvertedFromFloatsOrWrapped) {
+  expect_error("[lights]\nbackend = \"gpiod\"\n[lights.gpiod]\nlines = [1, 2, 1e308]\n",
+               "lights.gpiod.lines", 4);
+  expect_error("[lights]\nbackend = \"gpiod\"\n[lights.gpiod]\nlines = [4294967313, 18, 19]\n",
+               "lights.gpiod.lines", 4);
+  expect_error("[lights]\nchannels = 1e19\n", "lights.channels", 2);
+  expect_error("[camera]\nexposure_us = 3.0\n", "camera.exposure_us", 2);
+}
+
 TEST(Config, TiltsMustMatchTheChannels) {
   expect_error("[geometry]\ntilts_deg = [0, 90]\n", "geometry.tilts_deg", 2);
   // More channels without tilts: spread evenly.

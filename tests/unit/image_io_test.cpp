@@ -122,6 +122,27 @@ TEST(ImageIo, DamagedPngsGiveErrors) {
   }
 }
 
+// A chunk whose length runs past the end of the file (found by fuzzing: a
+// 127-byte file made libpng allocate 976 MB before finding it short) is
+// refused from its length, naming the chunk.
+TEST(ImageIo, AChunkLongerThanTheFileIsRefusedBeforeAnyoneAllocatesIt) {
+  test::TempDir temp;
+  const fs::path good = temp / "good.png";
+  ASSERT_TRUE(write_image(good, random_image(CV_8UC1, 3)));
+  std::ifstream in(good, std::ios::binary);
+  std::string bytes((std::istreambuf_iterator<char>(in)), {});
+  // After IHDR (8 + 25 bytes): a tEXt chunk declaring 0x3A2F0019 bytes.
+  bytes.insert(33, std::string("\x3a\x2f\x00\x19tEXtComment\0short", 22));
+  const fs::path file = temp / "text.png";
+  std::ofstream(file, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
+  auto read = read_image(file, "mask");
+  ASSERT_FALSE(read);
+  EXPECT_EQ(read.error().kind, ErrorKind::bad_input);
+  EXPECT_NE(read.error().message.find("damaged PNG: chunk 'tEXt' at byte 33 declares 976158745 bytes"),
+            std::string::npos)
+      << read.error().describe();
+}
+
 TEST(ImageIo, WriteErrorsNameTheFile) {
   auto failed = write_image("/nonexistent-dir/x.png", cv::Mat(4, 4, CV_8U, cv::Scalar(1)));
   ASSERT_FALSE(failed);
