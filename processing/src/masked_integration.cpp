@@ -1,0 +1,552 @@
+// Least-squares normal integration over a mask: the discrete problem of the
+// DCT Poisson solver (integration.cpp), restricted to the pixels inside the
+// mask, solved by conjugate gradients preconditioned with a multigrid
+// V-cycle.
+//
+// The energy: over every pair of 4-neighbours both inside the mask,
+//   (z[i][j+1] - z[i][j] - gx)^2 and (z[i+1][j] - z[i][j] - gy)^2,
+// gx the integral of p from pixel j to j+1 along the row, gy that of -q
+// down the column (the row index runs down, y up), each from the samples
+// around the edge (edge_target). With the trapezoid for the integrals and
+// every pixel inside, this would be the Poisson solver's energy. Its normal
+// equations A z = b have A the graph
+// Laplacian of the mask's 4-neighbour graph: (A z)_i = sum_j w_ij (z_i - z_j),
+// with edge weights w in {0, 1}; b_i = sum over i's edges of the gradient
+// toward i. A is singular (one free constant per connected piece of the
+// mask), b is in its range, and CG stays there.
+//
+// Preconditioner: one symmetric V-cycle (red-black Gauss-Seidel, red then
+// black before, black then red after) over a hierarchy made by 2x2
+// aggregation. A coarse cell's edge to its right-hand neighbour weighs half
+// the sum of the fine edges between the two blocks, which is the fine
+// Laplacian rediscretised on the coarse grid where the mask is full (the
+// Galerkin product of piecewise-constant aggregation would be twice that
+// and under-correct smooth errors by half), and follows the mask's shape
+// where it is not: blocks with no edge between them stay unconnected.
+// Restriction sums a block's residuals, prolongation copies the coarse
+// correction into the block's pixels inside the mask. Everything is
+// symmetric, so the V-cycle is a valid CG preconditioner.
+// References: W. L. Briggs, V. E. Henson, S. F. McCormick, "A Multigrid
+// Tutorial", SIAM 2000; Y. Notay, "An aggregation-based algebraic multigrid
+// method", ETNA 37, 2010 (aggregation and the scaled coarse correction);
+// Y. Queau, J.-D. Durou, J.-F. Aujol, "Normal integration: a survey", JMIV
+// 60, 2018 (least squares over a non-rectangular domain).
+
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <cstddef>
+#include <cstdint>
+#include <exception>
+#include <limits>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include <opencv2/imgproc.hpp>
+
+#include "psrig/processing/integration.h"
+#include "psrig/processing/parallel.h"
+
+namespace psrig::processing {
+namespace {
+
+constexpr int kRowsPerChunk = 16;
+// Below this relative residual, a rise means float rounding has taken over.
+constexpr double kFloorZone = 1e-3;
+
+inline bool is_finite(float value) {
+  return (std::bit_cast<std::uint32_t>(value) & 0x7F800000U) != 0x7F800000U;
+}
+
+// One level of the hierarchy: a w x h grid, row-major. wx[k] is the weight of
+// the edge from k to its right-hand neighbour (0 in the last column), wy[k]
+// of the edge to the pixel below (0 in the last row); diag[k] the sum of k's
+// edge weights, 0 for a pixel outside the mask (or one with no neighbour
+// inside), which the solver leaves alone.
+struct Level {
+  int w = 0;
+  int h = 0;
+  std::vector<float> wx, wy, diag, inv_diag;
+  std::vector<float> x, b, r;  // the coarse levels' own vectors
+
+  [[nodiscard]] std::size_t size() const { return static_cast<std::size_t>(w) * h; }
+};
+
+void finish_level(Level& level) {
+  const std::size_t n = level.size();
+  level.diag.assign(n, 0.0F);
+  level.inv_diag.assign(n, 0.0F);
+  parallel_chunks(level.h, kRowsPerChunk, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      for (int j = 0; j < level.w; ++j) {
+        const std::size_t k = static_cast<std::size_t>(i) * level.w + j;
+        float d = level.wx[k] + level.wy[k];
+        if (j > 0) d += level.wx[k - 1];
+        if (i > 0) d += level.wy[k - level.w];
+        level.diag[k] = d;
+        level.inv_diag[k] = d > 0 ? 1.0F / d : 0.0F;
+      }
+    }
+  });
+}
+
+Level coarsen(const Level& fine) {
+  Level c;
+  c.w = (fine.w + 1) / 2;
+  c.h = (fine.h + 1) / 2;
+  c.wx.assign(c.size(), 0.0F);
+  c.wy.assign(c.size(), 0.0F);
+  const int fw = fine.w;
+  parallel_chunks(c.h, kRowsPerChunk, [&](int begin, int end) {
+    for (int ci = begin; ci < end; ++ci) {
+      for (int cj = 0; cj < c.w; ++cj) {
+        const std::size_t k = static_cast<std::size_t>(ci) * c.w + cj;
+        float sx = 0.0F;
+        float sy = 0.0F;
+        for (int di = 0; di < 2; ++di) {
+          const int i = 2 * ci + di;
+          if (i >= fine.h) break;
+          const int j = 2 * cj + 1;  // the fine column whose right edge leaves the block
+          if (j + 1 < fw) sx += fine.wx[static_cast<std::size_t>(i) * fw + j];
+        }
+        for (int dj = 0; dj < 2; ++dj) {
+          const int j = 2 * cj + dj;
+          if (j >= fw) break;
+          const int i = 2 * ci + 1;  // the fine row whose lower edge leaves the block
+          if (i + 1 < fine.h) sy += fine.wy[static_cast<std::size_t>(i) * fw + j];
+        }
+        c.wx[k] = 0.5F * sx;
+        c.wy[k] = 0.5F * sy;
+      }
+    }
+  });
+  finish_level(c);
+  c.x.assign(c.size(), 0.0F);
+  c.b.assign(c.size(), 0.0F);
+  c.r.assign(c.size(), 0.0F);
+  return c;
+}
+
+// sum_j w_ij x_j over the four neighbours of (i, j) = k.
+inline float neighbour_sum(const Level& l, const float* x, int i, int j, std::size_t k) {
+  float s = 0.0F;
+  if (j + 1 < l.w) s += l.wx[k] * x[k + 1];
+  if (j > 0) s += l.wx[k - 1] * x[k - 1];
+  if (i + 1 < l.h) s += l.wy[k] * x[k + l.w];
+  if (i > 0) s += l.wy[k - l.w] * x[k - l.w];
+  return s;
+}
+
+// The same in the interior (no border checks), for the hot loops.
+inline float interior_sum(const float* __restrict wx, const float* __restrict wy,
+                          const float* __restrict x, std::size_t k, int w) {
+  return wx[k] * x[k + 1] + wx[k - 1] * x[k - 1] + wy[k] * x[k + w] + wy[k - w] * x[k - w];
+}
+
+// One Gauss-Seidel half-sweep over the pixels of one colour ((i + j) % 2).
+void smooth_colour(const Level& l, float* x, const float* b, int colour) {
+  parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      const std::size_t row = static_cast<std::size_t>(i) * l.w;
+      const int first = (i + colour) & 1;
+      const bool inner_row = i > 0 && i + 1 < l.h;
+      for (int j = first; j < l.w; j += 2) {
+        const std::size_t k = row + j;
+        if (inner_row && j > 0 && j + 1 < l.w)
+          x[k] = (b[k] + interior_sum(l.wx.data(), l.wy.data(), x, k, l.w)) * l.inv_diag[k];
+        else
+          x[k] = (b[k] + neighbour_sum(l, x, i, j, k)) * l.inv_diag[k];
+      }
+    }
+  });
+}
+
+// r = b - A x.
+void residual(const Level& l, const float* x, const float* b, float* r) {
+  parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      const std::size_t row = static_cast<std::size_t>(i) * l.w;
+      const bool inner_row = i > 0 && i + 1 < l.h;
+      for (int j = 0; j < l.w; ++j) {
+        const std::size_t k = row + j;
+        const float s = inner_row && j > 0 && j + 1 < l.w
+                            ? interior_sum(l.wx.data(), l.wy.data(), x, k, l.w)
+                            : neighbour_sum(l, x, i, j, k);
+        r[k] = b[k] - (l.diag[k] * x[k] - s);
+      }
+    }
+  });
+}
+
+// Sums each 2x2 block of the fine residual into the coarse right-hand side.
+void restrict_to(const Level& fine, const float* r, Level& coarse) {
+  parallel_chunks(coarse.h, kRowsPerChunk, [&](int begin, int end) {
+    for (int ci = begin; ci < end; ++ci) {
+      for (int cj = 0; cj < coarse.w; ++cj) {
+        float s = 0.0F;
+        for (int i = 2 * ci; i < std::min(2 * ci + 2, fine.h); ++i)
+          for (int j = 2 * cj; j < std::min(2 * cj + 2, fine.w); ++j)
+            s += r[static_cast<std::size_t>(i) * fine.w + j];
+        coarse.b[static_cast<std::size_t>(ci) * coarse.w + cj] = s;
+      }
+    }
+  });
+}
+
+// Adds the coarse correction to each fine pixel inside the mask.
+void prolong_add(const Level& coarse, const Level& fine, float* x) {
+  parallel_chunks(fine.h, kRowsPerChunk, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      const float* c = coarse.x.data() + static_cast<std::size_t>(i / 2) * coarse.w;
+      float* row = x + static_cast<std::size_t>(i) * fine.w;
+      const float* d = fine.diag.data() + static_cast<std::size_t>(i) * fine.w;
+      for (int j = 0; j < fine.w; ++j)
+        row[j] += d[j] > 0 ? c[j / 2] : 0.0F;
+    }
+  });
+}
+
+class Multigrid {
+ public:
+  explicit Multigrid(Level finest) {
+    levels_.push_back(std::move(finest));
+    while (levels_.back().w > 4 && levels_.back().h > 4 && levels_.size() < 24)
+      levels_.push_back(coarsen(levels_.back()));
+  }
+
+  [[nodiscard]] const Level& finest() const { return levels_.front(); }
+
+  // z = M r: one V-cycle from zero. z and r are finest-level vectors.
+  void apply(const float* r, float* z) { cycle(0, r, z); }
+
+ private:
+  void cycle(std::size_t index, const float* b, float* x) {
+    Level& l = levels_[index];
+    std::fill(x, x + l.size(), 0.0F);
+    if (index + 1 == levels_.size()) {
+      // The coarsest grid has a few dozen cells: symmetric sweeps until it
+      // is solved well enough for a preconditioner. Its right-hand side is
+      // first made consistent (zero sum over each connected piece): rounding
+      // leaves a little of the null space in it, which the sweeps would
+      // otherwise amplify without bound.
+      std::vector<float>& rhs = l.r;
+      rhs.assign(b, b + l.size());
+      project_pieces(l, rhs.data());
+      for (int sweep = 0; sweep < 64; ++sweep) {
+        smooth_colour(l, x, rhs.data(), 0);
+        smooth_colour(l, x, rhs.data(), 1);
+        smooth_colour(l, x, rhs.data(), 1);
+        smooth_colour(l, x, rhs.data(), 0);
+      }
+      project_pieces(l, x);
+      return;
+    }
+    smooth_colour(l, x, b, 0);
+    smooth_colour(l, x, b, 1);
+    std::vector<float>& r = index == 0 ? scratch_ : l.r;
+    r.resize(l.size());
+    residual(l, x, b, r.data());
+    Level& c = levels_[index + 1];
+    restrict_to(l, r.data(), c);
+    cycle(index + 1, c.b.data(), c.x.data());
+    prolong_add(c, l, x);
+    smooth_colour(l, x, b, 1);
+    smooth_colour(l, x, b, 0);
+  }
+
+  // Removes from v its mean over each connected piece of the coarsest grid.
+  void project_pieces(const Level& l, float* v) {
+    if (pieces_.empty()) label_pieces(l);
+    std::vector<double> sum(piece_count_, 0.0);
+    std::vector<double> count(piece_count_, 0.0);
+    for (std::size_t k = 0; k < l.size(); ++k)
+      if (pieces_[k] >= 0) {
+        sum[static_cast<std::size_t>(pieces_[k])] += v[k];
+        count[static_cast<std::size_t>(pieces_[k])] += 1.0;
+      }
+    for (std::size_t k = 0; k < l.size(); ++k)
+      if (pieces_[k] >= 0)
+        v[k] -= static_cast<float>(sum[static_cast<std::size_t>(pieces_[k])] /
+                                   count[static_cast<std::size_t>(pieces_[k])]);
+  }
+
+  // Labels the coarsest grid's connected pieces (edges of positive weight);
+  // cells with no edge get -1.
+  void label_pieces(const Level& l) {
+    pieces_.assign(l.size(), -1);
+    piece_count_ = 0;
+    std::vector<std::size_t> stack;
+    for (std::size_t start = 0; start < l.size(); ++start) {
+      if (pieces_[start] >= 0 || !(l.diag[start] > 0)) continue;
+      const int label = static_cast<int>(piece_count_++);
+      pieces_[start] = label;
+      stack.assign(1, start);
+      while (!stack.empty()) {
+        const std::size_t k = stack.back();
+        stack.pop_back();
+        const auto w = static_cast<std::size_t>(l.w);
+        const auto visit = [&](std::size_t next, float weight) {
+          if (weight > 0 && pieces_[next] < 0) {
+            pieces_[next] = label;
+            stack.push_back(next);
+          }
+        };
+        if ((k % w) + 1 < w) visit(k + 1, l.wx[k]);
+        if (k % w > 0) visit(k - 1, l.wx[k - 1]);
+        if (k + w < l.size()) visit(k + w, l.wy[k]);
+        if (k >= w) visit(k - w, l.wy[k - w]);
+      }
+    }
+  }
+
+  std::vector<Level> levels_;
+  std::vector<float> scratch_;
+  std::vector<int> pieces_;
+  std::size_t piece_count_ = 0;
+};
+
+// Sum over chunks of rows, each in double, combined in chunk order.
+template <typename Body>
+double reduce(int height, const Body& body) {
+  std::vector<double> sums(static_cast<std::size_t>(chunk_count(height, kRowsPerChunk)), 0.0);
+  parallel_chunks(height, kRowsPerChunk, [&](int begin, int end) {
+    sums[static_cast<std::size_t>(begin / kRowsPerChunk)] = body(begin, end);
+  });
+  double total = 0.0;
+  for (double s : sums)
+    total += s;
+  return total;
+}
+
+double dot(const std::vector<float>& a, const std::vector<float>& b, int w, int h) {
+  return reduce(h, [&](int begin, int end) {
+    double s = 0.0;
+    for (std::size_t k = static_cast<std::size_t>(begin) * w;
+         k < static_cast<std::size_t>(end) * w; ++k)
+      s += static_cast<double>(a[k]) * b[k];
+    return s;
+  });
+}
+
+// The target of z[k+1] - z[k] on one edge: the integral of the derivative
+// from sample k to k+1, from the cubic through the four samples around the
+// edge, (-g[k-1] + 13 g[k] + 13 g[k+1] - g[k+2]) / 24 (fourth order), or
+// the quadratic through the three there are where the mask cuts one off
+// (third order), or the trapezoid (g[k] + g[k+1]) / 2 between two samples
+// alone. The trapezoid everywhere (the Poisson solver's rule) errs by
+// g''/12 per edge, which on a steep, curved silhouette adds up to tenths of
+// a unit. kNone marks a sample outside the domain.
+constexpr float kNone = std::numeric_limits<float>::quiet_NaN();
+inline float edge_target(float before, float g0, float g1, float after) {
+  const bool has_before = !std::isnan(before);
+  const bool has_after = !std::isnan(after);
+  if (has_before && has_after) return (13.0F * (g0 + g1) - before - after) / 24.0F;
+  if (has_before) return (-before + 8.0F * g0 + 5.0F * g1) / 12.0F;
+  if (has_after) return (5.0F * g0 + 8.0F * g1 - after) / 12.0F;
+  return 0.5F * (g0 + g1);
+}
+
+Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& mask,
+                             const MaskedIntegrationOptions& options,
+                             MaskedIntegrationStats* stats) {
+  const int w = p.cols;
+  const int h = p.rows;
+  const std::size_t n = static_cast<std::size_t>(w) * h;
+
+  // The domain: inside the mask, with finite gradients.
+  cv::Mat inside(h, w, CV_8U);
+  parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      const float* pr = p.ptr<float>(i);
+      const float* qr = q.ptr<float>(i);
+      const std::uint8_t* mr = mask.empty() ? nullptr : mask.ptr<std::uint8_t>(i);
+      std::uint8_t* out = inside.ptr<std::uint8_t>(i);
+      for (int j = 0; j < w; ++j)
+        out[j] = (mr == nullptr || mr[j] != 0) && is_finite(pr[j]) && is_finite(qr[j]) ? 1 : 0;
+    }
+  });
+
+  const float limit = options.max_slope;
+  Level fine;
+  fine.w = w;
+  fine.h = h;
+  fine.wx.assign(n, 0.0F);
+  fine.wy.assign(n, 0.0F);
+  // gx: the target of z[i][j+1] - z[i][j]; gy: of z[i+1][j] - z[i][j].
+  std::vector<float> gx(n, 0.0F);
+  std::vector<float> gy(n, 0.0F);
+  parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
+    const auto in = [&](int i, int j) {
+      return i >= 0 && i < h && j >= 0 && j < w && inside.ptr<std::uint8_t>(i)[j] != 0;
+    };
+    const auto slope = [limit](const cv::Mat& m, int i, int j) {
+      return std::clamp(m.ptr<float>(i)[j], -limit, limit);
+    };
+    for (int i = begin; i < end; ++i) {
+      const std::size_t row = static_cast<std::size_t>(i) * w;
+      for (int j = 0; j < w; ++j) {
+        if (!in(i, j)) continue;
+        if (in(i, j + 1)) {
+          fine.wx[row + j] = 1.0F;
+          gx[row + j] = edge_target(in(i, j - 1) ? slope(p, i, j - 1) : kNone, slope(p, i, j),
+                                    slope(p, i, j + 1),
+                                    in(i, j + 2) ? slope(p, i, j + 2) : kNone);
+        }
+        if (in(i + 1, j)) {
+          fine.wy[row + j] = 1.0F;
+          gy[row + j] = -edge_target(in(i - 1, j) ? slope(q, i - 1, j) : kNone, slope(q, i, j),
+                                     slope(q, i + 1, j),
+                                     in(i + 2, j) ? slope(q, i + 2, j) : kNone);
+        }
+      }
+    }
+  });
+  finish_level(fine);
+
+  // b_i: each edge pulls its two ends apart by its target difference.
+  std::vector<float> b(n, 0.0F);
+  parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      for (int j = 0; j < w; ++j) {
+        const std::size_t k = static_cast<std::size_t>(i) * w + j;
+        float s = -gx[k] - gy[k];  // zero where there is no edge
+        if (j > 0) s += gx[k - 1];
+        if (i > 0) s += gy[k - w];
+        b[k] = s;
+      }
+    }
+  });
+  gx = {};
+  gy = {};
+
+  Multigrid multigrid(std::move(fine));
+  const Level& level = multigrid.finest();
+
+  // Preconditioned conjugate gradients from zero.
+  std::vector<float> x(n, 0.0F);
+  std::vector<float> r = b;
+  std::vector<float> z(n, 0.0F);
+  std::vector<float> d(n, 0.0F);
+  std::vector<float> ad(n, 0.0F);
+  const double b_norm = std::sqrt(dot(b, b, w, h));
+  int iterations = 0;
+  double relative = 0.0;
+  if (b_norm > 0) {
+    multigrid.apply(r.data(), z.data());
+    d = z;
+    double rz = dot(r, z, w, h);
+    relative = 1.0;
+    while (iterations < options.max_iterations) {
+      // ad = A d, as minus the residual of d against a zero right-hand side.
+      std::fill(z.begin(), z.end(), 0.0F);
+      residual(level, d.data(), z.data(), ad.data());
+      const double dad = -dot(d, ad, w, h);
+      if (!(dad > 0)) break;
+      const auto alpha = static_cast<float>(rz / dad);
+      const double r_norm2 = reduce(h, [&](int begin, int end) {
+        double s = 0.0;
+        for (std::size_t k = static_cast<std::size_t>(begin) * w;
+             k < static_cast<std::size_t>(end) * w; ++k) {
+          x[k] += alpha * d[k];
+          r[k] += alpha * ad[k];  // ad holds -A d
+          s += static_cast<double>(r[k]) * r[k];
+        }
+        return s;
+      });
+      const double next = std::sqrt(r_norm2) / b_norm;
+      // In float, the recurrence's residual reaches a floor (a few 1e-7 of
+      // |b|) and then wanders off. Once near it, a step that raises the
+      // residual is taken back and the solve ends.
+      if (next > relative && relative < kFloorZone) {
+        parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
+          for (std::size_t k = static_cast<std::size_t>(begin) * w;
+               k < static_cast<std::size_t>(end) * w; ++k)
+            x[k] -= alpha * d[k];
+        });
+        break;
+      }
+      ++iterations;
+      relative = next;
+      if (relative < options.tolerance) break;
+      multigrid.apply(r.data(), z.data());
+      const double rz_next = dot(r, z, w, h);
+      const auto beta = static_cast<float>(rz_next / rz);
+      rz = rz_next;
+      parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
+        for (std::size_t k = static_cast<std::size_t>(begin) * w;
+             k < static_cast<std::size_t>(end) * w; ++k)
+          d[k] = z[k] + beta * d[k];
+      });
+    }
+  }
+  if (stats != nullptr) *stats = {iterations, relative};
+
+  // Each connected piece of the domain has its own free constant: give each
+  // zero mean, and NaN outside the domain.
+  cv::Mat labels;
+  const int pieces = cv::connectedComponents(inside, labels, 4, CV_32S);
+  std::vector<double> sum(static_cast<std::size_t>(pieces), 0.0);
+  std::vector<double> count(static_cast<std::size_t>(pieces), 0.0);
+  for (int i = 0; i < h; ++i) {
+    const int* lr = labels.ptr<int>(i);
+    for (int j = 0; j < w; ++j) {
+      sum[static_cast<std::size_t>(lr[j])] += x[static_cast<std::size_t>(i) * w + j];
+      count[static_cast<std::size_t>(lr[j])] += 1.0;
+    }
+  }
+  std::vector<float> mean(static_cast<std::size_t>(pieces), 0.0F);
+  for (std::size_t c = 1; c < mean.size(); ++c)
+    mean[c] = static_cast<float>(sum[c] / count[c]);
+  cv::Mat height(h, w, CV_32F);
+  parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      const int* lr = labels.ptr<int>(i);
+      float* out = height.ptr<float>(i);
+      for (int j = 0; j < w; ++j)
+        out[j] = lr[j] == 0 ? std::numeric_limits<float>::quiet_NaN()
+                            : x[static_cast<std::size_t>(i) * w + j] -
+                                  mean[static_cast<std::size_t>(lr[j])];
+    }
+  });
+  return height;
+}
+
+}  // namespace
+
+Result<cv::Mat> integrate_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& mask,
+                                 const MaskedIntegrationOptions& options,
+                                 MaskedIntegrationStats* stats) {
+  try {
+    for (const auto& [mat, name] : {std::pair{&p, "p"}, std::pair{&q, "q"}}) {
+      if (mat->empty() || mat->dims != 2 || mat->type() != CV_32FC1)
+        return std::unexpected(bad_input({}, {},
+                                         std::string("integration: ") + name +
+                                             " must be a non-empty 2-D one-channel float image "
+                                             "(CV_32FC1), got " +
+                                             cv::typeToString(mat->type())));
+    }
+    if (p.size() != q.size())
+      return std::unexpected(bad_input({}, {},
+                                       "integration: p is " + std::to_string(p.cols) + "x" +
+                                           std::to_string(p.rows) + " but q is " +
+                                           std::to_string(q.cols) + "x" + std::to_string(q.rows)));
+    if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != p.size()))
+      return std::unexpected(bad_input(
+          {}, {},
+          "integration: the mask must be one 8-bit channel the size of p and q (" +
+              std::to_string(p.cols) + "x" + std::to_string(p.rows) + "), got " +
+              cv::typeToString(mask.type()) + " " + std::to_string(mask.cols) + "x" +
+              std::to_string(mask.rows)));
+    if (!(options.max_slope > 0))
+      return std::unexpected(bad_input({}, {}, "integration: max_slope must be positive"));
+    if (!(options.tolerance > 0) || options.max_iterations < 0)
+      return std::unexpected(bad_input(
+          {}, {}, "integration: tolerance must be positive and max_iterations not negative"));
+    return solve_masked(p, q, mask, options, stats);
+  } catch (const std::exception& e) {
+    return std::unexpected(internal_error(std::string("integration: ") + e.what()));
+  }
+}
+
+}  // namespace psrig::processing
