@@ -47,6 +47,7 @@
 
 #include "psrig/processing/integration.h"
 #include "psrig/processing/parallel.h"
+#include "vector_clones.h"
 
 namespace psrig::processing {
 namespace {
@@ -116,7 +117,7 @@ Level coarsen(const Level& fine) {
           const int i = 2 * ci + 1;  // the fine row whose lower edge leaves the block
           if (i + 1 < fine.h) sy += fine.wy[static_cast<std::size_t>(i) * fw + j];
         }
-        c.wx[k] = 0.5F * sx;
+        c.wx[k] = 0.5F * sx;  // 0.45 or 0.55 take 12 iterations at 12 MP, not 9
         c.wy[k] = 0.5F * sy;
       }
     }
@@ -138,26 +139,71 @@ inline float neighbour_sum(const Level& l, const float* x, int i, int j, std::si
   return s;
 }
 
-// The same in the interior (no border checks), for the hot loops.
-inline float interior_sum(const float* __restrict wx, const float* __restrict wy,
-                          const float* __restrict x, std::size_t k, int w) {
-  return wx[k] * x[k + 1] + wx[k - 1] * x[k - 1] + wy[k] * x[k + w] + wy[k - w] * x[k - w];
+// The hot loops, over the inner columns [1, w - 1) of an inner row (one
+// with a row above and below), where every neighbour exists: branch-free,
+// so they vectorise. `k` is the index of column 0 of the row.
+// out[j] = (b + sum of the neighbours) / diag: the Gauss-Seidel value.
+PSRIG_VECTOR_CLONES
+void gs_values_row(const float* __restrict wx, const float* __restrict wy,
+                   const float* __restrict inv_diag, const float* __restrict x,
+                   const float* __restrict b, float* __restrict out, std::size_t k, int w) {
+  for (int j = 1; j + 1 < w; ++j) {
+    const std::size_t c = k + static_cast<std::size_t>(j);
+    out[j] = (b[c] + wx[c] * x[c + 1] + wx[c - 1] * x[c - 1] + wy[c] * x[c + w] +
+              wy[c - w] * x[c - w]) *
+             inv_diag[c];
+  }
+}
+
+// r = b - A x over the inner columns.
+PSRIG_VECTOR_CLONES
+void residual_row(const float* __restrict wx, const float* __restrict wy,
+                  const float* __restrict diag, const float* __restrict x,
+                  const float* __restrict b, float* __restrict r, std::size_t k, int w) {
+  for (int j = 1; j + 1 < w; ++j) {
+    const std::size_t c = k + static_cast<std::size_t>(j);
+    r[c] = b[c] - diag[c] * x[c] +
+           (wx[c] * x[c + 1] + wx[c - 1] * x[c - 1] + wy[c] * x[c + w] + wy[c - w] * x[c - w]);
+  }
 }
 
 // One Gauss-Seidel half-sweep over the pixels of one colour ((i + j) % 2).
+// A pixel's neighbours all have the other colour, so the whole row's values
+// can be computed first (vectorised) and those of the colour stored.
 void smooth_colour(const Level& l, float* x, const float* b, int colour) {
   parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
+    std::vector<float> values(static_cast<std::size_t>(l.w));
     for (int i = begin; i < end; ++i) {
       const std::size_t row = static_cast<std::size_t>(i) * l.w;
       const int first = (i + colour) & 1;
-      const bool inner_row = i > 0 && i + 1 < l.h;
+      if (i > 0 && i + 1 < l.h && l.w > 2) {
+        gs_values_row(l.wx.data(), l.wy.data(), l.inv_diag.data(), x, b, values.data(), row, l.w);
+        for (int j = first == 0 ? 2 : 1; j + 1 < l.w; j += 2)
+          x[row + j] = values[static_cast<std::size_t>(j)];
+        if (first == 0) x[row] = (b[row] + neighbour_sum(l, x, i, 0, row)) * l.inv_diag[row];
+        const int last = l.w - 1;
+        if (((i + last + colour) & 1) == 0)
+          x[row + last] = (b[row + last] + neighbour_sum(l, x, i, last, row + last)) *
+                          l.inv_diag[row + last];
+        continue;
+      }
       for (int j = first; j < l.w; j += 2) {
         const std::size_t k = row + j;
-        if (inner_row && j > 0 && j + 1 < l.w)
-          x[k] = (b[k] + interior_sum(l.wx.data(), l.wy.data(), x, k, l.w)) * l.inv_diag[k];
-        else
-          x[k] = (b[k] + neighbour_sum(l, x, i, j, k)) * l.inv_diag[k];
+        x[k] = (b[k] + neighbour_sum(l, x, i, j, k)) * l.inv_diag[k];
       }
+    }
+  });
+}
+
+// The first half-sweep from x = 0: colour 0 gets b / diag (its neighbours
+// are all 0), colour 1 stays 0.
+void start_from_zero(const Level& l, float* x, const float* b) {
+  parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
+    for (int i = begin; i < end; ++i) {
+      const std::size_t row = static_cast<std::size_t>(i) * l.w;
+      const int parity = i & 1;
+      for (int j = 0; j < l.w; ++j)
+        x[row + j] = ((j & 1) == parity) ? b[row + j] * l.inv_diag[row + j] : 0.0F;
     }
   });
 }
@@ -167,13 +213,13 @@ void residual(const Level& l, const float* x, const float* b, float* r) {
   parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
       const std::size_t row = static_cast<std::size_t>(i) * l.w;
-      const bool inner_row = i > 0 && i + 1 < l.h;
+      const bool inner_row = i > 0 && i + 1 < l.h && l.w > 2;
+      if (inner_row)
+        residual_row(l.wx.data(), l.wy.data(), l.diag.data(), x, b, r, row, l.w);
       for (int j = 0; j < l.w; ++j) {
+        if (inner_row && j > 0 && j + 1 < l.w) continue;
         const std::size_t k = row + j;
-        const float s = inner_row && j > 0 && j + 1 < l.w
-                            ? interior_sum(l.wx.data(), l.wy.data(), x, k, l.w)
-                            : neighbour_sum(l, x, i, j, k);
-        r[k] = b[k] - (l.diag[k] * x[k] - s);
+        r[k] = b[k] - (l.diag[k] * x[k] - neighbour_sum(l, x, i, j, k));
       }
     }
   });
@@ -183,7 +229,15 @@ void residual(const Level& l, const float* x, const float* b, float* r) {
 void restrict_to(const Level& fine, const float* r, Level& coarse) {
   parallel_chunks(coarse.h, kRowsPerChunk, [&](int begin, int end) {
     for (int ci = begin; ci < end; ++ci) {
-      for (int cj = 0; cj < coarse.w; ++cj) {
+      int cj = 0;
+      if (2 * ci + 1 < fine.h) {  // whole 2x2 blocks
+        const float* r0 = r + static_cast<std::size_t>(2 * ci) * fine.w;
+        const float* r1 = r0 + fine.w;
+        float* out = coarse.b.data() + static_cast<std::size_t>(ci) * coarse.w;
+        for (; 2 * cj + 1 < fine.w; ++cj)
+          out[cj] = (r0[2 * cj] + r0[2 * cj + 1]) + (r1[2 * cj] + r1[2 * cj + 1]);
+      }
+      for (; cj < coarse.w; ++cj) {
         float s = 0.0F;
         for (int i = 2 * ci; i < std::min(2 * ci + 2, fine.h); ++i)
           for (int j = 2 * cj; j < std::min(2 * cj + 2, fine.w); ++j)
@@ -223,8 +277,8 @@ class Multigrid {
  private:
   void cycle(std::size_t index, const float* b, float* x) {
     Level& l = levels_[index];
-    std::fill(x, x + l.size(), 0.0F);
     if (index + 1 == levels_.size()) {
+      std::fill(x, x + l.size(), 0.0F);
       // The coarsest grid has a few dozen cells: symmetric sweeps until it
       // is solved well enough for a preconditioner. Its right-hand side is
       // first made consistent (zero sum over each connected piece): rounding
@@ -242,7 +296,7 @@ class Multigrid {
       project_pieces(l, x);
       return;
     }
-    smooth_colour(l, x, b, 0);
+    start_from_zero(l, x, b);
     smooth_colour(l, x, b, 1);
     std::vector<float>& r = index == 0 ? scratch_ : l.r;
     r.resize(l.size());
@@ -319,14 +373,41 @@ double reduce(int height, const Body& body) {
   return total;
 }
 
+// sum a[k] b[k] over [begin, end) in double, in eight lanes (a fixed order,
+// which lets the loop vectorise).
+PSRIG_VECTOR_CLONES
+double dot_range(const float* __restrict a, const float* __restrict b, std::size_t begin,
+                 std::size_t end) {
+  constexpr std::size_t kLanes = 8;
+  double lanes[kLanes] = {};
+  std::size_t k = begin;
+  for (; k + kLanes <= end; k += kLanes)
+    for (std::size_t lane = 0; lane < kLanes; ++lane)
+      lanes[lane] += static_cast<double>(a[k + lane]) * static_cast<double>(b[k + lane]);
+  double s = 0.0;
+  for (double lane : lanes)
+    s += lane;
+  for (; k < end; ++k)
+    s += static_cast<double>(a[k]) * b[k];
+  return s;
+}
+
 double dot(const std::vector<float>& a, const std::vector<float>& b, int w, int h) {
   return reduce(h, [&](int begin, int end) {
-    double s = 0.0;
-    for (std::size_t k = static_cast<std::size_t>(begin) * w;
-         k < static_cast<std::size_t>(end) * w; ++k)
-      s += static_cast<double>(a[k]) * b[k];
-    return s;
+    return dot_range(a.data(), b.data(), static_cast<std::size_t>(begin) * w,
+                     static_cast<std::size_t>(end) * w);
   });
+}
+
+// x += alpha d, r += alpha ad over [begin, end); returns the new r.r there.
+PSRIG_VECTOR_CLONES
+double step_range(float* __restrict x, float* __restrict r, const float* __restrict d,
+                  const float* __restrict ad, float alpha, std::size_t begin, std::size_t end) {
+  for (std::size_t k = begin; k < end; ++k) {
+    x[k] += alpha * d[k];
+    r[k] += alpha * ad[k];
+  }
+  return dot_range(r, r, begin, end);
 }
 
 // The target of z[k+1] - z[k] on one edge: the integral of the derivative
@@ -444,15 +525,9 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
       const double dad = -dot(d, ad, w, h);
       if (!(dad > 0)) break;
       const auto alpha = static_cast<float>(rz / dad);
-      const double r_norm2 = reduce(h, [&](int begin, int end) {
-        double s = 0.0;
-        for (std::size_t k = static_cast<std::size_t>(begin) * w;
-             k < static_cast<std::size_t>(end) * w; ++k) {
-          x[k] += alpha * d[k];
-          r[k] += alpha * ad[k];  // ad holds -A d
-          s += static_cast<double>(r[k]) * r[k];
-        }
-        return s;
+      const double r_norm2 = reduce(h, [&](int begin, int end) {  // ad holds -A d
+        return step_range(x.data(), r.data(), d.data(), ad.data(), alpha,
+                          static_cast<std::size_t>(begin) * w, static_cast<std::size_t>(end) * w);
       });
       const double next = std::sqrt(r_norm2) / b_norm;
       // In float, the recurrence's residual reaches a floor (a few 1e-7 of

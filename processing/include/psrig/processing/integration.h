@@ -63,7 +63,7 @@ bool prepare_fftw_threads();
 // domain has its own free constant and is given zero mean.
 struct MaskedIntegrationOptions {
   float max_slope = kNoSlopeLimit;
-  double tolerance = 1e-6;
+  double tolerance = 1e-5;
   int max_iterations = 200;
 };
 struct MaskedIntegrationStats {
