@@ -492,6 +492,44 @@ inline float edge_target(float before, float g0, float g1, float after) {
   return 0.5F * (g0 + g1);
 }
 
+// One row of gradients as edge_targets takes them: clamped, 0 outside the
+// domain, and the domain as 1 / 0.
+PSRIG_VECTOR_CLONES
+void load_row(const float* __restrict g, const std::uint8_t* __restrict inside, float limit,
+              float* __restrict values, float* __restrict inside_row, int w) {
+  for (int j = 0; j < w; ++j) {
+    const float m = inside[j] != 0 ? 1.0F : 0.0F;
+    // Outside, g may be NaN: select rather than multiply.
+    values[j] = inside[j] != 0 ? std::clamp(g[j], -limit, limit) : 0.0F;
+    inside_row[j] = m;
+  }
+}
+
+// edge_target for `count` edges at once, branch-free: samples g0 -> g1 are
+// the edge's ends, gb before and ga after; m* say which are inside. Also
+// the edge's weight, 1 when both ends are inside, else 0 (and target 0).
+PSRIG_VECTOR_CLONES
+void edge_targets(const float* __restrict gb, const float* __restrict g0,
+                  const float* __restrict g1, const float* __restrict ga,
+                  const float* __restrict mb, const float* __restrict m0,
+                  const float* __restrict m1, const float* __restrict ma, float* __restrict target,
+                  float* __restrict weight, int count) {
+  for (int j = 0; j < count; ++j) {
+    const float both = mb[j] * ma[j];
+    const float before_only = mb[j] - both;
+    const float after_only = ma[j] - both;
+    const float neither = 1.0F - mb[j] - ma[j] + both;
+    const float sum = g0[j] + g1[j];
+    const float t = both * ((13.0F * sum - gb[j] - ga[j]) * (1.0F / 24.0F)) +
+                    before_only * ((-gb[j] + 8.0F * g0[j] + 5.0F * g1[j]) * (1.0F / 12.0F)) +
+                    after_only * ((5.0F * g0[j] + 8.0F * g1[j] - ga[j]) * (1.0F / 12.0F)) +
+                    neither * (0.5F * sum);
+    const float e = m0[j] * m1[j];
+    weight[j] = e;
+    target[j] = e * t;
+  }
+}
+
 Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& mask,
                              const MaskedIntegrationOptions& options,
                              MaskedIntegrationStats* stats) {
@@ -512,58 +550,66 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
     }
   });
 
+  // Edge weights and the right-hand side b, a row at a time: b_i =
+  // sum over i's edges of the target difference toward i.
   const float limit = options.max_slope;
   Level fine;
   fine.w = w;
   fine.h = h;
   fine.wx.assign(n, 0.0F);
   fine.wy.assign(n, 0.0F);
-  // gx: the target of z[i][j+1] - z[i][j]; gy: of z[i+1][j] - z[i][j].
-  std::vector<float> gx(n, 0.0F);
-  std::vector<float> gy(n, 0.0F);
+  std::vector<float> b(n, 0.0F);
   parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
-    const auto in = [&](int i, int j) {
-      return i >= 0 && i < h && j >= 0 && j < w && inside.ptr<std::uint8_t>(i)[j] != 0;
-    };
-    const auto slope = [limit](const cv::Mat& m, int i, int j) {
-      return std::clamp(m.ptr<float>(i)[j], -limit, limit);
-    };
-    for (int i = begin; i < end; ++i) {
-      const std::size_t row = static_cast<std::size_t>(i) * w;
-      for (int j = 0; j < w; ++j) {
-        if (!in(i, j)) continue;
-        if (in(i, j + 1)) {
-          fine.wx[row + j] = 1.0F;
-          gx[row + j] = edge_target(in(i, j - 1) ? slope(p, i, j - 1) : kNone, slope(p, i, j),
-                                    slope(p, i, j + 1),
-                                    in(i, j + 2) ? slope(p, i, j + 2) : kNone);
-        }
-        if (in(i + 1, j)) {
-          fine.wy[row + j] = 1.0F;
-          gy[row + j] = -edge_target(in(i - 1, j) ? slope(q, i - 1, j) : kNone, slope(q, i, j),
-                                     slope(q, i + 1, j),
-                                     in(i + 2, j) ? slope(q, i + 2, j) : kNone);
-        }
+    const auto width = static_cast<std::size_t>(w);
+    // Row buffers with one sample of zeros before and two after, so that
+    // every edge sees four samples: gradients (0 outside) and inside (1/0).
+    std::vector<float> g_row(width + 3, 0.0F);
+    std::vector<float> m_row(width + 3, 0.0F);
+    std::vector<float> g_rows[4];
+    std::vector<float> m_rows[4];
+    for (int k = 0; k < 4; ++k) {
+      g_rows[k].assign(width, 0.0F);
+      m_rows[k].assign(width, 0.0F);
+    }
+    std::vector<float> gx(width + 1, 0.0F);  // gx[j + 1]: edge j to j + 1; gx[0] = 0
+    std::vector<float> ex(width + 1, 0.0F);
+    std::vector<float> gy_above(width, 0.0F);
+    std::vector<float> gy(width, 0.0F);
+    std::vector<float> ey(width, 0.0F);
+    const auto load = [&](const cv::Mat& g, int i, float* values, float* inside_row) {
+      if (i < 0 || i >= h) {
+        std::fill(values, values + width, 0.0F);
+        std::fill(inside_row, inside_row + width, 0.0F);
+        return;
       }
+      load_row(g.ptr<float>(i), inside.ptr<std::uint8_t>(i), limit, values, inside_row, w);
+    };
+    // gy for the edges from row i down to row i + 1.
+    const auto vertical = [&](int i, float* targets, float* weights) {
+      for (int k = 0; k < 4; ++k)
+        load(q, i - 1 + k, g_rows[k].data(), m_rows[k].data());
+      edge_targets(g_rows[0].data(), g_rows[1].data(), g_rows[2].data(), g_rows[3].data(),
+                   m_rows[0].data(), m_rows[1].data(), m_rows[2].data(), m_rows[3].data(), targets,
+                   weights, w);
+      for (std::size_t j = 0; j < width; ++j)
+        targets[j] = -targets[j];  // y is up, the row index down
+    };
+    vertical(begin - 1, gy_above.data(), ey.data());
+    for (int i = begin; i < end; ++i) {
+      load(p, i, g_row.data() + 1, m_row.data() + 1);
+      edge_targets(g_row.data(), g_row.data() + 1, g_row.data() + 2, g_row.data() + 3,
+                   m_row.data(), m_row.data() + 1, m_row.data() + 2, m_row.data() + 3,
+                   gx.data() + 1, ex.data() + 1, w);
+      vertical(i, gy.data(), ey.data());
+      const std::size_t row = static_cast<std::size_t>(i) * width;
+      std::copy(ex.begin() + 1, ex.end(), fine.wx.begin() + static_cast<std::ptrdiff_t>(row));
+      std::copy(ey.begin(), ey.end(), fine.wy.begin() + static_cast<std::ptrdiff_t>(row));
+      for (std::size_t j = 0; j < width; ++j)
+        b[row + j] = gx[j] - gx[j + 1] + gy_above[j] - gy[j];
+      std::swap(gy_above, gy);
     }
   });
   finish_level(fine);
-
-  // b_i: each edge pulls its two ends apart by its target difference.
-  std::vector<float> b(n, 0.0F);
-  parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
-    for (int i = begin; i < end; ++i) {
-      for (int j = 0; j < w; ++j) {
-        const std::size_t k = static_cast<std::size_t>(i) * w + j;
-        float s = -gx[k] - gy[k];  // zero where there is no edge
-        if (j > 0) s += gx[k - 1];
-        if (i > 0) s += gy[k - w];
-        b[k] = s;
-      }
-    }
-  });
-  gx = {};
-  gy = {};
 
   Multigrid multigrid(std::move(fine));
   const Level& level = multigrid.finest();
