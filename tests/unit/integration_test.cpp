@@ -745,6 +745,25 @@ TEST(IntegrationMasked, NonFiniteGradientsAreHolesAndPiecesHaveZeroMean) {
   EXPECT_TRUE(std::isnan(automatic->at<float>(0, 0)));
 }
 
+TEST(IntegrationMasked, HandlesDegenerateSizes) {
+  for (const cv::Size size : {cv::Size(1, 1), cv::Size(1, 7), cv::Size(7, 1), cv::Size(2, 2),
+                              cv::Size(5, 3), cv::Size(9, 6)}) {
+    const cv::Mat p = random_field(size.width, size.height, 27);
+    const cv::Mat q = random_field(size.width, size.height, 28);
+    const auto z = integrate_masked(p, q, {});
+    ASSERT_TRUE(z.has_value()) << z.error().describe();
+    EXPECT_EQ(z->size(), size);
+    EXPECT_TRUE(cv::checkRange(*z)) << size;
+    EXPECT_LT(std::abs(cv::mean(*z)[0]), 1e-5) << size;
+  }
+  // One row: the least-squares fit of a constant slope is exact.
+  const auto row = integrate_masked(cv::Mat(1, 9, CV_32F, cv::Scalar(0.5)),
+                                    cv::Mat(1, 9, CV_32F, cv::Scalar(7.0)), {});
+  ASSERT_TRUE(row.has_value());
+  for (int col = 0; col < 9; ++col)
+    EXPECT_NEAR(row->at<float>(0, col), 0.5 * (col - 4), 1e-5);
+}
+
 TEST(IntegrationMasked, RejectsBadInputs) {
   const cv::Mat good(8, 10, CV_32F, cv::Scalar(0.1));
   EXPECT_FALSE(integrate_masked(good, cv::Mat(8, 11, CV_32F), {}));
