@@ -283,6 +283,16 @@ void smooth_colour(const Level& l, float* x, const float* b, int colour) {
   });
 }
 
+PSRIG_VECTOR_CLONES
+void start_row_packed(const std::uint8_t* __restrict edges, const float* __restrict b,
+                      float* __restrict x, int parity, int w) {
+  for (int j = 0; j < w; ++j) {
+    const auto d = static_cast<float>(edges[j] >> 2U);
+    const float value = b[j] / (d > 0.0F ? d : 1.0F);
+    x[j] = ((j & 1) == parity) && d > 0.0F ? value : 0.0F;
+  }
+}
+
 // The first half-sweep from x = 0: colour 0 gets b / diag (its neighbours
 // are all 0), colour 1 stays 0.
 void start_from_zero(const Level& l, float* x, const float* b) {
@@ -291,11 +301,7 @@ void start_from_zero(const Level& l, float* x, const float* b) {
       const std::size_t row = static_cast<std::size_t>(i) * l.w;
       const int parity = i & 1;
       if (l.packed()) {
-        const std::uint8_t* e = l.edges.data() + row;
-        for (int j = 0; j < l.w; ++j) {
-          const auto d = static_cast<float>(e[j] >> 2U);
-          x[row + j] = ((j & 1) == parity) && d > 0.0F ? b[row + j] / d : 0.0F;
-        }
+        start_row_packed(l.edges.data() + row, b + row, x + row, parity, l.w);
       } else {
         for (int j = 0; j < l.w; ++j)
           x[row + j] = ((j & 1) == parity) ? b[row + j] * l.inv_diag[row + j] : 0.0F;
@@ -316,8 +322,8 @@ void residual(const Level& l, const float* x, const float* b, float* r) {
         else
           residual_row(l.wx.data(), l.wy.data(), l.diag.data(), x, b, r, row, l.w);
       }
-      for (int j = 0; j < l.w; ++j) {
-        if (inner_row && j > 0 && j + 1 < l.w) continue;
+      const int step = inner_row ? l.w - 1 : 1;  // inner rows: the two ends only
+      for (int j = 0; j < l.w; j += step) {
         const std::size_t k = row + j;
         r[k] = b[k] - (l.degree(k) * x[k] - neighbour_sum(l, x, i, j, k));
       }
@@ -378,8 +384,8 @@ double update_direction(const Level& l, const float* z, float beta, float* d, fl
         else
           apply_row(l.wx.data(), l.wy.data(), l.diag.data(), z, az.data(), row, l.w);
       }
-      for (int j = 0; j < l.w; ++j) {
-        if (inner_row && j > 0 && j + 1 < l.w) continue;
+      const int step = inner_row ? l.w - 1 : 1;  // inner rows: the two ends only
+      for (int j = 0; j < l.w; j += step) {
         const std::size_t k = row + j;
         az[static_cast<std::size_t>(j)] = l.degree(k) * z[k] - neighbour_sum(l, z, i, j, k);
       }
@@ -412,6 +418,18 @@ void restrict_to(const Level& fine, const float* r, Level& coarse) {
   });
 }
 
+PSRIG_VECTOR_CLONES
+void prolong_row_packed(const std::uint8_t* __restrict edges, const float* __restrict coarse,
+                        float* __restrict x, int w) {
+  const int pairs = w / 2;
+  for (int jc = 0; jc < pairs; ++jc) {
+    const float c = coarse[jc];
+    x[2 * jc] += (edges[2 * jc] >> 2U) != 0 ? c : 0.0F;
+    x[2 * jc + 1] += (edges[2 * jc + 1] >> 2U) != 0 ? c : 0.0F;
+  }
+  if (w % 2 != 0) x[w - 1] += (edges[w - 1] >> 2U) != 0 ? coarse[pairs] : 0.0F;
+}
+
 // Adds the coarse correction to each fine pixel inside the mask.
 void prolong_add(const Level& coarse, const Level& fine, float* x) {
   parallel_chunks(fine.h, kRowsPerChunk, [&](int begin, int end) {
@@ -420,9 +438,7 @@ void prolong_add(const Level& coarse, const Level& fine, float* x) {
       float* row = x + static_cast<std::size_t>(i) * fine.w;
       const std::size_t start = static_cast<std::size_t>(i) * fine.w;
       if (fine.packed()) {
-        const std::uint8_t* e = fine.edges.data() + start;
-        for (int j = 0; j < fine.w; ++j)
-          row[j] += (e[j] >> 2U) != 0 ? c[j / 2] : 0.0F;
+        prolong_row_packed(fine.edges.data() + start, c, row, fine.w);
       } else {
         const float* d = fine.diag.data() + start;
         for (int j = 0; j < fine.w; ++j)
