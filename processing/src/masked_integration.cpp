@@ -191,14 +191,14 @@ void gs_values_row(const float* __restrict wx, const float* __restrict wy,
   }
 }
 
-// r = b - A x over the inner columns.
+// r = b - A x over the inner columns, into r[j].
 PSRIG_VECTOR_CLONES
 void residual_row(const float* __restrict wx, const float* __restrict wy,
                   const float* __restrict diag, const float* __restrict x,
                   const float* __restrict b, float* __restrict r, std::size_t k, int w) {
   for (int j = 1; j + 1 < w; ++j) {
     const std::size_t c = k + static_cast<std::size_t>(j);
-    r[c] = b[c] - diag[c] * x[c] +
+    r[j] = b[c] - diag[c] * x[c] +
            (wx[c] * x[c + 1] + wx[c - 1] * x[c - 1] + wy[c] * x[c + w] + wy[c - w] * x[c - w]);
   }
 }
@@ -232,7 +232,7 @@ void residual_row_packed(const std::uint8_t* __restrict edges, const float* __re
     const auto wl = static_cast<float>(edges[c - 1] & 1U);
     const auto wu = static_cast<float>((edges[c - w] >> 1U) & 1U);
     const auto d = static_cast<float>(e >> 2U);
-    r[c] = b[c] - d * x[c] + (wr * x[c + 1] + wl * x[c - 1] + wd * x[c + w] + wu * x[c - w]);
+    r[j] = b[c] - d * x[c] + (wr * x[c + 1] + wl * x[c - 1] + wd * x[c + w] + wu * x[c - w]);
   }
 }
 
@@ -310,25 +310,21 @@ void start_from_zero(const Level& l, float* x, const float* b) {
   });
 }
 
-// r = b - A x.
-void residual(const Level& l, const float* x, const float* b, float* r) {
-  parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
-    for (int i = begin; i < end; ++i) {
-      const std::size_t row = static_cast<std::size_t>(i) * l.w;
-      const bool inner_row = i > 0 && i + 1 < l.h && l.w > 2;
-      if (inner_row) {
-        if (l.packed())
-          residual_row_packed(l.edges.data(), x, b, r, row, l.w);
-        else
-          residual_row(l.wx.data(), l.wy.data(), l.diag.data(), x, b, r, row, l.w);
-      }
-      const int step = inner_row ? l.w - 1 : 1;  // inner rows: the two ends only
-      for (int j = 0; j < l.w; j += step) {
-        const std::size_t k = row + j;
-        r[k] = b[k] - (l.degree(k) * x[k] - neighbour_sum(l, x, i, j, k));
-      }
-    }
-  });
+// Row i of r = b - A x, into out (w values).
+void residual_of_row(const Level& l, const float* x, const float* b, int i, float* out) {
+  const std::size_t row = static_cast<std::size_t>(i) * l.w;
+  const bool inner_row = i > 0 && i + 1 < l.h && l.w > 2;
+  if (inner_row) {
+    if (l.packed())
+      residual_row_packed(l.edges.data(), x, b, out, row, l.w);
+    else
+      residual_row(l.wx.data(), l.wy.data(), l.diag.data(), x, b, out, row, l.w);
+  }
+  const int step = inner_row ? l.w - 1 : 1;  // inner rows: the two ends only
+  for (int j = 0; j < l.w; j += step) {
+    const std::size_t k = row + j;
+    out[j] = b[k] - (l.degree(k) * x[k] - neighbour_sum(l, x, i, j, k));
+  }
 }
 
 // out = A x over the inner columns.
@@ -395,25 +391,23 @@ double update_direction(const Level& l, const float* z, float beta, float* d, fl
   });
 }
 
-// Sums each 2x2 block of the fine residual into the coarse right-hand side.
-void restrict_to(const Level& fine, const float* r, Level& coarse) {
+// The coarse right-hand side: each 2x2 block's sum of the fine residual
+// b - A x, computed a pair of rows at a time and never stored whole.
+void restrict_residual(const Level& fine, const float* x, const float* b, Level& coarse) {
   parallel_chunks(coarse.h, kRowsPerChunk, [&](int begin, int end) {
+    std::vector<float> r0(static_cast<std::size_t>(fine.w));
+    std::vector<float> r1(static_cast<std::size_t>(fine.w));
     for (int ci = begin; ci < end; ++ci) {
+      residual_of_row(fine, x, b, 2 * ci, r0.data());
+      if (2 * ci + 1 < fine.h)
+        residual_of_row(fine, x, b, 2 * ci + 1, r1.data());
+      else
+        std::fill(r1.begin(), r1.end(), 0.0F);
+      float* out = coarse.b.data() + static_cast<std::size_t>(ci) * coarse.w;
       int cj = 0;
-      if (2 * ci + 1 < fine.h) {  // whole 2x2 blocks
-        const float* r0 = r + static_cast<std::size_t>(2 * ci) * fine.w;
-        const float* r1 = r0 + fine.w;
-        float* out = coarse.b.data() + static_cast<std::size_t>(ci) * coarse.w;
-        for (; 2 * cj + 1 < fine.w; ++cj)
-          out[cj] = (r0[2 * cj] + r0[2 * cj + 1]) + (r1[2 * cj] + r1[2 * cj + 1]);
-      }
-      for (; cj < coarse.w; ++cj) {
-        float s = 0.0F;
-        for (int i = 2 * ci; i < std::min(2 * ci + 2, fine.h); ++i)
-          for (int j = 2 * cj; j < std::min(2 * cj + 2, fine.w); ++j)
-            s += r[static_cast<std::size_t>(i) * fine.w + j];
-        coarse.b[static_cast<std::size_t>(ci) * coarse.w + cj] = s;
-      }
+      for (; 2 * cj + 1 < fine.w; ++cj)
+        out[cj] = (r0[2 * cj] + r0[2 * cj + 1]) + (r1[2 * cj] + r1[2 * cj + 1]);
+      if (cj < coarse.w) out[cj] = r0[2 * cj] + r1[2 * cj];  // an odd width's last column
     }
   });
 }
@@ -485,11 +479,8 @@ class Multigrid {
     }
     start_from_zero(l, x, b);
     smooth_colour(l, x, b, 1);
-    std::vector<float>& r = index == 0 ? scratch_ : l.r;
-    r.resize(l.size());
-    residual(l, x, b, r.data());
     Level& c = levels_[index + 1];
-    restrict_to(l, r.data(), c);
+    restrict_residual(l, x, b, c);
     cycle(index + 1, c.b.data(), c.x.data());
     prolong_add(c, l, x);
     smooth_colour(l, x, b, 1);
@@ -542,7 +533,6 @@ class Multigrid {
   }
 
   std::vector<Level> levels_;
-  std::vector<float> scratch_;
   std::vector<int> pieces_;
   std::size_t piece_count_ = 0;
 };
