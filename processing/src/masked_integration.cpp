@@ -251,10 +251,34 @@ void apply_row_packed(const std::uint8_t* __restrict edges, const float* __restr
   }
 }
 
+// sum a[k] b[k] over [begin, end) in double, in eight lanes (a fixed order,
+// which lets the loop vectorise).
+PSRIG_VECTOR_CLONES
+double dot_range(const float* __restrict a, const float* __restrict b, std::size_t begin,
+                 std::size_t end) {
+  constexpr std::size_t kLanes = 8;
+  double lanes[kLanes] = {};
+  std::size_t k = begin;
+  for (; k + kLanes <= end; k += kLanes)
+    for (std::size_t lane = 0; lane < kLanes; ++lane)
+      lanes[lane] += static_cast<double>(a[k + lane]) * static_cast<double>(b[k + lane]);
+  double s = 0.0;
+  for (double lane : lanes)
+    s += lane;
+  for (; k < end; ++k)
+    s += static_cast<double>(a[k]) * b[k];
+  return s;
+}
+
 // One Gauss-Seidel half-sweep over the pixels of one colour ((i + j) % 2).
 // A pixel's neighbours all have the other colour, so the whole row's values
 // can be computed first (vectorised) and those of the colour stored.
-void smooth_colour(const Level& l, float* x, const float* b, int colour) {
+// With `dot`, the last half-sweep of a V-cycle: also returns b.x, summed
+// per chunk of rows as `reduce_rows` sums (each chunk's rows are final once
+// the chunk is done).
+double smooth_colour(const Level& l, float* x, const float* b, int colour, bool dot = false) {
+  std::vector<double> sums(dot ? static_cast<std::size_t>(chunk_count(l.h, kRowsPerChunk)) : 0U,
+                           0.0);
   parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
     std::vector<float> values(static_cast<std::size_t>(l.w));
     for (int i = begin; i < end; ++i) {
@@ -280,7 +304,15 @@ void smooth_colour(const Level& l, float* x, const float* b, int colour) {
         x[k] = (b[k] + neighbour_sum(l, x, i, j, k)) * l.inv_degree(k);
       }
     }
+    if (dot)
+      sums[static_cast<std::size_t>(begin / kRowsPerChunk)] =
+          dot_range(b, x, static_cast<std::size_t>(begin) * l.w,
+                    static_cast<std::size_t>(end) * l.w);
   });
+  double total = 0.0;
+  for (double sum : sums)
+    total += sum;
+  return total;
 }
 
 PSRIG_VECTOR_CLONES
@@ -453,10 +485,12 @@ class Multigrid {
   [[nodiscard]] const Level& finest() const { return levels_.front(); }
 
   // z = M r: one V-cycle from zero. z and r are finest-level vectors.
-  void apply(const float* r, float* z) { cycle(0, r, z); }
+  // Returns r.z.
+  double apply(const float* r, float* z) { return cycle(0, r, z); }
 
  private:
-  void cycle(std::size_t index, const float* b, float* x) {
+  // Returns b.x on the finest level.
+  double cycle(std::size_t index, const float* b, float* x) {
     Level& l = levels_[index];
     if (index + 1 == levels_.size()) {
       std::fill(x, x + l.size(), 0.0F);
@@ -475,7 +509,7 @@ class Multigrid {
         smooth_colour(l, x, rhs.data(), 0);
       }
       project_pieces(l, x);
-      return;
+      return index == 0 ? dot_range(b, x, 0, l.size()) : 0.0;
     }
     start_from_zero(l, x, b);
     smooth_colour(l, x, b, 1);
@@ -484,7 +518,7 @@ class Multigrid {
     cycle(index + 1, c.b.data(), c.x.data());
     prolong_add(c, l, x);
     smooth_colour(l, x, b, 1);
-    smooth_colour(l, x, b, 0);
+    return smooth_colour(l, x, b, 0, index == 0);
   }
 
   // Removes from v its mean over each connected piece of the coarsest grid.
@@ -552,25 +586,6 @@ double reduce_rows(int height, const std::function<double(int, int)>& body) {
 template <typename Body>
 double reduce(int height, const Body& body) {
   return reduce_rows(height, body);
-}
-
-// sum a[k] b[k] over [begin, end) in double, in eight lanes (a fixed order,
-// which lets the loop vectorise).
-PSRIG_VECTOR_CLONES
-double dot_range(const float* __restrict a, const float* __restrict b, std::size_t begin,
-                 std::size_t end) {
-  constexpr std::size_t kLanes = 8;
-  double lanes[kLanes] = {};
-  std::size_t k = begin;
-  for (; k + kLanes <= end; k += kLanes)
-    for (std::size_t lane = 0; lane < kLanes; ++lane)
-      lanes[lane] += static_cast<double>(a[k + lane]) * static_cast<double>(b[k + lane]);
-  double s = 0.0;
-  for (double lane : lanes)
-    s += lane;
-  for (; k < end; ++k)
-    s += static_cast<double>(a[k]) * b[k];
-  return s;
 }
 
 double dot(const std::vector<float>& a, const std::vector<float>& b, int w, int h) {
@@ -743,8 +758,7 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
   int iterations = 0;
   double relative = 0.0;
   if (b_norm > 0) {
-    multigrid.apply(r.data(), z.data());
-    double rz = dot(r, z, w, h);
+    double rz = multigrid.apply(r.data(), z.data());
     double dad = update_direction(level, z.data(), 0.0F, d.data(), ad.data());
     relative = 1.0;
     while (iterations < options.max_iterations) {
@@ -769,8 +783,7 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
       ++iterations;
       relative = next;
       if (relative < options.tolerance) break;
-      multigrid.apply(r.data(), z.data());
-      const double rz_next = dot(r, z, w, h);
+      const double rz_next = multigrid.apply(r.data(), z.data());
       const auto beta = static_cast<float>(rz_next / rz);
       rz = rz_next;
       dad = update_direction(level, z.data(), beta, d.data(), ad.data());
