@@ -98,20 +98,7 @@ struct Level {
 
 void finish_level(Level& level) {
   const std::size_t n = level.size();
-  if (level.packed()) {
-    parallel_chunks(level.h, kRowsPerChunk, [&](int begin, int end) {
-      for (int i = begin; i < end; ++i) {
-        for (int j = 0; j < level.w; ++j) {
-          const std::size_t k = static_cast<std::size_t>(i) * level.w + j;
-          unsigned d = (level.edges[k] & 1U) + ((level.edges[k] >> 1U) & 1U);
-          if (j > 0) d += level.edges[k - 1] & 1U;
-          if (i > 0) d += (level.edges[k - level.w] >> 1U) & 1U;
-          level.edges[k] = static_cast<std::uint8_t>((level.edges[k] & 3U) | (d << 2U));
-        }
-      }
-    });
-    return;
-  }
+
   level.diag.assign(n, 0.0F);
   level.inv_diag.assign(n, 0.0F);
   parallel_chunks(level.h, kRowsPerChunk, [&](int begin, int end) {
@@ -662,6 +649,21 @@ void edge_targets(const float* __restrict gb, const float* __restrict g0,
   }
 }
 
+// The finest level's packed byte for one row (Level): ex[j + 1] is the
+// edge from j to j + 1 (ex[0] = 0), ey the edges down, ey_above those from
+// the row above down to this one.
+PSRIG_VECTOR_CLONES
+void pack_edges(const float* __restrict ex, const float* __restrict ey,
+                const float* __restrict ey_above, std::uint8_t* __restrict edges, int w) {
+  for (int j = 0; j < w; ++j) {
+    const auto right = static_cast<unsigned>(ex[j + 1]);
+    const auto down = static_cast<unsigned>(ey[j]);
+    const unsigned degree = right + down + static_cast<unsigned>(ex[j]) +
+                            static_cast<unsigned>(ey_above[j]);
+    edges[j] = static_cast<std::uint8_t>(right | (down << 1U) | (degree << 2U));
+  }
+}
+
 Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& mask,
                              const MaskedIntegrationOptions& options,
                              MaskedIntegrationStats* stats) {
@@ -706,6 +708,7 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
     std::vector<float> ex(width + 1, 0.0F);
     std::vector<float> gy_above(width, 0.0F);
     std::vector<float> gy(width, 0.0F);
+    std::vector<float> ey_above(width, 0.0F);
     std::vector<float> ey(width, 0.0F);
     const auto load = [&](const cv::Mat& g, int i, float* values, float* inside_row) {
       if (i < 0 || i >= h) {
@@ -725,7 +728,7 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
       for (std::size_t j = 0; j < width; ++j)
         targets[j] = -targets[j];  // y is up, the row index down
     };
-    vertical(begin - 1, gy_above.data(), ey.data());
+    vertical(begin - 1, gy_above.data(), ey_above.data());
     for (int i = begin; i < end; ++i) {
       load(p, i, g_row.data() + 1, m_row.data() + 1);
       edge_targets(g_row.data(), g_row.data() + 1, g_row.data() + 2, g_row.data() + 3,
@@ -733,15 +736,13 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
                    gx.data() + 1, ex.data() + 1, w);
       vertical(i, gy.data(), ey.data());
       const std::size_t row = static_cast<std::size_t>(i) * width;
-      for (std::size_t j = 0; j < width; ++j)
-        fine.edges[row + j] = static_cast<std::uint8_t>((ex[j + 1] > 0 ? 1U : 0U) |
-                                                        (ey[j] > 0 ? 2U : 0U));
+      pack_edges(ex.data(), ey.data(), ey_above.data(), fine.edges.data() + row, w);
       for (std::size_t j = 0; j < width; ++j)
         b[row + j] = gx[j] - gx[j + 1] + gy_above[j] - gy[j];
       std::swap(gy_above, gy);
+      std::swap(ey_above, ey);
     }
   });
-  finish_level(fine);
 
   Multigrid multigrid(std::move(fine));
   const Level& level = multigrid.finest();
@@ -795,14 +796,35 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
   // zero mean, and NaN outside the domain.
   cv::Mat labels;
   const int pieces = cv::connectedComponents(inside, labels, 4, CV_32S);
-  std::vector<double> sum(static_cast<std::size_t>(pieces), 0.0);
-  std::vector<double> count(static_cast<std::size_t>(pieces), 0.0);
-  for (int i = 0; i < h; ++i) {
-    const int* lr = labels.ptr<int>(i);
-    for (int j = 0; j < w; ++j) {
-      sum[static_cast<std::size_t>(lr[j])] += x[static_cast<std::size_t>(i) * w + j];
-      count[static_cast<std::size_t>(lr[j])] += 1.0;
+  // Sums per piece: per chunk of rows when there are few pieces, combined
+  // in chunk order; serially for a lace of many.
+  const auto piece_count = static_cast<std::size_t>(pieces);
+  std::vector<double> sum(piece_count, 0.0);
+  std::vector<double> count(piece_count, 0.0);
+  const auto add_rows = [&](int begin, int end, double* s, double* c) {
+    for (int i = begin; i < end; ++i) {
+      const int* lr = labels.ptr<int>(i);
+      const float* xr = x.data() + static_cast<std::size_t>(i) * w;
+      for (int j = 0; j < w; ++j) {
+        s[lr[j]] += xr[j];
+        c[lr[j]] += 1.0;
+      }
     }
+  };
+  if (piece_count <= 64) {
+    const auto chunks = static_cast<std::size_t>(chunk_count(h, kRowsPerChunk));
+    std::vector<double> partial(chunks * piece_count * 2, 0.0);
+    parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
+      double* s = partial.data() + static_cast<std::size_t>(begin / kRowsPerChunk) * piece_count * 2;
+      add_rows(begin, end, s, s + piece_count);
+    });
+    for (std::size_t chunk = 0; chunk < chunks; ++chunk)
+      for (std::size_t piece = 0; piece < piece_count; ++piece) {
+        sum[piece] += partial[chunk * piece_count * 2 + piece];
+        count[piece] += partial[chunk * piece_count * 2 + piece_count + piece];
+      }
+  } else {
+    add_rows(0, h, sum.data(), count.data());
   }
   std::vector<float> mean(static_cast<std::size_t>(pieces), 0.0F);
   for (std::size_t c = 1; c < mean.size(); ++c)
