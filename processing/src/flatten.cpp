@@ -22,8 +22,7 @@ cv::Mat fit_quadratic(const cv::Mat& height, const cv::Mat& valid) {
   const double cx = 0.5 * (w - 1);
   const double cy = 0.5 * (h - 1);
   const double scale = 1.0 / std::max(1.0, 0.5 * std::max(w, h));
-  const int step = std::max(
-      1, static_cast<int>(std::sqrt(static_cast<double>(w) * h / 1e6)));
+  const int step = std::max(1, static_cast<int>(std::sqrt(static_cast<double>(w) * h / 1e6)));
   Eigen::Matrix<double, 6, 6> normal = Eigen::Matrix<double, 6, 6>::Zero();
   Eigen::Matrix<double, 6, 1> rhs = Eigen::Matrix<double, 6, 1>::Zero();
   const auto basis = [&](int row, int col) {
@@ -92,7 +91,8 @@ Result<BendRemoved> remove_bend(cv::Mat& height, double cutoff_px) {
     cv::Mat valid = height == height;  // NaN compares unequal
     valid &= cv::abs(height) <= std::numeric_limits<float>::max();
     BendRemoved result;
-    result.bend = cv::Mat(height.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
+    result.bend =
+        cv::Mat(height.size(), CV_32F, cv::Scalar(std::numeric_limits<float>::quiet_NaN()));
     if (cv::countNonZero(valid) == 0) return result;
 
     cv::Mat clean = height.clone();

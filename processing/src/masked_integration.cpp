@@ -172,9 +172,9 @@ void gs_values_row(const float* __restrict wx, const float* __restrict wy,
                    const float* __restrict b, float* __restrict out, std::size_t k, int w) {
   for (int j = 1; j + 1 < w; ++j) {
     const std::size_t c = k + static_cast<std::size_t>(j);
-    out[j] = (b[c] + wx[c] * x[c + 1] + wx[c - 1] * x[c - 1] + wy[c] * x[c + w] +
-              wy[c - w] * x[c - w]) *
-             inv_diag[c];
+    out[j] =
+        (b[c] + wx[c] * x[c + 1] + wx[c - 1] * x[c - 1] + wy[c] * x[c + w] + wy[c - w] * x[c - w]) *
+        inv_diag[c];
   }
 }
 
@@ -193,8 +193,7 @@ void residual_row(const float* __restrict wx, const float* __restrict wy,
 // The same three over packed weights.
 PSRIG_VECTOR_CLONES
 void gs_values_row_packed(const std::uint8_t* __restrict edges, const float* __restrict x,
-                          const float* __restrict b, float* __restrict out, std::size_t k,
-                          int w) {
+                          const float* __restrict b, float* __restrict out, std::size_t k, int w) {
   for (int j = 1; j + 1 < w; ++j) {
     const std::size_t c = k + static_cast<std::size_t>(j);
     const unsigned e = edges[c];
@@ -275,15 +274,14 @@ double smooth_colour(const Level& l, float* x, const float* b, int colour, bool 
         if (l.packed())
           gs_values_row_packed(l.edges.data(), x, b, values.data(), row, l.w);
         else
-          gs_values_row(l.wx.data(), l.wy.data(), l.inv_diag.data(), x, b, values.data(), row,
-                        l.w);
+          gs_values_row(l.wx.data(), l.wy.data(), l.inv_diag.data(), x, b, values.data(), row, l.w);
         for (int j = first == 0 ? 2 : 1; j + 1 < l.w; j += 2)
           x[row + j] = values[static_cast<std::size_t>(j)];
         if (first == 0) x[row] = (b[row] + neighbour_sum(l, x, i, 0, row)) * l.inv_degree(row);
         const int last = l.w - 1;
         if (((i + last + colour) & 1) == 0)
-          x[row + last] = (b[row + last] + neighbour_sum(l, x, i, last, row + last)) *
-                          l.inv_degree(row + last);
+          x[row + last] =
+              (b[row + last] + neighbour_sum(l, x, i, last, row + last)) * l.inv_degree(row + last);
         continue;
       }
       for (int j = first; j < l.w; j += 2) {
@@ -292,9 +290,8 @@ double smooth_colour(const Level& l, float* x, const float* b, int colour, bool 
       }
     }
     if (dot)
-      sums[static_cast<std::size_t>(begin / kRowsPerChunk)] =
-          dot_range(b, x, static_cast<std::size_t>(begin) * l.w,
-                    static_cast<std::size_t>(end) * l.w);
+      sums[static_cast<std::size_t>(begin / kRowsPerChunk)] = dot_range(
+          b, x, static_cast<std::size_t>(begin) * l.w, static_cast<std::size_t>(end) * l.w);
   });
   double total = 0.0;
   for (double sum : sums)
@@ -348,9 +345,8 @@ void residual_of_row(const Level& l, const float* x, const float* b, int i, floa
 
 // out = A x over the inner columns.
 PSRIG_VECTOR_CLONES
-void apply_row(const float* __restrict wx, const float* __restrict wy,
-               const float* __restrict diag, const float* __restrict x, float* __restrict out,
-               std::size_t k, int w) {
+void apply_row(const float* __restrict wx, const float* __restrict wy, const float* __restrict diag,
+               const float* __restrict x, float* __restrict out, std::size_t k, int w) {
   for (int j = 1; j + 1 < w; ++j) {
     const std::size_t c = k + static_cast<std::size_t>(j);
     out[j] = diag[c] * x[c] -
@@ -658,8 +654,8 @@ void pack_edges(const float* __restrict ex, const float* __restrict ey,
   for (int j = 0; j < w; ++j) {
     const auto right = static_cast<unsigned>(ex[j + 1]);
     const auto down = static_cast<unsigned>(ey[j]);
-    const unsigned degree = right + down + static_cast<unsigned>(ex[j]) +
-                            static_cast<unsigned>(ey_above[j]);
+    const unsigned degree =
+        right + down + static_cast<unsigned>(ex[j]) + static_cast<unsigned>(ey_above[j]);
     edges[j] = static_cast<std::uint8_t>(right | (down << 1U) | (degree << 2U));
   }
 }
@@ -731,9 +727,9 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
     vertical(begin - 1, gy_above.data(), ey_above.data());
     for (int i = begin; i < end; ++i) {
       load(p, i, g_row.data() + 1, m_row.data() + 1);
-      edge_targets(g_row.data(), g_row.data() + 1, g_row.data() + 2, g_row.data() + 3,
-                   m_row.data(), m_row.data() + 1, m_row.data() + 2, m_row.data() + 3,
-                   gx.data() + 1, ex.data() + 1, w);
+      edge_targets(g_row.data(), g_row.data() + 1, g_row.data() + 2, g_row.data() + 3, m_row.data(),
+                   m_row.data() + 1, m_row.data() + 2, m_row.data() + 3, gx.data() + 1,
+                   ex.data() + 1, w);
       vertical(i, gy.data(), ey.data());
       const std::size_t row = static_cast<std::size_t>(i) * width;
       pack_edges(ex.data(), ey.data(), ey_above.data(), fine.edges.data() + row, w);
@@ -815,7 +811,8 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
     const auto chunks = static_cast<std::size_t>(chunk_count(h, kRowsPerChunk));
     std::vector<double> partial(chunks * piece_count * 2, 0.0);
     parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
-      double* s = partial.data() + static_cast<std::size_t>(begin / kRowsPerChunk) * piece_count * 2;
+      double* s =
+          partial.data() + static_cast<std::size_t>(begin / kRowsPerChunk) * piece_count * 2;
       add_rows(begin, end, s, s + piece_count);
     });
     for (std::size_t chunk = 0; chunk < chunks; ++chunk)
@@ -863,12 +860,12 @@ Result<cv::Mat> integrate_masked(const cv::Mat& p, const cv::Mat& q, const cv::M
                                            std::to_string(p.rows) + " but q is " +
                                            std::to_string(q.cols) + "x" + std::to_string(q.rows)));
     if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != p.size()))
-      return std::unexpected(bad_input(
-          {}, {},
-          "integration: the mask must be one 8-bit channel the size of p and q (" +
-              std::to_string(p.cols) + "x" + std::to_string(p.rows) + "), got " +
-              cv::typeToString(mask.type()) + " " + std::to_string(mask.cols) + "x" +
-              std::to_string(mask.rows)));
+      return std::unexpected(
+          bad_input({}, {},
+                    "integration: the mask must be one 8-bit channel the size of p and q (" +
+                        std::to_string(p.cols) + "x" + std::to_string(p.rows) + "), got " +
+                        cv::typeToString(mask.type()) + " " + std::to_string(mask.cols) + "x" +
+                        std::to_string(mask.rows)));
     if (!(options.max_slope > 0))
       return std::unexpected(bad_input({}, {}, "integration: max_slope must be positive"));
     if (!(options.tolerance > 0) || options.max_iterations < 0)

@@ -70,8 +70,8 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   std::vector<std::pair<std::string, double>> stages;
 
   if (!(options.flatten_cutoff_mm > 0) || !std::isfinite(options.flatten_cutoff_mm))
-    return std::unexpected(bad_input({}, "--flatten-cutoff",
-                                     "the bend's cut-off must be a positive length (mm)"));
+    return std::unexpected(
+        bad_input({}, "--flatten-cutoff", "the bend's cut-off must be a positive length (mm)"));
   // A scan directory that is not there is the error, not the maps
   // directory inside it that cannot be made.
   std::error_code ec;
@@ -173,17 +173,17 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
            const cv::Mat finite = *height == *height;  // NaN outside what was integrated
            summary.pixels = cv::countNonZero(finite);
 
-           const bool flatten = options.flatten == Flatten::on ||
-                                (options.flatten == Flatten::automatic && in_mm);
+           const bool flatten =
+               options.flatten == Flatten::on || (options.flatten == Flatten::automatic && in_mm);
            BendSummary bend;
            if (flatten) {
-             const double cutoff_px = in_mm ? options.flatten_cutoff_mm / pixel_size
-                                            : options.flatten_cutoff_mm;
+             const double cutoff_px =
+                 in_mm ? options.flatten_cutoff_mm / pixel_size : options.flatten_cutoff_mm;
              auto removed = remove_bend(*height, cutoff_px);
              if (!removed)
                return std::unexpected(internal_error("flatten: " + removed.error().describe()));
-             bend = {true, options.flatten_cutoff_mm, in_mm ? "mm" : "px",
-                     removed->peak_to_valley, removed->rms};
+             bend = {true, options.flatten_cutoff_mm, in_mm ? "mm" : "px", removed->peak_to_valley,
+                     removed->rms};
              log->debug("bend removed: {:.4g} {} peak to valley", removed->peak_to_valley,
                         summary.units);
            }

@@ -222,8 +222,8 @@ TEST(PsrigCli, IntegrateANormalMapMadeElsewhere) {
   normal.setTo(cv::Scalar(0, 0, 0), cap.mask == 0);
   ASSERT_TRUE(processing::write_image(temp / "normal.png", normal));
   const fs::path out = temp / "height.exr";
-  auto run = run_program("psrig", {"integrate", (temp / "normal.png").string(), "--out",
-                                    out.string()});
+  auto run =
+      run_program("psrig", {"integrate", (temp / "normal.png").string(), "--out", out.string()});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(contains(run.out, "method: masked")) << run.out;
   EXPECT_TRUE(contains(run.out, "pixels: " + std::to_string(cv::countNonZero(cap.mask))))
@@ -238,7 +238,7 @@ TEST(PsrigCli, IntegrateANormalMapMadeElsewhere) {
   EXPECT_LT(rms, 0.01) << rms;
   // Read as DirectX (green down), the same file is another surface.
   auto flipped = run_program("psrig", {"integrate", (temp / "normal.png").string(), "--out",
-                                        (temp / "flipped.exr").string(), "--green-down", "-q"});
+                                       (temp / "flipped.exr").string(), "--green-down", "-q"});
   ASSERT_EQ(flipped.exit_code, 0) << flipped.err;
   EXPECT_TRUE(flipped.out.empty()) << flipped.out;
   EXPECT_GT(masked_rms(*processing::read_image(temp / "flipped.exr", "h"), cap.z, cap.mask), 1.0);
@@ -254,16 +254,15 @@ TEST(PsrigCli, IntegrateGradientMapsWithAMaskAndFlatten) {
   const std::string q = (temp / "q.exr").string();
   const std::string mask = (temp / "mask.png").string();
   auto run = run_program("psrig", {"integrate", p, q, "--mask", mask, "--out",
-                                    (temp / "z.exr").string(), "--pixel-size", "0.1"});
+                                   (temp / "z.exr").string(), "--pixel-size", "0.1"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   // In mm, and flattened by default once a pixel size says this is a swatch:
   // the cap is a bend at this scale (a 7 mm ball under a 10 mm cut-off).
   EXPECT_TRUE(contains(run.out, "bend removed:")) << run.out;
   auto flat = processing::read_image(temp / "z.exr", "z");
   ASSERT_TRUE(flat);
-  run = run_program("psrig", {"integrate", p, q, "--mask", mask, "--out",
-                              (temp / "z.exr").string(), "--pixel-size", "0.1", "--flatten",
-                              "off", "--method", "masked"});
+  run = run_program("psrig", {"integrate", p, q, "--mask", mask, "--out", (temp / "z.exr").string(),
+                              "--pixel-size", "0.1", "--flatten", "off", "--method", "masked"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_FALSE(contains(run.out, "bend removed:")) << run.out;
   auto kept = processing::read_image(temp / "z.exr", "z");

@@ -40,8 +40,8 @@ cv::Mat bend(int w, int h) {
     for (int col = 0; col < w; ++col) {
       const double x = (col - 0.5 * w) / (0.5 * w);
       const double y = (0.5 * h - row) / (0.5 * h);
-      z.at<float>(row, col) = static_cast<float>(0.5 * x * x + 0.3 * y * y - 0.2 * x * y +
-                                                 0.1 * x - 0.15 * y + 0.08 * x * x * x);
+      z.at<float>(row, col) = static_cast<float>(0.5 * x * x + 0.3 * y * y - 0.2 * x * y + 0.1 * x -
+                                                 0.15 * y + 0.08 * x * x * x);
     }
   return z;
 }

@@ -703,8 +703,8 @@ TEST(IntegrationMasked, IsExactForAPlaneAndSolvesItsNormalEquations) {
   MaskedIntegrationStats stats;
   MaskedIntegrationOptions options;
   options.tolerance = 1e-5;
-  ASSERT_TRUE(integrate_masked(random_field(70, 50, 25), random_field(70, 50, 26), mask, options,
-                               &stats));
+  ASSERT_TRUE(
+      integrate_masked(random_field(70, 50, 25), random_field(70, 50, 26), mask, options, &stats));
   std::printf("  [measured] random field in a disk: %d iterations, residual %.2g\n",
               stats.iterations, stats.relative_residual);
   EXPECT_LT(stats.relative_residual, 1e-5);
@@ -737,7 +737,8 @@ TEST(IntegrationMasked, NonFiniteGradientsAreHolesAndPiecesHaveZeroMean) {
   // `automatic` sees the mask, or the NaN, and chooses the masked solver.
   EXPECT_TRUE(needs_masked_integration(p, q));
   EXPECT_TRUE(needs_masked_integration(cv::Mat(4, 4, CV_32F, cv::Scalar(0)),
-                                       cv::Mat(4, 4, CV_32F, cv::Scalar(0)), mask(cv::Rect(0, 0, 4, 4))));
+                                       cv::Mat(4, 4, CV_32F, cv::Scalar(0)),
+                                       mask(cv::Rect(0, 0, 4, 4))));
   EXPECT_FALSE(needs_masked_integration(cv::Mat(4, 4, CV_32F, cv::Scalar(0)),
                                         cv::Mat(4, 4, CV_32F, cv::Scalar(0))));
   const auto automatic = integrate(IntegrationMethod::automatic, p, q, mask);

@@ -154,8 +154,8 @@ TEST(Pipeline, AMaskedScanIsIntegratedOverItsMaskAndTheReportSaysHow) {
   const int w = 96;
   const int h = 80;
   const double radius = 60;  // the cap of a sphere, so the disk sees no silhouette
-  auto scan = test::render_scan(test::sphere_surface({w, h}, radius, 1), test::ring_lights(3, 45),
-                                CV_16U);
+  auto scan =
+      test::render_scan(test::sphere_surface({w, h}, radius, 1), test::ring_lights(3, 45), CV_16U);
   scan.mask = cv::Mat(h, w, CV_8U, cv::Scalar(0));
   cv::circle(scan.mask, cv::Point(w / 2, h / 2), 34, cv::Scalar(255), cv::FILLED);
   ASSERT_TRUE(capture::write_scan(scan, temp / "scan"));
@@ -184,8 +184,8 @@ TEST(Pipeline, AMaskedScanIsIntegratedOverItsMaskAndTheReportSaysHow) {
   const double cy = (h - 1) / 2.0;
   for (int row = 0; row < h; ++row)
     for (int col = 0; col < w; ++col)
-      truth.at<float>(row, col) = static_cast<float>(std::sqrt(
-          radius * radius - (col - cx) * (col - cx) - (row - cy) * (row - cy)));
+      truth.at<float>(row, col) = static_cast<float>(
+          std::sqrt(radius * radius - (col - cx) * (col - cx) - (row - cy) * (row - cy)));
   const double error = height_rms_error(height, truth, scan.mask);
   double low = 0;
   double high = 0;

@@ -39,8 +39,9 @@ void print_maps_summary(const processing::ProcessSummary& summary) {
   std::printf("residual: mean %.5f of full scale\n", r["residual"]["mean"].get<double>());
   if (r.contains("height")) {
     const auto& h = r["height"];
-    const std::string method = h.contains("method") ? h["method"].get<std::string>()
-                                                    : r["options"]["integration"].get<std::string>();
+    const std::string method = h.contains("method")
+                                   ? h["method"].get<std::string>()
+                                   : r["options"]["integration"].get<std::string>();
     std::printf("height: range %.4f %s (%s)\n", h["range"].get<double>(),
                 h["units"].get<std::string>().c_str(), method.c_str());
   }

@@ -6,10 +6,9 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <unistd.h>
 #include <utility>
 #include <vector>
-
-#include <unistd.h>
 
 #include <opencv2/core.hpp>
 
@@ -51,11 +50,11 @@ Result<processing::DecodedGradients> read_gradients(const IntegrateArgs& args) {
     if (!image) return std::unexpected(image.error());
     auto decoded = processing::decode_normal_map(*image, args.green_down);
     if (decoded.p.empty())
-      return std::unexpected(bad_input(
-          file, "NORMAL",
-          "not a normal map: expected 3 or 4 channels of 8-bit, 16-bit or float (got " +
-              std::to_string(image->channels()) + " channel(s), " +
-              cv::typeToString(image->type()) + "); for gradient maps give P and Q"));
+      return std::unexpected(
+          bad_input(file, "NORMAL",
+                    "not a normal map: expected 3 or 4 channels of 8-bit, 16-bit or float (got " +
+                        std::to_string(image->channels()) + " channel(s), " +
+                        cv::typeToString(image->type()) + "); for gradient maps give P and Q"));
     return decoded;
   }
   processing::DecodedGradients g;
@@ -65,18 +64,17 @@ Result<processing::DecodedGradients> read_gradients(const IntegrateArgs& args) {
     auto image = processing::read_image(file, key);
     if (!image) return std::unexpected(image.error());
     if (image->type() != CV_32FC1)
-      return std::unexpected(bad_input(
-          file, key,
-          "expected a one-channel 32-bit float gradient map (EXR or TIFF), got " +
-              cv::typeToString(image->type()) + "; for a normal map give it alone"));
+      return std::unexpected(
+          bad_input(file, key,
+                    "expected a one-channel 32-bit float gradient map (EXR or TIFF), got " +
+                        cv::typeToString(image->type()) + "; for a normal map give it alone"));
     (i == 0 ? g.p : g.q) = *image;
   }
   if (g.p.size() != g.q.size())
-    return std::unexpected(bad_input(args.inputs[1], "Q",
-                                     "is " + std::to_string(g.q.cols) + "x" +
-                                         std::to_string(g.q.rows) + " but P is " +
-                                         std::to_string(g.p.cols) + "x" +
-                                         std::to_string(g.p.rows) + "; give maps of one size"));
+    return std::unexpected(bad_input(
+        args.inputs[1], "Q",
+        "is " + std::to_string(g.q.cols) + "x" + std::to_string(g.q.rows) + " but P is " +
+            std::to_string(g.p.cols) + "x" + std::to_string(g.p.rows) + "; give maps of one size"));
   return g;
 }
 
@@ -90,11 +88,11 @@ Result<cv::Mat> read_mask(const std::string& name, cv::Size size) {
                                      "this pixel), got " +
                                          cv::typeToString(image->type())));
   if (image->size() != size)
-    return std::unexpected(bad_input(
-        name, "--mask",
-        "is " + std::to_string(image->cols) + "x" + std::to_string(image->rows) +
-            " but the maps are " + std::to_string(size.width) + "x" +
-            std::to_string(size.height) + "; give a mask of the maps' size"));
+    return std::unexpected(
+        bad_input(name, "--mask",
+                  "is " + std::to_string(image->cols) + "x" + std::to_string(image->rows) +
+                      " but the maps are " + std::to_string(size.width) + "x" +
+                      std::to_string(size.height) + "; give a mask of the maps' size"));
   cv::Mat mask = *image != 0;
   return mask;
 }
@@ -124,9 +122,9 @@ int run_integrate(const IntegrateArgs& args) {
   processing::set_thread_count(args.threads);
   const fs::path out = args.out;
   if (!has_float_extension(out))
-    return report_error("integrate",
-                        bad_input(out, "--out",
-                                  "the height map is float: name a .exr, .tif or .tiff file"));
+    return report_error(
+        "integrate",
+        bad_input(out, "--out", "the height map is float: name a .exr, .tif or .tiff file"));
   std::error_code ec;
   if (fs::is_directory(out, ec))
     return report_error("integrate",

@@ -16,9 +16,9 @@
 // across the swatch is taken out whole by the quadratic, its remainder by
 // the low-pass.
 
-#include "psrig/base/error.h"
-
 #include <opencv2/core.hpp>
+
+#include "psrig/base/error.h"
 
 namespace psrig::processing {
 
@@ -26,9 +26,9 @@ namespace psrig::processing {
 inline constexpr double kDefaultFlattenCutoffMm = 10.0;
 
 struct BendRemoved {
-  cv::Mat bend;                // CV_32F, what was subtracted; NaN where the height is
-  double peak_to_valley = 0;   // max - min of the bend over the valid pixels
-  double rms = 0;              // RMS of the bend about its mean there
+  cv::Mat bend;               // CV_32F, what was subtracted; NaN where the height is
+  double peak_to_valley = 0;  // max - min of the bend over the valid pixels
+  double rms = 0;             // RMS of the bend about its mean there
 };
 
 // Subtracts the bend from `height` (CV_32FC1; non-finite = no data, left

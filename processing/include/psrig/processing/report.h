@@ -20,9 +20,9 @@ namespace psrig::processing {
 struct HeightSummary {
   double low = 0;
   double high = 0;
-  std::string units;  // "mm" or "px"
+  std::string units;                                                // "mm" or "px"
   IntegrationMethod method = IntegrationMethod::frankot_chellappa;  // the one used
-  long long pixels = 0;  // with a height (the rest are NaN in height.exr)
+  long long pixels = 0;                          // with a height (the rest are NaN in height.exr)
   std::optional<MaskedIntegrationStats> solver;  // the masked solver's
 };
 
