@@ -753,12 +753,15 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
   // Preconditioned conjugate gradients from zero. The search direction d
   // and A d are updated together from z = M r in one pass:
   // A (z + beta d) = A z + beta A d.
-  std::vector<float> x(n, 0.0F);
-  std::vector<float> r = b;
+  // The solution is built in the result's own buffer, and the residual in
+  // b's: fewer fresh pages for the kernel to clear.
+  cv::Mat height(h, w, CV_32F, cv::Scalar(0));
+  float* const x = height.ptr<float>();
+  const double b_norm = std::sqrt(dot(b, b, w, h));
+  std::vector<float> r = std::move(b);
   std::vector<float> z(n, 0.0F);
   std::vector<float> d(n, 0.0F);
   std::vector<float> ad(n, 0.0F);
-  const double b_norm = std::sqrt(dot(b, b, w, h));
   int iterations = 0;
   double relative = 0.0;
   if (b_norm > 0) {
@@ -769,7 +772,7 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
       if (!(dad > 0)) break;
       const auto alpha = static_cast<float>(rz / dad);
       const double r_norm2 = reduce(h, [&](int begin, int end) {
-        return step_range(x.data(), r.data(), d.data(), ad.data(), alpha,
+        return step_range(x, r.data(), d.data(), ad.data(), alpha,
                           static_cast<std::size_t>(begin) * w, static_cast<std::size_t>(end) * w);
       });
       const double next = std::sqrt(r_norm2) / b_norm;
@@ -807,7 +810,7 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
   const auto add_rows = [&](int begin, int end, double* s, double* c) {
     for (int i = begin; i < end; ++i) {
       const int* lr = labels.ptr<int>(i);
-      const float* xr = x.data() + static_cast<std::size_t>(i) * w;
+      const float* xr = x + static_cast<std::size_t>(i) * w;
       for (int j = 0; j < w; ++j) {
         s[lr[j]] += xr[j];
         c[lr[j]] += 1.0;
@@ -833,15 +836,13 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
   std::vector<float> mean(static_cast<std::size_t>(pieces), 0.0F);
   for (std::size_t c = 1; c < mean.size(); ++c)
     mean[c] = static_cast<float>(sum[c] / count[c]);
-  cv::Mat height(h, w, CV_32F);
   parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
       const int* lr = labels.ptr<int>(i);
-      float* out = height.ptr<float>(i);
+      float* out = height.ptr<float>(i);  // = x's row
       for (int j = 0; j < w; ++j)
         out[j] = lr[j] == 0 ? std::numeric_limits<float>::quiet_NaN()
-                            : x[static_cast<std::size_t>(i) * w + j] -
-                                  mean[static_cast<std::size_t>(lr[j])];
+                            : out[j] - mean[static_cast<std::size_t>(lr[j])];
     }
   });
   return height;
