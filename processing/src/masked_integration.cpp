@@ -259,9 +259,33 @@ double dot_range(const float* __restrict a, const float* __restrict b, std::size
   return s;
 }
 
-// One Gauss-Seidel half-sweep over the pixels of one colour ((i + j) % 2).
+// Row i's pixels of one colour ((i + j) % 2) get their Gauss-Seidel value.
 // A pixel's neighbours all have the other colour, so the whole row's values
 // can be computed first (vectorised) and those of the colour stored.
+void smooth_row(const Level& l, float* x, const float* b, int i, int colour, float* values) {
+  const std::size_t row = static_cast<std::size_t>(i) * l.w;
+  const int first = (i + colour) & 1;
+  if (i > 0 && i + 1 < l.h && l.w > 2) {
+    if (l.packed())
+      gs_values_row_packed(l.edges.data(), x, b, values, row, l.w);
+    else
+      gs_values_row(l.wx.data(), l.wy.data(), l.inv_diag.data(), x, b, values, row, l.w);
+    for (int j = first == 0 ? 2 : 1; j + 1 < l.w; j += 2)
+      x[row + j] = values[static_cast<std::size_t>(j)];
+    if (first == 0) x[row] = (b[row] + neighbour_sum(l, x, i, 0, row)) * l.inv_degree(row);
+    const int last = l.w - 1;
+    if (((i + last + colour) & 1) == 0)
+      x[row + last] =
+          (b[row + last] + neighbour_sum(l, x, i, last, row + last)) * l.inv_degree(row + last);
+    return;
+  }
+  for (int j = first; j < l.w; j += 2) {
+    const std::size_t k = row + j;
+    x[k] = (b[k] + neighbour_sum(l, x, i, j, k)) * l.inv_degree(k);
+  }
+}
+
+// One Gauss-Seidel half-sweep over the pixels of one colour.
 // With `dot`, the last half-sweep of a V-cycle: also returns b.x, summed
 // per chunk of rows as `reduce_rows` sums (each chunk's rows are final once
 // the chunk is done).
@@ -270,28 +294,8 @@ double smooth_colour(const Level& l, float* x, const float* b, int colour, bool 
                            0.0);
   parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
     std::vector<float> values(static_cast<std::size_t>(l.w));
-    for (int i = begin; i < end; ++i) {
-      const std::size_t row = static_cast<std::size_t>(i) * l.w;
-      const int first = (i + colour) & 1;
-      if (i > 0 && i + 1 < l.h && l.w > 2) {
-        if (l.packed())
-          gs_values_row_packed(l.edges.data(), x, b, values.data(), row, l.w);
-        else
-          gs_values_row(l.wx.data(), l.wy.data(), l.inv_diag.data(), x, b, values.data(), row, l.w);
-        for (int j = first == 0 ? 2 : 1; j + 1 < l.w; j += 2)
-          x[row + j] = values[static_cast<std::size_t>(j)];
-        if (first == 0) x[row] = (b[row] + neighbour_sum(l, x, i, 0, row)) * l.inv_degree(row);
-        const int last = l.w - 1;
-        if (((i + last + colour) & 1) == 0)
-          x[row + last] =
-              (b[row + last] + neighbour_sum(l, x, i, last, row + last)) * l.inv_degree(row + last);
-        continue;
-      }
-      for (int j = first; j < l.w; j += 2) {
-        const std::size_t k = row + j;
-        x[k] = (b[k] + neighbour_sum(l, x, i, j, k)) * l.inv_degree(k);
-      }
-    }
+    for (int i = begin; i < end; ++i)
+      smooth_row(l, x, b, i, colour, values.data());
     if (dot)
       sums[static_cast<std::size_t>(begin / kRowsPerChunk)] = dot_range(
           b, x, static_cast<std::size_t>(begin) * l.w, static_cast<std::size_t>(end) * l.w);
@@ -299,6 +303,48 @@ double smooth_colour(const Level& l, float* x, const float* b, int colour, bool 
   double total = 0.0;
   for (double sum : sums)
     total += sum;
+  return total;
+}
+
+// smooth_colour(colour) then smooth_colour(1 - colour), with the same
+// result, in one pass over memory: row i - 1 gets its second colour as soon
+// as row i has its first. The first and last row of each chunk of rows
+// wait for a second, short pass, when their neighbours in the chunks beside
+// have their first colour. With `dot`, returns b.x as smooth_colour does.
+double smooth_pair(const Level& l, float* x, const float* b, int colour, bool dot = false) {
+  const auto chunks = static_cast<std::size_t>(chunk_count(l.h, kRowsPerChunk));
+  std::vector<double> inner(dot ? chunks : 0U, 0.0);
+  const int second = 1 - colour;
+  parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
+    std::vector<float> values(static_cast<std::size_t>(l.w));
+    for (int i = begin; i < end; ++i) {
+      smooth_row(l, x, b, i, colour, values.data());
+      if (i - 1 > begin) smooth_row(l, x, b, i - 1, second, values.data());
+    }
+    if (dot && end - begin > 2)
+      inner[static_cast<std::size_t>(begin / kRowsPerChunk)] = dot_range(
+          b, x, static_cast<std::size_t>(begin + 1) * l.w, static_cast<std::size_t>(end - 1) * l.w);
+  });
+  std::vector<double> edge(dot ? chunks : 0U, 0.0);
+  parallel_chunks(chunk_count(l.h, kRowsPerChunk), 1, [&](int first_chunk, int last_chunk) {
+    std::vector<float> values(static_cast<std::size_t>(l.w));
+    for (int chunk = first_chunk; chunk < last_chunk; ++chunk) {
+      const int begin = chunk * kRowsPerChunk;
+      const int end = std::min(l.h, begin + kRowsPerChunk);
+      smooth_row(l, x, b, begin, second, values.data());
+      if (end - 1 > begin) smooth_row(l, x, b, end - 1, second, values.data());
+      if (dot) {
+        const auto row = [&](int i) {
+          return dot_range(b, x, static_cast<std::size_t>(i) * l.w,
+                           static_cast<std::size_t>(i + 1) * l.w);
+        };
+        edge[static_cast<std::size_t>(chunk)] = row(begin) + (end - 1 > begin ? row(end - 1) : 0.0);
+      }
+    }
+  });
+  double total = 0.0;
+  for (std::size_t chunk = 0; chunk < inner.size(); ++chunk)
+    total += inner[chunk] + edge[chunk];
   return total;
 }
 
@@ -499,16 +545,13 @@ class Multigrid {
     }
     start_from_zero(l, x, b);
     smooth_colour(l, x, b, 1);
-    smooth_colour(l, x, b, 0);
-    smooth_colour(l, x, b, 1);
+    smooth_pair(l, x, b, 0);
     Level& c = levels_[index + 1];
     restrict_residual(l, x, b, c);
     cycle(index + 1, c.b.data(), c.x.data());
     prolong_add(c, l, x);
-    smooth_colour(l, x, b, 1);
-    smooth_colour(l, x, b, 0);
-    smooth_colour(l, x, b, 1);
-    return smooth_colour(l, x, b, 0, index == 0);
+    smooth_pair(l, x, b, 1);
+    return smooth_pair(l, x, b, 1, index == 0);
   }
 
   // Removes from v its mean over each connected piece of the coarsest grid.
