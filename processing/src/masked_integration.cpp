@@ -306,19 +306,47 @@ double smooth_colour(const Level& l, float* x, const float* b, int colour, bool 
   return total;
 }
 
+PSRIG_VECTOR_CLONES
+void start_row_packed(const std::uint8_t* __restrict edges, const float* __restrict b,
+                      float* __restrict x, int parity, int w) {
+  for (int j = 0; j < w; ++j) {
+    const auto d = static_cast<float>(edges[j] >> 2U);
+    const float value = b[j] / (d > 0.0F ? d : 1.0F);
+    x[j] = ((j & 1) == parity) && d > 0.0F ? value : 0.0F;
+  }
+}
+
+// The first half-sweep from x = 0 on row i: colour 0 gets b / diag (its
+// neighbours are all 0), colour 1 stays 0.
+void start_row(const Level& l, float* x, const float* b, int i) {
+  const std::size_t row = static_cast<std::size_t>(i) * l.w;
+  const int parity = i & 1;
+  if (l.packed()) {
+    start_row_packed(l.edges.data() + row, b + row, x + row, parity, l.w);
+  } else {
+    for (int j = 0; j < l.w; ++j)
+      x[row + j] = ((j & 1) == parity) ? b[row + j] * l.inv_diag[row + j] : 0.0F;
+  }
+}
+
 // smooth_colour(colour) then smooth_colour(1 - colour), with the same
 // result, in one pass over memory: row i - 1 gets its second colour as soon
 // as row i has its first. The first and last row of each chunk of rows
 // wait for a second, short pass, when their neighbours in the chunks beside
 // have their first colour. With `dot`, returns b.x as smooth_colour does.
-double smooth_pair(const Level& l, float* x, const float* b, int colour, bool dot = false) {
+// With `from_zero`, the first half-sweep is start_row's (colour 0).
+double smooth_pair(const Level& l, float* x, const float* b, int colour, bool dot = false,
+                   bool from_zero = false) {
   const auto chunks = static_cast<std::size_t>(chunk_count(l.h, kRowsPerChunk));
   std::vector<double> inner(dot ? chunks : 0U, 0.0);
   const int second = 1 - colour;
   parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
     std::vector<float> values(static_cast<std::size_t>(l.w));
     for (int i = begin; i < end; ++i) {
-      smooth_row(l, x, b, i, colour, values.data());
+      if (from_zero)
+        start_row(l, x, b, i);
+      else
+        smooth_row(l, x, b, i, colour, values.data());
       if (i - 1 > begin) smooth_row(l, x, b, i - 1, second, values.data());
     }
     if (dot && end - begin > 2)
@@ -346,33 +374,6 @@ double smooth_pair(const Level& l, float* x, const float* b, int colour, bool do
   for (std::size_t chunk = 0; chunk < inner.size(); ++chunk)
     total += inner[chunk] + edge[chunk];
   return total;
-}
-
-PSRIG_VECTOR_CLONES
-void start_row_packed(const std::uint8_t* __restrict edges, const float* __restrict b,
-                      float* __restrict x, int parity, int w) {
-  for (int j = 0; j < w; ++j) {
-    const auto d = static_cast<float>(edges[j] >> 2U);
-    const float value = b[j] / (d > 0.0F ? d : 1.0F);
-    x[j] = ((j & 1) == parity) && d > 0.0F ? value : 0.0F;
-  }
-}
-
-// The first half-sweep from x = 0: colour 0 gets b / diag (its neighbours
-// are all 0), colour 1 stays 0.
-void start_from_zero(const Level& l, float* x, const float* b) {
-  parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
-    for (int i = begin; i < end; ++i) {
-      const std::size_t row = static_cast<std::size_t>(i) * l.w;
-      const int parity = i & 1;
-      if (l.packed()) {
-        start_row_packed(l.edges.data() + row, b + row, x + row, parity, l.w);
-      } else {
-        for (int j = 0; j < l.w; ++j)
-          x[row + j] = ((j & 1) == parity) ? b[row + j] * l.inv_diag[row + j] : 0.0F;
-      }
-    }
-  });
 }
 
 // Row i of r = b - A x, into out (w values).
@@ -543,8 +544,7 @@ class Multigrid {
       project_pieces(l, x);
       return index == 0 ? dot_range(b, x, 0, l.size()) : 0.0;
     }
-    start_from_zero(l, x, b);
-    smooth_colour(l, x, b, 1);
+    smooth_pair(l, x, b, 0, false, true);  // from x = 0
     smooth_pair(l, x, b, 0);
     Level& c = levels_[index + 1];
     restrict_residual(l, x, b, c);
