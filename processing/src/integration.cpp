@@ -382,6 +382,8 @@ bool prepare_fftw_threads() {
 std::optional<IntegrationMethod> parse_integration_method(std::string_view name) {
   if (name == "fc") return IntegrationMethod::frankot_chellappa;
   if (name == "poisson") return IntegrationMethod::poisson;
+  if (name == "masked") return IntegrationMethod::masked;
+  if (name == "auto") return IntegrationMethod::automatic;
   if (name == "none") return IntegrationMethod::none;
   return std::nullopt;
 }
@@ -392,6 +394,10 @@ std::string_view to_string(IntegrationMethod method) {
       return "fc";
     case IntegrationMethod::poisson:
       return "poisson";
+    case IntegrationMethod::masked:
+      return "masked";
+    case IntegrationMethod::automatic:
+      return "auto";
     case IntegrationMethod::none:
       return "none";
   }
@@ -406,13 +412,50 @@ Result<cv::Mat> integrate_poisson(const cv::Mat& p, const cv::Mat& q, float max_
   return run(&poisson, p, q, max_slope);
 }
 
+bool needs_masked_integration(const cv::Mat& p, const cv::Mat& q, const cv::Mat& mask) {
+  if (!mask.empty() && cv::countNonZero(mask) < mask.rows * mask.cols) return true;
+  for (const cv::Mat* m : {&p, &q}) {
+    if (m->empty() || m->type() != CV_32FC1) continue;
+    bool any = false;
+    std::mutex lock;
+    parallel_chunks(m->rows, rows_per_chunk(m->cols), [&](int begin, int end) {
+      bool found = false;
+      for (int row = begin; row < end && !found; ++row) {
+        const auto* values = m->ptr<float>(row);
+        for (int col = 0; col < m->cols; ++col)
+          found |= (std::bit_cast<std::uint32_t>(values[col]) & 0x7F800000U) == 0x7F800000U;
+      }
+      if (found) {
+        const std::lock_guard guard(lock);
+        any = true;
+      }
+    });
+    if (any) return true;
+  }
+  return false;
+}
+
 Result<cv::Mat> integrate(IntegrationMethod method, const cv::Mat& p, const cv::Mat& q,
                           float max_slope) {
+  return integrate(method, p, q, cv::Mat(), max_slope);
+}
+
+Result<cv::Mat> integrate(IntegrationMethod method, const cv::Mat& p, const cv::Mat& q,
+                          const cv::Mat& mask, float max_slope) {
+  if (method == IntegrationMethod::automatic)
+    method = needs_masked_integration(p, q, mask) ? IntegrationMethod::masked
+                                                  : IntegrationMethod::frankot_chellappa;
   switch (method) {
     case IntegrationMethod::frankot_chellappa:
       return integrate_frankot_chellappa(p, q, max_slope);
     case IntegrationMethod::poisson:
       return integrate_poisson(p, q, max_slope);
+    case IntegrationMethod::masked: {
+      MaskedIntegrationOptions options;
+      options.max_slope = max_slope;
+      return integrate_masked(p, q, mask, options);
+    }
+    case IntegrationMethod::automatic:
     case IntegrationMethod::none:
       return cv::Mat();
   }

@@ -3,7 +3,9 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstddef>
 #include <cstdint>
+#include <limits>
 
 #include "psrig/processing/parallel.h"
 #include "psrig/processing/woodham.h"
@@ -68,6 +70,47 @@ cv::Mat encode_normal16(const cv::Mat& p, const cv::Mat& q) {
   parallel_chunks(p.rows, kRowsPerChunk, [&](int begin, int end) {
     for (int r = begin; r < end; ++r)
       normal_row(p.ptr<float>(r), q.ptr<float>(r), out.ptr<std::uint16_t>(r), p.cols);
+  });
+  return out;
+}
+
+DecodedGradients decode_normal_map(const cv::Mat& image, bool green_down) {
+  const int depth = image.depth();
+  const int channels = image.channels();
+  if (image.empty() || (channels != 3 && channels != 4) ||
+      (depth != CV_8U && depth != CV_16U && depth != CV_32F))
+    return {};
+  cv::Mat values;
+  if (depth == CV_32F)
+    values = image;
+  else
+    image.convertTo(values, CV_32F, 2.0 / (depth == CV_8U ? 255.0 : 65535.0), -1.0);
+  DecodedGradients out{cv::Mat(image.size(), CV_32F), cv::Mat(image.size(), CV_32F)};
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  parallel_chunks(image.rows, kRowsPerChunk, [&](int begin, int end) {
+    for (int r = begin; r < end; ++r) {
+      const float* v = values.ptr<float>(r);
+      const auto* alpha8 = image.ptr<std::uint8_t>(r);
+      const auto* alpha16 = image.ptr<std::uint16_t>(r);
+      const float* alpha32 = image.ptr<float>(r);
+      float* p = out.p.ptr<float>(r);
+      float* q = out.q.ptr<float>(r);
+      for (int c = 0; c < image.cols; ++c) {
+        const float* px = v + static_cast<std::ptrdiff_t>(c) * channels;  // B, G, R(, A)
+        const float nx = px[2];
+        const float ny = green_down ? -px[1] : px[1];
+        const float nz = px[0];
+        bool ok = std::isfinite(nx) && std::isfinite(ny) && std::isfinite(nz) && nz > 0.01F;
+        if (channels == 4) {
+          const std::size_t a = static_cast<std::size_t>(c) * 4 + 3;
+          ok = ok && (depth == CV_8U    ? alpha8[a] != 0
+                      : depth == CV_16U ? alpha16[a] != 0
+                                        : alpha32[a] > 0.0F);
+        }
+        p[c] = ok ? -nx / nz : nan;
+        q[c] = ok ? -ny / nz : nan;
+      }
+    }
   });
   return out;
 }

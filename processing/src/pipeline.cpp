@@ -1,6 +1,7 @@
 #include "psrig/processing/pipeline.h"
 
 #include <chrono>
+#include <cmath>
 #include <fstream>
 #include <functional>
 #include <optional>
@@ -10,6 +11,7 @@
 #include "psrig/base/log.h"
 #include "psrig/processing/atomic_directory.h"
 #include "psrig/processing/evaluation.h"
+#include "psrig/processing/flatten.h"
 #include "psrig/processing/image_io.h"
 #include "psrig/processing/map_encoding.h"
 #include "psrig/processing/parallel.h"
@@ -67,6 +69,9 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   const auto start = Clock::now();
   std::vector<std::pair<std::string, double>> stages;
 
+  if (!(options.flatten_cutoff_mm > 0) || !std::isfinite(options.flatten_cutoff_mm))
+    return std::unexpected(
+        bad_input({}, "--flatten-cutoff", "the bend's cut-off must be a positive length (mm)"));
   // A scan directory that is not there is the error, not the maps
   // directory inside it that cannot be made.
   std::error_code ec;
@@ -125,7 +130,9 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   // Integration runs beside the statistics and the encoding and writing of
   // the other maps: one task list on the one pool, the longest chain first.
   const double pixel_size = scan->description.pixel_size_mm.value_or(1.0);
+  const bool in_mm = scan->description.pixel_size_mm.has_value();
   std::optional<HeightSummary> height_summary;
+  std::optional<BendSummary> bend_summary;
   double integrate_ms = 0;
   struct Task {
     std::string name;
@@ -136,21 +143,65 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
     tasks.push_back(
         {"integrate + height maps", [&]() -> Status {
            const auto integrate_start = Clock::now();
-           auto height = integrate(options.integration, result.p, result.q, kMaxSlope);
+           // Heights for the solved pixels: the masked solver leaves the
+           // others out (NaN), the whole-rectangle methods take their
+           // gradients as 0.
+           cv::Mat domain;
+           cv::compare(result.flags & (kOutsideMask | kLowSignal | kNoSolution), 0, domain,
+                       cv::CMP_EQ);
+           HeightSummary summary;
+           summary.units = in_mm ? "mm" : "px";
+           summary.method = options.integration;
+           if (summary.method == IntegrationMethod::automatic)
+             summary.method = needs_masked_integration(result.p, result.q, domain)
+                                  ? IntegrationMethod::masked
+                                  : IntegrationMethod::frankot_chellappa;
+           Result<cv::Mat> height = cv::Mat();
+           if (summary.method == IntegrationMethod::masked) {
+             MaskedIntegrationOptions masked;
+             masked.max_slope = kMaxSlope;
+             MaskedIntegrationStats stats;
+             height = integrate_masked(result.p, result.q, domain, masked, &stats);
+             summary.solver = stats;
+           } else {
+             height = integrate(summary.method, result.p, result.q, kMaxSlope);
+           }
            // The solve's own gradients cannot be bad input: a failure is ours.
            if (!height)
              return std::unexpected(internal_error("integration: " + height.error().describe()));
-           if (scan->description.pixel_size_mm) *height *= pixel_size;
+           if (in_mm) *height *= pixel_size;
+           const cv::Mat finite = *height == *height;  // NaN outside what was integrated
+           summary.pixels = cv::countNonZero(finite);
+
+           const bool flatten =
+               options.flatten == Flatten::on || (options.flatten == Flatten::automatic && in_mm);
+           BendSummary bend;
+           if (flatten) {
+             const double cutoff_px =
+                 in_mm ? options.flatten_cutoff_mm / pixel_size : options.flatten_cutoff_mm;
+             auto removed = remove_bend(*height, cutoff_px);
+             if (!removed)
+               return std::unexpected(internal_error("flatten: " + removed.error().describe()));
+             bend = {true, options.flatten_cutoff_mm, in_mm ? "mm" : "px", removed->peak_to_valley,
+                     removed->rms};
+             log->debug("bend removed: {:.4g} {} peak to valley", removed->peak_to_valley,
+                        summary.units);
+           }
+           bend_summary = bend;
+
            double low = 0, high = 0;
-           cv::minMaxLoc(*height, &low, &high);
-           height_summary = HeightSummary{low, high, scan->description.pixel_size_mm ? "mm" : "px"};
+           if (summary.pixels > 0) cv::minMaxLoc(*height, &low, &high, nullptr, nullptr, finite);
+           summary.low = low;
+           summary.high = high;
+           height_summary = summary;
            if (!scan->ground_truth_height.empty())
-             truth.height_rms_error = height_rms_error(*height, scan->ground_truth_height);
+             truth.height_rms_error = height_rms_error(*height, scan->ground_truth_height, finite);
            integrate_ms = ms_since(integrate_start);
-           log->debug("integration ({}): {:.0f} ms", to_string(options.integration), integrate_ms);
+           log->debug("integration ({}): {:.0f} ms", to_string(summary.method), integrate_ms);
            if (auto ok = write_image(dir / map_files::kHeightExr, *height); !ok) return ok;
-           return write_image(dir / map_files::kHeightPng, encode_height16(*height, low, high),
-                              kStoredPng);
+           cv::Mat png = encode_height16(*height, low, high);
+           png.setTo(0, ~finite);
+           return write_image(dir / map_files::kHeightPng, png, kStoredPng);
          }});
   }
   tasks.push_back({"statistics", evaluate});
@@ -192,6 +243,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   stages.emplace_back("total", ms_since(start));
 
   inputs.height = height_summary;
+  inputs.bend = bend_summary;
   inputs.ground_truth = truth;
   inputs.stage_ms = stages;
   nlohmann::json report = make_report(inputs);
@@ -207,6 +259,25 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
 }
 
 }  // namespace
+
+std::optional<Flatten> parse_flatten(std::string_view name) {
+  if (name == "auto") return Flatten::automatic;
+  if (name == "on") return Flatten::on;
+  if (name == "off") return Flatten::off;
+  return std::nullopt;
+}
+
+std::string_view to_string(Flatten flatten) {
+  switch (flatten) {
+    case Flatten::automatic:
+      return "auto";
+    case Flatten::on:
+      return "on";
+    case Flatten::off:
+      return "off";
+  }
+  return "unknown";
+}
 
 Result<ProcessSummary> process_scan(const fs::path& scan_directory, const ProcessOptions& options) {
   try {

@@ -51,6 +51,8 @@ json make_report(const ReportInputs& in) {
 
   const auto& options = *in.options;
   report["options"] = {{"integration", to_string(options.integration)},
+                       {"flatten", to_string(options.flatten)},
+                       {"flatten_cutoff_mm", options.flatten_cutoff_mm},
                        {"threads", thread_count()},
                        {"reject_outliers", options.solve.reject_outliers},
                        {"shadow_ratio", options.solve.shadow_ratio},
@@ -72,12 +74,29 @@ json make_report(const ReportInputs& in) {
       {"mean", in.residual.mean}, {"p95", in.residual.p95}, {"units", "fraction of full scale"}};
   report["integrability"] = {{"mean_abs_curl", in.mean_abs_curl}};
 
-  if (in.height)
+  if (in.height) {
     report["height"] = {{"min", in.height->low},
                         {"max", in.height->high},
                         {"range", in.height->high - in.height->low},
                         {"units", in.height->units},
-                        {"png_range", {in.height->low, in.height->high}}};
+                        {"png_range", {in.height->low, in.height->high}},
+                        {"method", to_string(in.height->method)},
+                        {"pixels", in.height->pixels}};
+    if (in.height->solver)
+      report["height"]["solver"] = {{"iterations", in.height->solver->iterations},
+                                    {"relative_residual", in.height->solver->relative_residual}};
+  }
+  if (in.bend) {
+    json bend = {{"removed", in.bend->removed}};
+    if (in.bend->removed) {
+      bend["cutoff"] = in.bend->cutoff;
+      bend["cutoff_units"] = in.bend->cutoff_units;
+      bend["peak_to_valley"] = in.bend->peak_to_valley;
+      bend["rms"] = in.bend->rms;
+      bend["units"] = in.height ? in.height->units : "";
+    }
+    report["bend"] = bend;
+  }
 
   const auto& truth = in.ground_truth;
   if (truth.angular_error_deg || truth.height_rms_error) {

@@ -2,6 +2,7 @@
 // nothing half-written.
 
 #include <chrono>
+#include <cmath>
 #include <fcntl.h>
 #include <fstream>
 #include <functional>
@@ -17,6 +18,7 @@
 #include <opencv2/core.hpp>
 
 #include "psrig/processing/image_io.h"
+#include "psrig/processing/map_encoding.h"
 #include "sim_modbus_driver.h"
 #include "test_support.h"
 
@@ -178,6 +180,139 @@ TEST(PsrigCli, SummaryCountsThePixelsOutsideTheMask) {
   auto run = run_program("psrig", {"process", scan.string()});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(contains(run.out, "(outside mask 25.0 %, shadowed")) << run.out;
+}
+
+// A sphere cap of radius R (pixels) seen inside a disk, as gradient maps:
+// z = sqrt(R^2 - x^2 - y^2), y up.
+struct Cap {
+  cv::Mat p, q, z, mask;
+};
+Cap sphere_cap(int w, int h, double radius, double disk) {
+  Cap cap{cv::Mat(h, w, CV_32F), cv::Mat(h, w, CV_32F), cv::Mat(h, w, CV_32F),
+          cv::Mat(h, w, CV_8U, cv::Scalar(0))};
+  const double cx = (w - 1) / 2.0;
+  const double cy = (h - 1) / 2.0;
+  for (int row = 0; row < h; ++row)
+    for (int col = 0; col < w; ++col) {
+      const double x = col - cx;
+      const double y = cy - row;
+      const double z = std::sqrt(radius * radius - x * x - y * y);
+      cap.z.at<float>(row, col) = static_cast<float>(z);
+      cap.p.at<float>(row, col) = static_cast<float>(-x / z);
+      cap.q.at<float>(row, col) = static_cast<float>(-y / z);
+      if (x * x + y * y <= disk * disk) cap.mask.at<uchar>(row, col) = 255;
+    }
+  return cap;
+}
+
+// RMS of a - b over the mask after removing their mean difference there.
+double masked_rms(const cv::Mat& a, const cv::Mat& b, const cv::Mat& mask) {
+  cv::Mat d = a - b;
+  const double mean = cv::mean(d, mask)[0];
+  d -= mean;
+  d = d.mul(d);
+  return std::sqrt(cv::mean(d, mask)[0]);
+}
+
+TEST(PsrigCli, IntegrateANormalMapMadeElsewhere) {
+  TempDir temp;
+  const Cap cap = sphere_cap(120, 90, 80, 40);
+  // A 16-bit OpenGL normal map whose background is black (no normal there).
+  cv::Mat normal = processing::encode_normal16(cap.p, cap.q);
+  normal.setTo(cv::Scalar(0, 0, 0), cap.mask == 0);
+  ASSERT_TRUE(processing::write_image(temp / "normal.png", normal));
+  const fs::path out = temp / "height.exr";
+  auto run =
+      run_program("psrig", {"integrate", (temp / "normal.png").string(), "--out", out.string()});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(contains(run.out, "method: masked")) << run.out;
+  EXPECT_TRUE(contains(run.out, "pixels: " + std::to_string(cv::countNonZero(cap.mask))))
+      << run.out;
+  auto height = processing::read_image(out, "height");
+  ASSERT_TRUE(height);
+  ASSERT_EQ(height->type(), CV_32FC1);
+  EXPECT_TRUE(std::isnan(height->at<float>(0, 0)));
+  // 16-bit normals carry the slope to about 1e-4: the cap (range ~10 px)
+  // comes back to a few thousandths.
+  const double rms = masked_rms(*height, cap.z, cap.mask);
+  EXPECT_LT(rms, 0.01) << rms;
+  // Read as DirectX (green down), the same file is another surface.
+  auto flipped = run_program("psrig", {"integrate", (temp / "normal.png").string(), "--out",
+                                       (temp / "flipped.exr").string(), "--green-down", "-q"});
+  ASSERT_EQ(flipped.exit_code, 0) << flipped.err;
+  EXPECT_TRUE(flipped.out.empty()) << flipped.out;
+  EXPECT_GT(masked_rms(*processing::read_image(temp / "flipped.exr", "h"), cap.z, cap.mask), 1.0);
+}
+
+TEST(PsrigCli, IntegrateGradientMapsWithAMaskAndFlatten) {
+  TempDir temp;
+  const Cap cap = sphere_cap(100, 80, 70, 35);
+  ASSERT_TRUE(processing::write_image(temp / "p.exr", cap.p));
+  ASSERT_TRUE(processing::write_image(temp / "q.exr", cap.q));
+  ASSERT_TRUE(processing::write_image(temp / "mask.png", cap.mask));
+  const std::string p = (temp / "p.exr").string();
+  const std::string q = (temp / "q.exr").string();
+  const std::string mask = (temp / "mask.png").string();
+  auto run = run_program("psrig", {"integrate", p, q, "--mask", mask, "--out",
+                                   (temp / "z.exr").string(), "--pixel-size", "0.1"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  // In mm, and flattened by default once a pixel size says this is a swatch:
+  // the cap is a bend at this scale (a 7 mm ball under a 10 mm cut-off).
+  EXPECT_TRUE(contains(run.out, "bend removed:")) << run.out;
+  auto flat = processing::read_image(temp / "z.exr", "z");
+  ASSERT_TRUE(flat);
+  run = run_program("psrig", {"integrate", p, q, "--mask", mask, "--out", (temp / "z.exr").string(),
+                              "--pixel-size", "0.1", "--flatten", "off", "--method", "masked"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_FALSE(contains(run.out, "bend removed:")) << run.out;
+  auto kept = processing::read_image(temp / "z.exr", "z");
+  ASSERT_TRUE(kept);
+  const cv::Mat truth_mm = cap.z * 0.1;
+  EXPECT_LT(masked_rms(*kept, truth_mm, cap.mask), 1e-3);
+  EXPECT_GT(masked_rms(*flat, truth_mm, cap.mask), 0.05);  // the dome was taken out
+  // FC on the same input, asked for by name, is far worse inside the mask.
+  run = run_program("psrig", {"integrate", p, q, "--mask", mask, "--out",
+                              (temp / "fc.exr").string(), "--method", "fc"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  auto fc = processing::read_image(temp / "fc.exr", "fc");
+  ASSERT_TRUE(fc);
+  EXPECT_TRUE(std::isnan(fc->at<float>(0, 0)));
+  const double masked_px = masked_rms(*kept, truth_mm, cap.mask) / 0.1;
+  EXPECT_GT(masked_rms(*fc, cap.z, cap.mask), 100 * masked_px);
+}
+
+TEST(PsrigCli, IntegrateBadInputExitsTwoNamingTheFileAndWritesNothing) {
+  TempDir temp;
+  const Cap cap = sphere_cap(40, 30, 50, 12);
+  ASSERT_TRUE(processing::write_image(temp / "p.exr", cap.p));
+  ASSERT_TRUE(processing::write_image(temp / "q.exr", cap.q));
+  ASSERT_TRUE(processing::write_image(temp / "mask.png", cap.mask));
+  ASSERT_TRUE(processing::write_image(temp / "small.png", cv::Mat(10, 10, CV_8U, cv::Scalar(1))));
+  const std::string p = (temp / "p.exr").string();
+  const std::string q = (temp / "q.exr").string();
+  const std::string out = (temp / "h.exr").string();
+  struct Case {
+    std::vector<std::string> args;
+    std::string must_name;
+  };
+  const std::vector<Case> cases = {
+      {{"integrate", p, "--out", out}, "p.exr: NORMAL: not a normal map"},
+      {{"integrate", p, (temp / "none.exr").string(), "--out", out}, "none.exr: Q: no such file"},
+      {{"integrate", p, (temp / "mask.png").string(), "--out", out}, "mask.png: Q: expected"},
+      {{"integrate", p, q, "--mask", (temp / "small.png").string(), "--out", out},
+       "small.png: --mask: is 10x10 but the maps are 40x30"},
+      {{"integrate", p, q, "--out", (temp / "h.png").string()}, "h.png: --out: the height map is"},
+      {{"integrate", p, q, "--out", (temp / "no" / "h.exr").string()}, "does not exist"},
+      {{"integrate", p, q, "--out", out, "--method", "magic"}, "--method"},
+      {{"integrate", "--out", out}, "maps"},
+  };
+  for (const auto& c : cases) {
+    auto run = run_program("psrig", c.args);
+    EXPECT_EQ(run.exit_code, 2) << c.must_name << ": " << run.err;
+    EXPECT_TRUE(contains(run.err, c.must_name)) << run.err;
+  }
+  EXPECT_EQ(list_directory(temp.path()),
+            (std::vector<std::string>{"mask.png", "p.exr", "q.exr", "small.png"}));
 }
 
 TEST(PsrigCli, MissingScanDirectory) {

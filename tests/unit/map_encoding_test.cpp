@@ -3,6 +3,8 @@
 
 #include "psrig/processing/map_encoding.h"
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "psrig/processing/woodham.h"
@@ -63,6 +65,42 @@ TEST(MapEncoding, MaskMarksValidPixels) {
   EXPECT_EQ(mask.at<std::uint8_t>(0, 2), 255);
   EXPECT_EQ(mask.at<std::uint8_t>(0, 3), 0);
   EXPECT_EQ(mask.at<std::uint8_t>(0, 4), 0);
+}
+
+TEST(MapEncoding, DecodingANormalMapGivesTheGradientsBack) {
+  cv::Mat p(6, 8, CV_32F);
+  cv::Mat q(6, 8, CV_32F);
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 8; ++c) {
+      p.at<float>(r, c) = 0.3F * (c - 4);
+      q.at<float>(r, c) = -0.2F * (r - 3);
+    }
+  cv::Mat png = encode_normal16(p, q);
+  png.at<cv::Vec3w>(0, 0) = cv::Vec3w(0, 0, 0);  // background: no normal
+  const DecodedGradients back = decode_normal_map(png);
+  ASSERT_EQ(back.p.type(), CV_32FC1);
+  EXPECT_TRUE(std::isnan(back.p.at<float>(0, 0)));
+  EXPECT_TRUE(std::isnan(back.q.at<float>(0, 0)));
+  for (int r = 0; r < 6; ++r)
+    for (int c = 0; c < 8; ++c) {
+      if (r == 0 && c == 0) continue;
+      EXPECT_NEAR(back.p.at<float>(r, c), p.at<float>(r, c), 1e-3) << r << "," << c;
+      EXPECT_NEAR(back.q.at<float>(r, c), q.at<float>(r, c), 1e-3) << r << "," << c;
+    }
+  // DirectX (green down): q changes sign, p does not.
+  const DecodedGradients directx = decode_normal_map(png, true);
+  EXPECT_NEAR(directx.q.at<float>(5, 5), -q.at<float>(5, 5), 1e-3);
+  EXPECT_NEAR(directx.p.at<float>(5, 5), p.at<float>(5, 5), 1e-3);
+  // 8-bit with alpha: alpha 0 has no normal. Floats hold n itself.
+  cv::Mat rgba(1, 2, CV_8UC4, cv::Scalar(255, 128, 128, 255));  // B G R A: flat
+  rgba.at<cv::Vec4b>(0, 1)[3] = 0;
+  const DecodedGradients a = decode_normal_map(rgba);
+  EXPECT_NEAR(a.p.at<float>(0, 0), 0.0, 1e-2);
+  EXPECT_TRUE(std::isnan(a.p.at<float>(0, 1)));
+  cv::Mat floats(1, 1, CV_32FC3, cv::Scalar(0.8, 0.0, 0.6));  // B = z, G = y, R = x
+  const DecodedGradients f = decode_normal_map(floats);
+  EXPECT_NEAR(f.p.at<float>(0, 0), -0.6 / 0.8, 1e-6);
+  EXPECT_TRUE(decode_normal_map(cv::Mat(2, 2, CV_32FC1)).p.empty());
 }
 
 }  // namespace

@@ -8,9 +8,11 @@
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "psrig/capture/scan_writer.h"
 #include "psrig/capture/synthetic_scan.h"
+#include "psrig/processing/evaluation.h"
 #include "psrig/processing/map_encoding.h"
 #include "psrig/sim/swatch_model.h"
 #include "synthetic_scene.h"
@@ -143,6 +145,83 @@ TEST_P(SyntheticSwatch, NoisyNormalsMatchTheDerivedBound) {
 
 INSTANTIATE_TEST_SUITE_P(Patterns, SyntheticSwatch,
                          ::testing::Values("jersey", "rib", "garter", "plain", "twill"));
+
+TEST(Pipeline, AMaskedScanIsIntegratedOverItsMaskAndTheReportSaysHow) {
+  // A sphere cap inside a disk mask: `auto` picks the masked solver, the
+  // heights outside the mask are NaN (0 in height.png), and the cap's true
+  // depth comes back to a small fraction of its range.
+  test::TempDir temp;
+  const int w = 96;
+  const int h = 80;
+  const double radius = 60;  // the cap of a sphere, so the disk sees no silhouette
+  auto scan =
+      test::render_scan(test::sphere_surface({w, h}, radius, 1), test::ring_lights(3, 45), CV_16U);
+  scan.mask = cv::Mat(h, w, CV_8U, cv::Scalar(0));
+  cv::circle(scan.mask, cv::Point(w / 2, h / 2), 34, cv::Scalar(255), cv::FILLED);
+  ASSERT_TRUE(capture::write_scan(scan, temp / "scan"));
+  ProcessOptions options;
+  options.flatten = Flatten::off;
+  auto summary = process_scan(temp / "scan", options);
+  ASSERT_TRUE(summary) << summary.error().describe();
+  const auto& r = summary->report;
+  EXPECT_EQ(r["options"]["integration"], "auto");
+  EXPECT_EQ(r["height"]["method"], "masked");
+  EXPECT_EQ(r["height"]["pixels"].get<int>(), cv::countNonZero(scan.mask));
+  EXPECT_GT(r["height"]["solver"]["iterations"].get<int>(), 0);
+  EXPECT_LT(r["height"]["solver"]["relative_residual"].get<double>(), 1e-4);
+  EXPECT_EQ(r["bend"]["removed"], false);
+  EXPECT_EQ(r["options"]["flatten"], "off");
+
+  const fs::path maps = temp / "scan" / "maps";
+  const cv::Mat height = cv::imread((maps / "height.exr").string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat png = cv::imread((maps / "height.png").string(), cv::IMREAD_UNCHANGED);
+  ASSERT_EQ(height.type(), CV_32FC1);
+  EXPECT_TRUE(std::isnan(height.at<float>(0, 0)));
+  EXPECT_EQ(png.at<std::uint16_t>(0, 0), 0);
+  // The cap: z = sqrt(R^2 - x^2 - y^2) in pixels (no pixel size here).
+  cv::Mat truth(h, w, CV_32F);
+  const double cx = (w - 1) / 2.0;
+  const double cy = (h - 1) / 2.0;
+  for (int row = 0; row < h; ++row)
+    for (int col = 0; col < w; ++col)
+      truth.at<float>(row, col) = static_cast<float>(
+          std::sqrt(radius * radius - (col - cx) * (col - cx) - (row - cy) * (row - cy)));
+  const double error = height_rms_error(height, truth, scan.mask);
+  double low = 0;
+  double high = 0;
+  cv::minMaxLoc(truth, &low, &high, nullptr, nullptr, scan.mask);
+  std::printf("  [measured] masked sphere cap: height rms error %.3g px of a %.3g px range\n",
+              error, high - low);
+  EXPECT_LT(error, 0.01 * (high - low));
+}
+
+TEST(Pipeline, SwatchScansAreFlattenedAndTheBendIsReported) {
+  test::TempDir temp;
+  capture::SyntheticScanParams params;
+  params.swatch.size = {240, 180};
+  ASSERT_TRUE(capture::write_scan(capture::make_synthetic_scan(params), temp / "scan"));
+  auto summary = process_scan(temp / "scan");
+  ASSERT_TRUE(summary) << summary.error().describe();
+  const auto& r = summary->report;
+  EXPECT_EQ(r["options"]["flatten"], "auto");
+  EXPECT_EQ(r["bend"]["removed"], true);
+  EXPECT_EQ(r["bend"]["cutoff"], kDefaultFlattenCutoffMm);
+  EXPECT_EQ(r["bend"]["cutoff_units"], "mm");
+  EXPECT_EQ(r["bend"]["units"], "mm");
+  EXPECT_GE(r["bend"]["peak_to_valley"].get<double>(), 0.0);
+  // Off: no bend removed, and the report says so.
+  ProcessOptions off;
+  off.flatten = Flatten::off;
+  auto unflattened = process_scan(temp / "scan", off);
+  ASSERT_TRUE(unflattened);
+  EXPECT_EQ(unflattened->report["bend"]["removed"], false);
+  // A cut-off that is not a length is refused before anything is read.
+  ProcessOptions bad;
+  bad.flatten_cutoff_mm = 0;
+  auto refused = process_scan(temp / "scan", bad);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().kind, ErrorKind::bad_input);
+}
 
 TEST(Pipeline, ReprocessingReplacesTheMaps) {
   test::TempDir temp;

@@ -17,6 +17,7 @@ namespace psrig::capture::cli {
 using psrig::cli::Command;
 
 Command add_process_command(CLI::App& parent);
+Command add_integrate_command(CLI::App& parent);
 Command add_synth_command(CLI::App& parent);
 Command add_scan_command(CLI::App& parent);
 Command add_lights_command(CLI::App& parent);

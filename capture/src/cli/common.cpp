@@ -37,10 +37,19 @@ void print_maps_summary(const processing::ProcessSummary& summary) {
               percent("valid"), outside, percent("shadowed"), percent("saturated"),
               percent("low_signal"));
   std::printf("residual: mean %.5f of full scale\n", r["residual"]["mean"].get<double>());
-  if (r.contains("height"))
-    std::printf("height: range %.4f %s (%s)\n", r["height"]["range"].get<double>(),
-                r["height"]["units"].get<std::string>().c_str(),
-                r["options"]["integration"].get<std::string>().c_str());
+  if (r.contains("height")) {
+    const auto& h = r["height"];
+    const std::string method = h.contains("method")
+                                   ? h["method"].get<std::string>()
+                                   : r["options"]["integration"].get<std::string>();
+    std::printf("height: range %.4f %s (%s)\n", h["range"].get<double>(),
+                h["units"].get<std::string>().c_str(), method.c_str());
+  }
+  if (r.contains("bend") && r["bend"].value("removed", false))
+    std::printf("bend removed: %.4f %s peak to valley (cut-off %g %s)\n",
+                r["bend"]["peak_to_valley"].get<double>(),
+                r["bend"]["units"].get<std::string>().c_str(), r["bend"]["cutoff"].get<double>(),
+                r["bend"]["cutoff_units"].get<std::string>().c_str());
   if (r.contains("ground_truth") && r["ground_truth"].contains("angular_error_deg")) {
     const auto& e = r["ground_truth"]["angular_error_deg"];
     std::printf(

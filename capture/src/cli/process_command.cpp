@@ -14,7 +14,9 @@ namespace {
 struct ProcessArgs {
   std::string scan;
   std::string out;
-  std::string integrate = "fc";
+  std::string integrate = "auto";
+  std::string flatten = "auto";
+  double flatten_cutoff = processing::kDefaultFlattenCutoffMm;
   int threads = 0;
   bool reject = false;
   bool quiet = false;
@@ -29,8 +31,20 @@ Command add_process_command(CLI::App& parent) {
   app->add_option("scan", args->scan, "Scan directory (psrig-scan/1)")->required();
   app->add_option("--out", args->out, "Maps directory to write (default: SCAN_DIR/maps)");
   app->add_option("--integrate", args->integrate,
-                  "Height integration: fc (Frankot-Chellappa), poisson or none")
-      ->check(CLI::IsMember({"fc", "poisson", "none"}))
+                  "Height integration: auto (masked where pixels are unsolved, else fc), fc "
+                  "(Frankot-Chellappa), poisson, masked (least squares over the solved pixels) "
+                  "or none")
+      ->check(CLI::IsMember({"auto", "fc", "poisson", "masked", "none"}))
+      ->capture_default_str();
+  app->add_option("--flatten", args->flatten,
+                  "Remove the low-frequency bend from the height: auto (for scans with "
+                  "pixel_size_mm, i.e. swatches), on or off")
+      ->check(CLI::IsMember({"auto", "on", "off"}))
+      ->capture_default_str();
+  app->add_option("--flatten-cutoff", args->flatten_cutoff,
+                  "The bend's cut-off wavelength in mm (pixels for a scan without "
+                  "pixel_size_mm)")
+      ->check(CLI::PositiveNumber)
       ->capture_default_str();
   app->add_option("--threads", args->threads, "Worker threads (0: one per core)")
       ->check(psrig::cli::thread_count())
@@ -44,6 +58,8 @@ Command add_process_command(CLI::App& parent) {
             processing::ProcessOptions options;
             options.output = args->out;
             options.integration = *processing::parse_integration_method(args->integrate);
+            options.flatten = *processing::parse_flatten(args->flatten);
+            options.flatten_cutoff_mm = args->flatten_cutoff;
             options.solve.reject_outliers = args->reject;
             auto summary = processing::process_scan(args->scan, options);
             if (!summary) return report_error("process", summary.error());

@@ -3,7 +3,9 @@
 // q = dz/dy (docs/design.md "Axes and units": x to the image's right, y to its top, so q is
 // minus the derivative along the row index). Heights come out in the units
 // of the grid spacing, i.e. pixels; the caller scales by pixel_size_mm.
-// Both methods fix the free constant by giving the result zero mean.
+// Frankot–Chellappa and Poisson integrate the whole rectangle and fix the free
+// constant by giving the result zero mean; the masked least-squares solver
+// integrates only the pixels inside a mask (see integrate_masked).
 
 #include <limits>
 #include <optional>
@@ -15,9 +17,11 @@
 
 namespace psrig::processing {
 
-enum class IntegrationMethod { frankot_chellappa, poisson, none };
+// automatic: masked where the input has a mask that leaves pixels out, or
+// non-finite gradients (holes); Frankot–Chellappa otherwise.
+enum class IntegrationMethod { frankot_chellappa, poisson, masked, automatic, none };
 
-// "fc" | "poisson" | "none".
+// "fc" | "poisson" | "masked" | "auto" | "none".
 [[nodiscard]] std::optional<IntegrationMethod> parse_integration_method(std::string_view name);
 [[nodiscard]] std::string_view to_string(IntegrationMethod method);
 
@@ -43,8 +47,46 @@ inline constexpr float kNoSlopeLimit = std::numeric_limits<float>::max();
 // directly (benchmarks) calls it before planning.
 bool prepare_fftw_threads();
 
-// Dispatches on method; `none` returns an empty Mat.
+// Least squares over a mask: minimises, over every pair of 4-neighbours both
+// inside the mask, (z[i][j+1] - z[i][j] - gx)^2 and (z[i+1][j] - z[i][j] -
+// gy)^2, where gx integrates p from one pixel to the next and gy integrates
+// -q (y is up). The Poisson solver's energy restricted to the mask, except
+// that the integral along an edge is taken to fourth order from the samples
+// around it, (-p[j-1] + 13 p[j] + 13 p[j+1] - p[j+2]) / 24 (third order,
+// from three samples, where the mask cuts one off; the trapezoid between two
+// lone samples). Pixels with a non-finite p or q count as outside. Solved by
+// conjugate gradients preconditioned with a multigrid V-cycle until the
+// normal equations' residual falls below `tolerance` times the right-hand
+// side's (or after max_iterations).
+// mask: CV_8UC1, the size of p and q, nonzero = inside; empty = every pixel.
+// Returns CV_32F: NaN outside the domain; each 4-connected piece of the
+// domain has its own free constant and is given zero mean.
+struct MaskedIntegrationOptions {
+  float max_slope = kNoSlopeLimit;
+  double tolerance = 1e-5;
+  int max_iterations = 200;
+};
+struct MaskedIntegrationStats {
+  int iterations = 0;
+  double relative_residual = 0;  // |b - A z| / |b| at the end
+};
+[[nodiscard]] Result<cv::Mat> integrate_masked(const cv::Mat& p, const cv::Mat& q,
+                                               const cv::Mat& mask,
+                                               const MaskedIntegrationOptions& options = {},
+                                               MaskedIntegrationStats* stats = nullptr);
+
+// Whether `automatic` chooses the masked solver for this input: the mask
+// (if any) leaves a pixel out, or a gradient is not finite.
+[[nodiscard]] bool needs_masked_integration(const cv::Mat& p, const cv::Mat& q,
+                                            const cv::Mat& mask = {});
+
+// Dispatches on method; `none` returns an empty Mat. The mask (CV_8UC1 or
+// empty) is used by `masked` and `automatic`; fc and poisson integrate the
+// whole rectangle with non-finite gradients as 0 and ignore it.
 [[nodiscard]] Result<cv::Mat> integrate(IntegrationMethod method, const cv::Mat& p,
                                         const cv::Mat& q, float max_slope = kNoSlopeLimit);
+[[nodiscard]] Result<cv::Mat> integrate(IntegrationMethod method, const cv::Mat& p,
+                                        const cv::Mat& q, const cv::Mat& mask,
+                                        float max_slope = kNoSlopeLimit);
 
 }  // namespace psrig::processing

@@ -3,10 +3,13 @@
 // evaluate -> maps directory, with the report of what happened.
 
 #include <filesystem>
+#include <optional>
+#include <string_view>
 
 #include <nlohmann/json.hpp>
 
 #include "psrig/base/error.h"
+#include "psrig/processing/flatten.h"
 #include "psrig/processing/integration.h"
 #include "psrig/processing/woodham.h"
 
@@ -14,9 +17,25 @@ namespace psrig::processing {
 
 inline constexpr const char* kReportFormat = "psrig-report/1";
 
+// Removing the low-frequency bend (flatten.h) after integration:
+// automatic does it for swatch scans, those whose scan.json gives
+// pixel_size_mm (the rig's and psrig synth's), and not for objects measured
+// in pixels.
+enum class Flatten { automatic, on, off };
+// "auto" | "on" | "off".
+[[nodiscard]] std::optional<Flatten> parse_flatten(std::string_view name);
+[[nodiscard]] std::string_view to_string(Flatten flatten);
+
 struct ProcessOptions {
   std::filesystem::path output;  // empty: SCAN_DIR/maps
-  IntegrationMethod integration = IntegrationMethod::frankot_chellappa;
+  // automatic: the masked least-squares solver when some pixels are not
+  // solved (the scan's mask, holes, dark or unsolvable pixels), over the
+  // solved ones; Frankot–Chellappa when every pixel is.
+  IntegrationMethod integration = IntegrationMethod::automatic;
+  Flatten flatten = Flatten::automatic;
+  // The bend's cut-off wavelength: millimetres, or pixels for a scan
+  // without pixel_size_mm.
+  double flatten_cutoff_mm = kDefaultFlattenCutoffMm;
   SolveOptions solve;
 };
 

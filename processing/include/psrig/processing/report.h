@@ -20,7 +20,18 @@ namespace psrig::processing {
 struct HeightSummary {
   double low = 0;
   double high = 0;
-  std::string units;  // "mm" or "px"
+  std::string units;                                                // "mm" or "px"
+  IntegrationMethod method = IntegrationMethod::frankot_chellappa;  // the one used
+  long long pixels = 0;                          // with a height (the rest are NaN in height.exr)
+  std::optional<MaskedIntegrationStats> solver;  // the masked solver's
+};
+
+struct BendSummary {
+  bool removed = false;
+  double cutoff = 0;          // in cutoff_units
+  std::string cutoff_units;   // "mm" or "px"
+  double peak_to_valley = 0;  // of the bend removed, in the height's units
+  double rms = 0;
 };
 
 struct GroundTruthSummary {
@@ -40,6 +51,7 @@ struct ReportInputs {
   Distribution residual;     // over solved pixels
   double mean_abs_curl = 0;  // over valid pixels
   std::optional<HeightSummary> height;
+  std::optional<BendSummary> bend;  // with a height
   GroundTruthSummary ground_truth;
   std::vector<std::pair<std::string, double>> stage_ms;  // in the order they ran
 };
