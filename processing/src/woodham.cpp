@@ -2,7 +2,6 @@
 
 #include <algorithm>
 #include <array>
-#include <bit>
 #include <cmath>
 #include <limits>
 #include <vector>
@@ -42,6 +41,9 @@ struct RowData {
 // The unit light directions, rows of L, as the kernels read them.
 struct Coefficients {
   std::vector<std::array<float, 3>> direction;
+  // l l^T of each light as {xx, xy, xz, yy, yz, zz}, summed into the
+  // normal equations of the lights a pixel uses.
+  std::vector<std::array<double, 6>> outer;
 };
 
 // --- Three lights: Woodham's exact inverse, the rig's case and the hot path.
@@ -329,60 +331,79 @@ bool solve_symmetric3(const double a[6], const double b[3], double t[3]) {
   return true;
 }
 
-// Any number of lights (up to kMaxLights), each pixel solving its own
-// normal equations over the set of lights it uses (a bit mask): all of
-// them, or with rejection those that are neither saturated nor shadowed,
-// as long as at least three well-spread ones remain.
+// Any number of lights, each pixel solving its own normal equations over
+// the lights it uses (used[k] != 0): all of them, or with rejection those
+// that are neither saturated nor shadowed, as long as at least three
+// well-spread ones remain.
 void solve_row_general(const RowData& row, const Coefficients& co, const SolveOptions& options) {
   const int lights = row.lights, channels = row.channels;
-  const std::uint64_t all = lights == 64 ? ~std::uint64_t{0} : (std::uint64_t{1} << lights) - 1;
-  const auto bit = [](int k) { return std::uint64_t{1} << k; };
-  std::array<double, kMaxLights> grey{}, shade{};
+  const std::size_t n = static_cast<std::size_t>(lights);
+  thread_local std::vector<double> grey, shade;
+  thread_local std::vector<std::uint8_t> saturated, used, next, dark;
+  grey.resize(n), shade.resize(n), saturated.resize(n), used.resize(n), next.resize(n),
+      dark.resize(n);
+  const auto count = [](const std::vector<std::uint8_t>& set) {
+    return static_cast<int>(std::count(set.begin(), set.end(), std::uint8_t{1}));
+  };
+  const auto any_both = [&](const std::vector<std::uint8_t>& a, const std::vector<std::uint8_t>& b) {
+    for (std::size_t k = 0; k < n; ++k)
+      if (a[k] && b[k]) return true;
+    return false;
+  };
   for (int i = 0; i < row.cols; ++i) {
     double brightest = 0;
-    std::uint64_t saturated = 0;
+    bool any_saturated = false;
     for (int k = 0; k < lights; ++k) {
       double sum = 0;
       for (int c = 0; c < channels; ++c)
         sum += row.measurement[(k * channels + c) * row.stride + i];
       grey[k] = sum / channels;
       brightest = std::max(brightest, grey[k]);
-      if (row.saturated[k * row.stride + i]) saturated |= bit(k);
+      saturated[k] = row.saturated[k * row.stride + i] ? 1 : 0;
+      any_saturated |= saturated[k] != 0;
     }
     const bool outside = row.mask[i] == 0;
     const bool low = !(brightest >= options.low_signal);
 
     double t[3] = {0, 0, 0};
-    const auto solve_with = [&](std::uint64_t used, double out[3]) {
+    const auto solve_with = [&](const std::vector<std::uint8_t>& set, double out[3]) {
       double a[6] = {0, 0, 0, 0, 0, 0}, b[3] = {0, 0, 0};
       for (int k = 0; k < lights; ++k) {
-        if (!(used & bit(k))) continue;
+        if (!set[k]) continue;
+        const auto& o = co.outer[k];
+        for (int j = 0; j < 6; ++j)
+          a[j] += o[j];
         const auto& l = co.direction[k];
-        a[0] += l[0] * l[0], a[1] += l[0] * l[1], a[2] += l[0] * l[2];
-        a[3] += l[1] * l[1], a[4] += l[1] * l[2], a[5] += l[2] * l[2];
         b[0] += l[0] * grey[k], b[1] += l[1] * grey[k], b[2] += l[2] * grey[k];
       }
       return solve_symmetric3(a, b, out);
     };
-    const auto too_dark = [&](std::uint64_t among, double rho) {
-      std::uint64_t dark = 0;
-      for (int k = 0; k < lights; ++k)
-        if ((among & bit(k)) && grey[k] < options.shadow_ratio * rho) dark |= bit(k);
-      return dark;
+    // Marks in `out` the lights of `among` too dark for the albedo rho.
+    const auto too_dark = [&](const std::vector<std::uint8_t>* among, double rho,
+                              std::vector<std::uint8_t>& out) {
+      bool any = false;
+      for (int k = 0; k < lights; ++k) {
+        out[k] = (!among || (*among)[k]) && grey[k] < options.shadow_ratio * rho ? 1 : 0;
+        any |= out[k] != 0;
+      }
+      return any;
     };
 
-    std::uint64_t used = all;
-    if (options.reject_outliers && std::popcount(all & ~saturated) >= 3) used &= ~saturated;
+    std::fill(used.begin(), used.end(), std::uint8_t{1});
+    if (options.reject_outliers && lights - count(saturated) >= 3)
+      for (std::size_t k = 0; k < n; ++k)
+        used[k] = !saturated[k];
     bool ok = !outside && !low && solve_with(used, t);
     if (ok && options.reject_outliers) {
       // Drop measurements too dark for the albedo found and solve again;
       // twice, as the first albedo is pulled down by them.
       for (int pass = 0; pass < 2; ++pass) {
-        const std::uint64_t next =
-            used & ~too_dark(used, std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]));
+        if (!too_dark(&used, std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]), dark)) break;
+        for (std::size_t k = 0; k < n; ++k)
+          next[k] = used[k] && !dark[k];
         double next_t[3];
-        if (next == used || std::popcount(next) < 3 || !solve_with(next, next_t)) break;
-        used = next;
+        if (count(next) < 3 || !solve_with(next, next_t)) break;
+        used.swap(next);
         std::copy(next_t, next_t + 3, t);
       }
     }
@@ -390,25 +411,26 @@ void solve_row_general(const RowData& row, const Coefficients& co, const SolveOp
     const double length = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
     const bool no_solution = !outside && !low && !(ok && t[2] > kMinNormalZ * length);
     const bool solved = !outside && !low && !no_solution;
-    const bool shadowed = too_dark(all, length) != 0;
+    const bool shadowed = too_dark(nullptr, length, dark);
     // Recovered: lights were dropped and none of those left is doubtful.
-    const bool recovered = used != all && !(used & saturated) && !too_dark(used, length);
+    const bool recovered = count(used) != lights && !any_both(used, saturated) &&
+                           !too_dark(&used, length, dark);
     double shade_squared = 0;
     for (int k = 0; k < lights; ++k) {
       const auto& l = co.direction[k];
       shade[k] = solved ? (l[0] * t[0] + l[1] * t[1] + l[2] * t[2]) / length : 0;
-      if (used & bit(k)) shade_squared += shade[k] * shade[k];
+      if (used[k]) shade_squared += shade[k] * shade[k];
     }
     double misfit = 0;
     int terms = 0;
     for (int c = 0; c < channels; ++c) {
       double dot = 0;
       for (int k = 0; k < lights; ++k)
-        if (used & bit(k)) dot += shade[k] * row.measurement[(k * channels + c) * row.stride + i];
+        if (used[k]) dot += shade[k] * row.measurement[(k * channels + c) * row.stride + i];
       const double rho = solved ? dot / shade_squared : 0;
       row.albedo[channels * i + c] = static_cast<float>(rho);
       for (int k = 0; k < lights; ++k) {
-        if (!(used & bit(k))) continue;
+        if (!used[k]) continue;
         const double e = row.measurement[(k * channels + c) * row.stride + i] - rho * shade[k];
         misfit += e * e;
         ++terms;
@@ -418,7 +440,7 @@ void solve_row_general(const RowData& row, const Coefficients& co, const SolveOp
     row.q[i] = solved ? static_cast<float>(-t[1] / t[2]) : 0.0f;
     row.residual[i] = solved && terms ? static_cast<float>(std::sqrt(misfit / terms)) : 0.0f;
     row.flags[i] = static_cast<std::uint8_t>(
-        (outside ? kOutsideMask : 0) | (!outside && saturated ? kSaturated : 0) |
+        (outside ? kOutsideMask : 0) | (!outside && any_saturated ? kSaturated : 0) |
         (solved && shadowed ? kShadowed : 0) | (!outside && low ? kLowSignal : 0) |
         (no_solution ? kNoSolution : 0) | (solved && recovered ? kRecovered : 0));
   }
@@ -427,8 +449,13 @@ void solve_row_general(const RowData& row, const Coefficients& co, const SolveOp
 Coefficients make_coefficients(const Scan& scan) {
   Coefficients co;
   for (const auto& d : make_light_matrix(scan.description).directions)
-    co.direction.push_back(
-        {static_cast<float>(d[0]), static_cast<float>(d[1]), static_cast<float>(d[2])});
+  {
+    const std::array<float, 3> l{static_cast<float>(d[0]), static_cast<float>(d[1]),
+                                 static_cast<float>(d[2])};
+    co.direction.push_back(l);
+    co.outer.push_back({double{l[0]} * l[0], double{l[0]} * l[1], double{l[0]} * l[2],
+                        double{l[1]} * l[1], double{l[1]} * l[2], double{l[2]} * l[2]});
+  }
   return co;
 }
 
