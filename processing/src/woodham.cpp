@@ -331,6 +331,140 @@ bool solve_symmetric3(const double a[6], const double b[3], double t[3]) {
   return true;
 }
 
+// --- Robust rejection: shadows and unsaturated specular highlights.
+//
+// A pixel's measurements that are not Lambertian (a highlight adds to them,
+// a cast shadow takes away) are outliers of the per-pixel regression
+// g_k = l_k . t. Each pixel is fitted by least trimmed squares (LTS) and
+// reweighted least squares, the high-breakdown regression of Rousseeuw &
+// Leroy, "Robust Regression and Outlier Detection" (Wiley 1987), ch. 1 and
+// 4, computed with the concentration steps of FAST-LTS (Rousseeuw & Van
+// Driessen, "Computing LTS regression for large data sets", Data Mining and
+// Knowledge Discovery 12, 2006):
+//  1. Start: the lights left after dropping the darkest quarter and the
+//     brightest sixth of the pixel's (unsaturated) values, the photometric
+//     prior that shadows are darkest and highlights brightest; h is their
+//     number.
+//  2. Concentration steps (at most kConcentrationSteps): refit on the h
+//     lights whose residuals |g_k - l_k . t| are smallest, among the lights
+//     the fit says are lit (l_k . n and g_k / rho at least shadow_ratio).
+//     Each step lowers the sum of the h smallest squared residuals.
+//  3. Reweighting: sigma from the h residuals (sum r^2 / (h - 3)), floored at
+//     kMisfitFloor * rho + kNoiseFloor (a real rig's lights are never quite
+//     calibrated and its surfaces never quite Lambertian); every lit light
+//     with |r_k| <= kCutoff * sigma counts, and the pixel is solved by least
+//     squares from those.
+// Cost: a sort of the pixel's values and three to four 3x3 solves.
+
+struct RobustScratch {
+  std::vector<int> order;
+  std::vector<std::pair<double, int>> ranked;
+  std::vector<std::uint8_t> set, next;
+  std::vector<double> residual;
+};
+
+constexpr int kConcentrationSteps = 2;
+constexpr double kCutoff = 2.5;          // Rousseeuw & Leroy's hard cutoff, in sigmas
+constexpr double kMisfitFloor = 0.02;    // of the albedo
+constexpr double kNoiseFloor = 0.002;    // of full scale
+
+double sum_solve(const Coefficients& co, const std::vector<double>& grey,
+                 const std::vector<std::uint8_t>& set, double t[3]) {
+  double a[6] = {0, 0, 0, 0, 0, 0}, b[3] = {0, 0, 0};
+  const std::size_t n = grey.size();
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!set[k]) continue;
+    const auto& o = co.outer[k];
+    for (int j = 0; j < 6; ++j)
+      a[j] += o[j];
+    const auto& l = co.direction[k];
+    b[0] += l[0] * grey[k], b[1] += l[1] * grey[k], b[2] += l[2] * grey[k];
+  }
+  return solve_symmetric3(a, b, t);
+}
+
+// `used` holds the candidate lights on entry (at least four) and the lights
+// solved from on return; `highlight` says whether a light brighter than the
+// fit by more than the cutoff was dropped.
+bool robust_fit(const Coefficients& co, const std::vector<double>& grey, double shadow_ratio,
+                std::vector<std::uint8_t>& used, double t[3], RobustScratch& s, bool& highlight) {
+  const std::size_t n = grey.size();
+  s.order.clear();
+  for (std::size_t k = 0; k < n; ++k)
+    if (used[k]) s.order.push_back(static_cast<int>(k));
+  const int m = static_cast<int>(s.order.size());
+  std::sort(s.order.begin(), s.order.end(), [&](int a, int b) {
+    return grey[a] < grey[b] || (grey[a] == grey[b] && a < b);
+  });
+  const int dark = m / 4, bright = m / 6, h = m - dark - bright;
+  s.set.assign(n, 0);
+  for (int j = dark; j < m - bright; ++j)
+    s.set[s.order[j]] = 1;
+  if (!sum_solve(co, grey, s.set, t)) {
+    s.set = used;
+    if (!sum_solve(co, grey, s.set, t)) return false;
+  }
+
+  s.residual.resize(n);
+  // Residuals of the candidates; false for a light the fit says is unlit.
+  const auto lit = [&](std::size_t k, double rho) {
+    const auto& l = co.direction[k];
+    const double shade = l[0] * t[0] + l[1] * t[1] + l[2] * t[2];
+    s.residual[k] = grey[k] - shade;
+    return shade >= shadow_ratio * rho && grey[k] >= shadow_ratio * rho;
+  };
+  for (int step = 0; step < kConcentrationSteps; ++step) {
+    const double rho = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+    s.ranked.clear();
+    for (std::size_t k = 0; k < n; ++k)
+      if (used[k] && lit(k, rho)) s.ranked.emplace_back(std::abs(s.residual[k]), static_cast<int>(k));
+    if (static_cast<int>(s.ranked.size()) < 3) break;
+    const int keep = std::min(h, static_cast<int>(s.ranked.size()));
+    std::nth_element(s.ranked.begin(), s.ranked.begin() + (keep - 1), s.ranked.end());
+    s.next.assign(n, 0);
+    for (int j = 0; j < keep; ++j)
+      s.next[s.ranked[j].second] = 1;
+    if (s.next == s.set) break;
+    double next_t[3];
+    if (!sum_solve(co, grey, s.next, next_t)) break;
+    s.set.swap(s.next);
+    std::copy(next_t, next_t + 3, t);
+  }
+
+  // Reweighting with hard 0/1 weights.
+  const double rho = std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]);
+  double squares = 0;
+  int in_set = 0;
+  s.next.assign(n, 0);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!used[k]) continue;
+    s.next[k] = lit(k, rho) ? 1 : 0;
+    if (s.set[k]) squares += s.residual[k] * s.residual[k], ++in_set;
+  }
+  const double sigma = std::max(std::sqrt(squares / std::max(1, in_set - 3)),
+                                kMisfitFloor * rho + kNoiseFloor);
+  bool bright_dropped = false;
+  int kept = 0;
+  for (std::size_t k = 0; k < n; ++k) {
+    if (!s.next[k]) continue;
+    if (std::abs(s.residual[k]) > kCutoff * sigma) {
+      s.next[k] = 0;
+      bright_dropped |= s.residual[k] > 0;
+    } else {
+      ++kept;
+    }
+  }
+  double next_t[3];
+  if (kept >= 3 && sum_solve(co, grey, s.next, next_t)) {
+    used.swap(s.next);
+    std::copy(next_t, next_t + 3, t);
+    highlight = bright_dropped;
+  } else {
+    used = s.set;
+  }
+  return true;
+}
+
 // Any number of lights, each pixel solving its own normal equations over
 // the lights it uses (used[k] != 0): all of them, or with rejection those
 // that are neither saturated nor shadowed, as long as at least three
@@ -340,6 +474,7 @@ void solve_row_general(const RowData& row, const Coefficients& co, const SolveOp
   const std::size_t n = static_cast<std::size_t>(lights);
   thread_local std::vector<double> grey, shade;
   thread_local std::vector<std::uint8_t> saturated, used, next, dark;
+  thread_local RobustScratch scratch;
   grey.resize(n), shade.resize(n), saturated.resize(n), used.resize(n), next.resize(n),
       dark.resize(n);
   const auto count = [](const std::vector<std::uint8_t>& set) {
@@ -366,18 +501,6 @@ void solve_row_general(const RowData& row, const Coefficients& co, const SolveOp
     const bool low = !(brightest >= options.low_signal);
 
     double t[3] = {0, 0, 0};
-    const auto solve_with = [&](const std::vector<std::uint8_t>& set, double out[3]) {
-      double a[6] = {0, 0, 0, 0, 0, 0}, b[3] = {0, 0, 0};
-      for (int k = 0; k < lights; ++k) {
-        if (!set[k]) continue;
-        const auto& o = co.outer[k];
-        for (int j = 0; j < 6; ++j)
-          a[j] += o[j];
-        const auto& l = co.direction[k];
-        b[0] += l[0] * grey[k], b[1] += l[1] * grey[k], b[2] += l[2] * grey[k];
-      }
-      return solve_symmetric3(a, b, out);
-    };
     // Marks in `out` the lights of `among` too dark for the albedo rho.
     const auto too_dark = [&](const std::vector<std::uint8_t>* among, double rho,
                               std::vector<std::uint8_t>& out) {
@@ -393,18 +516,24 @@ void solve_row_general(const RowData& row, const Coefficients& co, const SolveOp
     if (options.reject_outliers && lights - count(saturated) >= 3)
       for (std::size_t k = 0; k < n; ++k)
         used[k] = !saturated[k];
-    bool ok = !outside && !low && solve_with(used, t);
-    if (ok && options.reject_outliers) {
-      // Drop measurements too dark for the albedo found and solve again;
-      // twice, as the first albedo is pulled down by them.
-      for (int pass = 0; pass < 2; ++pass) {
-        if (!too_dark(&used, std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]), dark)) break;
-        for (std::size_t k = 0; k < n; ++k)
-          next[k] = used[k] && !dark[k];
-        double next_t[3];
-        if (count(next) < 3 || !solve_with(next, next_t)) break;
-        used.swap(next);
-        std::copy(next_t, next_t + 3, t);
+    bool ok = false;
+    bool highlight = false;
+    if (!outside && !low && options.reject_outliers && count(used) >= 4) {
+      ok = robust_fit(co, grey, options.shadow_ratio, used, t, scratch, highlight);
+    } else {
+      ok = !outside && !low && sum_solve(co, grey, used, t);
+      if (ok && options.reject_outliers) {
+        // Three lights left: drop those too dark for the albedo found and
+        // solve again; twice, as the first albedo is pulled down by them.
+        for (int pass = 0; pass < 2; ++pass) {
+          if (!too_dark(&used, std::sqrt(t[0] * t[0] + t[1] * t[1] + t[2] * t[2]), dark)) break;
+          for (std::size_t k = 0; k < n; ++k)
+            next[k] = used[k] && !dark[k];
+          double next_t[3];
+          if (count(next) < 3 || !sum_solve(co, grey, next, next_t)) break;
+          used.swap(next);
+          std::copy(next_t, next_t + 3, t);
+        }
       }
     }
 
@@ -442,7 +571,8 @@ void solve_row_general(const RowData& row, const Coefficients& co, const SolveOp
     row.flags[i] = static_cast<std::uint8_t>(
         (outside ? kOutsideMask : 0) | (!outside && any_saturated ? kSaturated : 0) |
         (solved && shadowed ? kShadowed : 0) | (!outside && low ? kLowSignal : 0) |
-        (no_solution ? kNoSolution : 0) | (solved && recovered ? kRecovered : 0));
+        (no_solution ? kNoSolution : 0) | (solved && recovered ? kRecovered : 0) |
+        (solved && highlight ? kHighlight : 0));
   }
 }
 

@@ -26,6 +26,7 @@ enum PixelFlag : std::uint8_t {
   kNoSolution = 1 << 4,   // the scaled normal points into the swatch or vanishes: not solved
   kRecovered =
       1 << 5,  // rejection dropped shadowed or saturated measurements and solved from the rest
+  kHighlight = 1 << 6,  // rejection dropped unsaturated measurements brighter than the fit
 };
 
 // A pixel is valid (mask.png) when nothing doubtful is left about it.
