@@ -64,9 +64,9 @@ Surface bumpy_surface(cv::Size size, double amplitude, double period, int channe
       const double p = amplitude * w * std::cos(w * x) * std::sin(w * y);
       const double q = amplitude * w * std::sin(w * x) * std::cos(w * y);
       const double norm = std::sqrt(p * p + q * q + 1);
-      s.normal.at<cv::Vec3f>(r, c) = cv::Vec3f(static_cast<float>(-p / norm),
-                                               static_cast<float>(-q / norm),
-                                               static_cast<float>(1 / norm));
+      s.normal.at<cv::Vec3f>(r, c) =
+          cv::Vec3f(static_cast<float>(-p / norm), static_cast<float>(-q / norm),
+                    static_cast<float>(1 / norm));
       if (height)
         height->at<float>(r, c) = static_cast<float>(amplitude * std::sin(w * x) * std::sin(w * y));
     }
@@ -144,9 +144,9 @@ processing::Scan render_scan(const Surface& surface, const std::vector<cv::Vec3d
         double gloss = 0;
         if (specular.strength > 0 && shade > 0) {
           const cv::Vec3d h = (l + cv::Vec3d(0, 0, 1)) / cv::norm(l + cv::Vec3d(0, 0, 1));
-          gloss = specular.strength *
-                  std::pow(std::max(0.0, n[0] * h[0] + n[1] * h[1] + n[2] * h[2]),
-                           specular.exponent);
+          gloss =
+              specular.strength *
+              std::pow(std::max(0.0, n[0] * h[0] + n[1] * h[1] + n[2] * h[2]), specular.exponent);
         }
         for (int ch = 0; ch < channels; ++ch) {
           double value = surface.albedo.ptr<float>(r)[c * channels + ch] * shade + gloss;
@@ -176,6 +176,49 @@ double predicted_rms_angle(const std::vector<cv::Vec3d>& lights, const cv::Vec3d
   const cv::Matx33d projector = cv::Matx33d::eye() - n * n.t();
   return sigma / (std::sqrt(static_cast<double>(channels)) * rho) *
          std::sqrt(cv::trace(projector * ltl.inv() * projector));
+}
+
+cv::Mat naive_rule_normals(const processing::Scan& scan) {
+  const int lights = static_cast<int>(scan.frames.size());
+  const int channels = scan.channels();
+  const cv::Size size = scan.size();
+  cv::Mat normals(size, CV_32FC3, cv::Scalar(0, 0, 0));
+  std::vector<cv::Mat> frames;
+  cv::Mat dark;
+  if (!scan.dark.empty())
+    scan.dark.convertTo(dark, CV_MAKETYPE(CV_32F, channels), 1.0 / scan.white_level);
+  for (const auto& f : scan.frames) {
+    cv::Mat linear;
+    f.convertTo(linear, CV_MAKETYPE(CV_32F, channels), 1.0 / scan.white_level);
+    if (!dark.empty()) linear -= dark;
+    frames.push_back(linear);
+  }
+  std::vector<std::pair<double, int>> values(static_cast<std::size_t>(lights));
+  const auto& d = scan.description.lights;
+  for (int r = 0; r < size.height; ++r) {
+    for (int c = 0; c < size.width; ++c) {
+      for (int k = 0; k < lights; ++k) {
+        const float* m = frames[k].ptr<float>(r) + c * channels;
+        double sum = 0;
+        for (int ch = 0; ch < channels; ++ch)
+          sum += m[ch];
+        values[k] = {sum / channels, k};
+      }
+      std::sort(values.begin(), values.end());
+      cv::Matx33d a = cv::Matx33d::zeros();
+      cv::Vec3d b(0, 0, 0);
+      for (int j = lights / 4; j < lights - lights / 6; ++j) {
+        const cv::Vec3d l = d[values[j].second].direction;
+        a += l * l.t();
+        b += l * values[j].first;
+      }
+      cv::Vec3d t;
+      if (!cv::solve(a, b, t, cv::DECOMP_CHOLESKY) || !(t[2] > 0)) continue;
+      t /= cv::norm(t);
+      normals.at<cv::Vec3f>(r, c) = cv::Vec3f(t);
+    }
+  }
+  return normals;
 }
 
 double mean_angular_error_deg(const cv::Mat& a, const cv::Mat& b, const cv::Mat& select) {

@@ -71,6 +71,13 @@ struct Specular {
 [[nodiscard]] double predicted_rms_angle(const std::vector<cv::Vec3d>& lights, const cv::Vec3d& n,
                                          double rho, double sigma, int channels);
 
+// The naive rule --reject must beat: per pixel, drop the darkest quarter
+// and the brightest sixth of the values (n / 4 and n / 6 of n lights,
+// rounded down), then least squares. Straight from the frames over the
+// white level, less the dark frame (no flats or intensities): unit normals, CV_32FC3,
+// (0, 0, 0) where it has no answer.
+[[nodiscard]] cv::Mat naive_rule_normals(const processing::Scan& scan);
+
 // Mean angle in degrees between two normal maps over the pixels where
 // `select` is nonzero (all pixels when empty).
 [[nodiscard]] double mean_angular_error_deg(const cv::Mat& a, const cv::Mat& b,

@@ -4,7 +4,18 @@
 // down: 2 and 1 of 8, 3 and 2 of 12, 16 and 10 of 64, 24 and 16 of 96), then
 // least squares. Every figure in this file is SYNTHETIC: Lambertian plus a
 // Blinn-Phong lobe, cast shadows and noise, with known normals (the real
-// captures are in real_data_test.cpp). Measured figures are in the comments.
+// captures are in real_data_test.cpp). Dome lights (Fibonacci spiral within
+// 55 degrees of the axis), 16-bit frames, noise 0.005 of full scale,
+// Blinn-Phong strength 0.5 and exponent 40 on albedo 0.35-0.65.
+// Measured mean angular error, degrees, plain LS / naive rule / --reject:
+//   dome on a plane, cast shadows:  8 lights 10.24 / 7.12 / 4.14
+//                                  12 lights  8.15 / 4.52 / 3.19
+//                                  64 lights  7.80 / 3.17 / 2.15
+//                                  96 lights  7.75 / 3.07 / 2.07
+//   bumpy plane, cast shadows:      8 lights  6.60 / 4.61 / 3.21
+//                                  12 lights  6.59 / 3.59 / 2.41
+//                                  64 lights  6.59 / 3.39 / 1.92
+//                                  96 lights  6.61 / 3.14 / 1.88
 
 #include <algorithm>
 #include <cmath>
@@ -19,47 +30,6 @@
 
 namespace psrig::processing {
 namespace {
-
-// The naive rule, straight from the frames (no dark, no flats, intensity 1):
-// unit normals, CV_32FC3, (0, 0, 0) where it has no answer.
-cv::Mat naive_rule_normals(const Scan& scan) {
-  const int lights = static_cast<int>(scan.frames.size());
-  const int channels = scan.channels();
-  const cv::Size size = scan.size();
-  cv::Mat normals(size, CV_32FC3, cv::Scalar(0, 0, 0));
-  std::vector<cv::Mat> frames;
-  for (const auto& f : scan.frames) {
-    cv::Mat linear;
-    f.convertTo(linear, CV_MAKETYPE(CV_32F, channels), 1.0 / scan.white_level);
-    frames.push_back(linear);
-  }
-  std::vector<std::pair<double, int>> values(static_cast<std::size_t>(lights));
-  const auto& d = scan.description.lights;
-  for (int r = 0; r < size.height; ++r) {
-    for (int c = 0; c < size.width; ++c) {
-      for (int k = 0; k < lights; ++k) {
-        const float* m = frames[k].ptr<float>(r) + c * channels;
-        double sum = 0;
-        for (int ch = 0; ch < channels; ++ch)
-          sum += m[ch];
-        values[k] = {sum / channels, k};
-      }
-      std::sort(values.begin(), values.end());
-      cv::Matx33d a = cv::Matx33d::zeros();
-      cv::Vec3d b(0, 0, 0);
-      for (int j = lights / 4; j < lights - lights / 6; ++j) {
-        const cv::Vec3d l = d[values[j].second].direction;
-        a += l * l.t();
-        b += l * values[j].first;
-      }
-      cv::Vec3d t;
-      if (!cv::solve(a, b, t, cv::DECOMP_CHOLESKY) || !(t[2] > 0)) continue;
-      t /= cv::norm(t);
-      normals.at<cv::Vec3f>(r, c) = cv::Vec3f(t);
-    }
-  }
-  return normals;
-}
 
 cv::Mat solved(const cv::Mat& flags) {
   cv::Mat unsolved;
@@ -77,15 +47,15 @@ Errors compare(const Scan& scan, const cv::Mat& truth) {
   auto robust = solve(scan, {.reject_outliers = true});
   EXPECT_TRUE(plain && robust);
   if (!plain || !robust) return {};
-  const cv::Mat naive = naive_rule_normals(scan);
+  const cv::Mat naive = test::naive_rule_normals(scan);
   std::vector<cv::Mat> naive_z;
   cv::split(naive, naive_z);
   const cv::Mat select = solved(plain->flags) & solved(robust->flags) & (naive_z[2] > 0);
   EXPECT_GT(cv::countNonZero(select), select.total() / 2);
-  return {test::mean_angular_error_deg(normals_from_gradients(plain->p, plain->q), truth, select),
-          test::mean_angular_error_deg(naive, truth, select),
-          test::mean_angular_error_deg(normals_from_gradients(robust->p, robust->q), truth,
-                                       select)};
+  return {
+      test::mean_angular_error_deg(normals_from_gradients(plain->p, plain->q), truth, select),
+      test::mean_angular_error_deg(naive, truth, select),
+      test::mean_angular_error_deg(normals_from_gradients(robust->p, robust->q), truth, select)};
 }
 
 void print(const char* scene, int lights, const Errors& e) {
