@@ -670,6 +670,10 @@ ThreeLightInverse three_light_inverse(const Coefficients& co) {
 
 }  // namespace
 
+const char* reject_method(const SolveOptions& options, int lights) {
+  return options.reject_outliers && lights >= 4 ? "lts-reweighted" : "none";
+}
+
 Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& result) {
   auto lineariser = ScanLineariser::create(scan);
   if (!lineariser) return std::unexpected(lineariser.error());
