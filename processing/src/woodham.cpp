@@ -367,7 +367,7 @@ bool solve_symmetric3(const double a[6], const double b[3], double t[3]) {
 //     tests/unit/robust_solve_test.cpp and real_data_test.cpp.
 // Cost: with eight lights a few passes over the values instead of sorts,
 // and three 3x3 solves (mostly from the candidates' sums less a few lights)
-// where plain least squares has one; about 2.6 times plain least squares'
+// where plain least squares has one; about 2.7 times plain least squares'
 // CPU time for the whole solve (tests/bench/reject_bench.cpp).
 
 struct RobustScratch {

@@ -172,7 +172,7 @@ Scan uw_scan(const std::filesystem::path& dir, const std::string& name,
 // the sphere is nearly matte: this checks that rejection costs nothing where
 // there is little to reject and removes what attached shadows and sheen
 // there are. Measured mean angular error (degrees, inner 95 % of the
-// radius): 12 lights plain 5.38, naive 8.46, --reject 5.12; 8 lights plain
+// radius): 12 lights plain 5.38, naive 8.46, --reject 5.11; 8 lights plain
 // 4.31, naive 5.38, --reject 3.84. What is left is mostly the lights'
 // unknown intensities and the highlight-centroid directions.
 TEST(RealData, UwGreySphereRejectionBeatsTheNaiveRule) {
@@ -234,11 +234,11 @@ void gradients_of(const cv::Mat& normals, cv::Mat& p, cv::Mat& q) {
 // Plain least squares is the most integrable of the three everywhere: it
 // averages every light, bias included, and curl cannot see a smooth bias
 // (the grey sphere above shows it). Measured mean |curl|, plain / naive /
-// --reject, 12 lights then 8: buddha 0.074/0.105/0.082, 0.084/0.115/0.090;
-// cat 0.040/0.074/0.055, 0.044/0.101/0.060; horse 0.089/0.161/0.096,
-// 0.136/0.292/0.176; owl 0.074/0.080/0.057, 0.049/0.096/0.060; rock
-// 0.075/0.125/0.106, 0.077/0.156/0.123; butterfly (8 lights)
-// 0.058/0.091/0.084.
+// --reject, 12 lights then 8: buddha 0.074/0.105/0.081, 0.084/0.115/0.090;
+// cat 0.040/0.074/0.054, 0.044/0.101/0.060; horse 0.089/0.161/0.094,
+// 0.136/0.292/0.172; owl 0.074/0.080/0.056, 0.049/0.096/0.060; rock
+// 0.075/0.125/0.106, 0.077/0.156/0.122; butterfly (8 lights)
+// 0.058/0.091/0.080.
 struct Curls {
   double plain = 0, naive = 0, reject = 0;
 };

@@ -8,14 +8,14 @@
 // 55 degrees of the axis), 16-bit frames, noise 0.005 of full scale,
 // Blinn-Phong strength 0.5 and exponent 40 on albedo 0.35-0.65.
 // Measured mean angular error, degrees, plain LS / naive rule / --reject:
-//   dome on a plane, cast shadows:  8 lights 10.24 / 7.12 / 4.14
-//                                  12 lights  8.15 / 4.52 / 3.19
-//                                  64 lights  7.80 / 3.17 / 2.15
-//                                  96 lights  7.75 / 3.07 / 2.07
-//   bumpy plane, cast shadows:      8 lights  6.60 / 4.61 / 3.21
-//                                  12 lights  6.59 / 3.59 / 2.41
-//                                  64 lights  6.59 / 3.39 / 1.92
-//                                  96 lights  6.61 / 3.14 / 1.88
+//   dome on a plane, cast shadows:  8 lights 10.24 / 7.12 / 4.19
+//                                  12 lights  8.15 / 4.52 / 3.54
+//                                  64 lights  7.80 / 3.17 / 2.29
+//                                  96 lights  7.75 / 3.07 / 2.21
+//   bumpy plane, cast shadows:      8 lights  6.60 / 4.61 / 3.23
+//                                  12 lights  6.59 / 3.59 / 2.49
+//                                  64 lights  6.59 / 3.39 / 2.15
+//                                  96 lights  6.61 / 3.14 / 2.12
 
 #include <algorithm>
 #include <cmath>
