@@ -250,12 +250,14 @@ TEST(Woodham, NonFiniteMeasurementsGiveFiniteOutputs) {
     scan.mask = cv::Mat(scan.size(), CV_8U, cv::Scalar(255));
     scan.mask.at<std::uint8_t>(5, 6) = 0;
     scan.frames[2].at<cv::Vec3f>(5, 6) = cv::Vec3f(std::nanf(""), 0, 0);  // masked and NaN
-    auto result = solve(scan);
-    ASSERT_TRUE(result);
-    for (const cv::Mat* m : {&result->p, &result->q, &result->albedo, &result->residual})
-      EXPECT_TRUE(cv::checkRange(*m)) << lights << " lights";
-    EXPECT_FALSE(is_valid(result->flags.at<std::uint8_t>(5, 5)));
-    EXPECT_EQ(result->flags.at<std::uint8_t>(5, 6), kOutsideMask);
+    for (const bool reject : {false, true}) {
+      auto result = solve(scan, {.reject_outliers = reject});
+      ASSERT_TRUE(result);
+      for (const cv::Mat* m : {&result->p, &result->q, &result->albedo, &result->residual})
+        EXPECT_TRUE(cv::checkRange(*m)) << lights << " lights, reject " << reject;
+      EXPECT_FALSE(is_valid(result->flags.at<std::uint8_t>(5, 5)));
+      EXPECT_EQ(result->flags.at<std::uint8_t>(5, 6), kOutsideMask);
+    }
   }
 }
 
