@@ -446,9 +446,6 @@ bool subset_solve(const Coefficients& co, const std::vector<double>& grey,
   return solve_symmetric3(a, b, t);
 }
 
-// `used` holds the candidate lights on entry (at least four) and the lights
-// solved from on return; `highlight` says whether a light brighter than the
-// fit by more than the cutoff was dropped.
 // Marks out[k] = 1 for the lights k of `among` (`members` of them) whose key
 // ranks in [lo, hi) among them, ties broken by index so the set is unique;
 // else 0. Few to drop (eight lights: three): one pass for each, a
@@ -489,6 +486,9 @@ void mark_ranks(const double* key, const std::uint8_t* among, int n, int members
     out[s.ranked[j].second] = 1;
 }
 
+// `used` holds the candidate lights on entry (at least four) and the lights
+// solved from on return; `highlight` says whether a light brighter than the
+// fit by more than the cutoff was dropped.
 bool robust_fit(const Coefficients& co, const std::vector<double>& grey, double shadow_ratio,
                 std::vector<std::uint8_t>& used, double t[3], RobustScratch& s, bool& highlight) {
   const int n = static_cast<int>(grey.size());
