@@ -158,6 +158,7 @@ PixelCounts count_pixels(const cv::Mat& flags) {
             n.low_signal += (f[c] & kLowSignal) != 0;
             n.no_solution += (f[c] & kNoSolution) != 0;
             n.recovered += (f[c] & kRecovered) != 0;
+            n.highlight += (f[c] & kHighlight) != 0;
           }
         }
       },
@@ -165,7 +166,7 @@ PixelCounts count_pixels(const cv::Mat& flags) {
         t.total += n.total, t.valid += n.valid, t.outside_mask += n.outside_mask,
             t.saturated += n.saturated;
         t.shadowed += n.shadowed, t.low_signal += n.low_signal, t.no_solution += n.no_solution;
-        t.recovered += n.recovered;
+        t.recovered += n.recovered, t.highlight += n.highlight;
       });
 }
 

@@ -22,7 +22,8 @@ json pixel_counts(const PixelCounts& n) {
           {"shadowed", n.shadowed},
           {"low_signal", n.low_signal},
           {"no_solution", n.no_solution},
-          {"recovered_by_rejection", n.recovered}};
+          {"recovered_by_rejection", n.recovered},
+          {"highlights_rejected", n.highlight}};
 }
 
 }  // namespace
@@ -50,13 +51,15 @@ json make_report(const ReportInputs& in) {
   report["inputs"] = inputs;
 
   const auto& options = *in.options;
-  report["options"] = {{"integration", to_string(options.integration)},
-                       {"flatten", to_string(options.flatten)},
-                       {"flatten_cutoff_mm", options.flatten_cutoff_mm},
-                       {"threads", thread_count()},
-                       {"reject_outliers", options.solve.reject_outliers},
-                       {"shadow_ratio", options.solve.shadow_ratio},
-                       {"low_signal", options.solve.low_signal}};
+  report["options"] = {
+      {"integration", to_string(options.integration)},
+      {"flatten", to_string(options.flatten)},
+      {"flatten_cutoff_mm", options.flatten_cutoff_mm},
+      {"threads", thread_count()},
+      {"reject_outliers", options.solve.reject_outliers},
+      {"reject_method", reject_method(options.solve, static_cast<int>(d.lights.size()))},
+      {"shadow_ratio", options.solve.shadow_ratio},
+      {"low_signal", options.solve.low_signal}};
 
   json times = json::object();
   for (const auto& [stage, ms] : in.stage_ms)

@@ -158,10 +158,6 @@ class DescriptionParser {
       return std::unexpected(error("lights", "missing; list at least three lights"));
     const auto& lights = doc["lights"];
     if (!lights.is_array()) return std::unexpected(error("lights", "expected an array of lights"));
-    if (lights.size() > static_cast<std::size_t>(kMaxLights))
-      return std::unexpected(error("lights", std::to_string(lights.size()) +
-                                                 " lights given; psrig solves up to " +
-                                                 std::to_string(kMaxLights)));
     if (lights.size() < 3)
       return std::unexpected(
           error("lights", std::to_string(lights.size()) +

@@ -16,10 +16,12 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
 
 #include "psrig/processing/image_io.h"
 #include "psrig/processing/map_encoding.h"
 #include "sim_modbus_driver.h"
+#include "synthetic_scene.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -56,6 +58,33 @@ TEST(PsrigCli, RejectWithThreeLightsWarnsThatItDoesNothing) {
   auto without = run_program("psrig", {"process", scan, "--quiet"});
   EXPECT_EQ(without.exit_code, 0) << without.err;
   EXPECT_TRUE(without.err.empty()) << without.err;
+}
+
+// Twelve glossy lights written as a scan directory by hand: --reject runs
+// the robust fit without a warning, and report.json names it.
+TEST(PsrigCli, RejectWithTwelveLightsNamesTheMethodInTheReport) {
+  TempDir temp;
+  const fs::path scan = temp / "scan";
+  fs::create_directories(scan);
+  const auto lights = dome_lights(12, 50);
+  const processing::Scan rendered = render_scan(sphere_surface({48, 40}, 15, 1), lights, CV_16U,
+                                                0.002, 1, {}, {.strength = 0.5, .exponent = 40});
+  nlohmann::json doc = {{"format", "psrig-scan/1"}, {"lights", nlohmann::json::array()}};
+  for (std::size_t k = 0; k < lights.size(); ++k) {
+    const std::string name = "led" + std::to_string(k) + ".png";
+    ASSERT_TRUE(cv::imwrite((scan / name).string(), rendered.frames[k]));
+    doc["lights"].push_back(
+        {{"image", name}, {"direction", {lights[k][0], lights[k][1], lights[k][2]}}});
+  }
+  std::ofstream(scan / "scan.json") << doc.dump(2);
+  auto run = run_program("psrig", {"process", scan.string(), "--reject", "--quiet"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(run.err.empty()) << run.err;
+  std::ifstream report_file(scan / "maps" / "report.json");
+  const auto report = nlohmann::json::parse(report_file);
+  EXPECT_EQ(report["inputs"]["lights"], 12);
+  EXPECT_EQ(report["options"]["reject_method"], "lts-reweighted");
+  EXPECT_GT(report["pixels"]["highlights_rejected"].get<int>(), 0);
 }
 
 TEST(PsrigCli, UsageErrorsExitTwo) {

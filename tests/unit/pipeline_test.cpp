@@ -71,6 +71,33 @@ TEST(Pipeline, WritesEveryMapAndTheReport) {
   EXPECT_EQ(nlohmann::json::parse(report_file), r);
 }
 
+// Files to files with more lights than the old limit of 64, glossy, with
+// --reject: the report names the method and counts the highlights dropped,
+// and the normals are closer to the truth than without rejection.
+TEST(Pipeline, SeventyGlossyLightsWithRejection) {
+  test::TempDir temp;
+  const auto surface = test::sphere_surface({64, 48}, 20, 3);
+  const Scan scan = test::render_scan(surface, test::dome_lights(70, 55), CV_16U, 0.002, 3, {},
+                                      {.strength = 0.5, .exponent = 40});
+  ASSERT_TRUE(capture::write_scan(scan, temp / "scan"));
+  ProcessOptions options;
+  options.output = temp / "plain";
+  auto plain = process_scan(temp / "scan", options);
+  options.output = temp / "rejecting";
+  options.solve.reject_outliers = true;
+  auto rejecting = process_scan(temp / "scan", options);
+  ASSERT_TRUE(plain && rejecting) << (plain ? rejecting : plain).error().describe();
+  EXPECT_EQ(plain->report["inputs"]["lights"], 70);
+  EXPECT_EQ(plain->report["options"]["reject_method"], "none");
+  EXPECT_EQ(rejecting->report["options"]["reject_method"], "lts-reweighted");
+  EXPECT_EQ(plain->report["pixels"]["highlights_rejected"], 0);
+  EXPECT_GT(rejecting->report["pixels"]["highlights_rejected"].get<int>(), 1000);
+  const auto error = [](const ProcessSummary& s) {
+    return s.report["ground_truth"]["mean_angular_error_all_solved_deg"].get<double>();
+  };
+  EXPECT_LT(error(*rejecting), 0.5 * error(*plain));
+}
+
 TEST(Pipeline, NormalMapConventionsOnRealFiles) {
   test::TempDir temp;
   const float s = 0.5f, c = 0.8660254f;  // 30 degrees

@@ -250,12 +250,14 @@ TEST(Woodham, NonFiniteMeasurementsGiveFiniteOutputs) {
     scan.mask = cv::Mat(scan.size(), CV_8U, cv::Scalar(255));
     scan.mask.at<std::uint8_t>(5, 6) = 0;
     scan.frames[2].at<cv::Vec3f>(5, 6) = cv::Vec3f(std::nanf(""), 0, 0);  // masked and NaN
-    auto result = solve(scan);
-    ASSERT_TRUE(result);
-    for (const cv::Mat* m : {&result->p, &result->q, &result->albedo, &result->residual})
-      EXPECT_TRUE(cv::checkRange(*m)) << lights << " lights";
-    EXPECT_FALSE(is_valid(result->flags.at<std::uint8_t>(5, 5)));
-    EXPECT_EQ(result->flags.at<std::uint8_t>(5, 6), kOutsideMask);
+    for (const bool reject : {false, true}) {
+      auto result = solve(scan, {.reject_outliers = reject});
+      ASSERT_TRUE(result);
+      for (const cv::Mat* m : {&result->p, &result->q, &result->albedo, &result->residual})
+        EXPECT_TRUE(cv::checkRange(*m)) << lights << " lights, reject " << reject;
+      EXPECT_FALSE(is_valid(result->flags.at<std::uint8_t>(5, 5)));
+      EXPECT_EQ(result->flags.at<std::uint8_t>(5, 6), kOutsideMask);
+    }
   }
 }
 
@@ -263,20 +265,26 @@ TEST(Woodham, ResultsDoNotDependOnThreadCount) {
   if (std::thread::hardware_concurrency() < 2)
     GTEST_SKIP() << "one hardware thread: nothing to compare";
   const auto surface = sphere_surface({333, 97}, 40, 3);
-  const Scan scan = render_scan(surface, ring_lights(3, 45), CV_16U, 0.01, 5);
-  const Scan many = render_scan(surface, ring_lights(5, 50), CV_16U, 0.01, 5);
+  // Three lights (the exact inverse), five with rejection (ranks by
+  // passes), seventy glossy ones with rejection (ranks by sorting).
+  const std::vector<std::pair<Scan, SolveOptions>> cases = {
+      {render_scan(surface, ring_lights(3, 45), CV_16U, 0.01, 5), {}},
+      {render_scan(surface, ring_lights(5, 50), CV_16U, 0.01, 5), {.reject_outliers = true}},
+      {render_scan(surface, test::dome_lights(70, 55), CV_16U, 0.01, 5, {},
+                   {.strength = 0.5, .exponent = 40}),
+       {.reject_outliers = true}}};
   std::vector<SolveResult> results;
   for (int threads : {1, 2, 3}) {
     set_thread_count(threads);
-    auto three = solve(scan);
-    auto five = solve(many, {.reject_outliers = true});
-    ASSERT_TRUE(three && five);
-    results.push_back(*three);
-    results.push_back(*five);
+    for (const auto& [scan, options] : cases) {
+      auto result = solve(scan, options);
+      ASSERT_TRUE(result);
+      results.push_back(*result);
+    }
   }
   set_thread_count(0);
-  for (std::size_t i = 2; i < results.size(); ++i) {
-    const auto& a = results[i % 2];
+  for (std::size_t i = cases.size(); i < results.size(); ++i) {
+    const auto& a = results[i % cases.size()];
     const auto& b = results[i];
     EXPECT_EQ(cv::norm(a.p, b.p, cv::NORM_INF), 0);
     EXPECT_EQ(cv::norm(a.q, b.q, cv::NORM_INF), 0);

@@ -50,7 +50,8 @@ Command add_process_command(CLI::App& parent) {
       ->check(psrig::cli::thread_count())
       ->capture_default_str();
   app->add_flag("--reject", args->reject,
-                "With four or more lights, drop shadowed and saturated measurements per pixel");
+                "With four or more lights, drop each pixel's shadowed, saturated and "
+                "highlighted measurements (robust fit; report.json names the method)");
   app->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
 
   return {app, [args] {

@@ -24,7 +24,7 @@ struct Distribution {
 // How many pixels carry each of the solve's flags (see woodham.h).
 struct PixelCounts {
   std::size_t total = 0, valid = 0, outside_mask = 0, saturated = 0, shadowed = 0, low_signal = 0,
-              no_solution = 0, recovered = 0;
+              no_solution = 0, recovered = 0, highlight = 0;
 };
 [[nodiscard]] PixelCounts count_pixels(const cv::Mat& flags);
 

@@ -13,8 +13,6 @@
 namespace psrig::processing {
 
 inline constexpr const char* kScanFormat = "psrig-scan/1";
-// The solve tracks each pixel's lights in a 64-bit mask.
-inline constexpr int kMaxLights = 64;
 
 // Full scale of a frame depth: 255, 65535, or 1.0 for float frames.
 [[nodiscard]] inline double full_scale(int depth) {

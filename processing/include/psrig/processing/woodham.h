@@ -24,8 +24,10 @@ enum PixelFlag : std::uint8_t {
   kShadowed = 1 << 2,     // some measurement below shadow_ratio * albedo (attached or cast shadow)
   kLowSignal = 1 << 3,    // even the brightest measurement is below low_signal: not solved
   kNoSolution = 1 << 4,   // the scaled normal points into the swatch or vanishes: not solved
-  kRecovered =
-      1 << 5,  // rejection dropped shadowed or saturated measurements and solved from the rest
+  kRecovered = 1 << 5,  // rejection dropped measurements (shadowed, saturated, off the fit), solved
+                        // from the rest
+  kHighlight =
+      1 << 6,  // rejection dropped unsaturated measurements brighter than the fit (highlights)
 };
 
 // A pixel is valid (mask.png) when nothing doubtful is left about it.
@@ -37,7 +39,8 @@ enum PixelFlag : std::uint8_t {
 
 struct SolveOptions {
   // Four or more lights: drop each pixel's saturated and shadowed
-  // measurements before solving, when at least three well-spread remain.
+  // measurements and its unsaturated highlights before solving, when at
+  // least three well-spread remain (reject_method below).
   bool reject_outliers = false;
   // A measurement below this fraction of the pixel's albedo is shadowed:
   // l.n below 0.05 means the light grazes past 87 degrees or is blocked.
@@ -49,6 +52,16 @@ struct SolveOptions {
   // inverse (the two must agree; tests compare them).
   bool force_least_squares = false;
 };
+
+// What outlier rejection does, as report.json's options.reject_method
+// says: "none" without it, or with three lights, where nothing can go;
+// "lts-reweighted" with it: per pixel, saturated measurements out, then
+// least trimmed squares started from the values left after dropping the
+// darkest quarter and the brightest sixth, and reweighted least squares
+// that drops every measurement (cast or attached shadow, unsaturated
+// highlight) off the fit by more than 2.5 robust sigmas (Rousseeuw & Leroy,
+// "Robust Regression and Outlier Detection", 1987; woodham.cpp says more).
+[[nodiscard]] const char* reject_method(const SolveOptions& options, int lights);
 
 struct SolveResult {
   cv::Mat p;         // CV_32F, dz/dx; 0 where not solved
