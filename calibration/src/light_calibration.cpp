@@ -53,7 +53,11 @@ std::optional<Highlight> find_highlight(const cv::Mat& image, const cv::Mat& dis
     for (int col = 0; col < image.cols; col += 2)
       if (disc.at<std::uint8_t>(row, col)) values.push_back(image.at<float>(row, col));
   const double background = median(values);
-  if (!(peak >= std::max(5 * background, background + 0.1))) return std::nullopt;
+  // A highlight stands out: saturated over a sphere well below saturation,
+  // or at least thrice the sphere's median and a tenth of full scale above it.
+  const bool stands_out = (peak >= saturation && background < 0.5 * saturation) ||
+                          peak >= std::max(3 * background, background + 0.1);
+  if (!stands_out) return std::nullopt;
   const double level = peak >= saturation ? saturation : background + 0.5 * (peak - background);
   cv::Mat above;
   cv::compare(image, level, above, cv::CMP_GE);

@@ -43,6 +43,7 @@ std::vector<cv::Point2d> edge_points(const cv::Mat& silhouette, const Circle& ci
   const double from = std::max(0.0, r - std::max(4.0, 0.12 * r));
   const double to = r + std::max(4.0, 0.12 * r);
   std::vector<double> profile;
+  std::vector<double> contrasts;
   for (int k = 0; k < kRays; ++k) {
     const double angle = 2 * std::numbers::pi * k / kRays;
     const double c = std::cos(angle);
@@ -74,9 +75,19 @@ std::vector<cv::Point2d> edge_points(const cv::Mat& silhouette, const Circle& ci
       const double t = from + (static_cast<double>(i) + f) * step;
       if (best < 0 || std::abs(t - r) < std::abs(best - r)) best = t;
     }
-    if (best > 0) points.emplace_back(circle.centre.x + best * c, circle.centre.y + best * s);
+    if (best > 0) {
+      points.emplace_back(circle.centre.x + best * c, circle.centre.y + best * s);
+      contrasts.push_back(in - out);
+    }
   }
-  return points;
+  // Where the sphere's rim is barely brighter than what lies behind it (a
+  // chrome sphere's dim edge against lit cloth) the crossing says little:
+  // only rays with a third of the typical contrast or more count.
+  const double typical = median(contrasts);
+  std::vector<cv::Point2d> clear;
+  for (std::size_t i = 0; i < points.size(); ++i)
+    if (contrasts[i] >= typical / 3) clear.push_back(points[i]);
+  return clear;
 }
 
 std::vector<double> residuals(const std::vector<cv::Point2d>& points, const Circle& circle) {

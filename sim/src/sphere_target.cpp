@@ -13,7 +13,7 @@ constexpr int kSamples = 4;  // per pixel and axis
 constexpr double kMirror = 0.6;
 constexpr double kChromeDiffuse = 0.04;
 constexpr double kMatteAlbedo = 0.5;
-constexpr double kVelvet = 0.01;
+constexpr double kVelvet = 0.004;
 constexpr double kLensBlurPx = 0.6;
 
 // Radiance of one sample at (dx, dy) pixels from the sphere's centre, y up.

@@ -9,7 +9,7 @@
 //   bright (saturated) highlight.
 // - matte: Lambertian, albedo 0.5 (no saturation at the default LED
 //   irradiance), attached shadows where n . l <= 0.
-// The velvet (albedo 0.01) carries the sphere's cast shadow.
+// The velvet (albedo 0.004) carries the sphere's cast shadow.
 // Rendered with 4x4 samples per pixel, so edges are anti-aliased, then
 // blurred by the lens (a Gaussian point spread of 0.6 pixels).
 
