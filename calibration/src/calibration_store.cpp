@@ -1,17 +1,16 @@
 #include "psrig/calibration/calibration_store.h"
 
-#include <fcntl.h>
-#include <unistd.h>
-
 #include <algorithm>
 #include <cctype>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <ctime>
+#include <fcntl.h>
 #include <fstream>
 #include <sstream>
 #include <system_error>
+#include <unistd.h>
 
 namespace psrig::calibration {
 
@@ -20,7 +19,9 @@ using nlohmann::json;
 
 namespace {
 
-double round_to(double value, double step) { return std::round(value / step) * step; }
+double round_to(double value, double step) {
+  return std::round(value / step) * step;
+}
 
 json vec(const cv::Vec3d& v) {
   return json::array({round_to(v[0], 1e-6), round_to(v[1], 1e-6), round_to(v[2], 1e-6)});
@@ -40,7 +41,8 @@ json estimate_json(const LightEstimate& e) {
             {"intensity", round_to(e.intensity, 1e-5)},
             {"uncertainty_deg", round_to(e.uncertainty_deg, 1e-4)},
             {"frames", e.frames}};
-  if (e.highlight_px) j["highlight_px"] = {round_to(e.highlight_px->x, 1e-3), round_to(e.highlight_px->y, 1e-3)};
+  if (e.highlight_px)
+    j["highlight_px"] = {round_to(e.highlight_px->x, 1e-3), round_to(e.highlight_px->y, 1e-3)};
   if (e.highlight_spread_deg) j["highlight_spread_deg"] = round_to(*e.highlight_spread_deg, 1e-4);
   if (e.frames_spread_deg) j["frames_spread_deg"] = round_to(*e.frames_spread_deg, 1e-4);
   if (e.residual) j["fit_residual"] = round_to(*e.residual, 1e-6);
@@ -49,7 +51,8 @@ json estimate_json(const LightEstimate& e) {
 }
 
 bool is_version_name(const std::string& name) {
-  return name.size() == 4 && std::all_of(name.begin(), name.end(), [](unsigned char c) { return std::isdigit(c); });
+  return name.size() == 4 &&
+         std::all_of(name.begin(), name.end(), [](unsigned char c) { return std::isdigit(c); });
 }
 
 }  // namespace
@@ -173,9 +176,12 @@ Status write_new_file(const fs::path& file, const std::string& text) {
   const fs::path parent = file.parent_path().empty() ? fs::path(".") : file.parent_path();
   if (!fs::is_directory(parent, ec))
     return std::unexpected(bad_input(file, "", "its folder does not exist; create it first"));
-  const fs::path temporary = parent / ("." + file.filename().string() + ".tmp" + std::to_string(getpid()));
+  const fs::path temporary =
+      parent / ("." + file.filename().string() + ".tmp" + std::to_string(getpid()));
   const int fd = ::open(temporary.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644);
-  if (fd < 0) return std::unexpected(io_error(temporary, "cannot create: " + std::generic_category().message(errno)));
+  if (fd < 0)
+    return std::unexpected(
+        io_error(temporary, "cannot create: " + std::generic_category().message(errno)));
   std::size_t written = 0;
   while (written < text.size()) {
     const ssize_t n = ::write(fd, text.data() + written, text.size() - written);
@@ -183,7 +189,8 @@ Status write_new_file(const fs::path& file, const std::string& text) {
       const int error = errno;
       ::close(fd);
       fs::remove(temporary, ec);
-      return std::unexpected(io_error(temporary, "cannot write: " + std::generic_category().message(error)));
+      return std::unexpected(
+          io_error(temporary, "cannot write: " + std::generic_category().message(error)));
     }
     written += static_cast<std::size_t>(n);
   }
@@ -196,8 +203,10 @@ Status write_new_file(const fs::path& file, const std::string& text) {
     const int error = errno;
     fs::remove(temporary, ec);
     if (error == EEXIST)
-      return std::unexpected(bad_input(file, "", "exists already; give another file, or remove it first"));
-    return std::unexpected(io_error(file, "cannot rename into place: " + std::generic_category().message(error)));
+      return std::unexpected(
+          bad_input(file, "", "exists already; give another file, or remove it first"));
+    return std::unexpected(
+        io_error(file, "cannot rename into place: " + std::generic_category().message(error)));
   }
   return {};
 }
@@ -225,10 +234,12 @@ Result<processing::AtomicDirectory> CalibrationStore::begin_next() const {
   std::error_code ec;
   fs::create_directories(directory_, ec);
   if (ec)
-    return std::unexpected(io_error(directory_, "cannot create the calibration store: " + ec.message()));
+    return std::unexpected(
+        io_error(directory_, "cannot create the calibration store: " + ec.message()));
   const auto all = versions();
   int next = all.empty() ? 1 : std::stoi(all.back().filename().string()) + 1;
-  if (next > 9999) return std::unexpected(io_error(directory_, "holds 9999 calibrations; archive some"));
+  if (next > 9999)
+    return std::unexpected(io_error(directory_, "holds 9999 calibrations; archive some"));
   char name[16];
   std::snprintf(name, sizeof name, "%04d", next);
   return processing::AtomicDirectory::create(directory_ / name);

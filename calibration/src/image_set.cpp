@@ -21,8 +21,10 @@ bool natural_less(const std::string& a, const std::string& b) {
         std::isdigit(static_cast<unsigned char>(b[j]))) {
       std::size_t ei = i;
       std::size_t ej = j;
-      while (ei < a.size() && std::isdigit(static_cast<unsigned char>(a[ei]))) ++ei;
-      while (ej < b.size() && std::isdigit(static_cast<unsigned char>(b[ej]))) ++ej;
+      while (ei < a.size() && std::isdigit(static_cast<unsigned char>(a[ei])))
+        ++ei;
+      while (ej < b.size() && std::isdigit(static_cast<unsigned char>(b[ej])))
+        ++ej;
       std::string na = a.substr(i, ei - i);
       std::string nb = b.substr(j, ej - j);
       na.erase(0, std::min(na.find_first_not_of('0'), na.size()));
@@ -51,18 +53,18 @@ Result<ImageFolder> list_image_folder(const fs::path& directory) {
     std::string extension = entry.path().extension().string();
     std::transform(extension.begin(), extension.end(), extension.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
-    if (extension != ".png" && extension != ".tif" && extension != ".tiff" &&
-        extension != ".exr" && extension != ".jpg" && extension != ".jpeg")
+    if (extension != ".png" && extension != ".tif" && extension != ".tiff" && extension != ".exr" &&
+        extension != ".jpg" && extension != ".jpeg")
       continue;
     std::string stem = entry.path().stem().string();
     std::transform(stem.begin(), stem.end(), stem.begin(),
                    [](unsigned char c) { return static_cast<char>(std::tolower(c)); });
     if (stem.ends_with("mask")) {
       if (folder.mask)
-        return std::unexpected(bad_input(
-            directory, "",
-            "holds two masks (" + folder.mask->filename().string() + ", " +
-                entry.path().filename().string() + "); keep one, or name it with --mask"));
+        return std::unexpected(bad_input(directory, "",
+                                         "holds two masks (" + folder.mask->filename().string() +
+                                             ", " + entry.path().filename().string() +
+                                             "); keep one, or name it with --mask"));
       folder.mask = entry.path();
       continue;
     }
@@ -73,9 +75,10 @@ Result<ImageFolder> list_image_folder(const fs::path& directory) {
     return natural_less(a.filename().string(), b.filename().string());
   });
   if (folder.images.empty())
-    return std::unexpected(bad_input(
-        directory, "", "holds no images (.png, .tif, .tiff, .exr, .jpg); give the folder with one "
-                       "image per light"));
+    return std::unexpected(
+        bad_input(directory, "",
+                  "holds no images (.png, .tif, .tiff, .exr, .jpg); give the folder with one "
+                  "image per light"));
   return folder;
 }
 
@@ -97,7 +100,8 @@ Result<cv::Mat> read_linear_grey(const fs::path& file, processing::Encoding enco
   cv::split(linear, planes);
   cv::Mat grey = cv::Mat::zeros(linear.size(), CV_32F);
   const int colours = std::min(3, linear.channels());
-  for (int c = 0; c < colours; ++c) grey += planes[c];
+  for (int c = 0; c < colours; ++c)
+    grey += planes[c];
   return cv::Mat(grey / colours);
 }
 

@@ -11,9 +11,13 @@ namespace {
 
 constexpr double kDeg = 180 / std::numbers::pi;
 
-cv::Vec3d unit(const cv::Vec3d& v) { return v / cv::norm(v); }
+cv::Vec3d unit(const cv::Vec3d& v) {
+  return v / cv::norm(v);
+}
 
-cv::Vec3d reflect(const cv::Vec3d& n, const cv::Vec3d& v) { return unit(2 * n.dot(v) * n - v); }
+cv::Vec3d reflect(const cv::Vec3d& n, const cv::Vec3d& v) {
+  return unit(2 * n.dot(v) * n - v);
+}
 
 double median(std::vector<double> values) {
   if (values.empty()) return 0;
@@ -72,7 +76,8 @@ std::optional<Highlight> find_highlight(const cv::Mat& image, const cv::Mat& dis
     for (int col = 0; col < image.cols; ++col)
       if (const int label = labels.at<int>(row, col); label > 0)
         energy[label] += image.at<float>(row, col) - background;
-  const int best = static_cast<int>(std::max_element(energy.begin() + 1, energy.end()) - energy.begin());
+  const int best =
+      static_cast<int>(std::max_element(energy.begin() + 1, energy.end()) - energy.begin());
   cv::Mat blob;
   cv::compare(labels, best, blob, cv::CMP_EQ);
   cv::Mat grown;
@@ -108,13 +113,15 @@ std::optional<cv::Vec3d> chrome_direction(const Circle& sphere, cv::Point2d pixe
 
 cv::Mat average(const LightFrames& light) {
   cv::Mat sum = cv::Mat::zeros(light.frames.front().image.size(), CV_32F);
-  for (const auto& frame : light.frames) sum += frame.image;
+  for (const auto& frame : light.frames)
+    sum += frame.image;
   return sum / static_cast<double>(light.frames.size());
 }
 
 Status check_frames(const std::vector<LightFrames>& lights) {
   if (lights.empty()) return std::unexpected(bad_input({}, "", "no images of the sphere"));
-  const cv::Size size = lights.front().frames.empty() ? cv::Size() : lights.front().frames.front().image.size();
+  const cv::Size size =
+      lights.front().frames.empty() ? cv::Size() : lights.front().frames.front().image.size();
   for (const auto& light : lights) {
     if (light.frames.empty()) return std::unexpected(bad_input({}, "", "a light has no frames"));
     for (const auto& frame : light.frames)
@@ -177,8 +184,8 @@ std::optional<cv::Vec3d> sphere_normal(const Circle& sphere, cv::Point2d pixel,
 }
 
 Result<std::vector<LightEstimate>> calibrate_chrome(const std::vector<LightFrames>& lights,
-                                                    const Circle& sphere,
-                                                    const CameraModel& camera, double saturation) {
+                                                    const Circle& sphere, const CameraModel& camera,
+                                                    double saturation) {
   if (auto ok = check_frames(lights); !ok) return std::unexpected(ok.error());
   const cv::Size size = lights.front().frames.front().image.size();
   const cv::Mat disc = disc_mask(size, sphere, 1.0);
@@ -223,10 +230,12 @@ Result<std::vector<LightEstimate>> calibrate_chrome(const std::vector<LightFrame
     }
     const double n = static_cast<double>(directions.size());
     cv::Vec3d mean(0, 0, 0);
-    for (const auto& d : directions) mean += d;
+    for (const auto& d : directions)
+      mean += d;
     mean = unit(mean);
     double scatter = 0;
-    for (const auto& d : directions) scatter += std::pow(angle_deg(d, mean), 2);
+    for (const auto& d : directions)
+      scatter += std::pow(angle_deg(d, mean), 2);
     scatter = std::sqrt(scatter / n);
     estimate.direction = mean;
     estimate.frames = static_cast<int>(directions.size());
@@ -243,8 +252,8 @@ Result<std::vector<LightEstimate>> calibrate_chrome(const std::vector<LightFrame
 }
 
 Result<std::vector<LightEstimate>> calibrate_matte(const std::vector<LightFrames>& lights,
-                                                   const Circle& sphere,
-                                                   const CameraModel& camera, double saturation) {
+                                                   const Circle& sphere, const CameraModel& camera,
+                                                   double saturation) {
   if (auto ok = check_frames(lights); !ok) return std::unexpected(ok.error());
   const cv::Size size = lights.front().frames.front().image.size();
   // Away from the rim, where the edge blurs into the background.
@@ -252,12 +261,14 @@ Result<std::vector<LightEstimate>> calibrate_matte(const std::vector<LightFrames
   std::vector<cv::Point> pixels;
   std::vector<cv::Vec3d> normals;
   cv::findNonZero(disc, pixels);
-  for (const auto& p : pixels) normals.push_back(sphere_normal(sphere, p, camera, size).value_or(cv::Vec3d(0, 0, 1)));
+  for (const auto& p : pixels)
+    normals.push_back(sphere_normal(sphere, p, camera, size).value_or(cv::Vec3d(0, 0, 1)));
   std::vector<LightEstimate> estimates;
   for (std::size_t k = 0; k < lights.size(); ++k) {
     const cv::Mat image = average(lights[k]);
     std::vector<double> lit;
-    for (const auto& p : pixels) lit.push_back(image.at<float>(p));
+    for (const auto& p : pixels)
+      lit.push_back(image.at<float>(p));
     std::vector<double> sorted = lit;
     std::sort(sorted.begin(), sorted.end());
     const double bright = sorted[sorted.size() * 99 / 100];
@@ -293,12 +304,13 @@ Result<std::vector<LightEstimate>> calibrate_matte(const std::vector<LightFrames
         atb += normals[i] * lit[i];
         ++used;
       }
-      if (used >= 50 && std::abs(cv::determinant(ata)) > 1e-12) b = ata.solve(atb, cv::DECOMP_LU);
+      if (used >= 50 && std::abs(cv::determinant(ata)) > 1e-12)
+        b = ata.solve(atb, cv::DECOMP_LU);
       else
         return std::unexpected(bad_input(
             lights[k].frames.front().file, "",
-            "too few lit pixels on the matte sphere for light " + std::to_string(k) +
-                " (" + std::to_string(used) +
+            "too few lit pixels on the matte sphere for light " + std::to_string(k) + " (" +
+                std::to_string(used) +
                 "): check that this light was on and lights the sphere, and that the exposure "
                 "neither leaves it dark nor saturates it"));
     }
@@ -321,8 +333,10 @@ Result<std::vector<LightEstimate>> calibrate_matte(const std::vector<LightFrames
     estimates.push_back(estimate);
   }
   double brightest = 0;
-  for (const auto& e : estimates) brightest = std::max(brightest, e.intensity);
-  for (auto& e : estimates) e.intensity /= brightest;
+  for (const auto& e : estimates)
+    brightest = std::max(brightest, e.intensity);
+  for (auto& e : estimates)
+    e.intensity /= brightest;
   return estimates;
 }
 

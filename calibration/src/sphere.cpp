@@ -93,7 +93,8 @@ std::vector<cv::Point2d> edge_points(const cv::Mat& silhouette, const Circle& ci
 std::vector<double> residuals(const std::vector<cv::Point2d>& points, const Circle& circle) {
   std::vector<double> out;
   out.reserve(points.size());
-  for (const auto& p : points) out.push_back(std::hypot(p.x - circle.centre.x, p.y - circle.centre.y) - circle.radius);
+  for (const auto& p : points)
+    out.push_back(std::hypot(p.x - circle.centre.x, p.y - circle.centre.y) - circle.radius);
   return out;
 }
 
@@ -104,7 +105,8 @@ Circle fit_circle(const std::vector<cv::Point2d>& points) {
   if (points.size() < 3) return circle;
   // Kasa: x^2 + y^2 = a x + b y + c, about the points' mean for conditioning.
   cv::Point2d mean(0, 0);
-  for (const auto& p : points) mean += p;
+  for (const auto& p : points)
+    mean += p;
   mean *= 1.0 / static_cast<double>(points.size());
   cv::Matx33d ata = cv::Matx33d::zeros();
   cv::Vec3d atb(0, 0, 0);
@@ -144,7 +146,8 @@ Circle fit_circle(const std::vector<cv::Point2d>& points) {
   circle.radius = r;
   circle.points = static_cast<int>(points.size());
   double sum = 0;
-  for (const double e : residuals(points, circle)) sum += e * e;
+  for (const double e : residuals(points, circle))
+    sum += e * e;
   circle.rms_px = std::sqrt(sum / static_cast<double>(points.size()));
   return circle;
 }
@@ -163,9 +166,11 @@ Result<Circle> find_sphere(const std::vector<cv::Mat>& images, const cv::Mat& ma
     cv::compare(grey, 0, nonzero, cv::CMP_NE);
     nonzero.convertTo(silhouette, CV_32F, 1.0 / 255);
   } else {
-    if (images.empty()) return std::unexpected(bad_input(source, "", "no images to find the sphere in"));
+    if (images.empty())
+      return std::unexpected(bad_input(source, "", "no images to find the sphere in"));
     silhouette = images.front().clone();
-    for (const auto& image : images) cv::max(silhouette, image, silhouette);
+    for (const auto& image : images)
+      cv::max(silhouette, image, silhouette);
   }
   const auto not_found = [&](const std::string& why) {
     return std::unexpected(bad_input(
@@ -220,7 +225,8 @@ Result<Circle> find_sphere(const std::vector<cv::Mat>& images, const cv::Mat& ma
     Circle fitted = fit_circle(points);
     auto res = residuals(points, fitted);
     std::vector<double> abs_res;
-    for (const double e : res) abs_res.push_back(std::abs(e));
+    for (const double e : res)
+      abs_res.push_back(std::abs(e));
     const double mad = median(abs_res);
     const double limit = std::max(0.5, 3 * 1.4826 * mad);
     std::vector<cv::Point2d> kept;

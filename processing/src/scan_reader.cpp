@@ -377,9 +377,10 @@ Result<Scan> read_scan_unguarded(const fs::path& directory) {
         const int colours = std::min(3, image.channels());
         for (int c = 1; c < colours; ++c)
           if (cv::countNonZero(planes[c] != planes[0]) > 0)
-            return std::unexpected(frame_error(
-                request, "is a colour image whose channels differ; a mask is grey, or RGB with "
-                         "R = G = B (nonzero = use): save it as a grey PNG"));
+            return std::unexpected(
+                frame_error(request,
+                            "is a colour image whose channels differ; a mask is grey, or RGB with "
+                            "R = G = B (nonzero = use): save it as a grey PNG"));
         grey = planes[0];
       }
       cv::compare(grey, 0, scan.mask, cv::CMP_NE);  // any nonzero value, of any depth, selects

@@ -56,8 +56,7 @@ double sample(const SphereTarget& target, double radius, double dx, double dy,
 cv::Mat render(const SphereTarget& target, const cv::Vec3d* direction) {
   const cv::Point2d centre = target.centre_px();
   const double radius = target.radius_px();
-  const double cos_led =
-      std::cos(target.led_angular_diameter_deg / 2 * std::numbers::pi / 180);
+  const double cos_led = std::cos(target.led_angular_diameter_deg / 2 * std::numbers::pi / 180);
   cv::Mat out(target.size, CV_32FC3);
   for (int row = 0; row < target.size.height; ++row) {
     auto* line = out.ptr<cv::Vec3f>(row);
@@ -116,6 +115,8 @@ cv::Mat render_sphere(const SphereTarget& target, const cv::Vec3d& direction) {
   return render(target, &unit);
 }
 
-cv::Mat render_sphere_ambient(const SphereTarget& target) { return render(target, nullptr); }
+cv::Mat render_sphere_ambient(const SphereTarget& target) {
+  return render(target, nullptr);
+}
 
 }  // namespace psrig::sim

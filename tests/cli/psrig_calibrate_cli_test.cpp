@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <fstream>
+#include <map>
 #include <numbers>
 #include <sstream>
 
@@ -12,7 +13,6 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
-#include <map>
 
 #include "psrig/calibration/image_set.h"
 #include "psrig/calibration/light_calibration.h"
@@ -91,8 +91,8 @@ TEST(PsrigCalibrate, ChromeSphereOnTheSimulatedRigGivesTheConfiguredDirections) 
   EXPECT_TRUE(fs::exists(version / "captures" / "chrome-1" / "led2.png"));
   EXPECT_EQ(c["lights"]["sources"]["chrome"]["images"][0], "captures/chrome-0/led0.png");
   // A second run is the next version, and current.
-  ASSERT_EQ(run_program("psrig", {"calibrate", "lights", "--config", config.string(), "-q",
-                                  "--frames", "1"})
+  ASSERT_EQ(run_program("psrig",
+                        {"calibrate", "lights", "--config", config.string(), "-q", "--frames", "1"})
                 .exit_code,
             0);
   EXPECT_TRUE(fs::exists(temp / "state" / "calibrations" / "0002" / "calibration.json"));
@@ -103,7 +103,8 @@ TEST(PsrigCalibrate, ChromeSphereOnTheSimulatedRigGivesTheConfiguredDirections) 
 // tilt the Lambertian fit by half a degree; the flat field corrects that.
 TEST(PsrigCalibrate, MatteSphereOnTheSimulatedRigGivesDirectionsAndIntensities) {
   TempDir temp;
-  const auto config = sim_config(temp, {{"vignetting", "0"}, {"max_on_ms", "5000\nintensity = [1.0, 0.8, 0.9]"}});
+  const auto config =
+      sim_config(temp, {{"vignetting", "0"}, {"max_on_ms", "5000\nintensity = [1.0, 0.8, 0.9]"}});
   auto run = run_program("psrig", {"calibrate", "lights", "--config", config.string(), "--target",
                                    "matte", "--frames", "1"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -117,8 +118,8 @@ TEST(PsrigCalibrate, MatteSphereOnTheSimulatedRigGivesDirectionsAndIntensities) 
 TEST(PsrigCalibrate, FromImagesToAFileAndBadInputsWriteNothing) {
   TempDir temp;
   const auto config = sim_config(temp);
-  ASSERT_EQ(run_program("psrig", {"calibrate", "lights", "--config", config.string(), "--frames",
-                                  "1", "-q"})
+  ASSERT_EQ(run_program("psrig",
+                        {"calibrate", "lights", "--config", config.string(), "--frames", "1", "-q"})
                 .exit_code,
             0);
   const fs::path capture = temp / "state" / "calibrations" / "0001" / "captures" / "chrome-0";
@@ -128,14 +129,14 @@ TEST(PsrigCalibrate, FromImagesToAFileAndBadInputsWriteNothing) {
     fs::copy_file(capture / ("led" + std::to_string(k) + ".png"),
                   images / ("led" + std::to_string(k) + ".png"));
   const fs::path out = temp / "cal.json";
-  auto run = run_program("psrig", {"calibrate", "lights", "--images", images.string(), "--out",
-                                   out.string()});
+  auto run = run_program(
+      "psrig", {"calibrate", "lights", "--images", images.string(), "--out", out.string()});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   // The stored frames keep the black level and the room light: still within 0.3 deg.
   expect_sim_answer(read_json(out), {}, "chrome from --images");
   // Never overwritten.
-  auto again = run_program("psrig", {"calibrate", "lights", "--images", images.string(), "--out",
-                                     out.string()});
+  auto again = run_program(
+      "psrig", {"calibrate", "lights", "--images", images.string(), "--out", out.string()});
   EXPECT_EQ(again.exit_code, 2);
   EXPECT_TRUE(contains(again.err, out.string()) && contains(again.err, "exists")) << again.err;
 
@@ -157,8 +158,8 @@ TEST(PsrigCalibrate, FromImagesToAFileAndBadInputsWriteNothing) {
   for (int k = 0; k < 3; ++k)
     fs::copy_file(k == 1 ? capture / "dark.png" : capture / ("led" + std::to_string(k) + ".png"),
                   missing / ("led" + std::to_string(k) + ".png"));
-  expect_refused({"--images", missing.string(), "--mask", (temp / "mask.png").string()},
-                 "mask.png", "");  // the mask does not exist yet: unreadable file, named
+  expect_refused({"--images", missing.string(), "--mask", (temp / "mask.png").string()}, "mask.png",
+                 "");  // the mask does not exist yet: unreadable file, named
   cv::Mat mask(480, 640, CV_8U, cv::Scalar(0));
   cv::circle(mask, {320, 240}, 200, cv::Scalar(255), -1);
   cv::imwrite((temp / "mask.png").string(), mask);
@@ -177,7 +178,9 @@ TEST(PsrigCalibrate, FromImagesToAFileAndBadInputsWriteNothing) {
   // An unreadable image.
   const fs::path broken = temp / "broken";
   fs::create_directories(broken);
-  for (int k = 0; k < 3; ++k) fs::copy_file(images / ("led" + std::to_string(k) + ".png"), broken / ("led" + std::to_string(k) + ".png"));
+  for (int k = 0; k < 3; ++k)
+    fs::copy_file(images / ("led" + std::to_string(k) + ".png"),
+                  broken / ("led" + std::to_string(k) + ".png"));
   std::ofstream(broken / "led1.png") << "not a png";
   expect_refused({"--images", broken.string()}, (broken / "led1.png").string(), "");
   // No output named.
@@ -201,7 +204,8 @@ TEST(PsrigImport, BadInputsExitTwoAndWriteNothing) {
   EXPECT_TRUE(contains(count.err, folder.string()) && contains(count.err, "holds 4 images"))
       << count.err;
   EXPECT_FALSE(fs::exists(out));
-  std::ofstream(temp / "four.txt") << "4\n0.5 0 0.866\n-0.25 0.433 0.866\n-0.25 -0.433 0.866\n0 0 -1\n";
+  std::ofstream(temp / "four.txt")
+      << "4\n0.5 0 0.866\n-0.25 0.433 0.866\n-0.25 -0.433 0.866\n0 0 -1\n";
   auto below = run_program("psrig", {"import", folder.string(), "--directions",
                                      (temp / "four.txt").string(), "--out", out.string()});
   EXPECT_EQ(below.exit_code, 2);
@@ -225,9 +229,9 @@ TEST(PsrigImport, UwCse455ObjectsImportAndProcessWithTheChromeCalibration) {
   if (!data) GTEST_SKIP() << "../shared/data/uw-cse455 is absent";
   TempDir temp;
   const fs::path cal = temp / "calibration.json";
-  auto calibrate = run_program("psrig", {"calibrate", "lights", "--images",
-                                         (*data / "chrome").string(), "--matte",
-                                         (*data / "gray").string(), "--out", cal.string()});
+  auto calibrate =
+      run_program("psrig", {"calibrate", "lights", "--images", (*data / "chrome").string(),
+                            "--matte", (*data / "gray").string(), "--out", cal.string()});
   ASSERT_EQ(calibrate.exit_code, 0) << calibrate.err;
   std::printf("%s", calibrate.out.c_str());
   for (const std::string object : {"gray", "cat"}) {
@@ -250,7 +254,8 @@ TEST(PsrigImport, UwCse455ObjectsImportAndProcessWithTheChromeCalibration) {
   ASSERT_TRUE(sphere);
   const cv::Mat p = cv::imread((temp / "gray" / "maps" / "p.exr").string(), cv::IMREAD_UNCHANGED);
   const cv::Mat q = cv::imread((temp / "gray" / "maps" / "q.exr").string(), cv::IMREAD_UNCHANGED);
-  const cv::Mat valid = cv::imread((temp / "gray" / "maps" / "mask.png").string(), cv::IMREAD_UNCHANGED);
+  const cv::Mat valid =
+      cv::imread((temp / "gray" / "maps" / "mask.png").string(), cv::IMREAD_UNCHANGED);
   ASSERT_FALSE(p.empty() || q.empty() || valid.empty());
   double sum = 0;
   int count = 0;
@@ -270,9 +275,10 @@ TEST(PsrigImport, UwCse455ObjectsImportAndProcessWithTheChromeCalibration) {
   ASSERT_GT(count, 10000);
   std::sort(errors.begin(), errors.end());
   const double mean = sum / count;
-  std::printf("uw-cse455 gray sphere with the chrome calibration: mean angular error %.2f deg, "
-              "median %.2f deg over %d pixels\n",
-              mean, errors[errors.size() / 2], count);
+  std::printf(
+      "uw-cse455 gray sphere with the chrome calibration: mean angular error %.2f deg, "
+      "median %.2f deg over %d pixels\n",
+      mean, errors[errors.size() / 2], count);
   EXPECT_LT(mean, 8.0);
 }
 

@@ -2,6 +2,8 @@
 // spheres (on the simulated targets, whose answer is known, and on the
 // uw-cse455 captures), the image folder and mask rules, the store.
 
+#include "psrig/calibration/light_calibration.h"
+
 #include <cmath>
 #include <cstdio>
 #include <fstream>
@@ -13,7 +15,6 @@
 
 #include "psrig/calibration/calibration_store.h"
 #include "psrig/calibration/image_set.h"
-#include "psrig/calibration/light_calibration.h"
 #include "psrig/calibration/sphere.h"
 #include "psrig/processing/light_matrix.h"
 #include "psrig/processing/scan_reader.h"
@@ -79,7 +80,8 @@ TEST(LightCalibration, FindsARenderedSphereToAQuarterOfAPixel) {
     const auto t = target(kind);
     std::vector<cv::Mat> images;
     for (const auto& l : test_lights())
-      images.push_back(expose(sim::render_sphere(t, l), kind == sim::SphereKind::matte ? 1.5 : 3, rng));
+      images.push_back(
+          expose(sim::render_sphere(t, l), kind == sim::SphereKind::matte ? 1.5 : 3, rng));
     auto circle = find_sphere(images, {}, "renders");
     ASSERT_TRUE(circle) << circle.error().describe();
     SCOPED_TRACE(kind == sim::SphereKind::matte ? "matte" : "chrome");
@@ -103,7 +105,8 @@ TEST(LightCalibration, ChromeDirectionsWithinThreeTenthsOfADegree) {
     lights.push_back(frames);
   }
   std::vector<cv::Mat> all;
-  for (const auto& l : lights) all.push_back(l.frames.front().image);
+  for (const auto& l : lights)
+    all.push_back(l.frames.front().image);
   auto circle = find_sphere(all, {}, "renders");
   ASSERT_TRUE(circle);
   // The highlights alone, with the true circle: a tenth of a degree.
@@ -132,7 +135,8 @@ TEST(LightCalibration, MatteDirectionsAndRelativeIntensities) {
     lights.push_back({{{expose(sim::render_sphere(t, test_lights()[k]), 1.5 * intensity[k], rng),
                         "matte.png"}}});
   std::vector<cv::Mat> all;
-  for (const auto& l : lights) all.push_back(l.frames.front().image);
+  for (const auto& l : lights)
+    all.push_back(l.frames.front().image);
   auto circle = find_sphere(all, {}, "renders");
   ASSERT_TRUE(circle);
   auto estimates = calibrate_matte(lights, *circle, {});
@@ -223,13 +227,16 @@ TEST(LightCalibration, ScanReaderTakesAnRgbMaskWithEqualChannels) {
     cv::imwrite((temp / ("led" + std::to_string(k) + ".png")).string(),
                 cv::Mat(8, 8, CV_8U, cv::Scalar(100)));
     const cv::Vec3d d = processing::light_direction(120.0 * k, 45);
-    lights.push_back({{"image", "led" + std::to_string(k) + ".png"}, {"direction", {d[0], d[1], d[2]}}});
+    lights.push_back(
+        {{"image", "led" + std::to_string(k) + ".png"}, {"direction", {d[0], d[1], d[2]}}});
   }
   cv::Mat rgb(8, 8, CV_8UC3, cv::Scalar(0, 0, 0));
   rgb(cv::Rect(0, 0, 4, 8)).setTo(cv::Scalar(255, 255, 255));
   cv::imwrite((temp / "mask.png").string(), rgb);
   std::ofstream(temp / "scan.json") << nlohmann::json{
-      {"format", "psrig-scan/1"}, {"lights", lights}, {"mask", "mask.png"}}.dump();
+      {"format", "psrig-scan/1"},
+      {"lights", lights},
+      {"mask", "mask.png"}}.dump();
   auto scan = processing::read_scan(temp.path());
   ASSERT_TRUE(scan) << scan.error().describe();
   EXPECT_EQ(cv::countNonZero(scan->mask), 32);
@@ -255,8 +262,7 @@ TEST(LightCalibration, StoreNumbersVersionsAndTheNewestIsCurrent) {
   for (int version = 1; version <= 2; ++version) {
     auto staging = store.begin_next();
     ASSERT_TRUE(staging) << staging.error().describe();
-    ASSERT_TRUE(write_new_file(staging->path() / kCalibrationFile,
-                               to_json(c, utc_now()).dump(2)));
+    ASSERT_TRUE(write_new_file(staging->path() / kCalibrationFile, to_json(c, utc_now()).dump(2)));
     ASSERT_TRUE(staging->commit(processing::AtomicDirectory::Existing::refuse, true));
   }
   ASSERT_EQ(store.versions().size(), 2u);
@@ -296,7 +302,8 @@ TEST(LightCalibration, UwCse455ChromeDirectionsAgreeBetweenChannelsAndWithTheGra
       if (channels_as_frames) {
         std::vector<cv::Mat> planes;
         cv::split(linear, planes);
-        for (const auto& plane : planes) frames.frames.push_back({plane, file});
+        for (const auto& plane : planes)
+          frames.frames.push_back({plane, file});
       } else {
         frames.frames.push_back({*read_linear_grey(file, processing::Encoding::linear), file});
       }
@@ -316,10 +323,10 @@ TEST(LightCalibration, UwCse455ChromeDirectionsAgreeBetweenChannelsAndWithTheGra
     worst = std::max(worst, *d.frames_spread_deg);
     sum += *d.frames_spread_deg;
   }
-  std::printf("uw-cse455 chrome: sphere (%.2f, %.2f) r %.2f px; R/G/B directions agree to %.3f "
-              "deg RMS on average, %.3f deg at worst\n",
-              chrome_sphere->centre.x, chrome_sphere->centre.y, chrome_sphere->radius,
-              sum / 12, worst);
+  std::printf(
+      "uw-cse455 chrome: sphere (%.2f, %.2f) r %.2f px; R/G/B directions agree to %.3f "
+      "deg RMS on average, %.3f deg at worst\n",
+      chrome_sphere->centre.x, chrome_sphere->centre.y, chrome_sphere->radius, sum / 12, worst);
   EXPECT_LT(worst, 0.5);
 
   const auto [gray, gray_mask] = load(*data / "gray", false);

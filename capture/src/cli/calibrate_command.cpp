@@ -57,11 +57,11 @@ Result<SphereSet> load_folder(const std::string& role, const fs::path& folder,
   if (!listed) return std::unexpected(listed.error());
   const std::size_t count = listed->images.size();
   if (count % static_cast<std::size_t>(frames_per_light) != 0)
-    return std::unexpected(bad_input(
-        folder, "--frames",
-        "holds " + std::to_string(count) + " images, not a whole number of lights at " +
-            std::to_string(frames_per_light) +
-            " frames each; give --frames to match, or remove the extra images"));
+    return std::unexpected(
+        bad_input(folder, "--frames",
+                  "holds " + std::to_string(count) + " images, not a whole number of lights at " +
+                      std::to_string(frames_per_light) +
+                      " frames each; give --frames to match, or remove the extra images"));
   if (count / frames_per_light < 3)
     return std::unexpected(bad_input(folder, "",
                                      "holds images of " + std::to_string(count / frames_per_light) +
@@ -106,7 +106,8 @@ Result<SphereSet> load_captures(const std::string& role, const std::vector<fs::p
       lineariser.convert(continuous.data,
                          static_cast<int>(continuous.total()) * continuous.channels(),
                          linear.ptr<float>());
-      if (linear.channels() == 3) cv::transform(linear, linear, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
+      if (linear.channels() == 3)
+        cv::transform(linear, linear, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
       return linear;
     };
     const cv::Mat dark = scan->dark.empty() ? cv::Mat() : linear_grey(scan->dark);
@@ -125,7 +126,8 @@ Result<SphereSet> load_captures(const std::string& role, const std::vector<fs::p
 Result<calibration::Circle> locate(const SphereSet& set) {
   std::vector<cv::Mat> all;
   for (const auto& light : set.lights)
-    for (const auto& frame : light.frames) all.push_back(frame.image);
+    for (const auto& frame : light.frames)
+      all.push_back(frame.image);
   return calibration::find_sphere(all, set.mask, set.mask_file ? *set.mask_file : set.source);
 }
 
@@ -136,11 +138,11 @@ Result<calibration::LightCalibration> compute(const SphereSet* chrome, const Sph
   result.camera = camera;
   result.method = chrome && matte ? "chrome+matte" : chrome ? "chrome" : "matte";
   if (chrome && matte && chrome->lights.size() != matte->lights.size())
-    return std::unexpected(bad_input(
-        matte->source, "--matte",
-        "holds images of " + std::to_string(matte->lights.size()) + " lights but " +
-            chrome->source.string() + " of " + std::to_string(chrome->lights.size()) +
-            "; give both spheres under the same lights"));
+    return std::unexpected(bad_input(matte->source, "--matte",
+                                     "holds images of " + std::to_string(matte->lights.size()) +
+                                         " lights but " + chrome->source.string() + " of " +
+                                         std::to_string(chrome->lights.size()) +
+                                         "; give both spheres under the same lights"));
   if (chrome) {
     auto sphere = locate(*chrome);
     if (!sphere) return std::unexpected(sphere.error());
@@ -166,7 +168,8 @@ nlohmann::json describe_sources(const SphereSet& set, const fs::path& relative_t
     return relative_to.empty() ? fs::absolute(file).lexically_normal().string()
                                : file.lexically_relative(relative_to).string();
   };
-  for (const auto& file : set.files) files.push_back(name(file));
+  for (const auto& file : set.files)
+    files.push_back(name(file));
   std::size_t frames = set.lights.empty() ? 0 : set.lights.front().frames.size();
   return {{"images", files},
           {"frames_per_light", frames},
@@ -185,8 +188,8 @@ void print_calibration(const calibration::LightCalibration& c) {
                 c.matte_sphere->rms_px);
   for (std::size_t k = 0; k < lights.size(); ++k) {
     const auto& l = lights[k];
-    std::printf("light %zu: tilt %7.2f deg, slant %6.2f deg, intensity %.3f, +/- %.3f deg",
-                k, calibration::tilt_deg(l.direction), calibration::slant_deg(l.direction),
+    std::printf("light %zu: tilt %7.2f deg, slant %6.2f deg, intensity %.3f, +/- %.3f deg", k,
+                calibration::tilt_deg(l.direction), calibration::slant_deg(l.direction),
                 l.intensity, l.uncertainty_deg);
     if (k < c.chrome.size() && c.chrome[k].frames_spread_deg && c.chrome[k].frames > 1)
       std::printf(", frames agree to %.3f deg", *c.chrome[k].frames_spread_deg);
@@ -206,7 +209,9 @@ Result<SphereSet> copy_into(const SphereSet& set, const fs::path& version) {
   for (const auto& file : set.files) {
     const fs::path target = directory / file.filename();
     fs::copy_file(file, target, ec);
-    if (ec) return std::unexpected(io_error(target, "cannot copy " + file.string() + ": " + ec.message()));
+    if (ec)
+      return std::unexpected(
+          io_error(target, "cannot copy " + file.string() + ": " + ec.message()));
     copied.files.push_back(target);
   }
   if (set.mask_file) {
@@ -221,7 +226,8 @@ Result<SphereSet> copy_into(const SphereSet& set, const fs::path& version) {
 int write_to_store(const config::RigConfig& config, processing::AtomicDirectory staging,
                    calibration::LightCalibration& result, bool quiet) {
   const std::string text = calibration::to_json(result, calibration::utc_now()).dump(2) + "\n";
-  if (auto ok = calibration::write_new_file(staging.path() / calibration::kCalibrationFile, text); !ok)
+  if (auto ok = calibration::write_new_file(staging.path() / calibration::kCalibrationFile, text);
+      !ok)
     return report_error("calibrate lights", ok.error());
   const fs::path target = staging.target();
   if (auto ok = staging.commit(processing::AtomicDirectory::Existing::refuse, true); !ok)
@@ -339,7 +345,8 @@ int run_on_rig(const CalibrateArgs& args) {
 
 Command add_calibrate_command(CLI::App& parent) {
   auto args = std::make_shared<CalibrateArgs>();
-  CLI::App* app = parent.add_subcommand("calibrate", "Measure the rig: light directions and intensities");
+  CLI::App* app =
+      parent.add_subcommand("calibrate", "Measure the rig: light directions and intensities");
   CLI::App* lights = app->add_subcommand(
       "lights", "Light directions (chrome sphere) and relative intensities (matte sphere)");
   app->require_subcommand(1);
@@ -352,22 +359,28 @@ Command add_calibrate_command(CLI::App& parent) {
   lights->add_option("--target", args->target, "The sphere: chrome or matte")
       ->check(CLI::IsMember({"chrome", "matte"}))
       ->capture_default_str();
-  lights->add_option("--frames", args->frames,
-                     "Captures per light on the rig (default 3), or consecutive images per light "
-                     "in --images (default 1); their directions are averaged")
+  lights
+      ->add_option("--frames", args->frames,
+                   "Captures per light on the rig (default 3), or consecutive images per light "
+                   "in --images (default 1); their directions are averaged")
       ->check(CLI::Range(1, 64));
-  lights->add_option("--mask", args->mask,
-                     "Mask of the sphere in --images (nonzero on it; default: the folder's file "
-                     "whose name ends in \"mask\", else the sphere is found in the images)")
+  lights
+      ->add_option("--mask", args->mask,
+                   "Mask of the sphere in --images (nonzero on it; default: the folder's file "
+                   "whose name ends in \"mask\", else the sphere is found in the images)")
       ->needs(images);
-  auto* matte = lights->add_option("--matte", args->matte,
-                                   "Folder of matte-sphere images under the same lights: "
-                                   "intensities, and chrome vs matte agreement")
+  auto* matte = lights
+                    ->add_option("--matte", args->matte,
+                                 "Folder of matte-sphere images under the same lights: "
+                                 "intensities, and chrome vs matte agreement")
                     ->needs(images);
-  lights->add_option("--matte-mask", args->matte_mask, "Mask of the sphere in --matte")->needs(matte);
-  lights->add_option("--out", args->out, "calibration.json to write (must not exist)")->needs(images);
-  lights->add_option("--focal-px", args->focal_px,
-                     "Camera focal length in pixels: perspective view rays (default: orthographic)")
+  lights->add_option("--matte-mask", args->matte_mask, "Mask of the sphere in --matte")
+      ->needs(matte);
+  lights->add_option("--out", args->out, "calibration.json to write (must not exist)")
+      ->needs(images);
+  lights
+      ->add_option("--focal-px", args->focal_px,
+                   "Camera focal length in pixels: perspective view rays (default: orthographic)")
       ->check(CLI::PositiveNumber);
   lights->add_option("--encoding", args->encoding, "How --images store light: linear or srgb")
       ->check(CLI::IsMember({"linear", "srgb"}))

@@ -7,13 +7,13 @@
 #include <memory>
 #include <sstream>
 
+#include <opencv2/imgproc.hpp>
+
 #include "command.h"
 #include "psrig/calibration/calibration_store.h"
 #include "psrig/calibration/image_set.h"
 #include "psrig/capture/scan_writer.h"
 #include "psrig/processing/image_io.h"
-
-#include <opencv2/imgproc.hpp>
 
 namespace psrig::capture::cli {
 namespace {
@@ -50,7 +50,8 @@ Result<std::vector<calibration::CalibratedLight>> read_directions(const fs::path
     std::istringstream fields(line);
     std::vector<double> values;
     double v = 0;
-    while (fields >> v) values.push_back(v);
+    while (fields >> v)
+      values.push_back(v);
     if (!fields.eof()) {
       Error error = bad_input(file, "", "is not a number list; each line is \"x y z\"");
       error.line = number;
@@ -58,16 +59,18 @@ Result<std::vector<calibration::CalibratedLight>> read_directions(const fs::path
     }
     if (values.empty() || (values.size() == 1 && lights.empty())) continue;
     if (values.size() != 3) {
-      Error error = bad_input(file, "", "has " + std::to_string(values.size()) +
-                                            " numbers; each line is one light's \"x y z\"");
+      Error error = bad_input(
+          file, "",
+          "has " + std::to_string(values.size()) + " numbers; each line is one light's \"x y z\"");
       error.line = number;
       return std::unexpected(error);
     }
     calibration::CalibratedLight light;
     light.direction = {values[0], values[1], values[2]};
     if (!(cv::norm(light.direction) > 0) || light.direction[2] <= 0) {
-      Error error = bad_input(file, "", "gives a direction that does not point toward the camera "
-                                        "(z must be above 0, axes x right, y up, z to camera)");
+      Error error = bad_input(file, "",
+                              "gives a direction that does not point toward the camera "
+                              "(z must be above 0, axes x right, y up, z to camera)");
       error.line = number;
       return std::unexpected(error);
     }
@@ -122,13 +125,14 @@ int run_import(const ImportArgs& args) {
     auto image = processing::read_image(file, "");
     if (!image) return report_error("import", image.error());
     if (image->depth() != CV_8U && image->depth() != CV_16U && image->depth() != CV_32F)
-      return report_error("import",
-                          bad_input(file, "", "has an unsupported pixel type; give 8- or 16-bit "
+      return report_error("import", bad_input(file, "",
+                                              "has an unsupported pixel type; give 8- or 16-bit "
                                               "PNG or 32-bit float TIFF/EXR images"));
     if (image->channels() == 4) cv::cvtColor(*image, *image, cv::COLOR_BGRA2BGR);
     if (image->channels() != 1 && image->channels() != 3)
-      return report_error("import", bad_input(file, "", "has " + std::to_string(image->channels()) +
-                                                            " channels; give grey or RGB images"));
+      return report_error("import", bad_input(file, "",
+                                              "has " + std::to_string(image->channels()) +
+                                                  " channels; give grey or RGB images"));
     if (k > 0) {
       const cv::Mat& first = scan.frames.front();
       if (image->size() != first.size() || image->type() != first.type())
@@ -152,21 +156,22 @@ int run_import(const ImportArgs& args) {
     auto mask = calibration::read_mask(mask_file, "--mask");
     if (!mask) return report_error("import", mask.error());
     if (mask->size() != scan.frames.front().size())
-      return report_error("import", bad_input(mask_file, "--mask",
-                                              "is " + std::to_string(mask->cols) + "x" +
-                                                  std::to_string(mask->rows) +
-                                                  " but the images are " +
-                                                  std::to_string(scan.frames.front().cols) + "x" +
-                                                  std::to_string(scan.frames.front().rows)));
+      return report_error(
+          "import",
+          bad_input(mask_file, "--mask",
+                    "is " + std::to_string(mask->cols) + "x" + std::to_string(mask->rows) +
+                        " but the images are " + std::to_string(scan.frames.front().cols) + "x" +
+                        std::to_string(scan.frames.front().rows)));
     scan.mask = *mask;
     d.mask = "mask.png";
   }
   scan.white_level = processing::full_scale(scan.frames.front().depth());
   d.document = nlohmann::json::object();
-  d.document["capture"] = {{"imported_from", fs::absolute(folder).lexically_normal().string()},
-                           {"files", files},
-                           {"mask", mask_file.empty() ? nlohmann::json(nullptr)
-                                                      : nlohmann::json(mask_file.filename().string())}};
+  d.document["capture"] = {
+      {"imported_from", fs::absolute(folder).lexically_normal().string()},
+      {"files", files},
+      {"mask", mask_file.empty() ? nlohmann::json(nullptr)
+                                 : nlohmann::json(mask_file.filename().string())}};
   d.document["calibration"] = {
       {"file", fs::absolute(light_source).lexically_normal().string()},
       {"kind", args.calibration.empty() ? "directions" : "psrig-calibration/1"}};
@@ -174,7 +179,8 @@ int run_import(const ImportArgs& args) {
   std::error_code ec;
   const fs::path out = args.out;
   if (!out.parent_path().empty()) fs::create_directories(out.parent_path(), ec);
-  if (auto written = write_scan(scan, out); !written) return report_error("import", written.error());
+  if (auto written = write_scan(scan, out); !written)
+    return report_error("import", written.error());
   if (!args.quiet)
     std::printf("%s: %zu lights%s, from %s\n", out.c_str(), lights.size(),
                 mask_file.empty() ? "" : ", masked", folder.c_str());
@@ -202,7 +208,8 @@ Command add_import_command(CLI::App& parent) {
   app->add_option("--encoding", args->encoding, "How the images store light: linear or srgb")
       ->check(CLI::IsMember({"linear", "srgb"}))
       ->capture_default_str();
-  app->add_option("--sample-id", args->sample_id, "The sample's label (default: the folder's name)");
+  app->add_option("--sample-id", args->sample_id,
+                  "The sample's label (default: the folder's name)");
   app->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
   return {app, [args] {
             if (args->calibration.empty() && args->directions.empty()) {

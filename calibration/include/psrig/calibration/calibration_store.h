@@ -32,8 +32,8 @@ struct LightCalibration {
   CameraModel camera;
   std::optional<Circle> chrome_sphere;
   std::optional<Circle> matte_sphere;
-  std::vector<LightEstimate> chrome;  // per light, when a chrome sphere was given
-  std::vector<LightEstimate> matte;   // per light, when a matte sphere was given
+  std::vector<LightEstimate> chrome;                  // per light, when a chrome sphere was given
+  std::vector<LightEstimate> matte;                   // per light, when a matte sphere was given
   nlohmann::json sources = nlohmann::json::object();  // the captures, by role
 };
 
