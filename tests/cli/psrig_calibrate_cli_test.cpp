@@ -96,6 +96,36 @@ TEST(PsrigCalibrate, ChromeSphereOnTheSimulatedRigGivesTheConfiguredDirections) 
                 .exit_code,
             0);
   EXPECT_TRUE(fs::exists(temp / "state" / "calibrations" / "0002" / "calibration.json"));
+
+  // A scan on the rig now uses the current calibration and says so.
+  const fs::path scan = temp / "scan";
+  auto scanned = run_program(
+      "psrig", {"scan", "--config", config.string(), "--out", scan.string(), "--no-process", "-q"});
+  ASSERT_EQ(scanned.exit_code, 0) << scanned.err;
+  const json description = read_json(scan / "scan.json");
+  const fs::path current = temp / "state" / "calibrations" / "0002" / "calibration.json";
+  EXPECT_EQ(description["calibration"]["file"], current.string());
+  const json calibrated = read_json(current);
+  for (int k = 0; k < 3; ++k)
+    EXPECT_LT(calibration::angle_deg(direction_of(description["lights"][k]),
+                                     direction_of(calibrated["lights"]["per_light"][k])),
+              1e-3);
+}
+
+TEST(PsrigCalibrate, AScanWithoutACalibrationSaysSoInScanJson) {
+  TempDir temp;
+  const auto config = sim_config(temp);
+  const fs::path scan = temp / "scan";
+  auto scanned = run_program(
+      "psrig", {"scan", "--config", config.string(), "--out", scan.string(), "--no-process", "-q"});
+  ASSERT_EQ(scanned.exit_code, 0) << scanned.err;
+  EXPECT_TRUE(scanned.err.empty()) << scanned.err;
+  const json description = read_json(scan / "scan.json");
+  ASSERT_TRUE(description.contains("calibration"));
+  EXPECT_TRUE(description["calibration"].is_null());
+  EXPECT_LT(calibration::angle_deg(direction_of(description["lights"][1]),
+                                   processing::light_direction(120, 45)),
+            1e-3);
 }
 
 // Matte: directions and the relative intensities the configuration sets.
