@@ -202,6 +202,11 @@ TEST(PsrigCalibrate, FromImagesToAFileAndBadInputsWriteNothing) {
     cv::imwrite((blank / ("f" + std::to_string(k) + ".png")).string(),
                 cv::Mat(120, 160, CV_8U, cv::Scalar(10)));
   expect_refused({"--images", blank.string()}, blank.string(), "no sphere found");
+  // Into a rig's store instead: no new version.
+  auto into_store = run_program("psrig", {"calibrate", "lights", "--images", blank.string(),
+                                          "--config", config.string()});
+  EXPECT_EQ(into_store.exit_code, 2) << into_store.err;
+  EXPECT_FALSE(fs::exists(temp / "state" / "calibrations" / "0002"));
   // Wrong image count for --frames.
   expect_refused({"--images", images.string(), "--frames", "2"}, images.string(),
                  "not a whole number of lights");
