@@ -203,8 +203,8 @@ TEST(PsrigCalibrate, FromImagesToAFileAndBadInputsWriteNothing) {
                 cv::Mat(120, 160, CV_8U, cv::Scalar(10)));
   expect_refused({"--images", blank.string()}, blank.string(), "no sphere found");
   // Into a rig's store instead: no new version.
-  auto into_store = run_program("psrig", {"calibrate", "lights", "--images", blank.string(),
-                                          "--config", config.string()});
+  auto into_store = run_program(
+      "psrig", {"calibrate", "lights", "--images", blank.string(), "--config", config.string()});
   EXPECT_EQ(into_store.exit_code, 2) << into_store.err;
   EXPECT_FALSE(fs::exists(temp / "state" / "calibrations" / "0002"));
   // Wrong image count for --frames.
@@ -254,6 +254,43 @@ TEST(PsrigImport, BadInputsExitTwoAndWriteNothing) {
   EXPECT_EQ(not_cal.exit_code, 2);
   EXPECT_TRUE(contains(not_cal.err, "three.txt")) << not_cal.err;
   EXPECT_FALSE(fs::exists(out));
+}
+
+// A directions file (the count line first, as some datasets write it) and
+// an RGB mask with R = G = B: a scan `psrig process` takes.
+TEST(PsrigImport, ADirectionsFileAndAnRgbMaskMakeAProcessableScan) {
+  TempDir temp;
+  const fs::path folder = temp / "images";
+  fs::create_directories(folder);
+  const std::vector<cv::Vec3d> lights = {processing::light_direction(0, 40),
+                                         processing::light_direction(120, 40),
+                                         processing::light_direction(240, 40)};
+  std::ofstream directions(temp / "lights.txt");
+  directions << "3\n";
+  for (int k = 0; k < 3; ++k) {
+    // A tilted plane, n = (0.1, 0.2, 1) normalised, albedo 0.6.
+    const cv::Vec3d n = cv::normalize(cv::Vec3d(0.1, 0.2, 1));
+    cv::imwrite(
+        (folder / ("obj." + std::to_string(k) + ".png")).string(),
+        cv::Mat(24, 32, CV_8UC3, cv::Scalar::all(std::round(255 * 0.6 * n.dot(lights[k])))));
+    directions << lights[k][0] << ", " << lights[k][1] << ", " << lights[k][2] << "\n";
+  }
+  directions.close();
+  cv::Mat mask(24, 32, CV_8UC3, cv::Scalar::all(255));
+  cv::imwrite((folder / "obj.mask.png").string(), mask);
+  const fs::path scan = temp / "nested" / "scan";
+  auto import = run_program("psrig", {"import", folder.string(), "--directions",
+                                      (temp / "lights.txt").string(), "--out", scan.string()});
+  ASSERT_EQ(import.exit_code, 0) << import.err;
+  EXPECT_EQ(read_json(scan / "scan.json")["calibration"]["kind"], "directions");
+  auto process = run_program("psrig", {"process", scan.string(), "-q"});
+  ASSERT_EQ(process.exit_code, 0) << process.err;
+  const cv::Mat p = cv::imread((scan / "maps" / "p.exr").string(), cv::IMREAD_UNCHANGED);
+  EXPECT_NEAR(p.at<float>(12, 16), -0.1, 0.02);
+  // Never over an existing scan.
+  auto again = run_program("psrig", {"import", folder.string(), "--directions",
+                                     (temp / "lights.txt").string(), "--out", scan.string()});
+  EXPECT_EQ(again.exit_code, 2) << again.err;
 }
 
 // uw-cse455: calibrate from chrome/ (its mask), import an object and the
