@@ -9,6 +9,8 @@
 namespace psrig::calibration {
 namespace {
 
+constexpr int kRays = 720;  // edge points looked for round the circle
+
 double bilinear(const cv::Mat& image, double x, double y) {
   x = std::clamp(x, 0.0, image.cols - 1.0);
   y = std::clamp(y, 0.0, image.rows - 1.0);
@@ -37,7 +39,6 @@ double median(std::vector<double> values) {
 // toward its rim).
 std::vector<cv::Point2d> edge_points(const cv::Mat& silhouette, const Circle& circle, bool near) {
   std::vector<cv::Point2d> points;
-  constexpr int kRays = 720;
   const double r = circle.radius;
   const double step = 0.25;
   const double from = std::max(0.0, r - std::max(4.0, 0.12 * r));
@@ -235,6 +236,13 @@ Result<Circle> find_sphere(const std::vector<cv::Mat>& images, const cv::Mat& ma
     if (kept.size() < 60) return not_found("its outline is not round");
     circle = fit_circle(kept);
   }
+  // A sphere's outline is a circle all round: most rays find its edge, and
+  // on the circle. A cat, a bust or a chrome sphere's dim reflections do not.
+  if (circle.points < kRays * 3 / 4 || circle.rms_px > 0.8)
+    return not_found(
+        "the brightest round blob is not a sphere's outline (" + std::to_string(circle.points) +
+        " of " + std::to_string(kRays) + " rays find its edge on one circle, " +
+        std::to_string(std::lround(circle.rms_px * 100) / 100.0).substr(0, 4) + " px RMS off it)");
   if (circle.centre.x - circle.radius < -1 || circle.centre.y - circle.radius < -1 ||
       circle.centre.x + circle.radius > silhouette.cols ||
       circle.centre.y + circle.radius > silhouette.rows)
