@@ -3,6 +3,7 @@
 // in its calibration store, or computed from images already taken
 // (--images DIR, written to --out FILE or to the rig's store).
 
+#include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <optional>
@@ -256,6 +257,12 @@ int run_from_images(const CalibrateArgs& args) {
   if (!first) return report_error("calibrate lights", first.error());
   (args.target == "chrome" ? chrome : matte) = std::move(*first);
   if (!args.matte.empty()) {
+    if (args.target == "matte") {
+      std::fprintf(stderr,
+                   "psrig calibrate lights: error: --matte DIR is the matte sphere beside a "
+                   "chrome one in --images; with --target matte, --images is the matte sphere\n");
+      return 2;
+    }
     auto second = load_folder("matte", args.matte, args.matte_mask, per_light, encoding);
     if (!second) return report_error("calibrate lights", second.error());
     matte = std::move(*second);
@@ -279,6 +286,14 @@ int run_from_images(const CalibrateArgs& args) {
   int exit_code = 0;
   auto config = load_config_or_report("calibrate lights", args.config, exit_code);
   if (!config) return exit_code;
+  const std::size_t lights = std::max(result->chrome.size(), result->matte.size());
+  if (lights != static_cast<std::size_t>(config->lights.channels))
+    return report_error(
+        "calibrate lights",
+        bad_input(args.images, "",
+                  "holds images of " + std::to_string(lights) + " lights but " + args.config +
+                      " has " + std::to_string(config->lights.channels) +
+                      " (lights.channels); give one image per LED of that rig, or --out FILE"));
   calibration::CalibrationStore store(config->storage.root);
   auto staging = store.begin_next();
   if (!staging) return report_error("calibrate lights", staging.error());
@@ -335,7 +350,13 @@ int run_on_rig(const CalibrateArgs& args) {
   calibration::CameraModel camera{args.focal_px};
   auto result = compute(args.target == "chrome" ? &*set : nullptr,
                         args.target == "matte" ? &*set : nullptr, camera, 0.95);
-  if (!result) return report_error("calibrate lights", result.error());
+  if (!result) {
+    // Its captures go with the refused calibration: name the rig instead.
+    Error error = result.error();
+    error.message = "the " + args.target + " sphere as captured: " + error.message;
+    error.file = config->source;
+    return report_error("calibrate lights", error);
+  }
   result->sources[args.target] = describe_sources(*set, staging->path());
   result->sources["rig"] = fs::absolute(config->source).lexically_normal().string();
   return write_to_store(*config, std::move(*staging), *result, args.quiet);
