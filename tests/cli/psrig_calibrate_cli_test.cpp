@@ -97,6 +97,13 @@ TEST(PsrigCalibrate, ChromeSphereOnTheSimulatedRigGivesTheConfiguredDirections) 
             0);
   EXPECT_TRUE(fs::exists(temp / "state" / "calibrations" / "0002" / "calibration.json"));
 
+  auto check = run_program("psrig", {"config", "check", config.string()});
+  EXPECT_EQ(check.exit_code, 0) << check.err;
+  EXPECT_TRUE(contains(
+      check.out, "light calibration: " +
+                     (temp / "state" / "calibrations" / "0002" / "calibration.json").string()))
+      << check.out;
+
   // A scan on the rig now uses the current calibration and says so.
   const fs::path scan = temp / "scan";
   auto scanned = run_program(
@@ -123,6 +130,8 @@ TEST(PsrigCalibrate, AScanWithoutACalibrationSaysSoInScanJson) {
   const json description = read_json(scan / "scan.json");
   ASSERT_TRUE(description.contains("calibration"));
   EXPECT_TRUE(description["calibration"].is_null());
+  auto check = run_program("psrig", {"config", "check", config.string()});
+  EXPECT_TRUE(contains(check.out, "light calibration: none")) << check.out;
   EXPECT_LT(calibration::angle_deg(direction_of(description["lights"][1]),
                                    processing::light_direction(120, 45)),
             1e-3);
