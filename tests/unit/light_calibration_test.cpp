@@ -266,6 +266,37 @@ TEST(LightCalibration, ScanReaderTakesAnRgbMaskWithEqualChannels) {
   EXPECT_EQ(refused.error().key, "mask");
 }
 
+// A palette PNG (colour type 3: black and white entries), 32x24, the
+// middle 16 columns white, as some tools save masks.
+TEST(LightCalibration, ScanReaderTakesAPaletteMask) {
+  static const char kPng[] =
+      "\x89\x50\x4e\x47\x0d\x0a\x1a\x0a\x00\x00\x00\x0d\x49\x48\x44\x52\x00\x00\x00\x20\x00\x00\x00"
+      "\x18\x08\x03\x00\x00\x00\xac\x8d\x0f\x06\x00\x00\x00\x06\x50\x4c\x54\x45\x00\x00\x00\xff\xff"
+      "\xff\xa5\xd9\x9f\xdd\x00\x00\x00\x17\x49\x44\x41\x54\x78\x9c\x63\x60\x80\x02\x46\x34\xc0\x80"
+      "\x0e\x46\x15\x8c\x2a\x18\x39\x0a\x00\x55\x36\x01\x81\xdc\x60\x37\xe3\x00\x00\x00\x00\x49\x45"
+      "\x4e\x44\xae\x42\x60\x82";
+  TempDir temp;
+  nlohmann::json lights = nlohmann::json::array();
+  for (int k = 0; k < 3; ++k) {
+    cv::imwrite((temp / ("led" + std::to_string(k) + ".png")).string(),
+                cv::Mat(24, 32, CV_8U, cv::Scalar(100)));
+    const cv::Vec3d d = processing::light_direction(120.0 * k, 45);
+    lights.push_back(
+        {{"image", "led" + std::to_string(k) + ".png"}, {"direction", {d[0], d[1], d[2]}}});
+  }
+  std::ofstream(temp / "mask.png", std::ios::binary).write(kPng, sizeof kPng - 1);
+  std::ofstream(temp / "scan.json") << nlohmann::json{
+      {"format", "psrig-scan/1"},
+      {"lights", lights},
+      {"mask", "mask.png"}}.dump();
+  auto scan = processing::read_scan(temp.path());
+  ASSERT_TRUE(scan) << scan.error().describe();
+  EXPECT_EQ(cv::countNonZero(scan->mask), 16 * 24);
+  auto mask = read_mask(temp / "mask.png");
+  ASSERT_TRUE(mask) << mask.error().describe();
+  EXPECT_EQ(cv::countNonZero(*mask), 16 * 24);
+}
+
 TEST(LightCalibration, StoreNumbersVersionsAndTheNewestIsCurrent) {
   TempDir temp;
   CalibrationStore store(temp.path());
