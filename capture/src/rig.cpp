@@ -1,6 +1,10 @@
 #include "psrig/capture/rig.h"
 
 #include <chrono>
+#include <optional>
+
+#include "psrig/base/log.h"
+#include "psrig/calibration/calibration_store.h"
 
 namespace psrig::capture {
 
@@ -21,8 +25,49 @@ Result<Rig> open_rig(const config::RigConfig& config, bool with_camera,
   return rig;
 }
 
+namespace {
+
+// The rig's current light calibration (storage.root/calibrations), when it
+// has one for as many lights as the configuration.
+std::optional<AppliedCalibration> current_calibration(const config::RigConfig& config) {
+  const calibration::CalibrationStore store(config.storage.root);
+  const auto file = store.current();
+  auto log = logger("capture");
+  if (!file) {
+    log->info(
+        "no light calibration in {}: light directions from {}'s geometry "
+        "(psrig calibrate lights measures them)",
+        store.directory().string(), config.source.string());
+    return std::nullopt;
+  }
+  auto stored = calibration::read_calibration(*file);
+  if (!stored) {
+    log->warn("the current light calibration is unusable, so rig.toml's geometry is used: {}",
+              stored.error().describe());
+    return std::nullopt;
+  }
+  if (stored->lights.size() != static_cast<std::size_t>(config.lights.channels)) {
+    log->warn(
+        "the current light calibration {} has {} lights but the rig {}; rig.toml's "
+        "geometry is used: run psrig calibrate lights again",
+        file->string(), stored->lights.size(), config.lights.channels);
+    return std::nullopt;
+  }
+  AppliedCalibration applied;
+  applied.file = *file;
+  applied.created = stored->document.value("created", std::string());
+  for (const auto& light : stored->lights) {
+    applied.directions.push_back(light.direction);
+    applied.intensities.push_back(light.intensity);
+  }
+  return applied;
+}
+
+}  // namespace
+
 ScanRequest Rig::request(const config::RigConfig& config) const {
   ScanRequest request;
+  request.calibration = current_calibration(config);
   if (world && config.camera.backend == "sim") {
     request.ground_truth_normal = world->swatch().normal;
     request.ground_truth_height = world->swatch().height_mm;

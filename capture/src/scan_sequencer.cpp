@@ -273,12 +273,18 @@ Result<processing::Scan> ScanSequencer::acquire(
       scan.dark = stored;
     } else {
       scan.frames.push_back(stored);
+      const auto channel = static_cast<std::size_t>(phase.channel);
+      const auto& calibrated = request.calibration;
+      const bool use_calibration = calibrated && channel < calibrated->directions.size() &&
+                                   channel < calibrated->intensities.size();
       scan.description.lights.push_back(
           {processing::scan_files::led_frame(phase.channel, stored.depth()),
-           processing::light_direction(
-               config_.geometry.tilts_deg.at(static_cast<std::size_t>(phase.channel)),
-               config_.geometry.slant_deg),
-           cv::Vec3d::all(intensity[phase.channel]), false});
+           use_calibration ? calibrated->directions[channel]
+                           : processing::light_direction(config_.geometry.tilts_deg.at(channel),
+                                                         config_.geometry.slant_deg),
+           cv::Vec3d::all(use_calibration ? calibrated->intensities[channel]
+                                          : intensity[phase.channel]),
+           false});
     }
   }
   if (auto ok = lights_.all_off(); !ok) return std::unexpected(ok.error());
@@ -311,6 +317,11 @@ Result<processing::Scan> ScanSequencer::acquire(
         {"stored_scale", scale},
         {"started", started},
         {"finished", iso_time()}}}};
+  d.document["calibration"] = request.calibration
+                                  ? nlohmann::json{{"file", request.calibration->file.string()},
+                                                   {"created", request.calibration->created},
+                                                   {"applied", nlohmann::json::array({"lights"})}}
+                                  : nlohmann::json(nullptr);
   return scan;
 }
 

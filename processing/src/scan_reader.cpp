@@ -1,5 +1,6 @@
 #include "psrig/processing/scan_reader.h"
 
+#include <algorithm>
 #include <cmath>
 #include <fstream>
 #include <mutex>
@@ -363,9 +364,22 @@ Result<Scan> read_scan_unguarded(const fs::path& directory) {
         return std::unexpected(frame_error(
             request, "is " + describe_image(image) + " but the frames are " +
                          std::to_string(first.cols) + "x" + std::to_string(first.rows)));
-      if (image.channels() != 1)
-        return std::unexpected(frame_error(request, "must be a grey image (nonzero = use)"));
-      cv::compare(image, 0, scan.mask, cv::CMP_NE);  // any nonzero value, of any depth, selects
+      // Grey, or colour whose channels agree: RGB masks with R = G = B and
+      // palette PNGs (which OpenCV expands to BGR) as datasets ship them.
+      cv::Mat grey = image;
+      if (image.channels() != 1) {
+        std::vector<cv::Mat> planes;
+        cv::split(image, planes);
+        const int colours = std::min(3, image.channels());
+        for (int c = 1; c < colours; ++c)
+          if (cv::countNonZero(planes[c] != planes[0]) > 0)
+            return std::unexpected(
+                frame_error(request,
+                            "is a colour image whose channels differ; a mask is grey, or RGB with "
+                            "R = G = B (nonzero = use): save it as a grey PNG"));
+        grey = planes[0];
+      }
+      cv::compare(grey, 0, scan.mask, cv::CMP_NE);  // any nonzero value, of any depth, selects
       continue;
     }
     if (request.key.starts_with("ground_truth")) {

@@ -1,15 +1,29 @@
 #include "psrig/sim/world.h"
 
 #include <cmath>
+#include <optional>
 
 #include "psrig/firmware_host/simulated_rig.h"
 #include "psrig/processing/light_matrix.h"
 #include "psrig/sim/lambertian_render.h"
+#include "psrig/sim/sphere_target.h"
 
 namespace psrig::sim {
 namespace {
 
+std::optional<SphereTarget> sphere_target(const config::SimConfig& sim) {
+  if (sim.target == "swatch") return std::nullopt;
+  SphereTarget target;
+  target.kind = sim.target == "chrome_sphere" ? SphereKind::chrome : SphereKind::matte;
+  target.size = {sim.width, sim.height};
+  target.pixel_size_mm = sim.pixel_size_mm;
+  target.diameter_mm = sim.sphere_diameter_mm;
+  target.led_angular_diameter_deg = sim.led_angular_diameter_deg;
+  return target;
+}
+
 Swatch make_world_swatch(const config::SimConfig& sim) {
+  if (const auto sphere = sphere_target(sim)) return sphere_scene(*sphere);
   SwatchParams params;
   params.pattern = parse_swatch_pattern(sim.pattern).value_or(SwatchPattern::jersey);
   params.size = {sim.width, sim.height};
@@ -24,12 +38,18 @@ World::World(const config::RigConfig& config, std::shared_ptr<firmware_host::Sim
     : swatch_(make_world_swatch(config.sim)),
       leds_(leds ? std::move(leds)
                  : std::make_shared<firmware_host::SimulatedLeds>(config.lights.channels)) {
+  const auto sphere = sphere_target(config.sim);
   for (int k = 0; k < config.lights.channels; ++k) {
     const auto& tilts = config.geometry.tilts_deg;
     const double tilt_deg =
         k < static_cast<int>(tilts.size()) ? tilts[k] : 360.0 * k / config.lights.channels;
     directions_.push_back(processing::light_direction(tilt_deg, config.geometry.slant_deg));
-    radiance_.push_back(render_lambertian(swatch_, {directions_.back(), {1, 1, 1}}, true));
+    radiance_.push_back(sphere ? render_sphere(*sphere, directions_.back())
+                               : render_lambertian(swatch_, {directions_.back(), {1, 1, 1}}, true));
+  }
+  if (sphere) {
+    ambient_ = render_sphere_ambient(*sphere);
+    return;
   }
   // Room light: a bright overcast sky, so a facet sees (1 + n_z) / 2 of it.
   std::vector<cv::Mat> normal;

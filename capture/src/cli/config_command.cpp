@@ -6,6 +6,7 @@
 #include <string>
 
 #include "command.h"
+#include "psrig/calibration/calibration_store.h"
 
 namespace psrig::capture::cli {
 
@@ -29,6 +30,25 @@ Command add_config_command(CLI::App& parent) {
                     config->camera.backend == "sim" ? "" : config->camera.device.c_str(),
                     config->camera.exposure_us, config->camera.gain, config->camera.frames_average);
         std::printf("scans go to: %s\n", config->storage.root.string().c_str());
+        const calibration::CalibrationStore store(config->storage.root);
+        if (const auto current = store.current()) {
+          auto stored = calibration::read_calibration(*current);
+          if (!stored)
+            std::printf("light calibration: %s does not read (%s)\n", current->c_str(),
+                        stored.error().message.c_str());
+          else
+            std::printf("light calibration: %s (%s, %zu lights)%s\n", current->c_str(),
+                        stored->document.value("created", std::string("undated")).c_str(),
+                        stored->lights.size(),
+                        stored->lights.size() == static_cast<std::size_t>(config->lights.channels)
+                            ? ""
+                            : ": not for this rig's lights, so scans use the geometry");
+        } else {
+          std::printf(
+              "light calibration: none in %s; scans use the geometry above (psrig "
+              "calibrate lights measures it)\n",
+              store.directory().c_str());
+        }
         const auto& d = config->daemon;
         std::string modbus = "off";
         if (d.modbus_port != 0) {

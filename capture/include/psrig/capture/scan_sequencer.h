@@ -25,6 +25,16 @@
 
 namespace psrig::capture {
 
+// A light calibration applied to a scan: its directions and relative
+// intensities replace the configuration's geometry, and scan.json says
+// which calibration it was (calibration/README.md).
+struct AppliedCalibration {
+  std::filesystem::path file;  // the calibration.json
+  std::string created;         // its "created"
+  std::vector<cv::Vec3d> directions;
+  std::vector<double> intensities;
+};
+
 struct ScanRequest {
   std::string sample_id;  // a technician's label; may be empty
   std::string description;
@@ -34,6 +44,9 @@ struct ScanRequest {
   // simulated camera has one).
   cv::Mat ground_truth_normal;
   cv::Mat ground_truth_height;
+  // The lights as calibrated (one per channel); absent: rig.toml's
+  // geometry and lights.intensity, and scan.json's "calibration" is null.
+  std::optional<AppliedCalibration> calibration;
 };
 
 // What a scan is doing, for code that acts on it (the step is for people).

@@ -1,0 +1,81 @@
+#pragma once
+// Light directions (and relative intensities) from images of a sphere:
+// the highlight on a chrome sphere, or a Lambertian fit over a matte one.
+// Axes as docs/design.md: x right, y up, z toward the camera; a direction
+// points from the scene toward the light.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <opencv2/core.hpp>
+
+#include "psrig/base/error.h"
+#include "psrig/calibration/sphere.h"
+
+namespace psrig::calibration {
+
+// One image of the sphere under one light, linear, CV_32F grey, 0..1 of
+// full scale (what the camera saturates at is `saturation`).
+struct Frame {
+  cv::Mat image;
+  std::filesystem::path file;  // where it came from, for messages
+};
+
+// The frames of one light: one or more (averaged).
+struct LightFrames {
+  std::vector<Frame> frames;
+};
+
+struct CameraModel {
+  // Focal length in pixels: perspective view rays through the principal
+  // point (the image centre); absent: orthographic, every view ray (0, 0, 1).
+  std::optional<double> focal_px;
+};
+
+struct LightEstimate {
+  cv::Vec3d direction{0, 0, 1};  // unit, from the scene toward the light
+  double intensity = 1;          // relative: the brightest light is 1 (matte); 1 (chrome)
+  double uncertainty_deg = 0;    // one standard deviation of the direction, estimated
+  // Chrome: the highlight's size (its intensity-weighted RMS radius) as an
+  // angle, and how far the frames' directions scatter (RMS, 0 for one frame).
+  std::optional<double> highlight_spread_deg;
+  std::optional<double> frames_spread_deg;
+  std::optional<cv::Point2d> highlight_px;  // the mean highlight centroid
+  int frames = 0;
+  // Matte: RMS residual of the Lambertian fit, fraction of full scale, and pixels used.
+  std::optional<double> residual;
+  std::optional<int> pixels;
+};
+
+[[nodiscard]] double tilt_deg(const cv::Vec3d& direction);
+[[nodiscard]] double slant_deg(const cv::Vec3d& direction);
+[[nodiscard]] double angle_deg(const cv::Vec3d& a, const cv::Vec3d& b);
+
+// The sphere's unit normal seen at pixel (x, y) (rows down), for a sphere
+// imaged as `sphere`; nullopt off the sphere.
+[[nodiscard]] std::optional<cv::Vec3d> sphere_normal(const Circle& sphere, cv::Point2d pixel,
+                                                     const CameraModel& camera,
+                                                     cv::Size image_size);
+// The unit vector from the point seen at `pixel` toward the camera.
+[[nodiscard]] cv::Vec3d view_direction(cv::Point2d pixel, const CameraModel& camera,
+                                       cv::Size image_size);
+
+// Chrome sphere: per light, per frame, the highlight (the saturated or
+// brightest blob inside the sphere, its intensity-weighted centroid), the
+// normal there, the view ray reflected about it; the frames' directions
+// averaged. bad_input naming the frame when a light shows no highlight.
+[[nodiscard]] Result<std::vector<LightEstimate>> calibrate_chrome(
+    const std::vector<LightFrames>& lights, const Circle& sphere, const CameraModel& camera,
+    double saturation = 0.98);
+
+// Matte sphere: per light (frames averaged), least squares for
+// b = albedo * intensity * direction over the sphere's lit pixels
+// (I = n . b), leaving out shadowed, saturated and grazing pixels; the
+// direction b / |b| and the intensity |b| relative to the brightest light.
+[[nodiscard]] Result<std::vector<LightEstimate>> calibrate_matte(
+    const std::vector<LightFrames>& lights, const Circle& sphere, const CameraModel& camera,
+    double saturation = 0.98);
+
+}  // namespace psrig::calibration

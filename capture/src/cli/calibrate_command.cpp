@@ -1,0 +1,423 @@
+// psrig calibrate lights: the lights' directions and relative intensities
+// from a chrome or a matte sphere, captured on the rig (--config) and kept
+// in its calibration store, or computed from images already taken
+// (--images DIR, written to --out FILE or to the rig's store).
+
+#include <algorithm>
+#include <cstdio>
+#include <memory>
+#include <optional>
+
+#include "command.h"
+#include "psrig/calibration/calibration_store.h"
+#include "psrig/calibration/image_set.h"
+#include "psrig/calibration/light_calibration.h"
+#include "psrig/capture/rig.h"
+#include "psrig/capture/scan_sequencer.h"
+#include "psrig/firmware_host/emergency_stop.h"
+#include "psrig/processing/linearise.h"
+#include "psrig/processing/scan_reader.h"
+
+namespace psrig::capture::cli {
+namespace {
+
+namespace fs = std::filesystem;
+using calibration::LightFrames;
+
+struct CalibrateArgs {
+  std::string config;
+  std::string target = "chrome";
+  int frames = 0;  // 0: 3 captures on the rig, 1 image per light from a folder
+  std::string images;
+  std::string mask;
+  std::string matte;
+  std::string matte_mask;
+  std::string out;
+  std::optional<double> focal_px;
+  std::string encoding = "linear";
+  bool quiet = false;
+};
+
+// The images of one sphere, grouped by light.
+struct SphereSet {
+  std::string role;  // "chrome" or "matte"
+  fs::path source;   // the folder, or the rig's captures
+  std::vector<LightFrames> lights;
+  cv::Mat mask;
+  std::optional<fs::path> mask_file;
+  std::vector<fs::path> files;
+};
+
+Result<SphereSet> load_folder(const std::string& role, const fs::path& folder,
+                              const std::string& mask_override, int frames_per_light,
+                              processing::Encoding encoding) {
+  SphereSet set;
+  set.role = role;
+  set.source = folder;
+  auto listed = calibration::list_image_folder(folder);
+  if (!listed) return std::unexpected(listed.error());
+  const std::size_t count = listed->images.size();
+  if (count % static_cast<std::size_t>(frames_per_light) != 0)
+    return std::unexpected(
+        bad_input(folder, "--frames",
+                  "holds " + std::to_string(count) + " images, not a whole number of lights at " +
+                      std::to_string(frames_per_light) +
+                      " frames each; give --frames to match, or remove the extra images"));
+  if (count / frames_per_light < 3)
+    return std::unexpected(bad_input(folder, "",
+                                     "holds images of " + std::to_string(count / frames_per_light) +
+                                         " lights; a calibration needs 3 or more"));
+  set.files = listed->images;
+  for (std::size_t i = 0; i < count; ++i) {
+    auto image = calibration::read_linear_grey(listed->images[i], encoding);
+    if (!image) return std::unexpected(image.error());
+    if (i % static_cast<std::size_t>(frames_per_light) == 0) set.lights.emplace_back();
+    set.lights.back().frames.push_back({*image, listed->images[i]});
+  }
+  if (!mask_override.empty())
+    set.mask_file = mask_override;
+  else
+    set.mask_file = listed->mask;
+  if (set.mask_file) {
+    auto mask = calibration::read_mask(*set.mask_file, "--mask");
+    if (!mask) return std::unexpected(mask.error());
+    if (mask->size() != set.lights.front().frames.front().image.size())
+      return std::unexpected(bad_input(*set.mask_file, "--mask",
+                                       "differs in size from the images; give the sphere's mask "
+                                       "for these images"));
+    set.mask = *mask;
+  }
+  return set;
+}
+
+// Scans the sequencer wrote, as frames per light: linear, dark subtracted.
+Result<SphereSet> load_captures(const std::string& role, const std::vector<fs::path>& scans) {
+  SphereSet set;
+  set.role = role;
+  set.source = scans.front().parent_path();
+  for (const auto& directory : scans) {
+    auto scan = processing::read_scan(directory);
+    if (!scan) return std::unexpected(scan.error());
+    const auto& d = scan->description;
+    const processing::CodeLineariser lineariser(processing::Encoding::linear, d.black_level,
+                                                scan->white_level, scan->depth());
+    const auto linear_grey = [&](const cv::Mat& stored) {
+      cv::Mat continuous = stored.isContinuous() ? stored : stored.clone();
+      cv::Mat linear(continuous.size(), CV_MAKETYPE(CV_32F, continuous.channels()));
+      lineariser.convert(continuous.data,
+                         static_cast<int>(continuous.total()) * continuous.channels(),
+                         linear.ptr<float>());
+      if (linear.channels() == 3)
+        cv::transform(linear, linear, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
+      return linear;
+    };
+    const cv::Mat dark = scan->dark.empty() ? cv::Mat() : linear_grey(scan->dark);
+    if (set.lights.empty()) set.lights.resize(scan->frames.size());
+    for (std::size_t k = 0; k < scan->frames.size(); ++k) {
+      cv::Mat image = linear_grey(scan->frames[k]);
+      if (!dark.empty()) image -= dark;
+      const fs::path file = directory / d.lights[k].image;
+      set.lights[k].frames.push_back({image, file});
+      set.files.push_back(file);
+    }
+  }
+  return set;
+}
+
+Result<calibration::Circle> locate(const SphereSet& set) {
+  std::vector<cv::Mat> all;
+  for (const auto& light : set.lights)
+    for (const auto& frame : light.frames)
+      all.push_back(frame.image);
+  return calibration::find_sphere(all, set.mask, set.mask_file ? *set.mask_file : set.source);
+}
+
+Result<calibration::LightCalibration> compute(const SphereSet* chrome, const SphereSet* matte,
+                                              const calibration::CameraModel& camera,
+                                              double saturation) {
+  calibration::LightCalibration result;
+  result.camera = camera;
+  result.method = chrome && matte ? "chrome+matte" : chrome ? "chrome" : "matte";
+  if (chrome && matte && chrome->lights.size() != matte->lights.size())
+    return std::unexpected(bad_input(matte->source, "--matte",
+                                     "holds images of " + std::to_string(matte->lights.size()) +
+                                         " lights but " + chrome->source.string() + " of " +
+                                         std::to_string(chrome->lights.size()) +
+                                         "; give both spheres under the same lights"));
+  if (chrome) {
+    auto sphere = locate(*chrome);
+    if (!sphere) return std::unexpected(sphere.error());
+    result.chrome_sphere = *sphere;
+    auto lights = calibration::calibrate_chrome(chrome->lights, *sphere, camera, saturation);
+    if (!lights) return std::unexpected(lights.error());
+    result.chrome = *lights;
+  }
+  if (matte) {
+    auto sphere = locate(*matte);
+    if (!sphere) return std::unexpected(sphere.error());
+    result.matte_sphere = *sphere;
+    auto lights = calibration::calibrate_matte(matte->lights, *sphere, camera, saturation);
+    if (!lights) return std::unexpected(lights.error());
+    result.matte = *lights;
+  }
+  return result;
+}
+
+nlohmann::json describe_sources(const SphereSet& set, const fs::path& relative_to) {
+  nlohmann::json files = nlohmann::json::array();
+  const auto name = [&](const fs::path& file) {
+    return relative_to.empty() ? fs::absolute(file).lexically_normal().string()
+                               : file.lexically_relative(relative_to).string();
+  };
+  for (const auto& file : set.files)
+    files.push_back(name(file));
+  std::size_t frames = set.lights.empty() ? 0 : set.lights.front().frames.size();
+  return {{"images", files},
+          {"frames_per_light", frames},
+          {"mask", set.mask_file ? nlohmann::json(name(*set.mask_file)) : nlohmann::json(nullptr)}};
+}
+
+void print_calibration(const calibration::LightCalibration& c) {
+  const auto lights = calibration::combine(c);
+  if (c.chrome_sphere)
+    std::printf("chrome sphere: centre (%.2f, %.2f) px, radius %.2f px (fit RMS %.3f px)\n",
+                c.chrome_sphere->centre.x, c.chrome_sphere->centre.y, c.chrome_sphere->radius,
+                c.chrome_sphere->rms_px);
+  if (c.matte_sphere)
+    std::printf("matte sphere: centre (%.2f, %.2f) px, radius %.2f px (fit RMS %.3f px)\n",
+                c.matte_sphere->centre.x, c.matte_sphere->centre.y, c.matte_sphere->radius,
+                c.matte_sphere->rms_px);
+  for (std::size_t k = 0; k < lights.size(); ++k) {
+    const auto& l = lights[k];
+    std::printf("light %zu: tilt %7.2f deg, slant %6.2f deg, intensity %.3f, +/- %.3f deg", k,
+                calibration::tilt_deg(l.direction), calibration::slant_deg(l.direction),
+                l.intensity, l.uncertainty_deg);
+    if (k < c.chrome.size() && c.chrome[k].frames_spread_deg && c.chrome[k].frames > 1)
+      std::printf(", frames agree to %.3f deg", *c.chrome[k].frames_spread_deg);
+    if (l.chrome_vs_matte_deg) std::printf(", chrome vs matte %.3f deg", *l.chrome_vs_matte_deg);
+    std::printf("\n");
+  }
+}
+
+// Copies a set's files into `captures/<role>/` of a store version.
+Result<SphereSet> copy_into(const SphereSet& set, const fs::path& version) {
+  SphereSet copied = set;
+  const fs::path directory = version / calibration::kCapturesDirectory / set.role;
+  std::error_code ec;
+  fs::create_directories(directory, ec);
+  if (ec) return std::unexpected(io_error(directory, "cannot create: " + ec.message()));
+  copied.files.clear();
+  for (const auto& file : set.files) {
+    const fs::path target = directory / file.filename();
+    fs::copy_file(file, target, ec);
+    if (ec)
+      return std::unexpected(
+          io_error(target, "cannot copy " + file.string() + ": " + ec.message()));
+    copied.files.push_back(target);
+  }
+  if (set.mask_file) {
+    const fs::path target = directory / set.mask_file->filename();
+    fs::copy_file(*set.mask_file, target, ec);
+    if (ec) return std::unexpected(io_error(target, "cannot copy: " + ec.message()));
+    copied.mask_file = target;
+  }
+  return copied;
+}
+
+int write_to_store(const config::RigConfig& config, processing::AtomicDirectory staging,
+                   calibration::LightCalibration& result, bool quiet) {
+  const std::string text = calibration::to_json(result, calibration::utc_now()).dump(2) + "\n";
+  if (auto ok = calibration::write_new_file(staging.path() / calibration::kCalibrationFile, text);
+      !ok)
+    return report_error("calibrate lights", ok.error());
+  const fs::path target = staging.target();
+  if (auto ok = staging.commit(processing::AtomicDirectory::Existing::refuse, true); !ok)
+    return report_error("calibrate lights", ok.error());
+  if (!quiet) {
+    print_calibration(result);
+    std::printf("calibration: %s (current for %s)\n",
+                (target / calibration::kCalibrationFile).c_str(), config.source.c_str());
+  }
+  return 0;
+}
+
+int run_from_images(const CalibrateArgs& args) {
+  if (args.out.empty() && args.config.empty()) {
+    std::fprintf(stderr,
+                 "psrig calibrate lights: error: say where the calibration goes: --out FILE "
+                 "(a calibration.json) or --config RIG.toml (the rig's calibration store)\n");
+    return 2;
+  }
+  const auto encoding =
+      args.encoding == "srgb" ? processing::Encoding::srgb : processing::Encoding::linear;
+  const int per_light = args.frames > 0 ? args.frames : 1;
+  std::optional<SphereSet> chrome;
+  std::optional<SphereSet> matte;
+  auto first = load_folder(args.target, args.images, args.mask, per_light, encoding);
+  if (!first) return report_error("calibrate lights", first.error());
+  (args.target == "chrome" ? chrome : matte) = std::move(*first);
+  if (!args.matte.empty()) {
+    if (args.target == "matte") {
+      std::fprintf(stderr,
+                   "psrig calibrate lights: error: --matte DIR is the matte sphere beside a "
+                   "chrome one in --images; with --target matte, --images is the matte sphere\n");
+      return 2;
+    }
+    auto second = load_folder("matte", args.matte, args.matte_mask, per_light, encoding);
+    if (!second) return report_error("calibrate lights", second.error());
+    matte = std::move(*second);
+  }
+  calibration::CameraModel camera{args.focal_px};
+  auto result = compute(chrome ? &*chrome : nullptr, matte ? &*matte : nullptr, camera, 0.98);
+  if (!result) return report_error("calibrate lights", result.error());
+
+  if (!args.out.empty()) {
+    if (chrome) result->sources["chrome"] = describe_sources(*chrome, {});
+    if (matte) result->sources["matte"] = describe_sources(*matte, {});
+    const std::string text = calibration::to_json(*result, calibration::utc_now()).dump(2) + "\n";
+    if (auto ok = calibration::write_new_file(args.out, text); !ok)
+      return report_error("calibrate lights", ok.error());
+    if (!args.quiet) {
+      print_calibration(*result);
+      std::printf("calibration: %s\n", args.out.c_str());
+    }
+    return 0;
+  }
+  int exit_code = 0;
+  auto config = load_config_or_report("calibrate lights", args.config, exit_code);
+  if (!config) return exit_code;
+  const std::size_t lights = std::max(result->chrome.size(), result->matte.size());
+  if (lights != static_cast<std::size_t>(config->lights.channels))
+    return report_error(
+        "calibrate lights",
+        bad_input(args.images, "",
+                  "holds images of " + std::to_string(lights) + " lights but " + args.config +
+                      " has " + std::to_string(config->lights.channels) +
+                      " (lights.channels); give one image per LED of that rig, or --out FILE"));
+  calibration::CalibrationStore store(config->storage.root);
+  auto staging = store.begin_next();
+  if (!staging) return report_error("calibrate lights", staging.error());
+  for (auto* set : {chrome ? &*chrome : nullptr, matte ? &*matte : nullptr}) {
+    if (!set) continue;
+    auto copied = copy_into(*set, staging->path());
+    if (!copied) return report_error("calibrate lights", copied.error());
+    result->sources[set->role] = describe_sources(*copied, staging->path());
+  }
+  return write_to_store(*config, std::move(*staging), *result, args.quiet);
+}
+
+int run_on_rig(const CalibrateArgs& args) {
+  stop_gracefully_on_signals();
+  int exit_code = 0;
+  auto config = load_config_or_report("calibrate lights", args.config, exit_code);
+  if (!config) return exit_code;
+  // The simulated rig puts the sphere under its camera.
+  if (config->camera.backend == "sim")
+    config->sim.target = args.target == "chrome" ? "chrome_sphere" : "matte_sphere";
+  const int captures = args.frames > 0 ? args.frames : 3;
+  calibration::CalibrationStore store(config->storage.root);
+  auto staging = store.begin_next();
+  if (!staging) return report_error("calibrate lights", staging.error());
+  std::vector<fs::path> scans;
+  {
+    auto rig = open_rig(*config);
+    if (!rig) return report_error("calibrate lights", rig.error());
+    ScanSequencer sequencer(*config, *rig->lights, *rig->camera);
+    std::error_code ec;
+    fs::create_directories(staging->path() / calibration::kCapturesDirectory, ec);
+    for (int i = 0; i < captures; ++i) {
+      ScanRequest request;
+      request.sample_id = args.target + "-sphere";
+      request.description = "light calibration: " + args.target + " sphere, capture " +
+                            std::to_string(i + 1) + " of " + std::to_string(captures);
+      request.directory = staging->path() / calibration::kCapturesDirectory /
+                          (args.target + "-" + std::to_string(i));
+      request.process = false;
+      auto outcome = sequencer.capture(request, [&](const ScanProgress& p) {
+        if (!args.quiet)
+          std::fprintf(stderr, "psrig calibrate lights: capture %d of %d: %s\n", i + 1, captures,
+                       p.step.c_str());
+      });
+      if (!outcome) {
+        const int code = report_error("calibrate lights", outcome.error());
+        return firmware_host::stop_requested() ? psrig::cli::exit_interrupted : code;
+      }
+      scans.push_back(outcome->directory);
+    }
+  }
+  auto set = load_captures(args.target, scans);
+  if (!set) return report_error("calibrate lights", set.error());
+  calibration::CameraModel camera{args.focal_px};
+  auto result = compute(args.target == "chrome" ? &*set : nullptr,
+                        args.target == "matte" ? &*set : nullptr, camera, 0.95);
+  if (!result) {
+    // Its captures go with the refused calibration: name the rig instead.
+    Error error = result.error();
+    error.message = "the " + args.target + " sphere as captured: " + error.message;
+    error.file = config->source;
+    return report_error("calibrate lights", error);
+  }
+  result->sources[args.target] = describe_sources(*set, staging->path());
+  result->sources["rig"] = fs::absolute(config->source).lexically_normal().string();
+  return write_to_store(*config, std::move(*staging), *result, args.quiet);
+}
+
+}  // namespace
+
+Command add_calibrate_command(CLI::App& parent) {
+  auto args = std::make_shared<CalibrateArgs>();
+  CLI::App* app =
+      parent.add_subcommand("calibrate", "Measure the rig: light directions and intensities");
+  CLI::App* lights = app->add_subcommand(
+      "lights", "Light directions (chrome sphere) and relative intensities (matte sphere)");
+  app->require_subcommand(1);
+  lights->add_option("--config", args->config,
+                     "Rig configuration: capture the sphere on this rig and keep the result in "
+                     "its calibration store (storage.root/calibrations)");
+  auto* images = lights->add_option(
+      "--images", args->images,
+      "Folder of sphere images, one per light in name order, instead of capturing");
+  lights->add_option("--target", args->target, "The sphere: chrome or matte")
+      ->check(CLI::IsMember({"chrome", "matte"}))
+      ->capture_default_str();
+  lights
+      ->add_option("--frames", args->frames,
+                   "Captures per light on the rig (default 3), or consecutive images per light "
+                   "in --images (default 1); their directions are averaged")
+      ->check(CLI::Range(1, 64));
+  lights
+      ->add_option("--mask", args->mask,
+                   "Mask of the sphere in --images (nonzero on it; default: the folder's file "
+                   "whose name ends in \"mask\", else the sphere is found in the images)")
+      ->needs(images);
+  auto* matte = lights
+                    ->add_option("--matte", args->matte,
+                                 "Folder of matte-sphere images under the same lights: "
+                                 "intensities, and chrome vs matte agreement")
+                    ->needs(images);
+  lights->add_option("--matte-mask", args->matte_mask, "Mask of the sphere in --matte")
+      ->needs(matte);
+  lights->add_option("--out", args->out, "calibration.json to write (must not exist)")
+      ->needs(images);
+  lights
+      ->add_option("--focal-px", args->focal_px,
+                   "Camera focal length in pixels: perspective view rays (default: orthographic)")
+      ->check(CLI::PositiveNumber);
+  lights->add_option("--encoding", args->encoding, "How --images store light: linear or srgb")
+      ->check(CLI::IsMember({"linear", "srgb"}))
+      ->capture_default_str();
+  lights->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
+
+  return {app, [args] {
+            if (!args->images.empty()) return run_from_images(*args);
+            if (args->config.empty()) {
+              std::fprintf(stderr,
+                           "psrig calibrate lights: error: give --config RIG.toml (capture on the "
+                           "rig) or --images DIR (images already taken)\n");
+              return 2;
+            }
+            return run_on_rig(*args);
+          }};
+}
+
+}  // namespace psrig::capture::cli
