@@ -5,7 +5,7 @@
 // read_scan_description(); when that accepts it, read_scan() opens and
 // cross-checks the frames it names. Every answer is fine except a crash, a
 // sanitizer report, or an accepted description that breaks the rules the
-// reader promises (3 to 64 lights, unit directions facing the camera).
+// reader promises (3 lights or more, unit directions facing the camera).
 
 #include <cmath>
 #include <cstdio>
@@ -74,8 +74,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     (void)description.error().describe();
     return 0;
   }
-  check(description->lights.size() >= 3 && description->lights.size() <= 64,
-        "has fewer than 3 or more than 64 lights");
+  check(description->lights.size() >= 3, "has fewer than 3 lights");
   for (const auto& light : description->lights) {
     const auto& d = light.direction;
     const double norm = std::sqrt(d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);

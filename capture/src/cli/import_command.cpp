@@ -107,10 +107,10 @@ int run_import(const ImportArgs& args) {
                                 light_source.string() + " gives " + std::to_string(lights.size()) +
                                 " lights; give one image per light (in name order, 2 before "
                                 "10) or the matching calibration"));
-  if (lights.size() < 3 || lights.size() > static_cast<std::size_t>(processing::kMaxLights))
+  if (lights.size() < 3)
     return report_error("import", bad_input(light_source, "",
                                             "gives " + std::to_string(lights.size()) +
-                                                " lights; a scan has 3 to 64"));
+                                                " lights; a scan has 3 or more"));
 
   processing::Scan scan;
   auto& d = scan.description;
