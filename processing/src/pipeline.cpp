@@ -12,6 +12,7 @@
 #include "psrig/processing/atomic_directory.h"
 #include "psrig/processing/evaluation.h"
 #include "psrig/processing/flatten.h"
+#include "psrig/processing/hole_fill.h"
 #include "psrig/processing/image_io.h"
 #include "psrig/processing/map_encoding.h"
 #include "psrig/processing/parallel.h"
@@ -32,6 +33,8 @@ double ms_since(Clock::time_point start) {
 // Steeper than this (85 degrees) a gradient says more about noise than
 // shape; integration clamps it so one pixel cannot tilt the surface.
 constexpr float kMaxSlope = 11.43f;
+// Unsolved specks up to this area inside a swatch are filled, not holes.
+constexpr double kSpeckAreaMm2 = 0.25;
 
 // An existing output may only be replaced if it is a maps directory psrig
 // wrote (or empty): --out must never swallow a scan or a home directory.
@@ -170,6 +173,17 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
            if (!height)
              return std::unexpected(internal_error("integration: " + height.error().describe()));
            if (in_mm) *height *= pixel_size;
+           if (summary.method == IntegrationMethod::masked) {
+             // Specks inside the swatch (up to 0.25 mm², or 64 pixels where
+             // the size is unknown) are filled; the mask's outside and
+             // larger unsolved regions stay holes.
+             cv::Mat inside;
+             cv::compare(result.flags & kOutsideMask, 0, inside, cv::CMP_EQ);
+             const int max_area =
+                 in_mm ? std::max(16, static_cast<int>(kSpeckAreaMm2 / (pixel_size * pixel_size)))
+                       : 64;
+             summary.filled_pixels = fill_specks(*height, inside, max_area);
+           }
            const cv::Mat finite = *height == *height;  // NaN outside what was integrated
            summary.pixels = cv::countNonZero(finite);
 

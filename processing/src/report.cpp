@@ -84,7 +84,8 @@ json make_report(const ReportInputs& in) {
                         {"units", in.height->units},
                         {"png_range", {in.height->low, in.height->high}},
                         {"method", to_string(in.height->method)},
-                        {"pixels", in.height->pixels}};
+                        {"pixels", in.height->pixels},
+                        {"filled_pixels", in.height->filled_pixels}};
     if (in.height->solver)
       report["height"]["solver"] = {{"iterations", in.height->solver->iterations},
                                     {"relative_residual", in.height->solver->relative_residual}};

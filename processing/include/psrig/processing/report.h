@@ -23,6 +23,7 @@ struct HeightSummary {
   std::string units;                                                // "mm" or "px"
   IntegrationMethod method = IntegrationMethod::frankot_chellappa;  // the one used
   long long pixels = 0;                          // with a height (the rest are NaN in height.exr)
+  long long filled_pixels = 0;                   // specks filled from around them (hole_fill.h)
   std::optional<MaskedIntegrationStats> solver;  // the masked solver's
 };
 
