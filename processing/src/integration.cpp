@@ -1,4 +1,5 @@
 #include "psrig/processing/integration.h"
+#include "gradient_inputs.h"
 
 #include <algorithm>
 #include <bit>
@@ -112,25 +113,6 @@ inline float gradient_value(float value, float limit) {
   return std::clamp(finite_or_zero(value), -limit, limit);
 }
 
-Result<cv::Size> check_inputs(const cv::Mat& p, const cv::Mat& q) {
-  using Named = std::pair<const cv::Mat*, const char*>;
-  for (const auto& [mat, name] : {Named{&p, "p"}, Named{&q, "q"}}) {
-    if (mat->empty())
-      return std::unexpected(bad_input({}, {}, std::string("integration: ") + name + " is empty"));
-    if (mat->dims != 2 || mat->type() != CV_32FC1)
-      return std::unexpected(
-          bad_input({}, {},
-                    std::string("integration: ") + name +
-                        " must be a 2-D one-channel float image (CV_32FC1), got " +
-                        cv::typeToString(mat->type())));
-  }
-  if (p.size() != q.size())
-    return std::unexpected(bad_input({}, {},
-                                     "integration: p is " + std::to_string(p.cols) + "x" +
-                                         std::to_string(p.rows) + " but q is " +
-                                         std::to_string(q.cols) + "x" + std::to_string(q.rows)));
-  return p.size();
-}
 
 // Sum of rows [begin, end) of a row-major buffer, in double. Eight
 // accumulators in a fixed order keep it fast and reproducible.
@@ -356,7 +338,7 @@ using Method = Result<cv::Mat> (*)(const cv::Mat&, const cv::Mat&, int, int, flo
 // Validates, then runs; never lets an exception (say, out of memory) escape.
 Result<cv::Mat> run(Method method, const cv::Mat& p, const cv::Mat& q, float max_slope) {
   try {
-    const auto size = check_inputs(p, q);
+    const auto size = check_gradient_inputs(p, q);
     if (!size) return std::unexpected(size.error());
     if (!(max_slope > 0))
       return std::unexpected(bad_input({}, {}, "integration: max_slope must be positive"));

@@ -52,6 +52,7 @@
 
 #include "psrig/processing/integration.h"
 #include "psrig/processing/parallel.h"
+#include "gradient_inputs.h"
 #include "vector_clones.h"
 
 namespace psrig::processing {
@@ -897,19 +898,8 @@ Result<cv::Mat> integrate_masked(const cv::Mat& p, const cv::Mat& q, const cv::M
                                  const MaskedIntegrationOptions& options,
                                  MaskedIntegrationStats* stats) {
   try {
-    for (const auto& [mat, name] : {std::pair{&p, "p"}, std::pair{&q, "q"}}) {
-      if (mat->empty() || mat->dims != 2 || mat->type() != CV_32FC1)
-        return std::unexpected(bad_input({}, {},
-                                         std::string("integration: ") + name +
-                                             " must be a non-empty 2-D one-channel float image "
-                                             "(CV_32FC1), got " +
-                                             cv::typeToString(mat->type())));
-    }
-    if (p.size() != q.size())
-      return std::unexpected(bad_input({}, {},
-                                       "integration: p is " + std::to_string(p.cols) + "x" +
-                                           std::to_string(p.rows) + " but q is " +
-                                           std::to_string(q.cols) + "x" + std::to_string(q.rows)));
+    if (auto checked = check_gradient_inputs(p, q); !checked)
+      return std::unexpected(checked.error());
     if (!mask.empty() && (mask.type() != CV_8UC1 || mask.size() != p.size()))
       return std::unexpected(
           bad_input({}, {},
