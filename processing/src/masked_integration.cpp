@@ -7,7 +7,7 @@
 //   (z[i][j+1] - z[i][j] - gx)^2 and (z[i+1][j] - z[i][j] - gy)^2,
 // gx the integral of p from pixel j to j+1 along the row, gy that of -q
 // down the column (the row index runs down, y up), each from the samples
-// around the edge (edge_target). With the trapezoid for the integrals and
+// around the edge (edge_targets). With the trapezoid for the integrals and
 // every pixel inside, this would be the Poisson solver's energy. Its normal
 // equations A z = b have A the graph Laplacian of the mask's 4-neighbour
 // graph, (A z)_i = sum_j w_ij (z_i - z_j) with edge weights w in {0, 1}, and
@@ -640,24 +640,6 @@ double step_range(float* __restrict x, float* __restrict r, const float* __restr
   return dot_range(r, r, begin, end);
 }
 
-// The target of z[k+1] - z[k] on one edge: the integral of the derivative
-// from sample k to k+1, from the cubic through the four samples around the
-// edge, (-g[k-1] + 13 g[k] + 13 g[k+1] - g[k+2]) / 24 (fourth order), or
-// the quadratic through the three there are where the mask cuts one off
-// (third order), or the trapezoid (g[k] + g[k+1]) / 2 between two samples
-// alone. The trapezoid everywhere (the Poisson solver's rule) errs by
-// g''/12 per edge, which on a steep, curved silhouette adds up to tenths of
-// a unit. kNone marks a sample outside the domain.
-constexpr float kNone = std::numeric_limits<float>::quiet_NaN();
-inline float edge_target(float before, float g0, float g1, float after) {
-  const bool has_before = !std::isnan(before);
-  const bool has_after = !std::isnan(after);
-  if (has_before && has_after) return (13.0F * (g0 + g1) - before - after) / 24.0F;
-  if (has_before) return (-before + 8.0F * g0 + 5.0F * g1) / 12.0F;
-  if (has_after) return (5.0F * g0 + 8.0F * g1 - after) / 12.0F;
-  return 0.5F * (g0 + g1);
-}
-
 // One row of gradients as edge_targets takes them: clamped, 0 outside the
 // domain, and the domain as 1 / 0.
 PSRIG_VECTOR_CLONES
@@ -671,7 +653,16 @@ void load_row(const float* __restrict g, const std::uint8_t* __restrict inside, 
   }
 }
 
-// edge_target for `count` edges at once, branch-free: samples g0 -> g1 are
+// The target of z[k+1] - z[k] on one edge: the integral of the derivative
+// from sample k to k+1, from the cubic through the four samples around the
+// edge, (-g[k-1] + 13 g[k] + 13 g[k+1] - g[k+2]) / 24 (fourth order), or
+// the quadratic through the three there are where the mask cuts one off
+// (third order), or the trapezoid (g[k] + g[k+1]) / 2 between two samples
+// alone. The trapezoid everywhere (the Poisson solver's rule) errs by
+// g''/12 per edge, which on a steep, curved silhouette adds up to tenths of
+// a unit.
+//
+// edge_targets computes it for `count` edges at once, branch-free: samples g0 -> g1 are
 // the edge's ends, gb before and ga after; m* say which are inside. Also
 // the edge's weight, 1 when both ends are inside, else 0 (and target 0).
 PSRIG_VECTOR_CLONES
