@@ -2,11 +2,16 @@
 // from a chrome or a matte sphere, captured on the rig (--config) and kept
 // in its calibration store, or computed from images already taken
 // (--images DIR, written to --out FILE or to the rig's store).
+// psrig calibrate flat: a white card under each LED, kept in the store and
+// applied to every later scan.
 
 #include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <optional>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
 
 #include "command.h"
 #include "psrig/calibration/calibration_store.h"
@@ -226,7 +231,20 @@ Result<SphereSet> copy_into(const SphereSet& set, const fs::path& version) {
 
 int write_to_store(const config::RigConfig& config, processing::AtomicDirectory staging,
                    calibration::LightCalibration& result, bool quiet) {
-  const std::string text = calibration::to_json(result, calibration::utc_now()).dump(2) + "\n";
+  nlohmann::json document = calibration::to_json(result, calibration::utc_now());
+  // The sections this does not measure (the flat field, …) carry over from
+  // the current version.
+  const calibration::CalibrationStore store(config.storage.root);
+  if (const auto current_file = store.current()) {
+    if (auto current = calibration::read_calibration(*current_file)) {
+      if (auto carried = calibration::carry_forward(*current, "lights")) {
+        for (const char* section : {"flat", "colour", "scale", "led_positions_mm"})
+          document[section] = (*carried)[section];
+        document["contains"] = (*carried)["contains"];
+      }
+    }
+  }
+  const std::string text = document.dump(2) + "\n";
   if (auto ok = calibration::write_new_file(staging.path() / calibration::kCalibrationFile, text);
       !ok)
     return report_error("calibrate lights", ok.error());
@@ -362,6 +380,230 @@ int run_on_rig(const CalibrateArgs& args) {
   return write_to_store(*config, std::move(*staging), *result, args.quiet);
 }
 
+// ---- psrig calibrate flat ----------------------------------------------
+
+struct FlatArgs {
+  std::string config;
+  int frames = 3;
+  bool quiet = false;
+};
+
+// A flat frame per light, from the card's captures: linear (0..1 of full
+// scale), dark subtracted, all channels, the captures averaged; and the
+// fraction of its pixels at full scale.
+struct FlatFrames {
+  std::vector<cv::Mat> linear;
+  std::vector<double> saturated;
+};
+
+Result<FlatFrames> load_flats(const std::vector<fs::path>& scans) {
+  FlatFrames flats;
+  for (const auto& directory : scans) {
+    auto scan = processing::read_scan(directory);
+    if (!scan) return std::unexpected(scan.error());
+    const auto& d = scan->description;
+    const processing::CodeLineariser lineariser(processing::Encoding::linear, d.black_level,
+                                                scan->white_level, scan->depth());
+    const auto linear = [&](const cv::Mat& stored) {
+      cv::Mat continuous = stored.isContinuous() ? stored : stored.clone();
+      cv::Mat out(continuous.size(), CV_MAKETYPE(CV_32F, continuous.channels()));
+      lineariser.convert(continuous.data,
+                         static_cast<int>(continuous.total()) * continuous.channels(),
+                         out.ptr<float>());
+      return out;
+    };
+    const cv::Mat dark = scan->dark.empty() ? cv::Mat() : linear(scan->dark);
+    if (flats.linear.empty()) {
+      flats.linear.resize(scan->frames.size());
+      flats.saturated.assign(scan->frames.size(), 0.0);
+    }
+    for (std::size_t k = 0; k < scan->frames.size(); ++k) {
+      cv::Mat image = linear(scan->frames[k]);
+      cv::Mat grey = image.reshape(1, image.rows * image.cols);
+      cv::Mat full;
+      cv::reduce(grey, full, 1, cv::REDUCE_MAX);
+      flats.saturated[k] =
+          std::max(flats.saturated[k],
+                   static_cast<double>(cv::countNonZero(full >= 0.98f)) / full.total());
+      if (!dark.empty()) image -= dark;
+      if (flats.linear[k].empty())
+        flats.linear[k] = image / static_cast<double>(scans.size());
+      else
+        flats.linear[k] += image / static_cast<double>(scans.size());
+    }
+  }
+  return flats;
+}
+
+// How far a flat frame is from a uniform card: the RMS of its ratio to its
+// own smooth version (a card's shading is smooth, a textile's or a
+// sphere's is not), its mean level, and its fall-off (smooth minimum over
+// maximum) over the field, the rim of a blur's width left out.
+struct FlatQuality {
+  double roughness = 0;
+  double mean = 0;
+  double fall_off = 0;
+};
+
+FlatQuality flat_quality(const cv::Mat& flat) {
+  cv::Mat grey;
+  if (flat.channels() == 3)
+    cv::transform(flat, grey, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
+  else
+    grey = flat;
+  const double sigma = std::min(flat.cols, flat.rows) / 32.0;
+  cv::Mat smooth;
+  cv::GaussianBlur(grey, smooth, cv::Size(), sigma, sigma, cv::BORDER_REFLECT);
+  const int rim = static_cast<int>(std::ceil(3 * sigma));
+  const cv::Rect inside(rim, rim, flat.cols - 2 * rim, flat.rows - 2 * rim);
+  FlatQuality q;
+  q.mean = cv::mean(grey(inside))[0];
+  cv::Mat floor = cv::max(smooth(inside), 1e-6);
+  cv::Mat ratio = grey(inside) / floor - 1.0;
+  q.roughness = std::sqrt(cv::mean(ratio.mul(ratio))[0]);
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(smooth(inside), &lo, &hi);
+  q.fall_off = hi > 0 ? lo / hi : 0;
+  return q;
+}
+
+// A card is refused when it is not flat and uniform (the textile or a
+// sphere still under the camera), saturated, or unlit.
+constexpr double kFlatMaxRoughness = 0.04;
+constexpr double kFlatMaxSaturated = 0.001;
+constexpr double kFlatMinMean = 0.02;
+
+int run_flat(const FlatArgs& args) {
+  stop_gracefully_on_signals();
+  const std::string command = "calibrate flat";
+  int exit_code = 0;
+  auto config = load_config_or_report(command, args.config, exit_code);
+  if (!config) return exit_code;
+  calibration::CalibrationStore store(config->storage.root);
+  const auto current_file = store.current();
+  if (!current_file)
+    return report_error(command, bad_input(config->source, "storage.root",
+                                           "has no light calibration (" +
+                                               store.directory().string() +
+                                               "): run psrig calibrate lights first; the flat "
+                                               "is stored with the lights"));
+  auto current = calibration::read_calibration(*current_file);
+  if (!current)
+    return report_error(command, current.error());
+  if (current->lights.size() != static_cast<std::size_t>(config->lights.channels))
+    return report_error(
+        command, bad_input(*current_file, "lights.per_light",
+                           "has " + std::to_string(current->lights.size()) + " lights but " +
+                               config->source.string() + " " +
+                               std::to_string(config->lights.channels) +
+                               ": run psrig calibrate lights again"));
+  auto document = calibration::carry_forward(*current, "flat");
+  if (!document) return report_error(command, document.error());
+  // The simulated rig puts the white card under its camera in place of the
+  // swatch; a sphere named in [sim] target stays (the card forgotten).
+  if (config->camera.backend == "sim" && config->sim.target == "swatch")
+    config->sim.target = "white_card";
+
+  auto staging = store.begin_next();
+  if (!staging) return report_error(command, staging.error());
+  std::vector<fs::path> scans;
+  {
+    auto rig = open_rig(*config);
+    if (!rig) return report_error(command, rig.error());
+    ScanSequencer sequencer(*config, *rig->lights, *rig->camera);
+    std::error_code ec;
+    fs::create_directories(staging->path() / calibration::kCapturesDirectory, ec);
+    for (int i = 0; i < args.frames; ++i) {
+      ScanRequest request;
+      request.sample_id = "flat-card";
+      request.description = "flat field: white card, capture " + std::to_string(i + 1) +
+                            " of " + std::to_string(args.frames);
+      request.directory =
+          staging->path() / calibration::kCapturesDirectory / ("flat-" + std::to_string(i));
+      request.process = false;
+      auto outcome = sequencer.capture(request, [&](const ScanProgress& p) {
+        if (!args.quiet)
+          std::fprintf(stderr, "psrig calibrate flat: capture %d of %d: %s\n", i + 1,
+                       args.frames, p.step.c_str());
+      });
+      if (!outcome) {
+        const int code = report_error(command, outcome.error());
+        return firmware_host::stop_requested() ? psrig::cli::exit_interrupted : code;
+      }
+      scans.push_back(outcome->directory);
+    }
+  }
+  auto flats = load_flats(scans);
+  if (!flats) return report_error(command, flats.error());
+  nlohmann::json per_light = nlohmann::json::array();
+  std::vector<FlatQuality> quality;
+  for (std::size_t k = 0; k < flats->linear.size(); ++k) {
+    const FlatQuality q = flat_quality(flats->linear[k]);
+    quality.push_back(q);
+    const std::string light = "light " + std::to_string(k);
+    std::string problem;
+    if (flats->saturated[k] > kFlatMaxSaturated)
+      problem = "the card as captured under " + light + " is saturated (" +
+                std::to_string(flats->saturated[k] * 100).substr(0, 4) +
+                " % of its pixels at full scale): lower camera.exposure_us or camera.gain, or "
+                "use a grey card";
+    else if (q.mean < kFlatMinMean)
+      problem = "the card as captured under " + light +
+                " is dark: is the LED on, and the card under the camera?";
+    else if (q.roughness > kFlatMaxRoughness)
+      problem = "the capture under " + light + " is not a uniform card (it varies by " +
+                std::to_string(q.roughness * 100).substr(0, 4) +
+                " % RMS from pixel to pixel): lay a flat white or grey card over the whole "
+                "field, then run psrig calibrate flat again";
+    if (!problem.empty()) {
+      Error error = bad_input(config->source, "", problem);
+      return report_error(command, error);
+    }
+    per_light.push_back({{"index", k},
+                         {"image", "captures/flat/flat" + std::to_string(k) + ".png"},
+                         {"mean", std::round(q.mean * 1e4) / 1e4},
+                         {"fall_off", std::round(q.fall_off * 1e4) / 1e4},
+                         {"roughness", std::round(q.roughness * 1e5) / 1e5}});
+  }
+  // The flats: linear, dark subtracted, 0..1 of full scale as 16 bits.
+  const fs::path flat_directory = staging->path() / calibration::kCapturesDirectory / "flat";
+  std::error_code ec;
+  fs::create_directories(flat_directory, ec);
+  if (ec) return report_error(command, io_error(flat_directory, "cannot create: " + ec.message()));
+  nlohmann::json images = nlohmann::json::array();
+  for (std::size_t k = 0; k < flats->linear.size(); ++k) {
+    cv::Mat stored;
+    flats->linear[k].convertTo(stored, CV_16U, 65535.0);
+    const std::string name = "captures/flat/flat" + std::to_string(k) + ".png";
+    if (!cv::imwrite((staging->path() / name).string(), stored))
+      return report_error(command, io_error(staging->path() / name, "cannot write"));
+    images.push_back(name);
+  }
+  nlohmann::json sources = nlohmann::json::array();
+  for (const auto& scan : scans) sources.push_back(scan.lexically_relative(staging->path()).string());
+  auto& doc = *document;
+  doc["flat"] = {{"created", doc["created"]},
+                 {"images", images},
+                 {"encoding", "linear, dark subtracted, 65535 = full scale"},
+                 {"sources", {{"captures", sources}, {"rig", fs::absolute(config->source).lexically_normal().string()}}},
+                 {"per_light", per_light}};
+  const std::string text = doc.dump(2) + "\n";
+  if (auto ok = calibration::write_new_file(staging->path() / calibration::kCalibrationFile, text);
+      !ok)
+    return report_error(command, ok.error());
+  const fs::path target = staging->target();
+  if (auto ok = staging->commit(processing::AtomicDirectory::Existing::refuse, true); !ok)
+    return report_error(command, ok.error());
+  if (!args.quiet) {
+    for (std::size_t k = 0; k < quality.size(); ++k)
+      std::printf("light %zu: flat mean %.3f of full scale, fall-off to %.3f, roughness %.4f\n", k,
+                  quality[k].mean, quality[k].fall_off, quality[k].roughness);
+    std::printf("calibration: %s (current for %s)\n",
+                (target / calibration::kCalibrationFile).c_str(), config->source.c_str());
+  }
+  return 0;
+}
+
 }  // namespace
 
 Command add_calibrate_command(CLI::App& parent) {
@@ -408,7 +650,20 @@ Command add_calibrate_command(CLI::App& parent) {
       ->capture_default_str();
   lights->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
 
-  return {app, [args] {
+  auto flat_args = std::make_shared<FlatArgs>();
+  CLI::App* flat = app->add_subcommand(
+      "flat", "Flat field: a white or grey card under each LED, applied to every later scan");
+  flat->add_option("--config", flat_args->config,
+                   "Rig configuration: capture the card on this rig and keep the flats in its "
+                   "calibration store")
+      ->required();
+  flat->add_option("--frames", flat_args->frames, "Captures of the card, averaged")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  flat->add_flag("-q,--quiet", flat_args->quiet, "Print nothing on success");
+
+  return {app, [args, flat_args, flat] {
+            if (flat->parsed()) return run_flat(*flat_args);
             if (!args->images.empty()) return run_from_images(*args);
             if (args->config.empty()) {
               std::fprintf(stderr,
