@@ -238,6 +238,38 @@ TEST(PsrigCalibrateFlat, FlatsFromTheCardEvenOutTheVignetting) {
   EXPECT_EQ(next["contains"], json::array({"lights", "flat"}));
 }
 
+// The matte sphere under vignetting 0.15 reads its slant low; with the
+// flats from the card divided out first, it reads the configured slant.
+TEST(PsrigCalibrateFlat, TheFlatCorrectsTheMatteSphereUnderVignetting) {
+  TempDir temp;
+  const auto config = sim_config(temp, {{"max_on_ms", "5000\nintensity = [1.0, 0.8, 0.9]"}});
+  const fs::path store = temp / "state" / "calibrations";
+  const auto worst_error = [&](const fs::path& file) {
+    const json c = read_json(file);
+    double worst = 0;
+    for (int k = 0; k < 3; ++k)
+      worst = std::max(worst, calibration::angle_deg(direction_of(c["lights"]["per_light"][k]),
+                                                     processing::light_direction(120.0 * k, 45)));
+    return worst;
+  };
+  const std::vector<std::string> matte = {"calibrate", "lights", "--config", config.string(),
+                                          "--target",  "matte",  "--frames", "1", "-q"};
+  ASSERT_EQ(run_program("psrig", matte).exit_code, 0);
+  const double before = worst_error(store / "0001" / "calibration.json");
+  auto flat = run_program("psrig", {"calibrate", "flat", "--config", config.string(), "-q"});
+  ASSERT_EQ(flat.exit_code, 0) << flat.err;
+  ASSERT_EQ(run_program("psrig", matte).exit_code, 0);
+  const json after_file = read_json(store / "0003" / "calibration.json");
+  EXPECT_EQ(after_file["lights"]["sources"]["flat"], (store / "0002" / "calibration.json").string());
+  const double after = worst_error(store / "0003" / "calibration.json");
+  std::printf("matte sphere, vignetting 0.15: worst direction error %.3f deg without the flat, "
+              "%.3f deg with\n",
+              before, after);
+  EXPECT_GT(before, 0.3);
+  EXPECT_LT(after, 0.1);
+  expect_sim_answer(after_file, {1.0, 0.8, 0.9}, "matte, flat-fielded");
+}
+
 // No card (the swatch still under the camera), a saturated card: exit 2,
 // the fix named, no new version.
 TEST(PsrigCalibrateFlat, NoCardOrASaturatedCardIsRefused) {

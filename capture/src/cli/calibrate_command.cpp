@@ -229,6 +229,35 @@ Result<SphereSet> copy_into(const SphereSet& set, const fs::path& version) {
   return copied;
 }
 
+// Divides each light's frames by the current calibration's flat for it,
+// smoothed and scaled to mean 1 (so relative intensities stay). Returns
+// the calibration.json whose flats were used, when they were.
+std::optional<std::string> divide_by_current_flats(const calibration::CalibrationStore& store,
+                                                   SphereSet& set) {
+  const auto file = store.current();
+  if (!file) return std::nullopt;
+  auto current = calibration::read_calibration(*file);
+  if (!current || current->flat_images.size() != set.lights.size()) return std::nullopt;
+  std::vector<cv::Mat> gains;
+  for (std::size_t k = 0; k < set.lights.size(); ++k) {
+    cv::Mat flat = cv::imread(current->flat_images[k].string(), cv::IMREAD_UNCHANGED);
+    if (flat.empty() || set.lights[k].frames.empty() ||
+        flat.size() != set.lights[k].frames.front().image.size())
+      return std::nullopt;
+    flat.convertTo(flat, CV_32F);
+    if (flat.channels() == 3) cv::transform(flat, flat, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
+    cv::GaussianBlur(flat, flat, cv::Size(), 2.0);
+    const double mean = cv::mean(flat)[0];
+    if (!(mean > 0)) return std::nullopt;
+    cv::max(flat / mean, 0.05, flat);
+    gains.push_back(flat);
+  }
+  for (std::size_t k = 0; k < set.lights.size(); ++k)
+    for (auto& frame : set.lights[k].frames)
+      frame.image = frame.image / gains[k];
+  return file->string();
+}
+
 int write_to_store(const config::RigConfig& config, processing::AtomicDirectory staging,
                    calibration::LightCalibration& result, bool quiet) {
   nlohmann::json document = calibration::to_json(result, calibration::utc_now());
@@ -337,6 +366,7 @@ int run_on_rig(const CalibrateArgs& args) {
   auto staging = store.begin_next();
   if (!staging) return report_error("calibrate lights", staging.error());
   std::vector<fs::path> scans;
+  std::string result_flat_note;
   {
     auto rig = open_rig(*config);
     if (!rig) return report_error("calibrate lights", rig.error());
@@ -365,6 +395,11 @@ int run_on_rig(const CalibrateArgs& args) {
   }
   auto set = load_captures(args.target, scans);
   if (!set) return report_error("calibrate lights", set.error());
+  // The current flat field, when there is one, evens out the sensor's and
+  // the LEDs' fall-off across the field first (a matte sphere's rim would
+  // otherwise read dimmer than its centre).
+  if (const auto flat_from = divide_by_current_flats(store, *set))
+    result_flat_note = *flat_from;
   calibration::CameraModel camera{args.focal_px};
   auto result = compute(args.target == "chrome" ? &*set : nullptr,
                         args.target == "matte" ? &*set : nullptr, camera, 0.95);
@@ -376,6 +411,7 @@ int run_on_rig(const CalibrateArgs& args) {
     return report_error("calibrate lights", error);
   }
   result->sources[args.target] = describe_sources(*set, staging->path());
+  if (!result_flat_note.empty()) result->sources["flat"] = result_flat_note;
   result->sources["rig"] = fs::absolute(config->source).lexically_normal().string();
   return write_to_store(*config, std::move(*staging), *result, args.quiet);
 }
