@@ -178,6 +178,15 @@ Result<StoredCalibration> read_calibration(const fs::path& file) {
       stored.flat_images.push_back(path.is_absolute() ? path : base / path);
     }
   }
+  if (d.contains("scale") && !d["scale"].is_null()) {
+    const json& scale = d["scale"];
+    if (!scale.is_object() || !scale.contains("pixel_size_mm") ||
+        !scale["pixel_size_mm"].is_number() || !(scale["pixel_size_mm"].get<double>() > 0))
+      return std::unexpected(bad_input(file, "scale.pixel_size_mm",
+                                       "must be a positive number; run psrig calibrate scale "
+                                       "again"));
+    stored.pixel_size_mm = scale["pixel_size_mm"].get<double>();
+  }
   return stored;
 }
 

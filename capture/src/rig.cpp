@@ -62,6 +62,7 @@ std::optional<AppliedCalibration> current_calibration(const config::RigConfig& c
     applied.directions.push_back(light.direction);
     applied.intensities.push_back(light.intensity);
   }
+  applied.pixel_size_mm = stored->pixel_size_mm;
   for (const auto& image : stored->flat_images) {
     cv::Mat flat = cv::imread(image.string(), cv::IMREAD_UNCHANGED);
     if (flat.empty() || flat.depth() != CV_16U) {

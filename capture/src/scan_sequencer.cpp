@@ -312,7 +312,8 @@ Result<processing::Scan> ScanSequencer::acquire(
   d.black_level = reference.black_level * scale;
   d.white_level = reference.white_level * scale;
   scan.white_level = *d.white_level;
-  d.pixel_size_mm = config_.geometry.pixel_size_mm;
+  const bool scaled = request.calibration && request.calibration->pixel_size_mm;
+  d.pixel_size_mm = scaled ? *request.calibration->pixel_size_mm : config_.geometry.pixel_size_mm;
   d.document = {
       {"capture",
        {{"camera", camera_.describe()},
@@ -361,6 +362,7 @@ Result<processing::Scan> ScanSequencer::acquire(
   }
   nlohmann::json applied = nlohmann::json::array({"lights"});
   if (flat_fielded) applied.push_back("flat");
+  if (scaled) applied.push_back("scale");
   d.document["calibration"] = request.calibration
                                   ? nlohmann::json{{"file", request.calibration->file.string()},
                                                    {"created", request.calibration->created},

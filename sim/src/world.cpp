@@ -26,6 +26,8 @@ std::optional<SphereTarget> sphere_target(const config::SimConfig& sim) {
 Swatch make_world_swatch(const config::SimConfig& sim) {
   if (const auto sphere = sphere_target(sim)) return sphere_scene(*sphere);
   if (sim.target == "white_card") return white_card({sim.width, sim.height}, sim.pixel_size_mm);
+  if (sim.target == "charuco_board")
+    return charuco_board({sim.width, sim.height}, sim.pixel_size_mm);
   SwatchParams params;
   params.pattern = parse_swatch_pattern(sim.pattern).value_or(SwatchPattern::jersey);
   params.size = {sim.width, sim.height};

@@ -3,7 +3,8 @@
 // in its calibration store, or computed from images already taken
 // (--images DIR, written to --out FILE or to the rig's store).
 // psrig calibrate flat: a white card under each LED, kept in the store and
-// applied to every later scan.
+// applied to every later scan. psrig calibrate scale: millimetres per pixel
+// from a ChArUco board, used as every later scan's pixel size.
 
 #include <algorithm>
 #include <cstdio>
@@ -17,6 +18,7 @@
 #include "psrig/calibration/calibration_store.h"
 #include "psrig/calibration/image_set.h"
 #include "psrig/calibration/light_calibration.h"
+#include "psrig/calibration/scale.h"
 #include "psrig/capture/rig.h"
 #include "psrig/capture/scan_sequencer.h"
 #include "psrig/firmware_host/emergency_stop.h"
@@ -640,6 +642,152 @@ int run_flat(const FlatArgs& args) {
   return 0;
 }
 
+// ---- psrig calibrate scale ---------------------------------------------
+
+struct ScaleArgs {
+  std::string config;
+  std::string image;
+  std::string squares = "7x5";
+  double square_mm = 2.0;
+  double marker_mm = 1.4;
+  std::string dictionary = "DICT_4X4_50";
+  bool quiet = false;
+};
+
+int run_scale(const ScaleArgs& args) {
+  stop_gracefully_on_signals();
+  const std::string command = "calibrate scale";
+  calibration::CharucoSpec spec;
+  spec.square_mm = args.square_mm;
+  spec.marker_mm = args.marker_mm;
+  spec.dictionary = args.dictionary;
+  if (std::sscanf(args.squares.c_str(), "%dx%d", &spec.squares_x, &spec.squares_y) != 2 ||
+      spec.squares_x < 2 || spec.squares_y < 2 || spec.squares_x > 100 || spec.squares_y > 100) {
+    std::fprintf(stderr,
+                 "psrig calibrate scale: error: --squares must be COLUMNSxROWS, e.g. 7x5\n");
+    return 2;
+  }
+  if (!(spec.marker_mm < spec.square_mm)) {
+    std::fprintf(stderr,
+                 "psrig calibrate scale: error: --marker-mm must be less than --square-mm\n");
+    return 2;
+  }
+  if (calibration::dictionary_id(spec.dictionary) < 0) {
+    std::fprintf(stderr,
+                 "psrig calibrate scale: error: --dictionary %s is not an OpenCV predefined "
+                 "dictionary (DICT_4X4_50, DICT_5X5_100, …, DICT_ARUCO_ORIGINAL)\n",
+                 spec.dictionary.c_str());
+    return 2;
+  }
+  int exit_code = 0;
+  auto config = load_config_or_report(command, args.config, exit_code);
+  if (!config) return exit_code;
+  calibration::CalibrationStore store(config->storage.root);
+  const auto current_file = store.current();
+  if (!current_file)
+    return report_error(command, bad_input(config->source, "storage.root",
+                                           "has no light calibration (" +
+                                               store.directory().string() +
+                                               "): run psrig calibrate lights first; the scale "
+                                               "is stored with the lights"));
+  auto current = calibration::read_calibration(*current_file);
+  if (!current) return report_error(command, current.error());
+  auto document = calibration::carry_forward(*current, "scale");
+  if (!document) return report_error(command, document.error());
+
+  cv::Mat image;
+  fs::path source;
+  nlohmann::json sources;
+  std::optional<processing::AtomicDirectory> staging;
+  if (!args.image.empty()) {
+    auto read = calibration::read_linear_grey(args.image, processing::Encoding::linear);
+    if (!read) return report_error(command, read.error());
+    image = *read;
+    source = args.image;
+  } else {
+    if (config->camera.backend == "sim" && config->sim.target == "swatch")
+      config->sim.target = "charuco_board";
+    auto next = store.begin_next();
+    if (!next) return report_error(command, next.error());
+    staging.emplace(std::move(*next));
+    auto rig = open_rig(*config);
+    if (!rig) return report_error(command, rig.error());
+    ScanSequencer sequencer(*config, *rig->lights, *rig->camera);
+    std::error_code ec;
+    fs::create_directories(staging->path() / calibration::kCapturesDirectory, ec);
+    ScanRequest request;
+    request.sample_id = "charuco-board";
+    request.description = "scale: ChArUco board";
+    request.directory = staging->path() / calibration::kCapturesDirectory / "scale-0";
+    request.process = false;
+    auto outcome = sequencer.capture(request, [&](const ScanProgress& p) {
+      if (!args.quiet) std::fprintf(stderr, "psrig calibrate scale: %s\n", p.step.c_str());
+    });
+    if (!outcome) {
+      const int code = report_error(command, outcome.error());
+      return firmware_host::stop_requested() ? psrig::cli::exit_interrupted : code;
+    }
+    auto set = load_captures("scale", {outcome->directory});
+    if (!set) return report_error(command, set.error());
+    // Every light's frame, averaged: the board evenly lit.
+    for (const auto& light : set->lights)
+      for (const auto& frame : light.frames)
+        image = image.empty() ? frame.image.clone() : cv::Mat(image + frame.image);
+    source = config->source;
+    sources = {{"capture", "captures/scale-0"},
+               {"rig", fs::absolute(config->source).lexically_normal().string()}};
+  }
+  auto estimate = calibration::measure_scale(image, spec, source);
+  if (!estimate) {
+    Error error = estimate.error();
+    if (args.image.empty()) error.message = "the board as captured " + error.message;
+    return report_error(command, error);
+  }
+  if (!staging) {
+    auto next = store.begin_next();
+    if (!next) return report_error(command, next.error());
+    staging.emplace(std::move(*next));
+    const fs::path directory = staging->path() / calibration::kCapturesDirectory / "scale";
+    std::error_code ec;
+    fs::create_directories(directory, ec);
+    fs::copy_file(args.image, directory / fs::path(args.image).filename(), ec);
+    if (ec) return report_error(command, io_error(directory, "cannot copy the image: " + ec.message()));
+    sources = {{"image", "captures/scale/" + fs::path(args.image).filename().string()}};
+  }
+  auto& doc = *document;
+  doc["scale"] = {{"created", doc["created"]},
+                  {"pixel_size_mm", estimate->pixel_size_mm},
+                  {"uncertainty_mm", estimate->uncertainty_mm},
+                  {"distortion", nullptr},
+                  {"rotation_deg", std::round(estimate->rotation_deg * 1e4) / 1e4},
+                  {"fit_rms_px", std::round(estimate->fit_rms_px * 1e4) / 1e4},
+                  {"corners", estimate->corners},
+                  {"markers", estimate->markers},
+                  {"board",
+                   {{"squares", {spec.squares_x, spec.squares_y}},
+                    {"square_mm", spec.square_mm},
+                    {"marker_mm", spec.marker_mm},
+                    {"dictionary", spec.dictionary}}},
+                  {"sources", sources}};
+  const std::string text = doc.dump(2) + "\n";
+  if (auto ok = calibration::write_new_file(staging->path() / calibration::kCalibrationFile, text);
+      !ok)
+    return report_error(command, ok.error());
+  const fs::path target = staging->target();
+  if (auto ok = staging->commit(processing::AtomicDirectory::Existing::refuse, true); !ok)
+    return report_error(command, ok.error());
+  if (!args.quiet) {
+    std::printf(
+        "pixel size: %.6f mm +/- %.2g mm (%d corners, %d markers, fit RMS %.3f px, board "
+        "rotated %.2f deg)\n",
+        estimate->pixel_size_mm, estimate->uncertainty_mm, estimate->corners, estimate->markers,
+        estimate->fit_rms_px, estimate->rotation_deg);
+    std::printf("calibration: %s (current for %s)\n",
+                (target / calibration::kCalibrationFile).c_str(), config->source.c_str());
+  }
+  return 0;
+}
+
 }  // namespace
 
 Command add_calibrate_command(CLI::App& parent) {
@@ -698,8 +846,31 @@ Command add_calibrate_command(CLI::App& parent) {
       ->capture_default_str();
   flat->add_flag("-q,--quiet", flat_args->quiet, "Print nothing on success");
 
-  return {app, [args, flat_args, flat] {
+  auto scale_args = std::make_shared<ScaleArgs>();
+  CLI::App* scale = app->add_subcommand(
+      "scale", "Millimetres per pixel from a printed ChArUco board, used by every later scan");
+  scale
+      ->add_option("--config", scale_args->config,
+                   "Rig configuration: capture the board on this rig (unless --image) and keep "
+                   "the result in its calibration store")
+      ->required();
+  scale->add_option("--image", scale_args->image,
+                    "An image of the board already taken (linear), instead of capturing");
+  scale->add_option("--squares", scale_args->squares, "The board's squares, COLUMNSxROWS")
+      ->capture_default_str();
+  scale->add_option("--square-mm", scale_args->square_mm, "A square's side as printed, mm")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  scale->add_option("--marker-mm", scale_args->marker_mm, "A marker's side as printed, mm")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  scale->add_option("--dictionary", scale_args->dictionary, "The markers' ArUco dictionary")
+      ->capture_default_str();
+  scale->add_flag("-q,--quiet", scale_args->quiet, "Print nothing on success");
+
+  return {app, [args, flat_args, flat, scale_args, scale] {
             if (flat->parsed()) return run_flat(*flat_args);
+            if (scale->parsed()) return run_scale(*scale_args);
             if (!args->images.empty()) return run_from_images(*args);
             if (args->config.empty()) {
               std::fprintf(stderr,

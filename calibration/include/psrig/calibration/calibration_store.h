@@ -61,6 +61,7 @@ struct StoredCalibration {
   nlohmann::json document;
   std::vector<CalibratedLight> lights;
   std::vector<std::filesystem::path> flat_images;
+  std::optional<double> pixel_size_mm;  // its scale section's, when measured
 };
 [[nodiscard]] Result<StoredCalibration> read_calibration(const std::filesystem::path& file);
 

@@ -37,6 +37,9 @@ struct AppliedCalibration {
   // full scale), when it has one: written into the scan as its flats, the
   // lights' intensities then 1 (the flats carry the LEDs' brightness).
   std::vector<cv::Mat> flats;
+  // Its measured pixel size (psrig calibrate scale), replacing
+  // geometry.pixel_size_mm.
+  std::optional<double> pixel_size_mm;
 };
 
 struct ScanRequest {
