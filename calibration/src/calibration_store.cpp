@@ -166,8 +166,8 @@ Result<StoredCalibration> read_calibration(const fs::path& file) {
     fs::path base = file.parent_path();
     if (flat.contains("from")) {
       if (!flat["from"].is_string() || !is_version_name(flat["from"].get<std::string>()))
-        return std::unexpected(
-            bad_input(file, "flat.from", "must name a version (\"0001\"); run psrig calibrate "
+        return std::unexpected(bad_input(file, "flat.from",
+                                         "must name a version (\"0001\"); run psrig calibrate "
                                          "flat again"));
       base = base.parent_path() / flat["from"].get<std::string>();
     }
@@ -208,7 +208,8 @@ Result<json> carry_forward(const StoredCalibration& current, const std::string& 
       continue;
     }
     contains.push_back(section);
-    if (next[section].is_object() && !next[section].contains("from")) next[section]["from"] = version;
+    if (next[section].is_object() && !next[section].contains("from"))
+      next[section]["from"] = version;
   }
   next["contains"] = contains;
   next["created"] = utc_now();

@@ -66,9 +66,10 @@ std::optional<AppliedCalibration> current_calibration(const config::RigConfig& c
   for (const auto& image : stored->flat_images) {
     cv::Mat flat = cv::imread(image.string(), cv::IMREAD_UNCHANGED);
     if (flat.empty() || flat.depth() != CV_16U) {
-      log->warn("the flat field of {} is unusable ({} cannot be read as 16 bits), so scans go "
-                "without flats: run psrig calibrate flat again",
-                file->string(), image.string());
+      log->warn(
+          "the flat field of {} is unusable ({} cannot be read as 16 bits), so scans go "
+          "without flats: run psrig calibrate flat again",
+          file->string(), image.string());
       applied.flats.clear();
       break;
     }

@@ -294,7 +294,7 @@ Result<processing::Scan> ScanSequencer::acquire(
            use_calibration ? calibrated->directions[channel]
                            : processing::light_direction(config_.geometry.tilts_deg.at(channel),
                                                          config_.geometry.slant_deg),
-           cv::Vec3d::all(flat_fielded     ? 1.0
+           cv::Vec3d::all(flat_fielded      ? 1.0
                           : use_calibration ? calibrated->intensities[channel]
                                             : intensity[phase.channel]),
            false});

@@ -21,9 +21,11 @@ Swatch charuco_board(cv::Size size, double pixel_size_mm) {
   const double sample_mm = pixel_size_mm / kSamples;
   const auto board = cv::aruco::CharucoBoard::create(
       kBoardSquaresX, kBoardSquaresY, static_cast<float>(kBoardSquareMm),
-      static_cast<float>(kBoardMarkerMm), cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50));
-  const cv::Size printed(static_cast<int>(std::lround(kBoardSquaresX * kBoardSquareMm / sample_mm)),
-                         static_cast<int>(std::lround(kBoardSquaresY * kBoardSquareMm / sample_mm)));
+      static_cast<float>(kBoardMarkerMm),
+      cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50));
+  const cv::Size printed(
+      static_cast<int>(std::lround(kBoardSquaresX * kBoardSquareMm / sample_mm)),
+      static_cast<int>(std::lround(kBoardSquaresY * kBoardSquareMm / sample_mm)));
   cv::Mat ink;
   board->draw(printed, ink, 0, 1);
   // White paper with the board centred on it, then into the sensor's pixels.

@@ -191,13 +191,13 @@ TEST(PsrigCalibrateFlat, FlatsFromTheCardEvenOutTheVignetting) {
   EXPECT_EQ(versions_in(state), 0u);
 
   const fs::path plain = temp / "plain";
-  auto scanned = run_program("psrig", {"scan", "--config", config.string(), "--out",
-                                       plain.string(), "-q"});
+  auto scanned =
+      run_program("psrig", {"scan", "--config", config.string(), "--out", plain.string(), "-q"});
   ASSERT_EQ(scanned.exit_code, 0) << scanned.err;
   const double cv_plain = albedo_cv(plain);
 
-  ASSERT_EQ(run_program("psrig", {"calibrate", "lights", "--config", config.string(), "--frames",
-                                  "1", "-q"})
+  ASSERT_EQ(run_program("psrig",
+                        {"calibrate", "lights", "--config", config.string(), "--frames", "1", "-q"})
                 .exit_code,
             0);
   auto run = run_program("psrig", {"calibrate", "flat", "--config", config.string()});
@@ -215,8 +215,8 @@ TEST(PsrigCalibrateFlat, FlatsFromTheCardEvenOutTheVignetting) {
   }
 
   const fs::path flat = temp / "flat";
-  scanned = run_program("psrig",
-                        {"scan", "--config", config.string(), "--out", flat.string(), "-q"});
+  scanned =
+      run_program("psrig", {"scan", "--config", config.string(), "--out", flat.string(), "-q"});
   ASSERT_EQ(scanned.exit_code, 0) << scanned.err;
   const json description = read_json(flat / "scan.json");
   EXPECT_EQ(description["calibration"]["file"], (version / "calibration.json").string());
@@ -229,8 +229,8 @@ TEST(PsrigCalibrateFlat, FlatsFromTheCardEvenOutTheVignetting) {
   EXPECT_LT(cv_flat, 0.005);
 
   // A later light calibration carries the flat over.
-  ASSERT_EQ(run_program("psrig", {"calibrate", "lights", "--config", config.string(), "--frames",
-                                  "1", "-q"})
+  ASSERT_EQ(run_program("psrig",
+                        {"calibrate", "lights", "--config", config.string(), "--frames", "1", "-q"})
                 .exit_code,
             0);
   const json next = read_json(state / "calibrations" / "0003" / "calibration.json");
@@ -252,19 +252,22 @@ TEST(PsrigCalibrateFlat, TheFlatCorrectsTheMatteSphereUnderVignetting) {
                                                      processing::light_direction(120.0 * k, 45)));
     return worst;
   };
-  const std::vector<std::string> matte = {"calibrate", "lights", "--config", config.string(),
-                                          "--target",  "matte",  "--frames", "1", "-q"};
+  const std::vector<std::string> matte = {"calibrate",     "lights",   "--config",
+                                          config.string(), "--target", "matte",
+                                          "--frames",      "1",        "-q"};
   ASSERT_EQ(run_program("psrig", matte).exit_code, 0);
   const double before = worst_error(store / "0001" / "calibration.json");
   auto flat = run_program("psrig", {"calibrate", "flat", "--config", config.string(), "-q"});
   ASSERT_EQ(flat.exit_code, 0) << flat.err;
   ASSERT_EQ(run_program("psrig", matte).exit_code, 0);
   const json after_file = read_json(store / "0003" / "calibration.json");
-  EXPECT_EQ(after_file["lights"]["sources"]["flat"], (store / "0002" / "calibration.json").string());
+  EXPECT_EQ(after_file["lights"]["sources"]["flat"],
+            (store / "0002" / "calibration.json").string());
   const double after = worst_error(store / "0003" / "calibration.json");
-  std::printf("matte sphere, vignetting 0.15: worst direction error %.3f deg without the flat, "
-              "%.3f deg with\n",
-              before, after);
+  std::printf(
+      "matte sphere, vignetting 0.15: worst direction error %.3f deg without the flat, "
+      "%.3f deg with\n",
+      before, after);
   EXPECT_GT(before, 0.3);
   EXPECT_LT(after, 0.1);
   expect_sim_answer(after_file, {1.0, 0.8, 0.9}, "matte, flat-fielded");
@@ -277,15 +280,15 @@ TEST(PsrigCalibrateFlat, NoCardOrASaturatedCardIsRefused) {
   const fs::path state = temp / "state";
   {
     const auto config = sim_config(temp);
-    ASSERT_EQ(run_program("psrig", {"calibrate", "lights", "--config", config.string(),
-                                    "--frames", "1", "-q"})
+    ASSERT_EQ(run_program("psrig", {"calibrate", "lights", "--config", config.string(), "--frames",
+                                    "1", "-q"})
                   .exit_code,
               0);
   }
   // The matte sphere left under the camera instead of the card.
   const auto sphere = sim_config(temp, {{"target", "\"matte_sphere\""}});
-  auto no_card = run_program("psrig", {"calibrate", "flat", "--config", sphere.string(),
-                                       "--frames", "1"});
+  auto no_card =
+      run_program("psrig", {"calibrate", "flat", "--config", sphere.string(), "--frames", "1"});
   EXPECT_EQ(no_card.exit_code, 2) << no_card.err;
   EXPECT_TRUE(contains(no_card.err, "not a uniform card")) << no_card.err;
   EXPECT_TRUE(contains(no_card.err, "lay a flat white or grey card")) << no_card.err;
@@ -293,8 +296,8 @@ TEST(PsrigCalibrateFlat, NoCardOrASaturatedCardIsRefused) {
   EXPECT_EQ(versions_in(state), 1u);
 
   const auto saturated = sim_config(temp, {{"led_irradiance", "4"}});
-  auto run = run_program("psrig", {"calibrate", "flat", "--config", saturated.string(),
-                                   "--frames", "1"});
+  auto run =
+      run_program("psrig", {"calibrate", "flat", "--config", saturated.string(), "--frames", "1"});
   EXPECT_EQ(run.exit_code, 2) << run.err;
   EXPECT_TRUE(contains(run.err, "saturated")) << run.err;
   EXPECT_TRUE(contains(run.err, "exposure")) << run.err;
@@ -311,8 +314,8 @@ TEST(PsrigCalibrateScale, TheBoardOnTheSimulatedRigGivesThePixelSize) {
   auto early = run_program("psrig", {"calibrate", "scale", "--config", config.string()});
   EXPECT_EQ(early.exit_code, 2) << early.err;
   EXPECT_TRUE(contains(early.err, "psrig calibrate lights first")) << early.err;
-  ASSERT_EQ(run_program("psrig", {"calibrate", "lights", "--config", config.string(), "--frames",
-                                  "1", "-q"})
+  ASSERT_EQ(run_program("psrig",
+                        {"calibrate", "lights", "--config", config.string(), "--frames", "1", "-q"})
                 .exit_code,
             0);
   auto run = run_program("psrig", {"calibrate", "scale", "--config", config.string()});
@@ -338,9 +341,8 @@ TEST(PsrigCalibrateScale, TheBoardOnTheSimulatedRigGivesThePixelSize) {
 
   // From an image already taken: the same board.
   const fs::path frame = store / "0002" / "captures" / "scale-0" / "led1.png";
-  auto from_image =
-      run_program("psrig", {"calibrate", "scale", "--config", config.string(), "--image",
-                            frame.string(), "-q"});
+  auto from_image = run_program("psrig", {"calibrate", "scale", "--config", config.string(),
+                                          "--image", frame.string(), "-q"});
   ASSERT_EQ(from_image.exit_code, 0) << from_image.err;
   const json d = read_json(store / "0003" / "calibration.json");
   EXPECT_NEAR(d["scale"]["pixel_size_mm"].get<double>(), 0.025, 0.002 * 0.025);
@@ -362,8 +364,8 @@ TEST(PsrigCalibrateScale, TheBoardOnTheSimulatedRigGivesThePixelSize) {
 TEST(PsrigCalibrateScale, APixelSizeOffTheGridIsMeasuredToo) {
   TempDir temp;
   const auto config = sim_config(temp, {{"pixel_size_mm", "0.0231"}});
-  ASSERT_EQ(run_program("psrig", {"calibrate", "lights", "--config", config.string(), "--frames",
-                                  "1", "-q"})
+  ASSERT_EQ(run_program("psrig",
+                        {"calibrate", "lights", "--config", config.string(), "--frames", "1", "-q"})
                 .exit_code,
             0);
   auto run = run_program("psrig", {"calibrate", "scale", "--config", config.string(), "-q"});

@@ -400,8 +400,7 @@ int run_on_rig(const CalibrateArgs& args) {
   // The current flat field, when there is one, evens out the sensor's and
   // the LEDs' fall-off across the field first (a matte sphere's rim would
   // otherwise read dimmer than its centre).
-  if (const auto flat_from = divide_by_current_flats(store, *set))
-    result_flat_note = *flat_from;
+  if (const auto flat_from = divide_by_current_flats(store, *set)) result_flat_note = *flat_from;
   calibration::CameraModel camera{args.focal_px};
   auto result = compute(args.target == "chrome" ? &*set : nullptr,
                         args.target == "matte" ? &*set : nullptr, camera, 0.95);
@@ -460,9 +459,8 @@ Result<FlatFrames> load_flats(const std::vector<fs::path>& scans) {
       cv::Mat grey = image.reshape(1, image.rows * image.cols);
       cv::Mat full;
       cv::reduce(grey, full, 1, cv::REDUCE_MAX);
-      flats.saturated[k] =
-          std::max(flats.saturated[k],
-                   static_cast<double>(cv::countNonZero(full >= 0.98f)) / full.total());
+      flats.saturated[k] = std::max(
+          flats.saturated[k], static_cast<double>(cv::countNonZero(full >= 0.98f)) / full.total());
       if (!dark.empty()) image -= dark;
       if (flats.linear[k].empty())
         flats.linear[k] = image / static_cast<double>(scans.size());
@@ -520,21 +518,19 @@ int run_flat(const FlatArgs& args) {
   calibration::CalibrationStore store(config->storage.root);
   const auto current_file = store.current();
   if (!current_file)
-    return report_error(command, bad_input(config->source, "storage.root",
-                                           "has no light calibration (" +
-                                               store.directory().string() +
-                                               "): run psrig calibrate lights first; the flat "
-                                               "is stored with the lights"));
+    return report_error(command,
+                        bad_input(config->source, "storage.root",
+                                  "has no light calibration (" + store.directory().string() +
+                                      "): run psrig calibrate lights first; the flat "
+                                      "is stored with the lights"));
   auto current = calibration::read_calibration(*current_file);
-  if (!current)
-    return report_error(command, current.error());
+  if (!current) return report_error(command, current.error());
   if (current->lights.size() != static_cast<std::size_t>(config->lights.channels))
-    return report_error(
-        command, bad_input(*current_file, "lights.per_light",
-                           "has " + std::to_string(current->lights.size()) + " lights but " +
-                               config->source.string() + " " +
-                               std::to_string(config->lights.channels) +
-                               ": run psrig calibrate lights again"));
+    return report_error(command, bad_input(*current_file, "lights.per_light",
+                                           "has " + std::to_string(current->lights.size()) +
+                                               " lights but " + config->source.string() + " " +
+                                               std::to_string(config->lights.channels) +
+                                               ": run psrig calibrate lights again"));
   auto document = calibration::carry_forward(*current, "flat");
   if (!document) return report_error(command, document.error());
   // The simulated rig puts the white card under its camera in place of the
@@ -554,15 +550,15 @@ int run_flat(const FlatArgs& args) {
     for (int i = 0; i < args.frames; ++i) {
       ScanRequest request;
       request.sample_id = "flat-card";
-      request.description = "flat field: white card, capture " + std::to_string(i + 1) +
-                            " of " + std::to_string(args.frames);
+      request.description = "flat field: white card, capture " + std::to_string(i + 1) + " of " +
+                            std::to_string(args.frames);
       request.directory =
           staging->path() / calibration::kCapturesDirectory / ("flat-" + std::to_string(i));
       request.process = false;
       auto outcome = sequencer.capture(request, [&](const ScanProgress& p) {
         if (!args.quiet)
-          std::fprintf(stderr, "psrig calibrate flat: capture %d of %d: %s\n", i + 1,
-                       args.frames, p.step.c_str());
+          std::fprintf(stderr, "psrig calibrate flat: capture %d of %d: %s\n", i + 1, args.frames,
+                       p.step.c_str());
       });
       if (!outcome) {
         const int code = report_error(command, outcome.error());
@@ -618,13 +614,16 @@ int run_flat(const FlatArgs& args) {
     images.push_back(name);
   }
   nlohmann::json sources = nlohmann::json::array();
-  for (const auto& scan : scans) sources.push_back(scan.lexically_relative(staging->path()).string());
+  for (const auto& scan : scans)
+    sources.push_back(scan.lexically_relative(staging->path()).string());
   auto& doc = *document;
-  doc["flat"] = {{"created", doc["created"]},
-                 {"images", images},
-                 {"encoding", "linear, dark subtracted, 65535 = full scale"},
-                 {"sources", {{"captures", sources}, {"rig", fs::absolute(config->source).lexically_normal().string()}}},
-                 {"per_light", per_light}};
+  doc["flat"] = {
+      {"created", doc["created"]},
+      {"images", images},
+      {"encoding", "linear, dark subtracted, 65535 = full scale"},
+      {"sources",
+       {{"captures", sources}, {"rig", fs::absolute(config->source).lexically_normal().string()}}},
+      {"per_light", per_light}};
   const std::string text = doc.dump(2) + "\n";
   if (auto ok = calibration::write_new_file(staging->path() / calibration::kCalibrationFile, text);
       !ok)
@@ -685,11 +684,11 @@ int run_scale(const ScaleArgs& args) {
   calibration::CalibrationStore store(config->storage.root);
   const auto current_file = store.current();
   if (!current_file)
-    return report_error(command, bad_input(config->source, "storage.root",
-                                           "has no light calibration (" +
-                                               store.directory().string() +
-                                               "): run psrig calibrate lights first; the scale "
-                                               "is stored with the lights"));
+    return report_error(command,
+                        bad_input(config->source, "storage.root",
+                                  "has no light calibration (" + store.directory().string() +
+                                      "): run psrig calibrate lights first; the scale "
+                                      "is stored with the lights"));
   auto current = calibration::read_calibration(*current_file);
   if (!current) return report_error(command, current.error());
   auto document = calibration::carry_forward(*current, "scale");
@@ -751,7 +750,8 @@ int run_scale(const ScaleArgs& args) {
     std::error_code ec;
     fs::create_directories(directory, ec);
     fs::copy_file(args.image, directory / fs::path(args.image).filename(), ec);
-    if (ec) return report_error(command, io_error(directory, "cannot copy the image: " + ec.message()));
+    if (ec)
+      return report_error(command, io_error(directory, "cannot copy the image: " + ec.message()));
     sources = {{"image", "captures/scale/" + fs::path(args.image).filename().string()}};
   }
   auto& doc = *document;

@@ -113,7 +113,8 @@ struct SimConfig {
   // chrome or a matte sphere resting on black velvet in the field's centre,
   // or a flat white card filling the field, or a ChArUco board printed on it:
   // sim/card_target.h).
-  std::string target = "swatch";  // "swatch" | "chrome_sphere" | "matte_sphere" | "white_card" | "charuco_board"
+  std::string target =
+      "swatch";  // "swatch" | "chrome_sphere" | "matte_sphere" | "white_card" | "charuco_board"
   double sphere_diameter_mm = 10;
   double led_angular_diameter_deg = 2;  // each LED as the sphere sees it (chrome highlight size)
   std::string pattern = "jersey";
