@@ -156,7 +156,64 @@ Result<StoredCalibration> read_calibration(const fs::path& file) {
     light.uncertainty_deg = l.value("uncertainty_deg", 0.0);
     stored.lights.push_back(light);
   }
+  if (d.contains("flat") && !d["flat"].is_null()) {
+    const json& flat = d["flat"];
+    if (!flat.is_object() || !flat.contains("images") || !flat["images"].is_array() ||
+        flat["images"].size() != stored.lights.size())
+      return std::unexpected(bad_input(file, "flat.images",
+                                       "must list one image per light; run psrig calibrate "
+                                       "flat again"));
+    fs::path base = file.parent_path();
+    if (flat.contains("from")) {
+      if (!flat["from"].is_string() || !is_version_name(flat["from"].get<std::string>()))
+        return std::unexpected(bad_input(file, "flat.from",
+                                         "must name a version (\"0001\"); run psrig calibrate "
+                                         "flat again"));
+      base = base.parent_path() / flat["from"].get<std::string>();
+    }
+    for (const auto& image : flat["images"]) {
+      if (!image.is_string())
+        return std::unexpected(bad_input(file, "flat.images", "must be file names"));
+      const fs::path path = image.get<std::string>();
+      stored.flat_images.push_back(path.is_absolute() ? path : base / path);
+    }
+  }
+  if (d.contains("scale") && !d["scale"].is_null()) {
+    const json& scale = d["scale"];
+    if (!scale.is_object() || !scale.contains("pixel_size_mm") ||
+        !scale["pixel_size_mm"].is_number() || !(scale["pixel_size_mm"].get<double>() > 0))
+      return std::unexpected(bad_input(file, "scale.pixel_size_mm",
+                                       "must be a positive number; run psrig calibrate scale "
+                                       "again"));
+    stored.pixel_size_mm = scale["pixel_size_mm"].get<double>();
+  }
   return stored;
+}
+
+Result<json> carry_forward(const StoredCalibration& current, const std::string& measured) {
+  json next = current.document;
+  const std::string version = current.file.parent_path().filename().string();
+  if (!is_version_name(version))
+    return std::unexpected(bad_input(current.file, "",
+                                     "is not in a calibration store; give the rig's current "
+                                     "calibration"));
+  json contains = json::array();
+  for (const char* section : {"lights", "flat", "colour", "scale", "led_positions_mm"}) {
+    if (section == measured) {
+      contains.push_back(section);
+      continue;
+    }
+    if (!next.contains(section) || next[section].is_null()) {
+      next[section] = nullptr;
+      continue;
+    }
+    contains.push_back(section);
+    if (next[section].is_object() && !next[section].contains("from"))
+      next[section]["from"] = version;
+  }
+  next["contains"] = contains;
+  next["created"] = utc_now();
+  return next;
 }
 
 std::string utc_now() {

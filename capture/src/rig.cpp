@@ -3,6 +3,8 @@
 #include <chrono>
 #include <optional>
 
+#include <opencv2/imgcodecs.hpp>
+
 #include "psrig/base/log.h"
 #include "psrig/calibration/calibration_store.h"
 
@@ -59,6 +61,19 @@ std::optional<AppliedCalibration> current_calibration(const config::RigConfig& c
   for (const auto& light : stored->lights) {
     applied.directions.push_back(light.direction);
     applied.intensities.push_back(light.intensity);
+  }
+  applied.pixel_size_mm = stored->pixel_size_mm;
+  for (const auto& image : stored->flat_images) {
+    cv::Mat flat = cv::imread(image.string(), cv::IMREAD_UNCHANGED);
+    if (flat.empty() || flat.depth() != CV_16U) {
+      log->warn(
+          "the flat field of {} is unusable ({} cannot be read as 16 bits), so scans go "
+          "without flats: run psrig calibrate flat again",
+          file->string(), image.string());
+      applied.flats.clear();
+      break;
+    }
+    applied.flats.push_back(flat);
   }
   return applied;
 }

@@ -58,6 +58,17 @@ struct RigGuard {
 // scheduler's jitter.
 constexpr auto kSwitchMargin = 1ms;
 
+// Whether the calibration's flats fit frames like `frame` (one per light,
+// same size and channels).
+bool use_flats(const std::optional<AppliedCalibration>& calibration, const cv::Mat& frame) {
+  if (!calibration || calibration->flats.empty() ||
+      calibration->flats.size() != calibration->directions.size())
+    return false;
+  for (const auto& flat : calibration->flats)
+    if (flat.size() != frame.size() || flat.channels() != frame.channels()) return false;
+  return true;
+}
+
 }  // namespace
 
 // What the LEDs did over a stretch of time: `channel` (-1: all off) was
@@ -277,13 +288,15 @@ Result<processing::Scan> ScanSequencer::acquire(
       const auto& calibrated = request.calibration;
       const bool use_calibration = calibrated && channel < calibrated->directions.size() &&
                                    channel < calibrated->intensities.size();
+      const bool flat_fielded = use_flats(calibrated, stored);
       scan.description.lights.push_back(
           {processing::scan_files::led_frame(phase.channel, stored.depth()),
            use_calibration ? calibrated->directions[channel]
                            : processing::light_direction(config_.geometry.tilts_deg.at(channel),
                                                          config_.geometry.slant_deg),
-           cv::Vec3d::all(use_calibration ? calibrated->intensities[channel]
-                                          : intensity[phase.channel]),
+           cv::Vec3d::all(flat_fielded      ? 1.0
+                          : use_calibration ? calibrated->intensities[channel]
+                                            : intensity[phase.channel]),
            false});
     }
   }
@@ -299,7 +312,8 @@ Result<processing::Scan> ScanSequencer::acquire(
   d.black_level = reference.black_level * scale;
   d.white_level = reference.white_level * scale;
   scan.white_level = *d.white_level;
-  d.pixel_size_mm = config_.geometry.pixel_size_mm;
+  const bool scaled = request.calibration && request.calibration->pixel_size_mm;
+  d.pixel_size_mm = scaled ? *request.calibration->pixel_size_mm : config_.geometry.pixel_size_mm;
   d.document = {
       {"capture",
        {{"camera", camera_.describe()},
@@ -317,10 +331,42 @@ Result<processing::Scan> ScanSequencer::acquire(
         {"stored_scale", scale},
         {"started", started},
         {"finished", iso_time()}}}};
+  // The calibration's flats, as frames of this scan: its dark (or black
+  // level) plus the card's signal, so processing's dark subtraction leaves
+  // the signal; 0.9 of the range at full scale.
+  const bool flat_fielded =
+      !scan.frames.empty() && use_flats(request.calibration, scan.frames.front());
+  if (flat_fielded) {
+    const double range = 0.9 * (*d.white_level - d.black_level) / 65535.0;
+    for (const auto& flat : request.calibration->flats) {
+      cv::Mat code;
+      flat.convertTo(code, CV_32F, range);
+      if (!scan.dark.empty()) {
+        cv::Mat dark;
+        scan.dark.convertTo(dark, CV_32F);
+        code += dark;
+      } else {
+        code += d.black_level;
+      }
+      cv::Mat stored;
+      code.convertTo(stored, CV_16U);
+      scan.flats.push_back(stored);
+      d.flats.push_back(processing::scan_files::flat_frame(static_cast<int>(scan.flats.size() - 1),
+                                                           stored.depth()));
+    }
+  } else if (request.calibration && !request.calibration->flats.empty()) {
+    logger("capture")->warn(
+        "the flat field of {} does not fit this camera's frames (size or channels), so this "
+        "scan goes without flats: run psrig calibrate flat again",
+        request.calibration->file.string());
+  }
+  nlohmann::json applied = nlohmann::json::array({"lights"});
+  if (flat_fielded) applied.push_back("flat");
+  if (scaled) applied.push_back("scale");
   d.document["calibration"] = request.calibration
                                   ? nlohmann::json{{"file", request.calibration->file.string()},
                                                    {"created", request.calibration->created},
-                                                   {"applied", nlohmann::json::array({"lights"})}}
+                                                   {"applied", applied}}
                                   : nlohmann::json(nullptr);
   return scan;
 }

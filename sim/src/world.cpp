@@ -5,6 +5,7 @@
 
 #include "psrig/firmware_host/simulated_rig.h"
 #include "psrig/processing/light_matrix.h"
+#include "psrig/sim/card_target.h"
 #include "psrig/sim/lambertian_render.h"
 #include "psrig/sim/sphere_target.h"
 
@@ -12,7 +13,7 @@ namespace psrig::sim {
 namespace {
 
 std::optional<SphereTarget> sphere_target(const config::SimConfig& sim) {
-  if (sim.target == "swatch") return std::nullopt;
+  if (sim.target != "chrome_sphere" && sim.target != "matte_sphere") return std::nullopt;
   SphereTarget target;
   target.kind = sim.target == "chrome_sphere" ? SphereKind::chrome : SphereKind::matte;
   target.size = {sim.width, sim.height};
@@ -24,6 +25,9 @@ std::optional<SphereTarget> sphere_target(const config::SimConfig& sim) {
 
 Swatch make_world_swatch(const config::SimConfig& sim) {
   if (const auto sphere = sphere_target(sim)) return sphere_scene(*sphere);
+  if (sim.target == "white_card") return white_card({sim.width, sim.height}, sim.pixel_size_mm);
+  if (sim.target == "charuco_board")
+    return charuco_board({sim.width, sim.height}, sim.pixel_size_mm);
   SwatchParams params;
   params.pattern = parse_swatch_pattern(sim.pattern).value_or(SwatchPattern::jersey);
   params.size = {sim.width, sim.height};

@@ -152,6 +152,231 @@ TEST(PsrigCalibrate, MatteSphereOnTheSimulatedRigGivesDirectionsAndIntensities) 
   expect_sim_answer(c, {1.0, 0.8, 0.9}, "matte");
 }
 
+// The albedo map's coefficient of variation (grey, the field's outer
+// 8 pixels left out) of a scan processed where it was written.
+double albedo_cv(const fs::path& scan) {
+  cv::Mat albedo = cv::imread((scan / "maps" / "albedo.exr").string(), cv::IMREAD_UNCHANGED);
+  EXPECT_FALSE(albedo.empty()) << scan;
+  if (albedo.empty()) return 1e9;
+  cv::Mat grey;
+  cv::transform(albedo, grey, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
+  const cv::Rect inside(8, 8, grey.cols - 16, grey.rows - 16);
+  cv::Scalar mean, deviation;
+  cv::meanStdDev(grey(inside), mean, deviation);
+  return deviation[0] / mean[0];
+}
+
+std::size_t versions_in(const fs::path& state) {
+  std::size_t n = 0;
+  std::error_code ec;
+  for (const auto& entry : fs::directory_iterator(state / "calibrations", ec)) {
+    (void)entry;
+    ++n;
+  }
+  return n;
+}
+
+// Vignetting 0.15 at the corners: a white card scanned without flats shows
+// the fall-off in its albedo; with the flats calibrated from the card it is
+// flat, and the scan says which calibration and that its flat was applied.
+TEST(PsrigCalibrateFlat, FlatsFromTheCardEvenOutTheVignetting) {
+  TempDir temp;
+  const auto config = sim_config(temp, {{"target", "\"white_card\""}});
+  const fs::path state = temp / "state";
+
+  // No light calibration yet: refused, nothing written.
+  auto refused = run_program("psrig", {"calibrate", "flat", "--config", config.string()});
+  EXPECT_EQ(refused.exit_code, 2) << refused.err;
+  EXPECT_TRUE(contains(refused.err, "psrig calibrate lights first")) << refused.err;
+  EXPECT_EQ(versions_in(state), 0u);
+
+  const fs::path plain = temp / "plain";
+  auto scanned =
+      run_program("psrig", {"scan", "--config", config.string(), "--out", plain.string(), "-q"});
+  ASSERT_EQ(scanned.exit_code, 0) << scanned.err;
+  const double cv_plain = albedo_cv(plain);
+
+  ASSERT_EQ(run_program("psrig",
+                        {"calibrate", "lights", "--config", config.string(), "--frames", "1", "-q"})
+                .exit_code,
+            0);
+  auto run = run_program("psrig", {"calibrate", "flat", "--config", config.string()});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(contains(run.out, "light 2: flat mean")) << run.out;
+  const fs::path version = state / "calibrations" / "0002";
+  const json c = read_json(version / "calibration.json");
+  EXPECT_EQ(c["contains"], json::array({"lights", "flat"}));
+  EXPECT_EQ(c["lights"]["from"], "0001");
+  ASSERT_EQ(c["flat"]["images"].size(), 3u);
+  for (int k = 0; k < 3; ++k) {
+    EXPECT_TRUE(fs::exists(version / c["flat"]["images"][k].get<std::string>()));
+    // The simulated sensor's fall-off: 0.15 at the corners.
+    EXPECT_NEAR(c["flat"]["per_light"][k]["fall_off"].get<double>(), 0.87, 0.05) << k;
+  }
+
+  const fs::path flat = temp / "flat";
+  scanned =
+      run_program("psrig", {"scan", "--config", config.string(), "--out", flat.string(), "-q"});
+  ASSERT_EQ(scanned.exit_code, 0) << scanned.err;
+  const json description = read_json(flat / "scan.json");
+  EXPECT_EQ(description["calibration"]["file"], (version / "calibration.json").string());
+  EXPECT_EQ(description["calibration"]["applied"], json::array({"lights", "flat"}));
+  ASSERT_EQ(description["flats"].size(), 3u);
+  EXPECT_TRUE(fs::exists(flat / description["flats"][0].get<std::string>()));
+  const double cv_flat = albedo_cv(flat);
+  std::printf("white card albedo CV: %.4f without flats, %.4f with\n", cv_plain, cv_flat);
+  EXPECT_GT(cv_plain, 0.02);
+  EXPECT_LT(cv_flat, 0.005);
+
+  // A later light calibration carries the flat over.
+  ASSERT_EQ(run_program("psrig",
+                        {"calibrate", "lights", "--config", config.string(), "--frames", "1", "-q"})
+                .exit_code,
+            0);
+  const json next = read_json(state / "calibrations" / "0003" / "calibration.json");
+  EXPECT_EQ(next["flat"]["from"], "0002");
+  EXPECT_EQ(next["contains"], json::array({"lights", "flat"}));
+}
+
+// The matte sphere under vignetting 0.15 reads its slant low; with the
+// flats from the card divided out first, it reads the configured slant.
+TEST(PsrigCalibrateFlat, TheFlatCorrectsTheMatteSphereUnderVignetting) {
+  TempDir temp;
+  const auto config = sim_config(temp, {{"max_on_ms", "5000\nintensity = [1.0, 0.8, 0.9]"}});
+  const fs::path store = temp / "state" / "calibrations";
+  const auto worst_error = [&](const fs::path& file) {
+    const json c = read_json(file);
+    double worst = 0;
+    for (int k = 0; k < 3; ++k)
+      worst = std::max(worst, calibration::angle_deg(direction_of(c["lights"]["per_light"][k]),
+                                                     processing::light_direction(120.0 * k, 45)));
+    return worst;
+  };
+  const std::vector<std::string> matte = {"calibrate",     "lights",   "--config",
+                                          config.string(), "--target", "matte",
+                                          "--frames",      "1",        "-q"};
+  ASSERT_EQ(run_program("psrig", matte).exit_code, 0);
+  const double before = worst_error(store / "0001" / "calibration.json");
+  auto flat = run_program("psrig", {"calibrate", "flat", "--config", config.string(), "-q"});
+  ASSERT_EQ(flat.exit_code, 0) << flat.err;
+  ASSERT_EQ(run_program("psrig", matte).exit_code, 0);
+  const json after_file = read_json(store / "0003" / "calibration.json");
+  EXPECT_EQ(after_file["lights"]["sources"]["flat"],
+            (store / "0002" / "calibration.json").string());
+  const double after = worst_error(store / "0003" / "calibration.json");
+  std::printf(
+      "matte sphere, vignetting 0.15: worst direction error %.3f deg without the flat, "
+      "%.3f deg with\n",
+      before, after);
+  EXPECT_GT(before, 0.3);
+  EXPECT_LT(after, 0.1);
+  expect_sim_answer(after_file, {1.0, 0.8, 0.9}, "matte, flat-fielded");
+}
+
+// No card (the swatch still under the camera), a saturated card: exit 2,
+// the fix named, no new version.
+TEST(PsrigCalibrateFlat, NoCardOrASaturatedCardIsRefused) {
+  TempDir temp;
+  const fs::path state = temp / "state";
+  {
+    const auto config = sim_config(temp);
+    ASSERT_EQ(run_program("psrig", {"calibrate", "lights", "--config", config.string(), "--frames",
+                                    "1", "-q"})
+                  .exit_code,
+              0);
+  }
+  // The matte sphere left under the camera instead of the card.
+  const auto sphere = sim_config(temp, {{"target", "\"matte_sphere\""}});
+  auto no_card =
+      run_program("psrig", {"calibrate", "flat", "--config", sphere.string(), "--frames", "1"});
+  EXPECT_EQ(no_card.exit_code, 2) << no_card.err;
+  EXPECT_TRUE(contains(no_card.err, "not a uniform card")) << no_card.err;
+  EXPECT_TRUE(contains(no_card.err, "lay a flat white or grey card")) << no_card.err;
+  EXPECT_TRUE(contains(no_card.err, sphere.string())) << no_card.err;
+  EXPECT_EQ(versions_in(state), 1u);
+
+  const auto saturated = sim_config(temp, {{"led_irradiance", "4"}});
+  auto run =
+      run_program("psrig", {"calibrate", "flat", "--config", saturated.string(), "--frames", "1"});
+  EXPECT_EQ(run.exit_code, 2) << run.err;
+  EXPECT_TRUE(contains(run.err, "saturated")) << run.err;
+  EXPECT_TRUE(contains(run.err, "exposure")) << run.err;
+  EXPECT_EQ(versions_in(state), 1u);
+}
+
+// The simulated ChArUco board (7 x 5 squares of 2 mm, the command's
+// defaults) at the configuration's 0.025 mm a pixel: measured within
+// 0.2 %, stored, and used as every later scan's pixel size.
+TEST(PsrigCalibrateScale, TheBoardOnTheSimulatedRigGivesThePixelSize) {
+  TempDir temp;
+  const auto config = sim_config(temp);
+  const fs::path store = temp / "state" / "calibrations";
+  auto early = run_program("psrig", {"calibrate", "scale", "--config", config.string()});
+  EXPECT_EQ(early.exit_code, 2) << early.err;
+  EXPECT_TRUE(contains(early.err, "psrig calibrate lights first")) << early.err;
+  ASSERT_EQ(run_program("psrig",
+                        {"calibrate", "lights", "--config", config.string(), "--frames", "1", "-q"})
+                .exit_code,
+            0);
+  auto run = run_program("psrig", {"calibrate", "scale", "--config", config.string()});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::printf("%s", run.out.c_str());
+  const json c = read_json(store / "0002" / "calibration.json");
+  EXPECT_EQ(c["contains"], json::array({"lights", "scale"}));
+  const double measured = c["scale"]["pixel_size_mm"].get<double>();
+  const double uncertainty = c["scale"]["uncertainty_mm"].get<double>();
+  std::printf("scale: %.7f mm (+/- %.2g), %.4f %% from 0.025\n", measured, uncertainty,
+              100 * std::abs(measured / 0.025 - 1));
+  EXPECT_NEAR(measured, 0.025, 0.002 * 0.025);
+  EXPECT_GT(uncertainty, 0);
+  EXPECT_LT(uncertainty, 0.001 * 0.025);
+
+  const fs::path scan = temp / "scan";
+  auto scanned = run_program(
+      "psrig", {"scan", "--config", config.string(), "--out", scan.string(), "--no-process", "-q"});
+  ASSERT_EQ(scanned.exit_code, 0) << scanned.err;
+  const json description = read_json(scan / "scan.json");
+  EXPECT_DOUBLE_EQ(description["pixel_size_mm"].get<double>(), measured);
+  EXPECT_EQ(description["calibration"]["applied"], json::array({"lights", "scale"}));
+
+  // From an image already taken: the same board.
+  const fs::path frame = store / "0002" / "captures" / "scale-0" / "led1.png";
+  auto from_image = run_program("psrig", {"calibrate", "scale", "--config", config.string(),
+                                          "--image", frame.string(), "-q"});
+  ASSERT_EQ(from_image.exit_code, 0) << from_image.err;
+  const json d = read_json(store / "0003" / "calibration.json");
+  EXPECT_NEAR(d["scale"]["pixel_size_mm"].get<double>(), 0.025, 0.002 * 0.025);
+  EXPECT_TRUE(fs::exists(store / "0003" / d["scale"]["sources"]["image"].get<std::string>()));
+
+  // No board in the image: exit 2 naming the file and the fix, nothing written.
+  const fs::path sphere = store / "0001" / "captures" / "chrome-0" / "led0.png";
+  auto refused = run_program(
+      "psrig", {"calibrate", "scale", "--config", config.string(), "--image", sphere.string()});
+  EXPECT_EQ(refused.exit_code, 2) << refused.err;
+  EXPECT_TRUE(contains(refused.err, sphere.string())) << refused.err;
+  EXPECT_TRUE(contains(refused.err, "shows no ChArUco board")) << refused.err;
+  EXPECT_TRUE(contains(refused.err, "--square-mm")) << refused.err;
+  EXPECT_EQ(versions_in(temp / "state"), 3u);
+}
+
+// A pixel size that puts the squares' edges between pixels (86.6 px a
+// square): still within 0.2 %.
+TEST(PsrigCalibrateScale, APixelSizeOffTheGridIsMeasuredToo) {
+  TempDir temp;
+  const auto config = sim_config(temp, {{"pixel_size_mm", "0.0231"}});
+  ASSERT_EQ(run_program("psrig",
+                        {"calibrate", "lights", "--config", config.string(), "--frames", "1", "-q"})
+                .exit_code,
+            0);
+  auto run = run_program("psrig", {"calibrate", "scale", "--config", config.string(), "-q"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const json c = read_json(temp / "state" / "calibrations" / "0002" / "calibration.json");
+  const double measured = c["scale"]["pixel_size_mm"].get<double>();
+  std::printf("scale at 0.0231 mm: %.7f mm (+/- %.2g), %.4f %% off\n", measured,
+              c["scale"]["uncertainty_mm"].get<double>(), 100 * std::abs(measured / 0.0231 - 1));
+  EXPECT_NEAR(measured, 0.0231, 0.002 * 0.0231);
+}
+
 // A folder of images: 3 renders of the simulated chrome sphere, taken from
 // a calibration run, then computed again with --images and --out.
 TEST(PsrigCalibrate, FromImagesToAFileAndBadInputsWriteNothing) {

@@ -2,16 +2,23 @@
 // from a chrome or a matte sphere, captured on the rig (--config) and kept
 // in its calibration store, or computed from images already taken
 // (--images DIR, written to --out FILE or to the rig's store).
+// psrig calibrate flat: a white card under each LED, kept in the store and
+// applied to every later scan. psrig calibrate scale: millimetres per pixel
+// from a ChArUco board, used as every later scan's pixel size.
 
 #include <algorithm>
 #include <cstdio>
 #include <memory>
 #include <optional>
 
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
 #include "command.h"
 #include "psrig/calibration/calibration_store.h"
 #include "psrig/calibration/image_set.h"
 #include "psrig/calibration/light_calibration.h"
+#include "psrig/calibration/scale.h"
 #include "psrig/capture/rig.h"
 #include "psrig/capture/scan_sequencer.h"
 #include "psrig/firmware_host/emergency_stop.h"
@@ -224,9 +231,51 @@ Result<SphereSet> copy_into(const SphereSet& set, const fs::path& version) {
   return copied;
 }
 
+// Divides each light's frames by the current calibration's flat for it,
+// smoothed and scaled to mean 1 (so relative intensities stay). Returns
+// the calibration.json whose flats were used, when they were.
+std::optional<std::string> divide_by_current_flats(const calibration::CalibrationStore& store,
+                                                   SphereSet& set) {
+  const auto file = store.current();
+  if (!file) return std::nullopt;
+  auto current = calibration::read_calibration(*file);
+  if (!current || current->flat_images.size() != set.lights.size()) return std::nullopt;
+  std::vector<cv::Mat> gains;
+  for (std::size_t k = 0; k < set.lights.size(); ++k) {
+    cv::Mat flat = cv::imread(current->flat_images[k].string(), cv::IMREAD_UNCHANGED);
+    if (flat.empty() || set.lights[k].frames.empty() ||
+        flat.size() != set.lights[k].frames.front().image.size())
+      return std::nullopt;
+    flat.convertTo(flat, CV_32F);
+    if (flat.channels() == 3) cv::transform(flat, flat, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
+    cv::GaussianBlur(flat, flat, cv::Size(), 2.0);
+    const double mean = cv::mean(flat)[0];
+    if (!(mean > 0)) return std::nullopt;
+    cv::max(flat / mean, 0.05, flat);
+    gains.push_back(flat);
+  }
+  for (std::size_t k = 0; k < set.lights.size(); ++k)
+    for (auto& frame : set.lights[k].frames)
+      frame.image = frame.image / gains[k];
+  return file->string();
+}
+
 int write_to_store(const config::RigConfig& config, processing::AtomicDirectory staging,
                    calibration::LightCalibration& result, bool quiet) {
-  const std::string text = calibration::to_json(result, calibration::utc_now()).dump(2) + "\n";
+  nlohmann::json document = calibration::to_json(result, calibration::utc_now());
+  // The sections this does not measure (the flat field, …) carry over from
+  // the current version.
+  const calibration::CalibrationStore store(config.storage.root);
+  if (const auto current_file = store.current()) {
+    if (auto current = calibration::read_calibration(*current_file)) {
+      if (auto carried = calibration::carry_forward(*current, "lights")) {
+        for (const char* section : {"flat", "colour", "scale", "led_positions_mm"})
+          document[section] = (*carried)[section];
+        document["contains"] = (*carried)["contains"];
+      }
+    }
+  }
+  const std::string text = document.dump(2) + "\n";
   if (auto ok = calibration::write_new_file(staging.path() / calibration::kCalibrationFile, text);
       !ok)
     return report_error("calibrate lights", ok.error());
@@ -319,6 +368,7 @@ int run_on_rig(const CalibrateArgs& args) {
   auto staging = store.begin_next();
   if (!staging) return report_error("calibrate lights", staging.error());
   std::vector<fs::path> scans;
+  std::string result_flat_note;
   {
     auto rig = open_rig(*config);
     if (!rig) return report_error("calibrate lights", rig.error());
@@ -347,6 +397,10 @@ int run_on_rig(const CalibrateArgs& args) {
   }
   auto set = load_captures(args.target, scans);
   if (!set) return report_error("calibrate lights", set.error());
+  // The current flat field, when there is one, evens out the sensor's and
+  // the LEDs' fall-off across the field first (a matte sphere's rim would
+  // otherwise read dimmer than its centre).
+  if (const auto flat_from = divide_by_current_flats(store, *set)) result_flat_note = *flat_from;
   calibration::CameraModel camera{args.focal_px};
   auto result = compute(args.target == "chrome" ? &*set : nullptr,
                         args.target == "matte" ? &*set : nullptr, camera, 0.95);
@@ -358,8 +412,380 @@ int run_on_rig(const CalibrateArgs& args) {
     return report_error("calibrate lights", error);
   }
   result->sources[args.target] = describe_sources(*set, staging->path());
+  if (!result_flat_note.empty()) result->sources["flat"] = result_flat_note;
   result->sources["rig"] = fs::absolute(config->source).lexically_normal().string();
   return write_to_store(*config, std::move(*staging), *result, args.quiet);
+}
+
+// ---- psrig calibrate flat ----------------------------------------------
+
+struct FlatArgs {
+  std::string config;
+  int frames = 3;
+  bool quiet = false;
+};
+
+// A flat frame per light, from the card's captures: linear (0..1 of full
+// scale), dark subtracted, all channels, the captures averaged; and the
+// fraction of its pixels at full scale.
+struct FlatFrames {
+  std::vector<cv::Mat> linear;
+  std::vector<double> saturated;
+};
+
+Result<FlatFrames> load_flats(const std::vector<fs::path>& scans) {
+  FlatFrames flats;
+  for (const auto& directory : scans) {
+    auto scan = processing::read_scan(directory);
+    if (!scan) return std::unexpected(scan.error());
+    const auto& d = scan->description;
+    const processing::CodeLineariser lineariser(processing::Encoding::linear, d.black_level,
+                                                scan->white_level, scan->depth());
+    const auto linear = [&](const cv::Mat& stored) {
+      cv::Mat continuous = stored.isContinuous() ? stored : stored.clone();
+      cv::Mat out(continuous.size(), CV_MAKETYPE(CV_32F, continuous.channels()));
+      lineariser.convert(continuous.data,
+                         static_cast<int>(continuous.total()) * continuous.channels(),
+                         out.ptr<float>());
+      return out;
+    };
+    const cv::Mat dark = scan->dark.empty() ? cv::Mat() : linear(scan->dark);
+    if (flats.linear.empty()) {
+      flats.linear.resize(scan->frames.size());
+      flats.saturated.assign(scan->frames.size(), 0.0);
+    }
+    for (std::size_t k = 0; k < scan->frames.size(); ++k) {
+      cv::Mat image = linear(scan->frames[k]);
+      cv::Mat grey = image.reshape(1, image.rows * image.cols);
+      cv::Mat full;
+      cv::reduce(grey, full, 1, cv::REDUCE_MAX);
+      flats.saturated[k] = std::max(
+          flats.saturated[k], static_cast<double>(cv::countNonZero(full >= 0.98f)) / full.total());
+      if (!dark.empty()) image -= dark;
+      if (flats.linear[k].empty())
+        flats.linear[k] = image / static_cast<double>(scans.size());
+      else
+        flats.linear[k] += image / static_cast<double>(scans.size());
+    }
+  }
+  return flats;
+}
+
+// How far a flat frame is from a uniform card: the RMS of its ratio to its
+// own smooth version (a card's shading is smooth, a textile's or a
+// sphere's is not), its mean level, and its fall-off (smooth minimum over
+// maximum) over the field, the rim of a blur's width left out.
+struct FlatQuality {
+  double roughness = 0;
+  double mean = 0;
+  double fall_off = 0;
+};
+
+FlatQuality flat_quality(const cv::Mat& flat) {
+  cv::Mat grey;
+  if (flat.channels() == 3)
+    cv::transform(flat, grey, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
+  else
+    grey = flat;
+  const double sigma = std::min(flat.cols, flat.rows) / 32.0;
+  cv::Mat smooth;
+  cv::GaussianBlur(grey, smooth, cv::Size(), sigma, sigma, cv::BORDER_REFLECT);
+  const int rim = static_cast<int>(std::ceil(3 * sigma));
+  const cv::Rect inside(rim, rim, flat.cols - 2 * rim, flat.rows - 2 * rim);
+  FlatQuality q;
+  q.mean = cv::mean(grey(inside))[0];
+  cv::Mat floor = cv::max(smooth(inside), 1e-6);
+  cv::Mat ratio = grey(inside) / floor - 1.0;
+  q.roughness = std::sqrt(cv::mean(ratio.mul(ratio))[0]);
+  double lo = 0, hi = 0;
+  cv::minMaxLoc(smooth(inside), &lo, &hi);
+  q.fall_off = hi > 0 ? lo / hi : 0;
+  return q;
+}
+
+// A card is refused when it is not flat and uniform (the textile or a
+// sphere still under the camera), saturated, or unlit.
+constexpr double kFlatMaxRoughness = 0.04;
+constexpr double kFlatMaxSaturated = 0.001;
+constexpr double kFlatMinMean = 0.02;
+
+int run_flat(const FlatArgs& args) {
+  stop_gracefully_on_signals();
+  const std::string command = "calibrate flat";
+  int exit_code = 0;
+  auto config = load_config_or_report(command, args.config, exit_code);
+  if (!config) return exit_code;
+  calibration::CalibrationStore store(config->storage.root);
+  const auto current_file = store.current();
+  if (!current_file)
+    return report_error(command,
+                        bad_input(config->source, "storage.root",
+                                  "has no light calibration (" + store.directory().string() +
+                                      "): run psrig calibrate lights first; the flat "
+                                      "is stored with the lights"));
+  auto current = calibration::read_calibration(*current_file);
+  if (!current) return report_error(command, current.error());
+  if (current->lights.size() != static_cast<std::size_t>(config->lights.channels))
+    return report_error(command, bad_input(*current_file, "lights.per_light",
+                                           "has " + std::to_string(current->lights.size()) +
+                                               " lights but " + config->source.string() + " " +
+                                               std::to_string(config->lights.channels) +
+                                               ": run psrig calibrate lights again"));
+  auto document = calibration::carry_forward(*current, "flat");
+  if (!document) return report_error(command, document.error());
+  // The simulated rig puts the white card under its camera in place of the
+  // swatch; a sphere named in [sim] target stays (the card forgotten).
+  if (config->camera.backend == "sim" && config->sim.target == "swatch")
+    config->sim.target = "white_card";
+
+  auto staging = store.begin_next();
+  if (!staging) return report_error(command, staging.error());
+  std::vector<fs::path> scans;
+  {
+    auto rig = open_rig(*config);
+    if (!rig) return report_error(command, rig.error());
+    ScanSequencer sequencer(*config, *rig->lights, *rig->camera);
+    std::error_code ec;
+    fs::create_directories(staging->path() / calibration::kCapturesDirectory, ec);
+    for (int i = 0; i < args.frames; ++i) {
+      ScanRequest request;
+      request.sample_id = "flat-card";
+      request.description = "flat field: white card, capture " + std::to_string(i + 1) + " of " +
+                            std::to_string(args.frames);
+      request.directory =
+          staging->path() / calibration::kCapturesDirectory / ("flat-" + std::to_string(i));
+      request.process = false;
+      auto outcome = sequencer.capture(request, [&](const ScanProgress& p) {
+        if (!args.quiet)
+          std::fprintf(stderr, "psrig calibrate flat: capture %d of %d: %s\n", i + 1, args.frames,
+                       p.step.c_str());
+      });
+      if (!outcome) {
+        const int code = report_error(command, outcome.error());
+        return firmware_host::stop_requested() ? psrig::cli::exit_interrupted : code;
+      }
+      scans.push_back(outcome->directory);
+    }
+  }
+  auto flats = load_flats(scans);
+  if (!flats) return report_error(command, flats.error());
+  nlohmann::json per_light = nlohmann::json::array();
+  std::vector<FlatQuality> quality;
+  for (std::size_t k = 0; k < flats->linear.size(); ++k) {
+    const FlatQuality q = flat_quality(flats->linear[k]);
+    quality.push_back(q);
+    const std::string light = "light " + std::to_string(k);
+    std::string problem;
+    if (flats->saturated[k] > kFlatMaxSaturated)
+      problem = "the card as captured under " + light + " is saturated (" +
+                std::to_string(flats->saturated[k] * 100).substr(0, 4) +
+                " % of its pixels at full scale): lower camera.exposure_us or camera.gain, or "
+                "use a grey card";
+    else if (q.mean < kFlatMinMean)
+      problem = "the card as captured under " + light +
+                " is dark: is the LED on, and the card under the camera?";
+    else if (q.roughness > kFlatMaxRoughness)
+      problem = "the capture under " + light + " is not a uniform card (it varies by " +
+                std::to_string(q.roughness * 100).substr(0, 4) +
+                " % RMS from pixel to pixel): lay a flat white or grey card over the whole "
+                "field, then run psrig calibrate flat again";
+    if (!problem.empty()) {
+      Error error = bad_input(config->source, "", problem);
+      return report_error(command, error);
+    }
+    per_light.push_back({{"index", k},
+                         {"image", "captures/flat/flat" + std::to_string(k) + ".png"},
+                         {"mean", std::round(q.mean * 1e4) / 1e4},
+                         {"fall_off", std::round(q.fall_off * 1e4) / 1e4},
+                         {"roughness", std::round(q.roughness * 1e5) / 1e5}});
+  }
+  // The flats: linear, dark subtracted, 0..1 of full scale as 16 bits.
+  const fs::path flat_directory = staging->path() / calibration::kCapturesDirectory / "flat";
+  std::error_code ec;
+  fs::create_directories(flat_directory, ec);
+  if (ec) return report_error(command, io_error(flat_directory, "cannot create: " + ec.message()));
+  nlohmann::json images = nlohmann::json::array();
+  for (std::size_t k = 0; k < flats->linear.size(); ++k) {
+    cv::Mat stored;
+    flats->linear[k].convertTo(stored, CV_16U, 65535.0);
+    const std::string name = "captures/flat/flat" + std::to_string(k) + ".png";
+    if (!cv::imwrite((staging->path() / name).string(), stored))
+      return report_error(command, io_error(staging->path() / name, "cannot write"));
+    images.push_back(name);
+  }
+  nlohmann::json sources = nlohmann::json::array();
+  for (const auto& scan : scans)
+    sources.push_back(scan.lexically_relative(staging->path()).string());
+  auto& doc = *document;
+  doc["flat"] = {
+      {"created", doc["created"]},
+      {"images", images},
+      {"encoding", "linear, dark subtracted, 65535 = full scale"},
+      {"sources",
+       {{"captures", sources}, {"rig", fs::absolute(config->source).lexically_normal().string()}}},
+      {"per_light", per_light}};
+  const std::string text = doc.dump(2) + "\n";
+  if (auto ok = calibration::write_new_file(staging->path() / calibration::kCalibrationFile, text);
+      !ok)
+    return report_error(command, ok.error());
+  const fs::path target = staging->target();
+  if (auto ok = staging->commit(processing::AtomicDirectory::Existing::refuse, true); !ok)
+    return report_error(command, ok.error());
+  if (!args.quiet) {
+    for (std::size_t k = 0; k < quality.size(); ++k)
+      std::printf("light %zu: flat mean %.3f of full scale, fall-off to %.3f, roughness %.4f\n", k,
+                  quality[k].mean, quality[k].fall_off, quality[k].roughness);
+    std::printf("calibration: %s (current for %s)\n",
+                (target / calibration::kCalibrationFile).c_str(), config->source.c_str());
+  }
+  return 0;
+}
+
+// ---- psrig calibrate scale ---------------------------------------------
+
+struct ScaleArgs {
+  std::string config;
+  std::string image;
+  std::string squares = "7x5";
+  double square_mm = 2.0;
+  double marker_mm = 1.4;
+  std::string dictionary = "DICT_4X4_50";
+  bool quiet = false;
+};
+
+int run_scale(const ScaleArgs& args) {
+  stop_gracefully_on_signals();
+  const std::string command = "calibrate scale";
+  calibration::CharucoSpec spec;
+  spec.square_mm = args.square_mm;
+  spec.marker_mm = args.marker_mm;
+  spec.dictionary = args.dictionary;
+  if (std::sscanf(args.squares.c_str(), "%dx%d", &spec.squares_x, &spec.squares_y) != 2 ||
+      spec.squares_x < 2 || spec.squares_y < 2 || spec.squares_x > 100 || spec.squares_y > 100) {
+    std::fprintf(stderr,
+                 "psrig calibrate scale: error: --squares must be COLUMNSxROWS, e.g. 7x5\n");
+    return 2;
+  }
+  if (!(spec.marker_mm < spec.square_mm)) {
+    std::fprintf(stderr,
+                 "psrig calibrate scale: error: --marker-mm must be less than --square-mm\n");
+    return 2;
+  }
+  if (calibration::dictionary_id(spec.dictionary) < 0) {
+    std::fprintf(stderr,
+                 "psrig calibrate scale: error: --dictionary %s is not an OpenCV predefined "
+                 "dictionary (DICT_4X4_50, DICT_5X5_100, …, DICT_ARUCO_ORIGINAL)\n",
+                 spec.dictionary.c_str());
+    return 2;
+  }
+  int exit_code = 0;
+  auto config = load_config_or_report(command, args.config, exit_code);
+  if (!config) return exit_code;
+  calibration::CalibrationStore store(config->storage.root);
+  const auto current_file = store.current();
+  if (!current_file)
+    return report_error(command,
+                        bad_input(config->source, "storage.root",
+                                  "has no light calibration (" + store.directory().string() +
+                                      "): run psrig calibrate lights first; the scale "
+                                      "is stored with the lights"));
+  auto current = calibration::read_calibration(*current_file);
+  if (!current) return report_error(command, current.error());
+  auto document = calibration::carry_forward(*current, "scale");
+  if (!document) return report_error(command, document.error());
+
+  cv::Mat image;
+  fs::path source;
+  nlohmann::json sources;
+  std::optional<processing::AtomicDirectory> staging;
+  if (!args.image.empty()) {
+    auto read = calibration::read_linear_grey(args.image, processing::Encoding::linear);
+    if (!read) return report_error(command, read.error());
+    image = *read;
+    source = args.image;
+  } else {
+    if (config->camera.backend == "sim" && config->sim.target == "swatch")
+      config->sim.target = "charuco_board";
+    auto next = store.begin_next();
+    if (!next) return report_error(command, next.error());
+    staging.emplace(std::move(*next));
+    auto rig = open_rig(*config);
+    if (!rig) return report_error(command, rig.error());
+    ScanSequencer sequencer(*config, *rig->lights, *rig->camera);
+    std::error_code ec;
+    fs::create_directories(staging->path() / calibration::kCapturesDirectory, ec);
+    ScanRequest request;
+    request.sample_id = "charuco-board";
+    request.description = "scale: ChArUco board";
+    request.directory = staging->path() / calibration::kCapturesDirectory / "scale-0";
+    request.process = false;
+    auto outcome = sequencer.capture(request, [&](const ScanProgress& p) {
+      if (!args.quiet) std::fprintf(stderr, "psrig calibrate scale: %s\n", p.step.c_str());
+    });
+    if (!outcome) {
+      const int code = report_error(command, outcome.error());
+      return firmware_host::stop_requested() ? psrig::cli::exit_interrupted : code;
+    }
+    auto set = load_captures("scale", {outcome->directory});
+    if (!set) return report_error(command, set.error());
+    // Every light's frame, averaged: the board evenly lit.
+    for (const auto& light : set->lights)
+      for (const auto& frame : light.frames)
+        image = image.empty() ? frame.image.clone() : cv::Mat(image + frame.image);
+    source = config->source;
+    sources = {{"capture", "captures/scale-0"},
+               {"rig", fs::absolute(config->source).lexically_normal().string()}};
+  }
+  auto estimate = calibration::measure_scale(image, spec, source);
+  if (!estimate) {
+    Error error = estimate.error();
+    if (args.image.empty()) error.message = "the board as captured " + error.message;
+    return report_error(command, error);
+  }
+  if (!staging) {
+    auto next = store.begin_next();
+    if (!next) return report_error(command, next.error());
+    staging.emplace(std::move(*next));
+    const fs::path directory = staging->path() / calibration::kCapturesDirectory / "scale";
+    std::error_code ec;
+    fs::create_directories(directory, ec);
+    fs::copy_file(args.image, directory / fs::path(args.image).filename(), ec);
+    if (ec)
+      return report_error(command, io_error(directory, "cannot copy the image: " + ec.message()));
+    sources = {{"image", "captures/scale/" + fs::path(args.image).filename().string()}};
+  }
+  auto& doc = *document;
+  doc["scale"] = {{"created", doc["created"]},
+                  {"pixel_size_mm", estimate->pixel_size_mm},
+                  {"uncertainty_mm", estimate->uncertainty_mm},
+                  {"distortion", nullptr},
+                  {"rotation_deg", std::round(estimate->rotation_deg * 1e4) / 1e4},
+                  {"fit_rms_px", std::round(estimate->fit_rms_px * 1e4) / 1e4},
+                  {"corners", estimate->corners},
+                  {"markers", estimate->markers},
+                  {"board",
+                   {{"squares", {spec.squares_x, spec.squares_y}},
+                    {"square_mm", spec.square_mm},
+                    {"marker_mm", spec.marker_mm},
+                    {"dictionary", spec.dictionary}}},
+                  {"sources", sources}};
+  const std::string text = doc.dump(2) + "\n";
+  if (auto ok = calibration::write_new_file(staging->path() / calibration::kCalibrationFile, text);
+      !ok)
+    return report_error(command, ok.error());
+  const fs::path target = staging->target();
+  if (auto ok = staging->commit(processing::AtomicDirectory::Existing::refuse, true); !ok)
+    return report_error(command, ok.error());
+  if (!args.quiet) {
+    std::printf(
+        "pixel size: %.6f mm +/- %.2g mm (%d corners, %d markers, fit RMS %.3f px, board "
+        "rotated %.2f deg)\n",
+        estimate->pixel_size_mm, estimate->uncertainty_mm, estimate->corners, estimate->markers,
+        estimate->fit_rms_px, estimate->rotation_deg);
+    std::printf("calibration: %s (current for %s)\n",
+                (target / calibration::kCalibrationFile).c_str(), config->source.c_str());
+  }
+  return 0;
 }
 
 }  // namespace
@@ -408,7 +834,43 @@ Command add_calibrate_command(CLI::App& parent) {
       ->capture_default_str();
   lights->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
 
-  return {app, [args] {
+  auto flat_args = std::make_shared<FlatArgs>();
+  CLI::App* flat = app->add_subcommand(
+      "flat", "Flat field: a white or grey card under each LED, applied to every later scan");
+  flat->add_option("--config", flat_args->config,
+                   "Rig configuration: capture the card on this rig and keep the flats in its "
+                   "calibration store")
+      ->required();
+  flat->add_option("--frames", flat_args->frames, "Captures of the card, averaged")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  flat->add_flag("-q,--quiet", flat_args->quiet, "Print nothing on success");
+
+  auto scale_args = std::make_shared<ScaleArgs>();
+  CLI::App* scale = app->add_subcommand(
+      "scale", "Millimetres per pixel from a printed ChArUco board, used by every later scan");
+  scale
+      ->add_option("--config", scale_args->config,
+                   "Rig configuration: capture the board on this rig (unless --image) and keep "
+                   "the result in its calibration store")
+      ->required();
+  scale->add_option("--image", scale_args->image,
+                    "An image of the board already taken (linear), instead of capturing");
+  scale->add_option("--squares", scale_args->squares, "The board's squares, COLUMNSxROWS")
+      ->capture_default_str();
+  scale->add_option("--square-mm", scale_args->square_mm, "A square's side as printed, mm")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  scale->add_option("--marker-mm", scale_args->marker_mm, "A marker's side as printed, mm")
+      ->check(CLI::PositiveNumber)
+      ->capture_default_str();
+  scale->add_option("--dictionary", scale_args->dictionary, "The markers' ArUco dictionary")
+      ->capture_default_str();
+  scale->add_flag("-q,--quiet", scale_args->quiet, "Print nothing on success");
+
+  return {app, [args, flat_args, flat, scale_args, scale] {
+            if (flat->parsed()) return run_flat(*flat_args);
+            if (scale->parsed()) return run_scale(*scale_args);
             if (!args->images.empty()) return run_from_images(*args);
             if (args->config.empty()) {
               std::fprintf(stderr,

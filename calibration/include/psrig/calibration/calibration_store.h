@@ -53,12 +53,24 @@ struct CalibratedLight {
                                      const std::string& created);
 
 // A calibration file's lights, checked: bad_input naming the file and key.
+// Its flat field, when it has one: one image per light (absolute paths),
+// resolved against the version named by the section's "from" when it was
+// carried over from an earlier version.
 struct StoredCalibration {
   std::filesystem::path file;
   nlohmann::json document;
   std::vector<CalibratedLight> lights;
+  std::vector<std::filesystem::path> flat_images;
+  std::optional<double> pixel_size_mm;  // its scale section's, when measured
 };
 [[nodiscard]] Result<StoredCalibration> read_calibration(const std::filesystem::path& file);
+
+// The calibration a new version starts from: `current`'s document with
+// `created` now, and each section it carries over (non-null, other than
+// `measured`) marked with "from": the version whose files its paths name
+// (kept when already set). bad_input naming the file when it is unusable.
+[[nodiscard]] Result<nlohmann::json> carry_forward(const StoredCalibration& current,
+                                                   const std::string& measured);
 
 // Now, as UTC ISO-8601 ("2026-01-31T12:00:00Z").
 [[nodiscard]] std::string utc_now();

@@ -33,6 +33,13 @@ struct AppliedCalibration {
   std::string created;         // its "created"
   std::vector<cv::Vec3d> directions;
   std::vector<double> intensities;
+  // Its flat field, one frame per light (linear, dark subtracted, 65535 =
+  // full scale), when it has one: written into the scan as its flats, the
+  // lights' intensities then 1 (the flats carry the LEDs' brightness).
+  std::vector<cv::Mat> flats;
+  // Its measured pixel size (psrig calibrate scale), replacing
+  // geometry.pixel_size_mm.
+  std::optional<double> pixel_size_mm;
 };
 
 struct ScanRequest {

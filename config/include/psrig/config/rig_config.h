@@ -110,8 +110,11 @@ struct StorageConfig {
 // The simulated world: the swatch, the simulated camera, its timing.
 struct SimConfig {
   // What lies under the camera: the swatch, or a calibration target (a
-  // chrome or a matte sphere resting on black velvet in the field's centre).
-  std::string target = "swatch";  // "swatch" | "chrome_sphere" | "matte_sphere"
+  // chrome or a matte sphere resting on black velvet in the field's centre,
+  // or a flat white card filling the field, or a ChArUco board printed on it:
+  // sim/card_target.h).
+  std::string target =
+      "swatch";  // "swatch" | "chrome_sphere" | "matte_sphere" | "white_card" | "charuco_board"
   double sphere_diameter_mm = 10;
   double led_angular_diameter_deg = 2;  // each LED as the sphere sees it (chrome highlight size)
   std::string pattern = "jersey";

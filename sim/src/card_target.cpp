@@ -1,0 +1,46 @@
+#include "psrig/sim/card_target.h"
+
+#include <cmath>
+
+#include <opencv2/aruco/charuco.hpp>
+#include <opencv2/imgproc.hpp>
+
+namespace psrig::sim {
+
+Swatch white_card(cv::Size size, double pixel_size_mm) {
+  Swatch card;
+  card.pixel_size_mm = pixel_size_mm;
+  card.height_mm = cv::Mat::zeros(size, CV_32F);
+  card.normal = cv::Mat(size, CV_32FC3, cv::Scalar(0, 0, 1));
+  card.albedo = cv::Mat(size, CV_32FC3, cv::Scalar::all(kWhiteCardAlbedo));
+  return card;
+}
+
+Swatch charuco_board(cv::Size size, double pixel_size_mm) {
+  constexpr int kSamples = 4;
+  const double sample_mm = pixel_size_mm / kSamples;
+  const auto board = cv::aruco::CharucoBoard::create(
+      kBoardSquaresX, kBoardSquaresY, static_cast<float>(kBoardSquareMm),
+      static_cast<float>(kBoardMarkerMm),
+      cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50));
+  const cv::Size printed(
+      static_cast<int>(std::lround(kBoardSquaresX * kBoardSquareMm / sample_mm)),
+      static_cast<int>(std::lround(kBoardSquaresY * kBoardSquareMm / sample_mm)));
+  cv::Mat ink;
+  board->draw(printed, ink, 0, 1);
+  // White paper with the board centred on it, then into the sensor's pixels.
+  const cv::Size fine(size.width * kSamples, size.height * kSamples);
+  cv::Mat paper(fine, CV_8U, cv::Scalar(255));
+  const cv::Point offset((fine.width - printed.width) / 2, (fine.height - printed.height) / 2);
+  const cv::Rect placed = cv::Rect(offset, printed) & cv::Rect(cv::Point(), fine);
+  ink(cv::Rect(placed.tl() - offset, placed.size())).copyTo(paper(placed));
+  cv::Mat reflectance;
+  paper.convertTo(reflectance, CV_32F, (kWhiteCardAlbedo - kBoardInkAlbedo) / 255.0,
+                  kBoardInkAlbedo);
+  cv::resize(reflectance, reflectance, size, 0, 0, cv::INTER_AREA);
+  Swatch card = white_card(size, pixel_size_mm);
+  cv::merge(std::vector<cv::Mat>{reflectance, reflectance, reflectance}, card.albedo);
+  return card;
+}
+
+}  // namespace psrig::sim
