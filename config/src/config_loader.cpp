@@ -448,7 +448,7 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   auto sim = sub(top, "sim");
   if (!sim) return std::unexpected(sim.error());
   auto& s = c.sim;
-  PSRIG_TRY(sim->get("target", s.target, {"swatch", "chrome_sphere", "matte_sphere"}));
+  PSRIG_TRY(sim->get("target", s.target, {"swatch", "flat", "chrome_sphere", "matte_sphere"}));
   PSRIG_TRY(sim->get("sphere_diameter_mm", s.sphere_diameter_mm, 0.1, 1000, true));
   PSRIG_TRY(sim->get("led_angular_diameter_deg", s.led_angular_diameter_deg, 0.01, 20, true));
   PSRIG_TRY(sim->get("pattern", s.pattern, {"jersey", "rib", "garter", "plain", "twill"}));

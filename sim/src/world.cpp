@@ -12,7 +12,7 @@ namespace psrig::sim {
 namespace {
 
 std::optional<SphereTarget> sphere_target(const config::SimConfig& sim) {
-  if (sim.target == "swatch") return std::nullopt;
+  if (sim.target == "swatch" || sim.target == "flat") return std::nullopt;
   SphereTarget target;
   target.kind = sim.target == "chrome_sphere" ? SphereKind::chrome : SphereKind::matte;
   target.size = {sim.width, sim.height};
@@ -23,6 +23,14 @@ std::optional<SphereTarget> sphere_target(const config::SimConfig& sim) {
 }
 
 Swatch make_world_swatch(const config::SimConfig& sim) {
+  if (sim.target == "flat") {  // a flat matte grey card
+    Swatch card;
+    card.pixel_size_mm = sim.pixel_size_mm;
+    card.height_mm = cv::Mat(sim.height, sim.width, CV_32F, cv::Scalar(0));
+    card.normal = cv::Mat(sim.height, sim.width, CV_32FC3, cv::Scalar(0, 0, 1));
+    card.albedo = cv::Mat(sim.height, sim.width, CV_32FC3, cv::Scalar::all(0.6));
+    return card;
+  }
   if (const auto sphere = sphere_target(sim)) return sphere_scene(*sphere);
   SwatchParams params;
   params.pattern = parse_swatch_pattern(sim.pattern).value_or(SwatchPattern::jersey);
@@ -39,10 +47,20 @@ World::World(const config::RigConfig& config, std::shared_ptr<firmware_host::Sim
       leds_(leds ? std::move(leds)
                  : std::make_shared<firmware_host::SimulatedLeds>(config.lights.channels)) {
   const auto sphere = sphere_target(config.sim);
+  const auto positions = config::led_positions_mm(config.geometry);
   for (int k = 0; k < config.lights.channels; ++k) {
     const auto& tilts = config.geometry.tilts_deg;
     const double tilt_deg =
         k < static_cast<int>(tilts.size()) ? tilts[k] : 360.0 * k / config.lights.channels;
+    if (k < static_cast<int>(positions.size())) {
+      // A near LED: a point source; its direction from the field's centre.
+      const cv::Vec3d p(positions[k][0], positions[k][1], positions[k][2]);
+      positions_.push_back(p);
+      directions_.push_back(p / cv::norm(p));
+      radiance_.push_back(sphere ? render_sphere(*sphere, directions_.back())
+                                 : render_point_light(swatch_, {p, {1, 1, 1}}, true));
+      continue;
+    }
     directions_.push_back(processing::light_direction(tilt_deg, config.geometry.slant_deg));
     radiance_.push_back(sphere ? render_sphere(*sphere, directions_.back())
                                : render_lambertian(swatch_, {directions_.back(), {1, 1, 1}}, true));

@@ -123,7 +123,8 @@ struct StorageConfig {
 struct SimConfig {
   // What lies under the camera: the swatch, or a calibration target (a
   // chrome or a matte sphere resting on black velvet in the field's centre).
-  std::string target = "swatch";  // "swatch" | "chrome_sphere" | "matte_sphere"
+  // "flat": a flat matte grey card (albedo 0.6), for near-field tests.
+  std::string target = "swatch";  // "swatch" | "flat" | "chrome_sphere" | "matte_sphere"
   double sphere_diameter_mm = 10;
   double led_angular_diameter_deg = 2;  // each LED as the sphere sees it (chrome highlight size)
   std::string pattern = "jersey";
