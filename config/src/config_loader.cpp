@@ -451,6 +451,16 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   PSRIG_TRY(sim->get("target", s.target, {"swatch", "flat", "chrome_sphere", "matte_sphere"}));
   PSRIG_TRY(sim->get("sphere_diameter_mm", s.sphere_diameter_mm, 0.1, 1000, true));
   PSRIG_TRY(sim->get("led_angular_diameter_deg", s.led_angular_diameter_deg, 0.01, 20, true));
+  {
+    std::vector<double> centre;
+    PSRIG_TRY(sim->get("sphere_centre_mm", centre, -1e4, 1e4));
+    if (sim->find("sphere_centre_mm")) {
+      if (centre.size() != 2)
+        return std::unexpected(sim->error_at(sim->find("sphere_centre_mm"), "sphere_centre_mm",
+                                             "expected [x, y] in millimetres from the camera axis"));
+      s.sphere_centre_mm = std::array<double, 2>{centre[0], centre[1]};
+    }
+  }
   PSRIG_TRY(sim->get("pattern", s.pattern, {"jersey", "rib", "garter", "plain", "twill"}));
   PSRIG_TRY(sim->get("seed", s.seed));
   PSRIG_TRY(sim->get("width", s.width, 8, 16384));

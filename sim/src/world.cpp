@@ -19,6 +19,9 @@ std::optional<SphereTarget> sphere_target(const config::SimConfig& sim) {
   target.pixel_size_mm = sim.pixel_size_mm;
   target.diameter_mm = sim.sphere_diameter_mm;
   target.led_angular_diameter_deg = sim.led_angular_diameter_deg;
+  if (sim.sphere_centre_mm)
+    target.centre = {(sim.width - 1) / 2.0 + (*sim.sphere_centre_mm)[0] / sim.pixel_size_mm,
+                     (sim.height - 1) / 2.0 - (*sim.sphere_centre_mm)[1] / sim.pixel_size_mm};
   return target;
 }
 
@@ -57,7 +60,7 @@ World::World(const config::RigConfig& config, std::shared_ptr<firmware_host::Sim
       const cv::Vec3d p(positions[k][0], positions[k][1], positions[k][2]);
       positions_.push_back(p);
       directions_.push_back(p / cv::norm(p));
-      radiance_.push_back(sphere ? render_sphere(*sphere, directions_.back())
+      radiance_.push_back(sphere ? render_sphere_point(*sphere, p)
                                  : render_point_light(swatch_, {p, {1, 1, 1}}, true));
       continue;
     }

@@ -153,6 +153,16 @@ TEST(Config, NearFieldLedPositions) {
       "geometry.led_distance_mm", 3);
 }
 
+TEST(Config, SimSpherePlacement) {
+  auto placed = parse_config("[sim]\nsphere_centre_mm = [4, -2.5]\n", "rig.toml");
+  ASSERT_TRUE(placed) << placed.error().describe();
+  ASSERT_TRUE(placed->sim.sphere_centre_mm);
+  EXPECT_EQ((*placed->sim.sphere_centre_mm)[1], -2.5);
+  EXPECT_FALSE(parse_config("", "rig.toml")->sim.sphere_centre_mm);
+  expect_error("[sim]\nsphere_centre_mm = [4]\n", "sim.sphere_centre_mm", 2);
+  expect_error("[sim]\nsphere_centre_mm = \"middle\"\n", "sim.sphere_centre_mm", 2);
+}
+
 TEST(Config, ModbusParityAndRegisterMap) {
   auto config = parse_config(
       "[lights.modbus]\nparity = \"O\"\n[lights.modbus.registers]\nenable_coil = "

@@ -19,6 +19,7 @@
 #include "psrig/processing/light_matrix.h"
 #include "psrig/processing/scan_reader.h"
 #include "psrig/sim/sphere_target.h"
+#include "psrig/sim/world.h"
 #include "psrig/sim/lambertian_render.h"
 #include "psrig/processing/evaluation.h"
 #include "psrig/processing/woodham.h"
@@ -203,6 +204,49 @@ TEST(LightCalibration, NearLedPositionsFromTheSphereAtThreePlaces) {
       processing::angular_error_deg(solved->p, solved->q, up)).mean;
   std::printf("flat card with the calibrated positions: mean angular error %.3f deg\n", error);
   EXPECT_LE(error, 0.3);
+}
+
+// The same through the simulated rig's world: rig.toml's near LEDs
+// (led_distance_mm) and [sim] sphere_centre_mm placing the chrome sphere.
+TEST(LightCalibration, NearLedPositionsFromTheSimulatedRigsSphere) {
+  cv::RNG rng(6);
+  config::RigConfig c;
+  c.geometry.led_distance_mm = 250;
+  c.sim.target = "chrome_sphere";
+  c.sim.sphere_diameter_mm = 6;
+  c.sim.width = 1280;
+  c.sim.height = 960;
+  c.sim.pixel_size_mm = 0.025;
+  std::vector<SpherePlacement> placements;
+  for (const std::array<double, 2> centre :
+       {std::array<double, 2>{-9.7, 6.9}, std::array<double, 2>{9.8, 5.4},
+        std::array<double, 2>{0.2, -7.5}}) {
+    c.sim.sphere_centre_mm = centre;
+    sim::World world(c);
+    std::vector<LightFrames> lights;
+    std::vector<cv::Mat> all;
+    for (int k = 0; k < world.channel_count(); ++k) {
+      LightFrames frames;
+      frames.frames.push_back({expose(world.radiance(k), 3, rng, 0.004), "chrome.png"});
+      all.push_back(frames.frames.front().image);
+      lights.push_back(frames);
+    }
+    auto circle = find_sphere(all, {}, "renders");
+    ASSERT_TRUE(circle) << circle.error().describe();
+    EXPECT_NEAR(circle->centre.x, 639.5 + centre[0] / 0.025, 0.5);
+    auto estimates = calibrate_chrome(lights, *circle, {});
+    ASSERT_TRUE(estimates) << estimates.error().describe();
+    placements.push_back({*circle, *estimates});
+  }
+  auto positions = triangulate_leds(placements, {0.025, 6, {1280, 960}, std::nullopt});
+  ASSERT_TRUE(positions) << positions.error().describe();
+  const auto truth = config::led_positions_mm(c.geometry);
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    const cv::Vec3d p(truth[k][0], truth[k][1], truth[k][2]);
+    const double off = cv::norm((*positions)[k].position_mm - p);
+    std::printf("simulated rig, LED %zu: %.2f mm off\n", k, off);
+    EXPECT_LT(off, 10.0);
+  }
 }
 
 TEST(LightCalibration, MatteDirectionsAndRelativeIntensities) {

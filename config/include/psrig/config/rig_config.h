@@ -126,6 +126,10 @@ struct SimConfig {
   // "flat": a flat matte grey card (albedo 0.6), for near-field tests.
   std::string target = "swatch";  // "swatch" | "flat" | "chrome_sphere" | "matte_sphere"
   double sphere_diameter_mm = 10;
+  // Where the sphere rests: its centre in mm from the camera axis (x right,
+  // y up); absent: the field's centre. Placing it at two or more places
+  // lets calibration find near LEDs' positions.
+  std::optional<std::array<double, 2>> sphere_centre_mm;
   double led_angular_diameter_deg = 2;  // each LED as the sphere sees it (chrome highlight size)
   std::string pattern = "jersey";
   std::uint64_t seed = 1;
