@@ -343,10 +343,11 @@ Result<std::vector<LightEstimate>> calibrate_matte(const std::vector<LightFrames
 Result<std::vector<LedPosition>> triangulate_leds(const std::vector<SpherePlacement>& placements,
                                                   const PlaneGeometry& geometry) {
   if (placements.size() < 2)
-    return std::unexpected(bad_input({}, "placements",
-                                     "the sphere at two or more places is needed to place the LEDs"));
+    return std::unexpected(bad_input(
+        {}, "placements", "the sphere at two or more places is needed to place the LEDs"));
   if (!(geometry.pixel_size_mm > 0))
-    return std::unexpected(bad_input({}, "pixel_size_mm", "needed to place the LEDs in millimetres"));
+    return std::unexpected(
+        bad_input({}, "pixel_size_mm", "needed to place the LEDs in millimetres"));
   const std::size_t lights = placements.front().lights.size();
   for (const auto& placement : placements)
     if (placement.lights.size() != lights)
@@ -381,9 +382,9 @@ Result<std::vector<LedPosition>> triangulate_leds(const std::vector<SpherePlacem
     cv::Vec3d w;
     cv::SVD::compute(a, w);
     if (!(w[2] > 1e-8 * w[0]))
-      return std::unexpected(bad_input(
-          {}, "placements",
-          "the rays of light " + std::to_string(k) + " do not cross: place the sphere farther apart"));
+      return std::unexpected(bad_input({}, "placements",
+                                       "the rays of light " + std::to_string(k) +
+                                           " do not cross: place the sphere farther apart"));
     LedPosition p;
     p.position_mm = a.solve(b, cv::DECOMP_SVD);
     double sum = 0;

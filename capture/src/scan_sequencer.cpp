@@ -306,8 +306,8 @@ Result<processing::Scan> ScanSequencer::acquire(
   scan.white_level = *d.white_level;
   d.pixel_size_mm = config_.geometry.pixel_size_mm;
   if (d.near_field() && !scan.frames.empty())  // the camera axis through the image centre
-    d.principal_point_px = cv::Point2d(0.5 * (scan.frames.front().cols - 1),
-                                       0.5 * (scan.frames.front().rows - 1));
+    d.principal_point_px =
+        cv::Point2d(0.5 * (scan.frames.front().cols - 1), 0.5 * (scan.frames.front().rows - 1));
   d.document = {
       {"capture",
        {{"camera", camera_.describe()},

@@ -166,15 +166,14 @@ class Section {
       for (std::size_t i = 0; i < 3; ++i) {
         const auto value = (*triple)[i].value<double>();
         if (!value || !std::isfinite(*value) || std::abs(*value) > limit)
-          return std::unexpected(error_at(&element, name,
-                                          "expected [x, y, z] with numbers within ±" +
-                                              format(limit) + " mm"));
+          return std::unexpected(error_at(
+              &element, name, "expected [x, y, z] with numbers within ±" + format(limit) + " mm"));
         v[i] = *value;
       }
       if (v[2] <= z_min)
-        return std::unexpected(error_at(&element, name,
-                                        "has z = " + format(v[2]) +
-                                            "; an LED must be above the swatch plane (z > 0)"));
+        return std::unexpected(error_at(
+            &element, name,
+            "has z = " + format(v[2]) + "; an LED must be above the swatch plane (z > 0)"));
       values.push_back(v);
     }
     out = std::move(values);
@@ -305,9 +304,9 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
     PSRIG_TRY(geometry->get("led_distance_mm", distance, 0, 1e5, true));
     c.geometry.led_distance_mm = distance;
     if (geometry->find("led_positions_mm"))
-      return std::unexpected(geometry->error_at(
-          geometry->find("led_distance_mm"), "led_distance_mm",
-          "give either led_positions_mm or led_distance_mm, not both"));
+      return std::unexpected(
+          geometry->error_at(geometry->find("led_distance_mm"), "led_distance_mm",
+                             "give either led_positions_mm or led_distance_mm, not both"));
   } else {
     geometry->node("led_distance_mm");
   }
@@ -456,8 +455,9 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
     PSRIG_TRY(sim->get("sphere_centre_mm", centre, -1e4, 1e4));
     if (sim->find("sphere_centre_mm")) {
       if (centre.size() != 2)
-        return std::unexpected(sim->error_at(sim->find("sphere_centre_mm"), "sphere_centre_mm",
-                                             "expected [x, y] in millimetres from the camera axis"));
+        return std::unexpected(
+            sim->error_at(sim->find("sphere_centre_mm"), "sphere_centre_mm",
+                          "expected [x, y] in millimetres from the camera axis"));
       s.sphere_centre_mm = std::array<double, 2>{centre[0], centre[1]};
     }
   }

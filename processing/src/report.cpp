@@ -76,7 +76,8 @@ json make_report(const ReportInputs& in) {
   if (d.near_field()) {
     json positions = json::array();
     for (const auto& light : d.lights)
-      positions.push_back({(*light.position_mm)[0], (*light.position_mm)[1], (*light.position_mm)[2]});
+      positions.push_back(
+          {(*light.position_mm)[0], (*light.position_mm)[1], (*light.position_mm)[2]});
     light_model["positions_mm"] = positions;
     if (d.principal_point_px)
       light_model["principal_point_px"] = {d.principal_point_px->x, d.principal_point_px->y};

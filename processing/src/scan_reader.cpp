@@ -243,8 +243,7 @@ class DescriptionParser {
 
     if (doc.contains("principal_point_px") && !doc["principal_point_px"].is_null()) {
       const auto& value = doc["principal_point_px"];
-      if (!value.is_array() || value.size() != 2 || !value[0].is_number() ||
-          !value[1].is_number())
+      if (!value.is_array() || value.size() != 2 || !value[0].is_number() || !value[1].is_number())
         return std::unexpected(
             error("principal_point_px", "expected [x, y] in pixels (column, row)"));
       d.principal_point_px = cv::Point2d(value[0].get<double>(), value[1].get<double>());

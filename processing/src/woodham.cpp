@@ -783,9 +783,8 @@ Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& re
     for (const auto& light : scan.description.lights)
       near->position.push_back(*light.position_mm);
     near->pixel_size_mm = *scan.description.pixel_size_mm;
-    near->principal_point =
-        scan.description.principal_point_px.value_or(cv::Point2d(0.5 * (scan.size().width - 1),
-                                                                 0.5 * (scan.size().height - 1)));
+    near->principal_point = scan.description.principal_point_px.value_or(
+        cv::Point2d(0.5 * (scan.size().width - 1), 0.5 * (scan.size().height - 1)));
   }
   const bool three = lights == 3 && !options.force_least_squares && !near;
   const ThreeLightInverse inverse = three ? three_light_inverse(co) : ThreeLightInverse{};

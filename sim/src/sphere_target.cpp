@@ -54,7 +54,7 @@ double sample(const SphereTarget& target, double radius, double dx, double dy,
 }
 
 cv::Mat render(const SphereTarget& target, const cv::Vec3d* direction,
-              const cv::Vec3d* position_mm = nullptr) {
+               const cv::Vec3d* position_mm = nullptr) {
   const cv::Point2d centre = target.centre_px();
   const double radius = target.radius_px();
   const double s = target.pixel_size_mm;

@@ -434,11 +434,11 @@ TEST(PsrigCli, ScanOnTheSimulatedRigRecoversTheSwatch) {
 // rig.toml's led_distance_mm reaches scan.json and the per-pixel solve.
 TEST(PsrigCli, ScanWithNearLedsUsesTheirPositions) {
   TempDir temp;
-  const auto config =
-      sim_config(temp, {{"tilts_deg = [0, 120, 240]", "tilts_deg = [0, 120, 240]\nled_distance_mm = 250"},
-                        {"target = \"swatch\"", "target = \"flat\""},
-                        {"pixel_size_mm = 0.025", "pixel_size_mm = 0.05"},
-                        {"full_well = 10000", "full_well = 1000000"}});
+  const auto config = sim_config(
+      temp, {{"tilts_deg = [0, 120, 240]", "tilts_deg = [0, 120, 240]\nled_distance_mm = 250"},
+             {"target = \"swatch\"", "target = \"flat\""},
+             {"pixel_size_mm = 0.025", "pixel_size_mm = 0.05"},
+             {"full_well = 10000", "full_well = 1000000"}});
   const auto scan = temp / "near";
   auto run = run_program("psrig", {"scan", "--config", config.string(), "--out", scan.string()});
   ASSERT_EQ(run.exit_code, 0) << run.err;

@@ -1,6 +1,7 @@
 // rig.toml: the shipped files load clean, every mistake names its place.
 
 #include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "psrig/config/config_loader.h"

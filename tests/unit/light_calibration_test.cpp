@@ -16,13 +16,13 @@
 #include "psrig/calibration/calibration_store.h"
 #include "psrig/calibration/image_set.h"
 #include "psrig/calibration/sphere.h"
+#include "psrig/processing/evaluation.h"
 #include "psrig/processing/light_matrix.h"
 #include "psrig/processing/scan_reader.h"
+#include "psrig/processing/woodham.h"
+#include "psrig/sim/lambertian_render.h"
 #include "psrig/sim/sphere_target.h"
 #include "psrig/sim/world.h"
-#include "psrig/sim/lambertian_render.h"
-#include "psrig/processing/evaluation.h"
-#include "psrig/processing/woodham.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -146,14 +146,15 @@ TEST(LightCalibration, NearLedPositionsFromTheSphereAtThreePlaces) {
   t.pixel_size_mm = 0.025;
   t.diameter_mm = 6;
   std::vector<SpherePlacement> placements;
-  for (const cv::Point2d centre : {cv::Point2d(250.3, 200.6), cv::Point2d(1030.2, 260.1),
-                                   cv::Point2d(620.7, 760.4)}) {
+  for (const cv::Point2d centre :
+       {cv::Point2d(250.3, 200.6), cv::Point2d(1030.2, 260.1), cv::Point2d(620.7, 760.4)}) {
     t.centre = centre;
     std::vector<LightFrames> lights;
     std::vector<cv::Mat> all;
     for (const auto& p : truth) {
       LightFrames frames;
-      frames.frames.push_back({expose(sim::render_sphere_point(t, p), 3, rng, 0.004), "chrome.png"});
+      frames.frames.push_back(
+          {expose(sim::render_sphere_point(t, p), 3, rng, 0.004), "chrome.png"});
       all.push_back(frames.frames.front().image);
       lights.push_back(frames);
     }
@@ -170,10 +171,11 @@ TEST(LightCalibration, NearLedPositionsFromTheSphereAtThreePlaces) {
   for (std::size_t k = 0; k < truth.size(); ++k) {
     const auto& p = (*positions)[k];
     const double off = cv::norm(p.position_mm - truth[k]);
-    std::printf("LED %zu at (%.1f, %.1f, %.1f) mm, truth (%.1f, %.1f, %.1f): %.2f mm off, "
-                "rays %.3f mm RMS, baseline %.1f mm\n",
-                k, p.position_mm[0], p.position_mm[1], p.position_mm[2], truth[k][0], truth[k][1],
-                truth[k][2], off, p.ray_rms_mm, p.baseline_mm);
+    std::printf(
+        "LED %zu at (%.1f, %.1f, %.1f) mm, truth (%.1f, %.1f, %.1f): %.2f mm off, "
+        "rays %.3f mm RMS, baseline %.1f mm\n",
+        k, p.position_mm[0], p.position_mm[1], p.position_mm[2], truth[k][0], truth[k][1],
+        truth[k][2], off, p.ray_rms_mm, p.baseline_mm);
     EXPECT_LT(off, 10.0);
   }
   // Too few placements, or no pixel size: bad input.
@@ -200,8 +202,8 @@ TEST(LightCalibration, NearLedPositionsFromTheSphereAtThreePlaces) {
   auto solved = processing::solve(scan);
   ASSERT_TRUE(solved) << solved.error().describe();
   cv::Mat up(480, 640, CV_32FC3, cv::Scalar(0, 0, 1));
-  const double error = processing::describe(
-      processing::angular_error_deg(solved->p, solved->q, up)).mean;
+  const double error =
+      processing::describe(processing::angular_error_deg(solved->p, solved->q, up)).mean;
   std::printf("flat card with the calibrated positions: mean angular error %.3f deg\n", error);
   EXPECT_LE(error, 0.3);
 }
