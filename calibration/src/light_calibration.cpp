@@ -340,4 +340,64 @@ Result<std::vector<LightEstimate>> calibrate_matte(const std::vector<LightFrames
   return estimates;
 }
 
+Result<std::vector<LedPosition>> triangulate_leds(const std::vector<SpherePlacement>& placements,
+                                                  const PlaneGeometry& geometry) {
+  if (placements.size() < 2)
+    return std::unexpected(bad_input(
+        {}, "placements", "the sphere at two or more places is needed to place the LEDs"));
+  if (!(geometry.pixel_size_mm > 0))
+    return std::unexpected(
+        bad_input({}, "pixel_size_mm", "needed to place the LEDs in millimetres"));
+  const std::size_t lights = placements.front().lights.size();
+  for (const auto& placement : placements)
+    if (placement.lights.size() != lights)
+      return std::unexpected(bad_input({}, "placements", "every placement needs every light"));
+  const double s = geometry.pixel_size_mm;
+  const cv::Point2d axis = geometry.principal_point_px.value_or(
+      cv::Point2d((geometry.image_size.width - 1) / 2.0, (geometry.image_size.height - 1) / 2.0));
+  std::vector<LedPosition> result;
+  for (std::size_t k = 0; k < lights; ++k) {
+    std::vector<std::pair<cv::Vec3d, cv::Vec3d>> rays;  // origin (mm), unit direction
+    for (const auto& placement : placements) {
+      const Circle& c = placement.sphere;
+      const LightEstimate& e = placement.lights[k];
+      if (!e.highlight_px)
+        return std::unexpected(
+            bad_input({}, "placements", "light " + std::to_string(k) + " has no highlight"));
+      const double radius_mm =
+          geometry.sphere_diameter_mm > 0 ? geometry.sphere_diameter_mm / 2 : c.radius * s;
+      const cv::Vec3d centre((c.centre.x - axis.x) * s, (axis.y - c.centre.y) * s, radius_mm);
+      const double dx = (e.highlight_px->x - c.centre.x) / c.radius;
+      const double dy = (c.centre.y - e.highlight_px->y) / c.radius;
+      const cv::Vec3d n(dx, dy, std::sqrt(std::max(0.0, 1 - dx * dx - dy * dy)));
+      rays.emplace_back(centre + radius_mm * n, e.direction / cv::norm(e.direction));
+    }
+    cv::Matx33d a = cv::Matx33d::zeros();
+    cv::Vec3d b(0, 0, 0);
+    for (const auto& [o, d] : rays) {
+      const cv::Matx33d m = cv::Matx33d::eye() - d * d.t();
+      a += m;
+      b += m * o;
+    }
+    cv::Vec3d w;
+    cv::SVD::compute(a, w);
+    if (!(w[2] > 1e-8 * w[0]))
+      return std::unexpected(bad_input({}, "placements",
+                                       "the rays of light " + std::to_string(k) +
+                                           " do not cross: place the sphere farther apart"));
+    LedPosition p;
+    p.position_mm = a.solve(b, cv::DECOMP_SVD);
+    double sum = 0;
+    for (const auto& [o, d] : rays) {
+      const cv::Vec3d v = p.position_mm - o;
+      sum += (v - v.dot(d) * d).dot(v - v.dot(d) * d);
+      for (const auto& other : rays)
+        p.baseline_mm = std::max(p.baseline_mm, cv::norm(o - other.first));
+    }
+    p.ray_rms_mm = std::sqrt(sum / static_cast<double>(rays.size()));
+    result.push_back(p);
+  }
+  return result;
+}
+
 }  // namespace psrig::calibration

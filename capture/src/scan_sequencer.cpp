@@ -297,7 +297,12 @@ Result<processing::Scan> ScanSequencer::acquire(
            cv::Vec3d::all(flat_fielded      ? 1.0
                           : use_calibration ? calibrated->intensities[channel]
                                             : intensity[phase.channel]),
-           false});
+           false, std::nullopt});
+      // Near-field LEDs: each light's position from the rig's geometry.
+      const auto positions = config::led_positions_mm(config_.geometry);
+      if (channel < positions.size())
+        scan.description.lights.back().position_mm =
+            cv::Vec3d(positions[channel][0], positions[channel][1], positions[channel][2]);
     }
   }
   if (auto ok = lights_.all_off(); !ok) return std::unexpected(ok.error());
@@ -314,6 +319,9 @@ Result<processing::Scan> ScanSequencer::acquire(
   scan.white_level = *d.white_level;
   const bool scaled = request.calibration && request.calibration->pixel_size_mm;
   d.pixel_size_mm = scaled ? *request.calibration->pixel_size_mm : config_.geometry.pixel_size_mm;
+  if (d.near_field() && !scan.frames.empty())  // the camera axis through the image centre
+    d.principal_point_px =
+        cv::Point2d(0.5 * (scan.frames.front().cols - 1), 0.5 * (scan.frames.front().rows - 1));
   d.document = {
       {"capture",
        {{"camera", camera_.describe()},

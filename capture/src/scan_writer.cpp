@@ -81,9 +81,14 @@ nlohmann::json scan_json(const Scan& scan) {
     lights.push_back({{"image", files::led_frame(static_cast<int>(k), scan.frames[k].depth())},
                       {"direction", {light.direction[0], light.direction[1], light.direction[2]}},
                       {"intensity", intensity_json(light)}});
+    if (light.position_mm)
+      lights.back()["position_mm"] = {(*light.position_mm)[0], (*light.position_mm)[1],
+                                      (*light.position_mm)[2]};
   }
   doc["lights"] = lights;
   doc["pixel_size_mm"] = d.pixel_size_mm ? nlohmann::json(*d.pixel_size_mm) : nlohmann::json();
+  if (d.principal_point_px)
+    doc["principal_point_px"] = {d.principal_point_px->x, d.principal_point_px->y};
   if (!scan.ground_truth_normal.empty() || !scan.ground_truth_height.empty()) {
     nlohmann::json truth = nlohmann::json::object();
     if (!scan.ground_truth_normal.empty()) truth["normal"] = files::kGroundTruthNormal;

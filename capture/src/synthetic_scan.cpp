@@ -31,8 +31,11 @@ processing::Scan make_synthetic_scan(const SyntheticScanParams& params) {
 
   for (int k = 0; k < 3; ++k) {
     const cv::Vec3d direction = processing::light_direction(120.0 * k, params.slant_deg);
-    d.lights.push_back(
-        {processing::scan_files::led_frame(k, params.depth), direction, {1, 1, 1}, false});
+    d.lights.push_back({processing::scan_files::led_frame(k, params.depth),
+                        direction,
+                        {1, 1, 1},
+                        false,
+                        std::nullopt});
     cv::Mat radiance = sim::render_lambertian(swatch, {direction, {1, 1, 1}}, params.cast_shadows);
     radiance *= params.exposure;
     if (params.noise > 0) {

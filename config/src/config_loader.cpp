@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <arpa/inet.h>
+#include <cmath>
 #include <fstream>
 #include <limits>
 #include <optional>
@@ -149,6 +150,36 @@ class Section {
     return {};
   }
 
+  // An array of [x, y, z] triples, each coordinate within [min, max] and z above z_min.
+  Status get(const std::string& name, std::vector<std::array<double, 3>>& out, double limit,
+             double z_min) {
+    const toml::node* n = node(name);
+    if (!n) return {};
+    const toml::array* array = n->as_array();
+    if (!array) return std::unexpected(error_at(n, name, "expected an array of [x, y, z] arrays"));
+    std::vector<std::array<double, 3>> values;
+    for (const auto& element : *array) {
+      const toml::array* triple = element.as_array();
+      if (!triple || triple->size() != 3)
+        return std::unexpected(error_at(&element, name, "expected [x, y, z] in millimetres"));
+      std::array<double, 3> v{};
+      for (std::size_t i = 0; i < 3; ++i) {
+        const auto value = (*triple)[i].value<double>();
+        if (!value || !std::isfinite(*value) || std::abs(*value) > limit)
+          return std::unexpected(error_at(
+              &element, name, "expected [x, y, z] with numbers within ±" + format(limit) + " mm"));
+        v[i] = *value;
+      }
+      if (v[2] <= z_min)
+        return std::unexpected(error_at(
+            &element, name,
+            "has z = " + format(v[2]) + "; an LED must be above the swatch plane (z > 0)"));
+      values.push_back(v);
+    }
+    out = std::move(values);
+    return {};
+  }
+
   Status get(const std::string& name, std::vector<unsigned>& out) {
     const toml::node* n = node(name);
     if (!n) return {};
@@ -267,6 +298,18 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   } else {
     geometry->node("pixel_size_mm");
   }
+  PSRIG_TRY(geometry->get("led_positions_mm", c.geometry.led_positions_mm, 1e5, 0));
+  if (geometry->find("led_distance_mm")) {
+    double distance = 0;
+    PSRIG_TRY(geometry->get("led_distance_mm", distance, 0, 1e5, true));
+    c.geometry.led_distance_mm = distance;
+    if (geometry->find("led_positions_mm"))
+      return std::unexpected(
+          geometry->error_at(geometry->find("led_distance_mm"), "led_distance_mm",
+                             "give either led_positions_mm or led_distance_mm, not both"));
+  } else {
+    geometry->node("led_distance_mm");
+  }
   geometry->finish();
 
   auto lights = sub(top, "lights");
@@ -357,6 +400,12 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
         geometry->error_at(geometry->find("tilts_deg"), "tilts_deg",
                            "gives " + std::to_string(c.geometry.tilts_deg.size()) + " tilts for " +
                                std::to_string(c.lights.channels) + " lights (lights.channels)"));
+  if (geometry->find("led_positions_mm") &&
+      c.geometry.led_positions_mm.size() != static_cast<std::size_t>(c.lights.channels))
+    return std::unexpected(geometry->error_at(
+        geometry->find("led_positions_mm"), "led_positions_mm",
+        "gives " + std::to_string(c.geometry.led_positions_mm.size()) + " positions for " +
+            std::to_string(c.lights.channels) + " lights (lights.channels)"));
   if (!geometry->find("tilts_deg") && c.lights.channels != 3) {
     c.geometry.tilts_deg.clear();  // evenly spread, one per channel
     for (int k = 0; k < c.lights.channels; ++k)
@@ -399,9 +448,21 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   if (!sim) return std::unexpected(sim.error());
   auto& s = c.sim;
   PSRIG_TRY(sim->get("target", s.target,
-                     {"swatch", "chrome_sphere", "matte_sphere", "white_card", "charuco_board"}));
+                     {"swatch", "flat", "chrome_sphere", "matte_sphere", "white_card",
+                      "charuco_board"}));
   PSRIG_TRY(sim->get("sphere_diameter_mm", s.sphere_diameter_mm, 0.1, 1000, true));
   PSRIG_TRY(sim->get("led_angular_diameter_deg", s.led_angular_diameter_deg, 0.01, 20, true));
+  {
+    std::vector<double> centre;
+    PSRIG_TRY(sim->get("sphere_centre_mm", centre, -1e4, 1e4));
+    if (sim->find("sphere_centre_mm")) {
+      if (centre.size() != 2)
+        return std::unexpected(
+            sim->error_at(sim->find("sphere_centre_mm"), "sphere_centre_mm",
+                          "expected [x, y] in millimetres from the camera axis"));
+      s.sphere_centre_mm = std::array<double, 2>{centre[0], centre[1]};
+    }
+  }
   PSRIG_TRY(sim->get("pattern", s.pattern, {"jersey", "rib", "garter", "plain", "twill"}));
   PSRIG_TRY(sim->get("seed", s.seed));
   PSRIG_TRY(sim->get("width", s.width, 8, 16384));
@@ -510,6 +571,21 @@ Result<RigConfig> load_config(const fs::path& file, std::vector<std::string>* wa
   std::stringstream text;
   text << stream.rdbuf();
   return parse_config(text.str(), fs::absolute(file, ec), warnings);
+}
+
+std::vector<std::array<double, 3>> led_positions_mm(const Geometry& geometry) {
+  if (!geometry.led_positions_mm.empty()) return geometry.led_positions_mm;
+  if (!geometry.led_distance_mm) return {};
+  constexpr double kDeg = 3.14159265358979323846 / 180;
+  const double d = *geometry.led_distance_mm;
+  const double slant = geometry.slant_deg * kDeg;
+  std::vector<std::array<double, 3>> positions;
+  for (const double tilt_deg : geometry.tilts_deg) {
+    const double tilt = tilt_deg * kDeg;
+    positions.push_back({d * std::cos(tilt) * std::sin(slant), d * std::sin(tilt) * std::sin(slant),
+                         d * std::cos(slant)});
+  }
+  return positions;
 }
 
 }  // namespace psrig::config

@@ -71,6 +71,18 @@ json make_report(const ReportInputs& in) {
   for (const auto& l : matrix.directions)
     rows.push_back({l[0], l[1], l[2]});
   report["light_matrix"] = {{"directions", rows}, {"condition_number", matrix.condition_number}};
+  // Near-field LEDs: a per-pixel direction and 1/r² falloff from each position.
+  json light_model = {{"near_field", d.near_field()}};
+  if (d.near_field()) {
+    json positions = json::array();
+    for (const auto& light : d.lights)
+      positions.push_back(
+          {(*light.position_mm)[0], (*light.position_mm)[1], (*light.position_mm)[2]});
+    light_model["positions_mm"] = positions;
+    if (d.principal_point_px)
+      light_model["principal_point_px"] = {d.principal_point_px->x, d.principal_point_px->y};
+  }
+  report["light_model"] = light_model;
 
   report["pixels"] = pixel_counts(in.pixels);
   report["residual"] = {

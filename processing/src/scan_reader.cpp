@@ -185,6 +185,28 @@ class DescriptionParser {
         if (auto ok = intensity(entry["intensity"], prefix + ".intensity", light); !ok)
           return std::unexpected(ok.error());
       }
+      const bool has_position = entry.contains("position_mm") && !entry["position_mm"].is_null();
+      if (has_position) {
+        const auto& value = entry["position_mm"];
+        const std::string key = prefix + ".position_mm";
+        if (!value.is_array() || value.size() != 3)
+          return std::unexpected(error(key, "expected [x, y, z] in millimetres"));
+        cv::Vec3d position;
+        for (int k = 0; k < 3; ++k) {
+          if (!value[k].is_number())
+            return std::unexpected(error(key, "expected [x, y, z] in millimetres"));
+          position[k] = value[k].get<double>();
+        }
+        if (position[2] <= 0)
+          return std::unexpected(
+              error(key, "is at or below the swatch plane (z <= 0); z is toward the camera"));
+        light.position_mm = position;
+      }
+      if (i > 0 && has_position != d.lights.front().position_mm.has_value())
+        return std::unexpected(error(
+            prefix + ".position_mm",
+            has_position ? "given, but lights[0] has none: give every light a position or none"
+                         : "missing, but lights[0] has one: give every light a position or none"));
       d.lights.push_back(light);
     }
 
@@ -214,6 +236,17 @@ class DescriptionParser {
       if (*size <= 0)
         return std::unexpected(error("pixel_size_mm", "must be positive (or null when unknown)"));
       d.pixel_size_mm = *size;
+    }
+    if (d.near_field() && !d.pixel_size_mm)
+      return std::unexpected(
+          error("lights[0].position_mm", "needs pixel_size_mm to place the pixels on the swatch"));
+
+    if (doc.contains("principal_point_px") && !doc["principal_point_px"].is_null()) {
+      const auto& value = doc["principal_point_px"];
+      if (!value.is_array() || value.size() != 2 || !value[0].is_number() || !value[1].is_number())
+        return std::unexpected(
+            error("principal_point_px", "expected [x, y] in pixels (column, row)"));
+      d.principal_point_px = cv::Point2d(value[0].get<double>(), value[1].get<double>());
     }
 
     if (doc.contains("ground_truth") && !doc["ground_truth"].is_null()) {

@@ -5,9 +5,11 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <optional>
 #include <vector>
 
 #include "psrig/processing/parallel.h"
+#include "psrig/processing/scan_layout.h"
 #include "stream_store.h"
 #include "vector_clones.h"
 
@@ -566,7 +568,37 @@ bool robust_fit(const Coefficients& co, const std::vector<double>& grey, double 
 // the lights it uses (used[k] != 0): all of them, or with rejection those
 // that are neither saturated nor shadowed, as long as at least three
 // well-spread ones remain.
-void solve_row_general(const RowData& row, const Coefficients& co, const SolveOptions& options) {
+// Near-field LEDs (scan.json's position_mm): each pixel sees each light
+// from its own direction and distance. Pixel (col, row) is the swatch point
+// X = ((col - cx) s, (cy - row) s, 0); light k's row of L there is
+// (P_k - X) |P_k|² / |P_k - X|³, the direction with the 1/r² falloff,
+// scaled so that at the origin it is the unit direction and the light's
+// intensity (divided out by the lineariser) is its irradiance there.
+struct NearField {
+  std::vector<cv::Vec3d> position;  // mm
+  double pixel_size_mm = 0;
+  cv::Point2d principal_point;  // px
+};
+
+// `co` with its rows for pixel (col, row) under near-field lights.
+void near_field_coefficients(const NearField& near, int col, int row, Coefficients& out) {
+  const cv::Vec3d x((col - near.principal_point.x) * near.pixel_size_mm,
+                    (near.principal_point.y - row) * near.pixel_size_mm, 0.0);
+  for (std::size_t k = 0; k < near.position.size(); ++k) {
+    const cv::Vec3d& p = near.position[k];
+    const cv::Vec3d d = p - x;
+    const double r2 = d.dot(d);
+    const cv::Vec3d v = d * (p.dot(p) / (r2 * std::sqrt(r2)));
+    const std::array<float, 3> l{static_cast<float>(v[0]), static_cast<float>(v[1]),
+                                 static_cast<float>(v[2])};
+    out.direction[k] = l;
+    out.outer[k] = {double{l[0]} * l[0], double{l[0]} * l[1], double{l[0]} * l[2],
+                    double{l[1]} * l[1], double{l[1]} * l[2], double{l[2]} * l[2]};
+  }
+}
+
+void solve_row_general(const RowData& row, const Coefficients& global, const SolveOptions& options,
+                       const NearField* near = nullptr, int row_index = 0) {
   const int lights = row.lights, channels = row.channels;
   const std::size_t n = static_cast<std::size_t>(lights);
   thread_local std::vector<double> grey, shade;
@@ -583,7 +615,11 @@ void solve_row_general(const RowData& row, const Coefficients& co, const SolveOp
       if (a[k] && b[k]) return true;
     return false;
   };
+  thread_local Coefficients pixel;
+  if (near) pixel = global;
   for (int i = 0; i < row.cols; ++i) {
+    if (near) near_field_coefficients(*near, i, row_index, pixel);
+    const Coefficients& co = near ? pixel : global;
     double brightest = 0;
     bool any_saturated = false;
     for (int k = 0; k < lights; ++k) {
@@ -735,7 +771,22 @@ Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& re
   const int channels = scan.channels();
   const cv::Size size = scan.size();
   const Coefficients co = make_coefficients(scan);
-  const bool three = lights == 3 && !options.force_least_squares;
+  // Near-field lights: per-pixel rows of L, each pixel its own least squares
+  // (three lights: the same normal equations, exact up to rounding).
+  std::optional<NearField> near;
+  if (scan.description.near_field()) {
+    if (!scan.description.pixel_size_mm)
+      return std::unexpected(bad_input(scan.description.directory / scan_files::kDescription,
+                                       "lights[0].position_mm",
+                                       "needs pixel_size_mm to place the pixels on the swatch"));
+    near.emplace();
+    for (const auto& light : scan.description.lights)
+      near->position.push_back(*light.position_mm);
+    near->pixel_size_mm = *scan.description.pixel_size_mm;
+    near->principal_point = scan.description.principal_point_px.value_or(
+        cv::Point2d(0.5 * (scan.size().width - 1), 0.5 * (scan.size().height - 1)));
+  }
+  const bool three = lights == 3 && !options.force_least_squares && !near;
   const ThreeLightInverse inverse = three ? three_light_inverse(co) : ThreeLightInverse{};
 
   result.p.create(size, CV_32F);
@@ -789,7 +840,7 @@ Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& re
         }
         solve_row_three(row, inverse, options, next);
       } else {
-        solve_row_general(row, co, options);
+        solve_row_general(row, co, options, near ? &*near : nullptr, r);
       }
     }
     stream_fence();

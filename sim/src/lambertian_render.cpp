@@ -98,4 +98,40 @@ cv::Mat render_lambertian(const Swatch& swatch, const DistantLight& light, bool 
   return out;
 }
 
+cv::Mat render_point_light(const Swatch& swatch, const PointLight& light, bool cast_shadows) {
+  cv::Mat out(swatch.normal.size(), CV_32FC3, cv::Scalar::all(0));
+  if (swatch.normal.empty()) return out;
+  CV_Assert(swatch.normal.type() == CV_32FC3 && swatch.albedo.type() == CV_32FC3 &&
+            swatch.albedo.size() == swatch.normal.size());
+  const cv::Vec3d p = light.position_mm;
+  const double p2 = p.dot(p);
+  if (!(p2 > 0)) return out;
+  cv::Mat shadow;
+  if (cast_shadows && !swatch.height_mm.empty())
+    shadow = cast_shadow_mask(swatch.height_mm, swatch.pixel_size_mm, p);
+  const double mean_height = swatch.height_mm.empty() ? 0.0 : cv::mean(swatch.height_mm)[0];
+  const double s = swatch.pixel_size_mm;
+  const double cx = 0.5 * (out.cols - 1);
+  const double cy = 0.5 * (out.rows - 1);
+  cv::parallel_for_(cv::Range(0, out.rows), [&](const cv::Range& range) {
+    for (int r = range.start; r < range.end; ++r) {
+      const auto* n = swatch.normal.ptr<cv::Vec3f>(r);
+      const auto* albedo = swatch.albedo.ptr<cv::Vec3f>(r);
+      const auto* h = swatch.height_mm.empty() ? nullptr : swatch.height_mm.ptr<float>(r);
+      const auto* blocked = shadow.empty() ? nullptr : shadow.ptr<std::uint8_t>(r);
+      auto* radiance = out.ptr<cv::Vec3f>(r);
+      const double y = (cy - r) * s;
+      for (int c = 0; c < out.cols; ++c) {
+        if (blocked != nullptr && blocked[c] != 0) continue;
+        const double z = h != nullptr ? h[c] - mean_height : 0.0;
+        const cv::Vec3d d = p - cv::Vec3d((c - cx) * s, y, z);
+        const double r2 = d.dot(d);
+        const double shade = std::max(0.0, cv::Vec3d(n[c]).dot(d)) * p2 / (r2 * std::sqrt(r2));
+        radiance[c] = albedo[c].mul(light.intensity_bgr) * static_cast<float>(shade);
+      }
+    }
+  });
+  return out;
+}
+
 }  // namespace psrig::sim

@@ -53,9 +53,13 @@ double sample(const SphereTarget& target, double radius, double dx, double dy,
   return kVelvet * std::max(0.0, l[2]);
 }
 
-cv::Mat render(const SphereTarget& target, const cv::Vec3d* direction) {
+cv::Mat render(const SphereTarget& target, const cv::Vec3d* direction,
+               const cv::Vec3d* position_mm = nullptr) {
   const cv::Point2d centre = target.centre_px();
   const double radius = target.radius_px();
+  const double s = target.pixel_size_mm;
+  const double axis_x = (target.size.width - 1) / 2.0;
+  const double axis_y = (target.size.height - 1) / 2.0;
   const double cos_led = std::cos(target.led_angular_diameter_deg / 2 * std::numbers::pi / 180);
   cv::Mat out(target.size, CV_32FC3);
   for (int row = 0; row < target.size.height; ++row) {
@@ -66,7 +70,17 @@ cv::Mat render(const SphereTarget& target, const cv::Vec3d* direction) {
         for (int j = 0; j < kSamples; ++j) {
           const double x = col + (j + 0.5) / kSamples - 0.5;
           const double y = row + (i + 0.5) / kSamples - 0.5;
-          sum += sample(target, radius, x - centre.x, centre.y - y, direction, cos_led);
+          if (!position_mm) {
+            sum += sample(target, radius, x - centre.x, centre.y - y, direction, cos_led);
+            continue;
+          }
+          // A point source: the direction from this sample's point on the sphere or velvet.
+          const double dx = x - centre.x, dy = centre.y - y;
+          const double d2 = dx * dx + dy * dy;
+          const double z = d2 < radius * radius ? radius + std::sqrt(radius * radius - d2) : 0.0;
+          cv::Vec3d toward = *position_mm - cv::Vec3d((x - axis_x) * s, (axis_y - y) * s, z * s);
+          toward /= cv::norm(toward);
+          sum += sample(target, radius, dx, dy, &toward, cos_led);
         }
       const auto value = static_cast<float>(sum / (kSamples * kSamples));
       line[col] = {value, value, value};
@@ -113,6 +127,10 @@ Swatch sphere_scene(const SphereTarget& target) {
 cv::Mat render_sphere(const SphereTarget& target, const cv::Vec3d& direction) {
   const cv::Vec3d unit = direction / cv::norm(direction);
   return render(target, &unit);
+}
+
+cv::Mat render_sphere_point(const SphereTarget& target, const cv::Vec3d& position_mm) {
+  return render(target, nullptr, &position_mm);
 }
 
 cv::Mat render_sphere_ambient(const SphereTarget& target) {

@@ -20,10 +20,21 @@ std::optional<SphereTarget> sphere_target(const config::SimConfig& sim) {
   target.pixel_size_mm = sim.pixel_size_mm;
   target.diameter_mm = sim.sphere_diameter_mm;
   target.led_angular_diameter_deg = sim.led_angular_diameter_deg;
+  if (sim.sphere_centre_mm)
+    target.centre = {(sim.width - 1) / 2.0 + (*sim.sphere_centre_mm)[0] / sim.pixel_size_mm,
+                     (sim.height - 1) / 2.0 - (*sim.sphere_centre_mm)[1] / sim.pixel_size_mm};
   return target;
 }
 
 Swatch make_world_swatch(const config::SimConfig& sim) {
+  if (sim.target == "flat") {  // a flat matte grey card
+    Swatch card;
+    card.pixel_size_mm = sim.pixel_size_mm;
+    card.height_mm = cv::Mat(sim.height, sim.width, CV_32F, cv::Scalar(0));
+    card.normal = cv::Mat(sim.height, sim.width, CV_32FC3, cv::Scalar(0, 0, 1));
+    card.albedo = cv::Mat(sim.height, sim.width, CV_32FC3, cv::Scalar::all(0.6));
+    return card;
+  }
   if (const auto sphere = sphere_target(sim)) return sphere_scene(*sphere);
   if (sim.target == "white_card") return white_card({sim.width, sim.height}, sim.pixel_size_mm);
   if (sim.target == "charuco_board")
@@ -43,10 +54,20 @@ World::World(const config::RigConfig& config, std::shared_ptr<firmware_host::Sim
       leds_(leds ? std::move(leds)
                  : std::make_shared<firmware_host::SimulatedLeds>(config.lights.channels)) {
   const auto sphere = sphere_target(config.sim);
+  const auto positions = config::led_positions_mm(config.geometry);
   for (int k = 0; k < config.lights.channels; ++k) {
     const auto& tilts = config.geometry.tilts_deg;
     const double tilt_deg =
         k < static_cast<int>(tilts.size()) ? tilts[k] : 360.0 * k / config.lights.channels;
+    if (k < static_cast<int>(positions.size())) {
+      // A near LED: a point source; its direction from the field's centre.
+      const cv::Vec3d p(positions[k][0], positions[k][1], positions[k][2]);
+      positions_.push_back(p);
+      directions_.push_back(p / cv::norm(p));
+      radiance_.push_back(sphere ? render_sphere_point(*sphere, p)
+                                 : render_point_light(swatch_, {p, {1, 1, 1}}, true));
+      continue;
+    }
     directions_.push_back(processing::light_direction(tilt_deg, config.geometry.slant_deg));
     radiance_.push_back(sphere ? render_sphere(*sphere, directions_.back())
                                : render_lambertian(swatch_, {directions_.back(), {1, 1, 1}}, true));

@@ -430,6 +430,29 @@ TEST(PsrigCli, ScanOnTheSimulatedRigRecoversTheSwatch) {
   EXPECT_TRUE(contains(description["capture"]["camera"].get<std::string>(), "simulated camera"));
 }
 
+// Near-field LEDs 250 mm away over a flat card in a 16 x 12 mm field:
+// rig.toml's led_distance_mm reaches scan.json and the per-pixel solve.
+TEST(PsrigCli, ScanWithNearLedsUsesTheirPositions) {
+  TempDir temp;
+  const auto config = sim_config(
+      temp, {{"tilts_deg = [0, 120, 240]", "tilts_deg = [0, 120, 240]\nled_distance_mm = 250"},
+             {"target = \"swatch\"", "target = \"flat\""},
+             {"pixel_size_mm = 0.025", "pixel_size_mm = 0.05"},
+             {"full_well = 10000", "full_well = 1000000"}});
+  const auto scan = temp / "near";
+  auto run = run_program("psrig", {"scan", "--config", config.string(), "--out", scan.string()});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  std::ifstream scan_file(scan / "scan.json");
+  const auto description = nlohmann::json::parse(scan_file);
+  ASSERT_TRUE(description["lights"][0].contains("position_mm")) << description.dump(2);
+  EXPECT_NEAR(description["lights"][0]["position_mm"][2].get<double>(), 250 * std::sqrt(0.5), 1e-6);
+  EXPECT_EQ(description["principal_point_px"], nlohmann::json::array({159.5, 119.5}));
+  std::ifstream report_file(scan / "maps/report.json");
+  const auto report = nlohmann::json::parse(report_file);
+  EXPECT_TRUE(report["light_model"]["near_field"].get<bool>());
+  EXPECT_LE(report["ground_truth"]["mean_angular_error_all_solved_deg"].get<double>(), 0.3);
+}
+
 TEST(PsrigCli, ScanWithoutAnOutGoesToTheStorageRoot) {
   TempDir temp;
   const auto config = sim_config(temp);

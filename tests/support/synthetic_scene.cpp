@@ -133,7 +133,7 @@ processing::Scan render_scan(const Surface& surface, const std::vector<cv::Vec3d
   auto& d = scan.description;
   for (std::size_t k = 0; k < lights.size(); ++k) {
     const cv::Vec3d l = lights[k] / cv::norm(lights[k]);
-    d.lights.push_back({"led" + std::to_string(k) + ".png", l, {1, 1, 1}, false});
+    d.lights.push_back({"led" + std::to_string(k) + ".png", l, {1, 1, 1}, false, std::nullopt});
     cv::Mat linear(surface.normal.size(), CV_32FC(channels));
     for (int r = 0; r < linear.rows; ++r) {
       for (int c = 0; c < linear.cols; ++c) {

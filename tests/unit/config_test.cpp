@@ -1,5 +1,7 @@
 // rig.toml: the shipped files load clean, every mistake names its place.
 
+#include <cmath>
+
 #include <gtest/gtest.h>
 
 #include "psrig/config/config_loader.h"
@@ -114,6 +116,52 @@ TEST(Config, TiltsMustMatchTheChannels) {
   auto four = parse_config("[lights]\nchannels = 4\n", "rig.toml");
   ASSERT_TRUE(four);
   EXPECT_EQ(four->geometry.tilts_deg, (std::vector<double>{0, 90, 180, 270}));
+}
+
+TEST(Config, NearFieldLedPositions) {
+  // None: distant LEDs.
+  auto plain = parse_config("", "rig.toml");
+  ASSERT_TRUE(plain);
+  EXPECT_TRUE(led_positions_mm(plain->geometry).empty());
+  // Given one per light.
+  auto given = parse_config(
+      "[geometry]\nled_positions_mm = [[100, 0, 200], [-50, 86.6, 200], [-50, -86.6, 200.5]]\n",
+      "rig.toml");
+  ASSERT_TRUE(given) << given.error().describe();
+  const auto p = led_positions_mm(given->geometry);
+  ASSERT_EQ(p.size(), 3U);
+  EXPECT_DOUBLE_EQ(p[2][2], 200.5);
+  // Placed by a distance along slant and tilt.
+  auto placed = parse_config("[geometry]\nslant_deg = 45\nled_distance_mm = 250\n", "rig.toml");
+  ASSERT_TRUE(placed);
+  const auto q = led_positions_mm(placed->geometry);
+  ASSERT_EQ(q.size(), 3U);
+  EXPECT_NEAR(q[0][0], 250 / std::sqrt(2.0), 1e-9);
+  EXPECT_NEAR(q[0][1], 0, 1e-9);
+  EXPECT_NEAR(q[1][1], 250 / std::sqrt(2.0) * std::sin(120 * 3.14159265358979323846 / 180), 1e-9);
+  EXPECT_NEAR(q[2][2], 250 / std::sqrt(2.0), 1e-9);
+  // Errors name the key.
+  expect_error("[geometry]\nled_positions_mm = [[1, 2, 3], [1, 2, 3]]\n",
+               "geometry.led_positions_mm", 2);
+  expect_error("[geometry]\nled_positions_mm = [[1, 2, 3], [1, 2], [1, 2, 3]]\n",
+               "geometry.led_positions_mm", 2);
+  expect_error("[geometry]\nled_positions_mm = [[1, 2, 3], [1, 2, -3], [1, 2, 3]]\n",
+               "geometry.led_positions_mm", 2);
+  expect_error("[geometry]\nled_positions_mm = \"near\"\n", "geometry.led_positions_mm", 2);
+  expect_error("[geometry]\nled_distance_mm = 0\n", "geometry.led_distance_mm", 2);
+  expect_error(
+      "[geometry]\nled_positions_mm = [[1, 2, 3], [1, 2, 3], [1, 2, 3]]\nled_distance_mm = 200\n",
+      "geometry.led_distance_mm", 3);
+}
+
+TEST(Config, SimSpherePlacement) {
+  auto placed = parse_config("[sim]\nsphere_centre_mm = [4, -2.5]\n", "rig.toml");
+  ASSERT_TRUE(placed) << placed.error().describe();
+  ASSERT_TRUE(placed->sim.sphere_centre_mm);
+  EXPECT_EQ((*placed->sim.sphere_centre_mm)[1], -2.5);
+  EXPECT_FALSE(parse_config("", "rig.toml")->sim.sphere_centre_mm);
+  expect_error("[sim]\nsphere_centre_mm = [4]\n", "sim.sphere_centre_mm", 2);
+  expect_error("[sim]\nsphere_centre_mm = \"middle\"\n", "sim.sphere_centre_mm", 2);
 }
 
 TEST(Config, ModbusParityAndRegisterMap) {

@@ -16,9 +16,13 @@
 #include "psrig/calibration/calibration_store.h"
 #include "psrig/calibration/image_set.h"
 #include "psrig/calibration/sphere.h"
+#include "psrig/processing/evaluation.h"
 #include "psrig/processing/light_matrix.h"
 #include "psrig/processing/scan_reader.h"
+#include "psrig/processing/woodham.h"
+#include "psrig/sim/lambertian_render.h"
 #include "psrig/sim/sphere_target.h"
+#include "psrig/sim/world.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -123,6 +127,127 @@ TEST(LightCalibration, ChromeDirectionsWithinThreeTenthsOfADegree) {
     EXPECT_LT(error, 0.3);
     EXPECT_EQ((*estimates)[k].frames, 3);
     ASSERT_TRUE((*estimates)[k].highlight_spread_deg);
+  }
+}
+
+// Near-field LEDs 250 mm from the field's centre at 45° slant, the chrome
+// sphere (6 mm) placed at three places in a 32 x 24 mm field: each LED
+// triangulated from the highlights' rays within a few millimetres, and a
+// flat card under those LEDs, processed with the calibrated positions,
+// within 0.3° over a 16 x 12 mm field.
+TEST(LightCalibration, NearLedPositionsFromTheSphereAtThreePlaces) {
+  cv::RNG rng(5);
+  std::vector<cv::Vec3d> truth;
+  for (const double tilt : {0.0, 120.0, 240.0})
+    truth.push_back(250 * processing::light_direction(tilt, 45));
+  sim::SphereTarget t;
+  t.kind = sim::SphereKind::chrome;
+  t.size = {1280, 960};
+  t.pixel_size_mm = 0.025;
+  t.diameter_mm = 6;
+  std::vector<SpherePlacement> placements;
+  for (const cv::Point2d centre :
+       {cv::Point2d(250.3, 200.6), cv::Point2d(1030.2, 260.1), cv::Point2d(620.7, 760.4)}) {
+    t.centre = centre;
+    std::vector<LightFrames> lights;
+    std::vector<cv::Mat> all;
+    for (const auto& p : truth) {
+      LightFrames frames;
+      frames.frames.push_back(
+          {expose(sim::render_sphere_point(t, p), 3, rng, 0.004), "chrome.png"});
+      all.push_back(frames.frames.front().image);
+      lights.push_back(frames);
+    }
+    auto circle = find_sphere(all, {}, "renders");
+    ASSERT_TRUE(circle) << circle.error().describe();
+    auto estimates = calibrate_chrome(lights, *circle, {});
+    ASSERT_TRUE(estimates) << estimates.error().describe();
+    placements.push_back({*circle, *estimates});
+  }
+  const PlaneGeometry geometry{0.025, 6, t.size, std::nullopt};
+  auto positions = triangulate_leds(placements, geometry);
+  ASSERT_TRUE(positions) << positions.error().describe();
+  ASSERT_EQ(positions->size(), 3U);
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    const auto& p = (*positions)[k];
+    const double off = cv::norm(p.position_mm - truth[k]);
+    std::printf(
+        "LED %zu at (%.1f, %.1f, %.1f) mm, truth (%.1f, %.1f, %.1f): %.2f mm off, "
+        "rays %.3f mm RMS, baseline %.1f mm\n",
+        k, p.position_mm[0], p.position_mm[1], p.position_mm[2], truth[k][0], truth[k][1],
+        truth[k][2], off, p.ray_rms_mm, p.baseline_mm);
+    EXPECT_LT(off, 10.0);
+  }
+  // Too few placements, or no pixel size: bad input.
+  EXPECT_FALSE(triangulate_leds({placements.front()}, geometry));
+  EXPECT_FALSE(triangulate_leds(placements, {0, 6, t.size, std::nullopt}));
+
+  // A flat card under the true LEDs, processed with the calibrated positions.
+  sim::Swatch card;
+  card.pixel_size_mm = 0.025;
+  card.height_mm = cv::Mat(480, 640, CV_32F, cv::Scalar(0));
+  card.normal = cv::Mat(480, 640, CV_32FC3, cv::Scalar(0, 0, 1));
+  card.albedo = cv::Mat(480, 640, CV_32FC3, cv::Scalar::all(0.6));
+  processing::Scan scan;
+  scan.description.pixel_size_mm = 0.025;
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    scan.frames.push_back(grey_of(sim::render_point_light(card, {truth[k], {1, 1, 1}}, false)));
+    processing::ScanLight light;
+    light.image = "led" + std::to_string(k) + ".exr";
+    light.direction = (*positions)[k].position_mm / cv::norm((*positions)[k].position_mm);
+    light.position_mm = (*positions)[k].position_mm;
+    scan.description.lights.push_back(light);
+  }
+  scan.white_level = 1.0;
+  auto solved = processing::solve(scan);
+  ASSERT_TRUE(solved) << solved.error().describe();
+  cv::Mat up(480, 640, CV_32FC3, cv::Scalar(0, 0, 1));
+  const double error =
+      processing::describe(processing::angular_error_deg(solved->p, solved->q, up)).mean;
+  std::printf("flat card with the calibrated positions: mean angular error %.3f deg\n", error);
+  EXPECT_LE(error, 0.3);
+}
+
+// The same through the simulated rig's world: rig.toml's near LEDs
+// (led_distance_mm) and [sim] sphere_centre_mm placing the chrome sphere.
+TEST(LightCalibration, NearLedPositionsFromTheSimulatedRigsSphere) {
+  cv::RNG rng(6);
+  config::RigConfig c;
+  c.geometry.led_distance_mm = 250;
+  c.sim.target = "chrome_sphere";
+  c.sim.sphere_diameter_mm = 6;
+  c.sim.width = 1280;
+  c.sim.height = 960;
+  c.sim.pixel_size_mm = 0.025;
+  std::vector<SpherePlacement> placements;
+  for (const std::array<double, 2> centre :
+       {std::array<double, 2>{-9.7, 6.9}, std::array<double, 2>{9.8, 5.4},
+        std::array<double, 2>{0.2, -7.5}}) {
+    c.sim.sphere_centre_mm = centre;
+    sim::World world(c);
+    std::vector<LightFrames> lights;
+    std::vector<cv::Mat> all;
+    for (int k = 0; k < world.channel_count(); ++k) {
+      LightFrames frames;
+      frames.frames.push_back({expose(world.radiance(k), 3, rng, 0.004), "chrome.png"});
+      all.push_back(frames.frames.front().image);
+      lights.push_back(frames);
+    }
+    auto circle = find_sphere(all, {}, "renders");
+    ASSERT_TRUE(circle) << circle.error().describe();
+    EXPECT_NEAR(circle->centre.x, 639.5 + centre[0] / 0.025, 0.5);
+    auto estimates = calibrate_chrome(lights, *circle, {});
+    ASSERT_TRUE(estimates) << estimates.error().describe();
+    placements.push_back({*circle, *estimates});
+  }
+  auto positions = triangulate_leds(placements, {0.025, 6, {1280, 960}, std::nullopt});
+  ASSERT_TRUE(positions) << positions.error().describe();
+  const auto truth = config::led_positions_mm(c.geometry);
+  for (std::size_t k = 0; k < truth.size(); ++k) {
+    const cv::Vec3d p(truth[k][0], truth[k][1], truth[k][2]);
+    const double off = cv::norm((*positions)[k].position_mm - p);
+    std::printf("simulated rig, LED %zu: %.2f mm off\n", k, off);
+    EXPECT_LT(off, 10.0);
   }
 }
 

@@ -155,7 +155,8 @@ Scan uw_scan(const std::filesystem::path& dir, const std::string& name,
   auto& d = scan.description;
   for (int k : chosen) {
     const std::string file = name + "." + std::to_string(k) + ".png";
-    d.lights.push_back({file, all_lights[k] / cv::norm(all_lights[k]), {1, 1, 1}, false});
+    d.lights.push_back(
+        {file, all_lights[k] / cv::norm(all_lights[k]), {1, 1, 1}, false, std::nullopt});
     scan.frames.push_back(cv::imread((dir / name / file).string(), cv::IMREAD_COLOR));
   }
   scan.mask = read_grey(dir / name / (name + ".mask.png")) > 127;

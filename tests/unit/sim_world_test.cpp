@@ -37,6 +37,38 @@ TEST(SimWorld, RadianceIsTheRenderedSwatch) {
   EXPECT_GT(brightness(world.radiance(0)), 0.1);
 }
 
+TEST(SimWorld, NearLedsArePointSources) {
+  config::RigConfig c;
+  c.sim.width = 641;  // an odd size: the centre pixel sits on the axis
+  c.sim.height = 481;
+  c.sim.target = "flat";
+  c.sim.pixel_size_mm = 0.025;  // a 16 x 12 mm field
+  c.geometry.led_distance_mm = 250;
+  World world(c);
+  ASSERT_EQ(world.light_positions_mm().size(), 3U);
+  EXPECT_NEAR(world.light_positions_mm()[0][0], 250 * std::sqrt(0.5), 1e-9);
+  EXPECT_NEAR(world.light_directions()[0][2], std::sqrt(0.5), 1e-12);
+  // At the field's centre as a distant LED in the same direction: albedo * cos 45°.
+  const cv::Mat& r0 = world.radiance(0);
+  EXPECT_NEAR(r0.at<cv::Vec3f>(240, 320)[1], 0.6 * std::sqrt(0.5), 1e-5);
+  // Elsewhere n . (P - X) |P|² / |P - X|³ (LED 0 is to the image's right).
+  for (const cv::Point px : {cv::Point(0, 0), cv::Point(640, 240), cv::Point(100, 400)}) {
+    const cv::Vec3d p = world.light_positions_mm()[0];
+    const cv::Vec3d x((px.x - 320) * 0.025, (240 - px.y) * 0.025, 0);
+    const cv::Vec3d d = p - x;
+    const double expected = 0.6 * d[2] * p.dot(p) / std::pow(cv::norm(d), 3);
+    EXPECT_NEAR(r0.at<cv::Vec3f>(px)[0], expected, 1e-5) << px;
+  }
+  // Nearer the LED, brighter: the right edge against the left.
+  EXPECT_GT(r0.at<cv::Vec3f>(240, 640)[0], r0.at<cv::Vec3f>(240, 0)[0] * 1.05);
+  // Without positions: distant, uniform over the flat card.
+  c.geometry.led_distance_mm.reset();
+  World distant(c);
+  EXPECT_TRUE(distant.light_positions_mm().empty());
+  EXPECT_NEAR(distant.radiance(0).at<cv::Vec3f>(0, 0)[0], 0.6 * std::sqrt(0.5), 1e-5);
+  EXPECT_NEAR(distant.radiance(0).at<cv::Vec3f>(240, 640)[0], 0.6 * std::sqrt(0.5), 1e-5);
+}
+
 TEST(SimWorld, AttachFindsTheRigsWorldThroughTheConfiguration) {
   const config::RigConfig config = small_world();
   auto world = World::attach(config);

@@ -78,4 +78,42 @@ struct LightEstimate {
     const std::vector<LightFrames>& lights, const Circle& sphere, const CameraModel& camera,
     double saturation = 0.98);
 
+// --- Near-field LEDs: positions from the chrome sphere at several places.
+//
+// With the sphere at one place, each light's highlight gives a ray: from the
+// highlight's point on the sphere, C + R n (C the sphere's centre in mm,
+// R its radius, n the normal at the highlight), along the measured
+// direction. The LED lies on every such ray; its position is the point
+// nearest all of them in least squares, sum_i (I - d_i d_i^T) (P - o_i) = 0.
+
+// One placement of the chrome sphere: its circle in the images and
+// calibrate_chrome's estimates there (highlight_px and direction used).
+struct SpherePlacement {
+  Circle sphere;
+  std::vector<LightEstimate> lights;
+};
+
+// What places pixels on the swatch plane: millimetres per pixel, the
+// sphere's diameter, the image's size and where the camera axis meets it
+// (absent: the image centre, ((w - 1)/2, (h - 1)/2)). Orthographic camera.
+struct PlaneGeometry {
+  double pixel_size_mm = 0;
+  double sphere_diameter_mm = 0;  // 0: from each circle's radius
+  cv::Size image_size;
+  std::optional<cv::Point2d> principal_point_px;
+};
+
+struct LedPosition {
+  cv::Vec3d position_mm{0, 0, 0};  // camera axes, origin where the axis meets the swatch plane
+  double ray_rms_mm = 0;           // RMS distance of the rays from it
+  double baseline_mm = 0;          // largest distance between the rays' origins
+};
+
+// Each light's position from two or more placements (every placement with
+// an estimate for every light). bad_input when there are too few
+// placements, no pixel size, or rays too nearly parallel to cross (the
+// placements too close together for the distance).
+[[nodiscard]] Result<std::vector<LedPosition>> triangulate_leds(
+    const std::vector<SpherePlacement>& placements, const PlaneGeometry& geometry);
+
 }  // namespace psrig::calibration

@@ -3,6 +3,7 @@
 // drives. Every field has a default; config/rig.example.toml documents them
 // for a real rig, config/sim.toml for the simulated one.
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -17,9 +18,20 @@ struct Geometry {
   std::vector<double> tilts_deg = {0, 120, 240};  // one per light, in channel order
   double working_distance_mm = 200;               // camera to swatch
   std::optional<double> pixel_size_mm;            // on the swatch; absent: heights in pixels
+  // Near-field LEDs: each LED's position in millimetres, camera axes, origin
+  // where the camera axis meets the swatch plane (x right, y up, z toward
+  // the camera). Either given one per light, or placed by led_distance_mm
+  // (distance from the origin) along each light's slant and tilt. Neither:
+  // the LEDs are distant (a direction each, the same over the field).
+  std::vector<std::array<double, 3>> led_positions_mm;
+  std::optional<double> led_distance_mm;
 
   bool operator==(const Geometry&) const = default;
 };
+
+// Each LED's position in mm (led_positions_mm, or led_distance_mm along
+// slant and tilt), or an empty vector when the LEDs are distant.
+[[nodiscard]] std::vector<std::array<double, 3>> led_positions_mm(const Geometry& geometry);
 
 // A GPIO line per LED, through libgpiod.
 struct GpiodLights {
@@ -112,10 +124,15 @@ struct SimConfig {
   // What lies under the camera: the swatch, or a calibration target (a
   // chrome or a matte sphere resting on black velvet in the field's centre,
   // or a flat white card filling the field, or a ChArUco board printed on it:
-  // sim/card_target.h).
-  std::string target =
-      "swatch";  // "swatch" | "chrome_sphere" | "matte_sphere" | "white_card" | "charuco_board"
+  // sim/card_target.h). "flat": a flat matte grey card (albedo 0.6), for
+  // the near-field tests.
+  std::string target = "swatch";  // "swatch" | "flat" | "chrome_sphere" | "matte_sphere" |
+                                  // "white_card" | "charuco_board"
   double sphere_diameter_mm = 10;
+  // Where the sphere rests: its centre in mm from the camera axis (x right,
+  // y up); absent: the field's centre. Placing it at two or more places
+  // lets calibration find near LEDs' positions.
+  std::optional<std::array<double, 2>> sphere_centre_mm;
   double led_angular_diameter_deg = 2;  // each LED as the sphere sees it (chrome highlight size)
   std::string pattern = "jersey";
   std::uint64_t seed = 1;

@@ -33,6 +33,10 @@ struct ScanLight {
   cv::Vec3d direction{0, 0, 1};      // unit vector from the swatch toward the light, camera axes
   cv::Vec3d intensity_bgr{1, 1, 1};  // relative irradiance per channel, OpenCV's BGR order
   bool intensity_is_rgb = false;     // scan.json gave [r, g, b] rather than one number
+  // A near LED's position in mm, camera axes, origin where the camera axis
+  // (principal_point_px) meets the swatch plane; `intensity` is then its
+  // irradiance at normal incidence at that origin. Absent: a distant light.
+  std::optional<cv::Vec3d> position_mm;
 };
 
 // scan.json, validated. Holds no pixels.
@@ -49,6 +53,13 @@ struct ScanDescription {
   std::vector<std::string> flats;  // empty, or one white-target frame per light
   std::vector<ScanLight> lights;
   std::optional<double> pixel_size_mm;
+  // Where the camera axis meets the image, in pixels (x = column, y = row,
+  // 0 at the first pixel's centre). Absent: the image centre, ((w-1)/2, (h-1)/2).
+  std::optional<cv::Point2d> principal_point_px;
+  // Every light has a position (near-field LEDs); the reader allows all or none.
+  [[nodiscard]] bool near_field() const {
+    return !lights.empty() && lights.front().position_mm.has_value();
+  }
   std::optional<std::string> ground_truth_normal;  // written by the simulator and `psrig synth`
   std::optional<std::string> ground_truth_height;
 };

@@ -49,4 +49,10 @@ struct SphereTarget {
 // Under the room light (an overcast sky, as the swatch world's), same scale.
 [[nodiscard]] cv::Mat render_sphere_ambient(const SphereTarget& target);
 
+// The target under a near LED, a point source at `position_mm` (camera
+// axes, origin where the camera axis, the image centre, meets the velvet):
+// each sample sees the LED from its own point (on the sphere, or on the
+// velvet), so the chrome highlight moves with the sphere's placement.
+[[nodiscard]] cv::Mat render_sphere_point(const SphereTarget& target, const cv::Vec3d& position_mm);
+
 }  // namespace psrig::sim

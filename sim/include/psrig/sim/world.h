@@ -34,6 +34,10 @@ class World {
   [[nodiscard]] int channel_count() const { return static_cast<int>(directions_.size()); }
   // Unit directions toward each LED, camera axes, from the configuration's geometry.
   [[nodiscard]] const std::vector<cv::Vec3d>& light_directions() const { return directions_; }
+  // Each LED's position in mm (near-field LEDs: config::led_positions_mm),
+  // or empty when the LEDs are distant; the swatch is then lit by a point
+  // source (render_point_light), the directions above are from the origin.
+  [[nodiscard]] const std::vector<cv::Vec3d>& light_positions_mm() const { return positions_; }
   [[nodiscard]] const Swatch& swatch() const { return swatch_; }
   [[nodiscard]] const std::shared_ptr<firmware_host::SimulatedLeds>& leds() const { return leds_; }
 
@@ -51,6 +55,7 @@ class World {
 
  private:
   std::vector<cv::Vec3d> directions_;
+  std::vector<cv::Vec3d> positions_;
   Swatch swatch_;
   std::vector<cv::Mat> radiance_;
   cv::Mat ambient_;
