@@ -503,6 +503,20 @@ FlatQuality flat_quality(const cv::Mat& flat) {
   return q;
 }
 
+// The rig's current calibration, which a flat or a scale extends (each is
+// stored with the lights); bad input naming the fix where there is none.
+Result<calibration::StoredCalibration> light_calibration_to_extend(
+    const config::RigConfig& config, const calibration::CalibrationStore& store,
+    const std::string& what) {
+  const auto current_file = store.current();
+  if (!current_file)
+    return std::unexpected(bad_input(config.source, "storage.root",
+                                     "has no light calibration (" + store.directory().string() +
+                                         "): run psrig calibrate lights first; the " + what +
+                                         " is stored with the lights"));
+  return calibration::read_calibration(*current_file);
+}
+
 // A card is refused when it is not flat and uniform (the textile or a
 // sphere still under the camera), saturated, or unlit.
 constexpr double kFlatMaxRoughness = 0.04;
@@ -517,13 +531,7 @@ int run_flat(const FlatArgs& args) {
   if (!config) return exit_code;
   calibration::CalibrationStore store(config->storage.root);
   const auto current_file = store.current();
-  if (!current_file)
-    return report_error(command,
-                        bad_input(config->source, "storage.root",
-                                  "has no light calibration (" + store.directory().string() +
-                                      "): run psrig calibrate lights first; the flat "
-                                      "is stored with the lights"));
-  auto current = calibration::read_calibration(*current_file);
+  auto current = light_calibration_to_extend(*config, store, "flat");
   if (!current) return report_error(command, current.error());
   if (current->lights.size() != static_cast<std::size_t>(config->lights.channels))
     return report_error(command, bad_input(*current_file, "lights.per_light",
@@ -682,14 +690,7 @@ int run_scale(const ScaleArgs& args) {
   auto config = load_config_or_report(command, args.config, exit_code);
   if (!config) return exit_code;
   calibration::CalibrationStore store(config->storage.root);
-  const auto current_file = store.current();
-  if (!current_file)
-    return report_error(command,
-                        bad_input(config->source, "storage.root",
-                                  "has no light calibration (" + store.directory().string() +
-                                      "): run psrig calibrate lights first; the scale "
-                                      "is stored with the lights"));
-  auto current = calibration::read_calibration(*current_file);
+  auto current = light_calibration_to_extend(*config, store, "scale");
   if (!current) return report_error(command, current.error());
   auto document = calibration::carry_forward(*current, "scale");
   if (!document) return report_error(command, document.error());
