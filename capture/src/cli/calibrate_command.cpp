@@ -97,6 +97,15 @@ Result<SphereSet> load_folder(const std::string& role, const fs::path& folder,
   return set;
 }
 
+// A frame as stored, in linear float (its channels kept).
+cv::Mat linearised(const processing::CodeLineariser& lineariser, const cv::Mat& stored) {
+  const cv::Mat continuous = stored.isContinuous() ? stored : stored.clone();
+  cv::Mat linear(continuous.size(), CV_MAKETYPE(CV_32F, continuous.channels()));
+  lineariser.convert(continuous.data, static_cast<int>(continuous.total()) * continuous.channels(),
+                     linear.ptr<float>());
+  return linear;
+}
+
 // Scans the sequencer wrote, as frames per light: linear, dark subtracted.
 Result<SphereSet> load_captures(const std::string& role, const std::vector<fs::path>& scans) {
   SphereSet set;
@@ -109,11 +118,7 @@ Result<SphereSet> load_captures(const std::string& role, const std::vector<fs::p
     const processing::CodeLineariser lineariser(processing::Encoding::linear, d.black_level,
                                                 scan->white_level, scan->depth());
     const auto linear_grey = [&](const cv::Mat& stored) {
-      cv::Mat continuous = stored.isContinuous() ? stored : stored.clone();
-      cv::Mat linear(continuous.size(), CV_MAKETYPE(CV_32F, continuous.channels()));
-      lineariser.convert(continuous.data,
-                         static_cast<int>(continuous.total()) * continuous.channels(),
-                         linear.ptr<float>());
+      cv::Mat linear = linearised(lineariser, stored);
       if (linear.channels() == 3)
         cv::transform(linear, linear, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
       return linear;
@@ -441,14 +446,7 @@ Result<FlatFrames> load_flats(const std::vector<fs::path>& scans) {
     const auto& d = scan->description;
     const processing::CodeLineariser lineariser(processing::Encoding::linear, d.black_level,
                                                 scan->white_level, scan->depth());
-    const auto linear = [&](const cv::Mat& stored) {
-      cv::Mat continuous = stored.isContinuous() ? stored : stored.clone();
-      cv::Mat out(continuous.size(), CV_MAKETYPE(CV_32F, continuous.channels()));
-      lineariser.convert(continuous.data,
-                         static_cast<int>(continuous.total()) * continuous.channels(),
-                         out.ptr<float>());
-      return out;
-    };
+    const auto linear = [&](const cv::Mat& stored) { return linearised(lineariser, stored); };
     const cv::Mat dark = scan->dark.empty() ? cv::Mat() : linear(scan->dark);
     if (flats.linear.empty()) {
       flats.linear.resize(scan->frames.size());
