@@ -86,8 +86,7 @@ class Section {
     const toml::node* n = node(name);
     if (!n) return {};
     const auto value = integer_of(*n);
-    if (!value)
-      return std::unexpected(error_at(n, name, "expected a whole number"));
+    if (!value) return std::unexpected(error_at(n, name, "expected a whole number"));
     if (*value < min || *value > max)
       return std::unexpected(error_at(n, name,
                                       "is " + std::to_string(*value) + "; expected " +
@@ -275,6 +274,12 @@ class Section {
 
 constexpr double kNoMax = 1e308;
 
+// A path the file gives: absolute as written, relative to the file's folder.
+fs::path relative_to_file(const fs::path& file, const std::string& text) {
+  return fs::path(text).is_absolute() ? fs::path(text)
+                                      : (file.parent_path() / text).lexically_normal();
+}
+
 Result<RigConfig> read(const toml::table& root, const fs::path& file,
                        std::vector<std::string>* warnings) {
   RigConfig c;
@@ -381,10 +386,7 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
     std::string switch_log;
     PSRIG_TRY(sim_lights->get("switch_log", switch_log));
     // Relative to the configuration file, as storage.root is.
-    if (!switch_log.empty())
-      c.lights.sim.switch_log = fs::path(switch_log).is_absolute()
-                                    ? fs::path(switch_log)
-                                    : (file.parent_path() / switch_log).lexically_normal();
+    if (!switch_log.empty()) c.lights.sim.switch_log = relative_to_file(file, switch_log);
     sim_lights->finish();
   }
   lights->finish();
@@ -439,17 +441,15 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   std::string storage_root = c.storage.root.string();
   PSRIG_TRY(storage->get("root", storage_root));
   // Relative to the configuration file, not to wherever psrig was started.
-  c.storage.root = fs::path(storage_root).is_absolute()
-                       ? fs::path(storage_root)
-                       : (file.parent_path() / storage_root).lexically_normal();
+  c.storage.root = relative_to_file(file, storage_root);
   storage->finish();
 
   auto sim = sub(top, "sim");
   if (!sim) return std::unexpected(sim.error());
   auto& s = c.sim;
-  PSRIG_TRY(sim->get("target", s.target,
-                     {"swatch", "flat", "chrome_sphere", "matte_sphere", "white_card",
-                      "charuco_board"}));
+  PSRIG_TRY(
+      sim->get("target", s.target,
+               {"swatch", "flat", "chrome_sphere", "matte_sphere", "white_card", "charuco_board"}));
   PSRIG_TRY(sim->get("sphere_diameter_mm", s.sphere_diameter_mm, 0.1, 1000, true));
   PSRIG_TRY(sim->get("led_angular_diameter_deg", s.led_angular_diameter_deg, 0.01, 20, true));
   {
@@ -496,7 +496,18 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   PSRIG_TRY(daemon->get("modbus_address", d.modbus_address));
   PSRIG_TRY(daemon->get("modbus_port", d.modbus_port, 0, 65535));
   PSRIG_TRY(daemon->get("modbus_allow", d.modbus_allow));
+  std::string web_root;
+  PSRIG_TRY(daemon->get("web_root", web_root));
   daemon->finish();
+  if (!web_root.empty()) {
+    d.web_root = relative_to_file(file, web_root);
+    if (!std::filesystem::is_regular_file(d.web_root / "index.html"))
+      return std::unexpected(daemon->error_at(
+          daemon->find("web_root"), "web_root",
+          "\"" + d.web_root.string() +
+              "\" holds no index.html; build the catalogue (scripts/build) and point web_root "
+              "at its output (build/web), or leave web_root out"));
+  }
   for (std::size_t i = 0; i < d.modbus_allow.size(); ++i) {
     in_addr parsed{};
     if (::inet_pton(AF_INET, d.modbus_allow[i].c_str(), &parsed) != 1)
