@@ -34,29 +34,23 @@ function searchForm(params) {
       h('option', { value, selected: params.get('status') === value }, value || 'any'),
     ),
   );
+  const bound = (name, label, side, placeholder) =>
+    h('input', {
+      name: `${name}_${side}`,
+      type: 'number',
+      step: 'any',
+      min: 0,
+      value: params.get(`${name}_${side}`) ?? '',
+      'aria-label': `${label}, ${side === 'min' ? 'at least' : 'at most'}`,
+      placeholder,
+    });
   const ranges = RANGE_FILTERS.map(([name, label]) =>
     h(
       'div',
       { class: 'range' },
-      h('span', { id: `r-${name}` }, label),
-      h('input', {
-        name: `${name}_min`,
-        type: 'number',
-        step: 'any',
-        min: 0,
-        value: params.get(`${name}_min`) ?? '',
-        'aria-label': `${label}, at least`,
-        placeholder: 'from',
-      }),
-      h('input', {
-        name: `${name}_max`,
-        type: 'number',
-        step: 'any',
-        min: 0,
-        value: params.get(`${name}_max`) ?? '',
-        'aria-label': `${label}, at most`,
-        placeholder: 'to',
-      }),
+      h('span', {}, label),
+      bound(name, label, 'min', 'from'),
+      bound(name, label, 'max', 'to'),
     ),
   );
   const openRanges = RANGE_FILTERS.some(([n]) => params.get(`${n}_min`) || params.get(`${n}_max`));
