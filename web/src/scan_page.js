@@ -5,11 +5,10 @@ import { clear, formatNumber, formatTime, h, notice } from './dom.js';
 import { fabricFigures } from './fabric.js';
 import { SwatchView, materialFromGlb } from './swatch_view.js';
 
+// The exports psrigd serves as one file each (GET /v1/scans/{id}/export/{format}).
 const EXPORTS = [
-  ['glb', 'glTF binary (.glb)', 'glb'],
-  ['gltf', 'glTF with textures (.zip)', 'gltf.zip'],
-  ['u3ma', 'U3M archive (.u3ma)', 'u3ma'],
-  ['u3m', 'U3M with textures (.zip)', 'u3m.zip'],
+  ['glb', 'glTF 2.0 (.glb): Blender, web, game engines', 'glb'],
+  ['u3ma', 'U3M 1.1 (.u3ma): CLO3D, Browzwear', 'u3ma'],
 ];
 
 function figure(label, value) {
