@@ -63,6 +63,8 @@ std::optional<AppliedCalibration> current_calibration(const config::RigConfig& c
     applied.intensities.push_back(light.intensity);
   }
   applied.pixel_size_mm = stored->pixel_size_mm;
+  applied.colour_matrix = stored->colour_matrix;
+  applied.colour_version = stored->colour_version;
   for (const auto& image : stored->flat_images) {
     cv::Mat flat = cv::imread(image.string(), cv::IMREAD_UNCHANGED);
     if (flat.empty() || flat.depth() != CV_16U) {
