@@ -281,32 +281,57 @@ ColourCorrection fit_colour_correction(const std::array<cv::Vec3d, kChartPatches
 
   // Per output channel r: minimise sum_i w_i (m_r . c_i - t_ir)^2 subject
   // to m_r . n_c = n_tr: the KKT system [2 C^T W C, n_c; n_c^T, 0].
-  cv::Matx33d full;
-  cv::Matx33d normal = cv::Matx33d::zeros();
-  std::array<cv::Vec3d, 3> right{};
-  for (int p = 0; p < kChartPatches; ++p) {
-    const auto& c = camera_rgb[static_cast<std::size_t>(p)];
-    const auto& t = target[static_cast<std::size_t>(p)];
-    const double w = 1.0 / (luminance(t) + 0.05);
-    normal += w * (c * c.t());
-    for (int r = 0; r < 3; ++r)
-      right[static_cast<std::size_t>(r)] += w * t[r] * c;
-  }
-  for (int r = 0; r < 3; ++r) {
-    cv::Matx44d kkt = cv::Matx44d::zeros();
-    cv::Vec4d rhs;
-    for (int i = 0; i < 3; ++i) {
-      for (int j = 0; j < 3; ++j)
-        kkt(i, j) = normal(i, j);
-      kkt(i, 3) = neutral_camera[i];
-      kkt(3, i) = neutral_camera[i];
-      rhs[i] = right[static_cast<std::size_t>(r)][i];
+  const auto solve = [&](const std::array<double, kChartPatches>& weight) {
+    cv::Matx33d m;
+    cv::Matx33d normal = cv::Matx33d::zeros();
+    std::array<cv::Vec3d, 3> right{};
+    for (int p = 0; p < kChartPatches; ++p) {
+      const auto i = static_cast<std::size_t>(p);
+      const auto& c = camera_rgb[i];
+      normal += weight[i] * (c * c.t());
+      for (int r = 0; r < 3; ++r)
+        right[static_cast<std::size_t>(r)] += weight[i] * target[i][r] * c;
     }
-    rhs[3] = neutral_target[r];
-    cv::Vec4d solution;
-    cv::solve(kkt, rhs, solution, cv::DECOMP_SVD);
-    for (int j = 0; j < 3; ++j)
-      full(r, j) = solution[j];
+    for (int r = 0; r < 3; ++r) {
+      cv::Matx44d kkt = cv::Matx44d::zeros();
+      cv::Vec4d rhs;
+      for (int i = 0; i < 3; ++i) {
+        for (int j = 0; j < 3; ++j)
+          kkt(i, j) = normal(i, j);
+        kkt(i, 3) = neutral_camera[i];
+        kkt(3, i) = neutral_camera[i];
+        rhs[i] = right[static_cast<std::size_t>(r)][i];
+      }
+      rhs[3] = neutral_target[r];
+      cv::Vec4d solution;
+      cv::solve(kkt, rhs, solution, cv::DECOMP_SVD);
+      for (int j = 0; j < 3; ++j)
+        m(r, j) = solution[j];
+    }
+    return m;
+  };
+  std::array<double, kChartPatches> base{};
+  for (int p = 0; p < kChartPatches; ++p)
+    base[static_cast<std::size_t>(p)] =
+        1.0 / (luminance(target[static_cast<std::size_t>(p)]) + 0.05);
+  cv::Matx33d full = solve(base);
+  // A patch the matrix cannot reach (a colour the camera clips, like the
+  // cyan outside an sRGB-like sensor's gamut, a glint, dirt) is weighed
+  // down where its ΔE is over 3 times the median, twice (iteratively
+  // reweighted least squares), so it does not pull the others off.
+  for (int pass = 0; pass < 2; ++pass) {
+    std::array<double, kChartPatches> error{};
+    for (int p = 0; p < kChartPatches; ++p) {
+      const auto i = static_cast<std::size_t>(p);
+      error[i] = delta_e2000(chart[i].lab_d50, linear_srgb_to_lab_d50(full * camera_rgb[i]));
+    }
+    std::array<double, kChartPatches> sorted = error;
+    std::nth_element(sorted.begin(), sorted.begin() + kChartPatches / 2, sorted.end());
+    const double limit = 3 * std::max(sorted[kChartPatches / 2], 0.1);
+    std::array<double, kChartPatches> weight = base;
+    for (std::size_t i = 0; i < weight.size(); ++i)
+      if (error[i] > limit) weight[i] *= (limit / error[i]) * (limit / error[i]);
+    full = solve(weight);
   }
 
   ColourCorrection result;

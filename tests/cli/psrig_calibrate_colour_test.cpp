@@ -211,6 +211,21 @@ TEST(PsrigCalibrateColour, NoChartIsRefusedNamingTheImageAndTheFixAndWritesNothi
   EXPECT_EQ(mono.exit_code, 2) << mono.err;
   EXPECT_TRUE(contains(mono.err, grey.string()) && contains(mono.err, "grey image")) << mono.err;
 
+  // A simulated camera's colour response that is not 3x3: the key named.
+  {
+    std::ifstream in(config);
+    std::stringstream text;
+    text << in.rdbuf();
+    std::string bad = text.str();
+    bad.replace(bad.find("colour_matrix = "), std::string("colour_matrix = ").size(),
+                "colour_matrix = [1, 0, 0, 0, 1, 0, 0, 0] # ");
+    const fs::path bad_config = temp / "bad.toml";
+    std::ofstream(bad_config) << bad;
+    auto r = run_program("psrig", {"calibrate", "colour", "--config", bad_config.string()});
+    EXPECT_EQ(r.exit_code, 2) << r.err;
+    EXPECT_TRUE(contains(r.err, "colour_matrix") && contains(r.err, "9 numbers")) << r.err;
+  }
+
   // No such file.
   auto missing = run_program("psrig", {"calibrate", "colour", "--config", config.string(),
                                        "--image", (temp / "none.png").string()});
