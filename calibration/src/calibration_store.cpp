@@ -171,6 +171,7 @@ Result<StoredCalibration> read_calibration(const fs::path& file) {
                                          "flat again"));
       base = base.parent_path() / flat["from"].get<std::string>();
     }
+    stored.flat_version = base.filename().string();
     for (const auto& image : flat["images"]) {
       if (!image.is_string())
         return std::unexpected(bad_input(file, "flat.images", "must be file names"));
@@ -208,6 +209,8 @@ Result<StoredCalibration> read_calibration(const fs::path& file) {
       }
     }
     stored.colour_matrix = matrix;
+    if (colour.contains("flat_field") && colour["flat_field"].is_string())
+      stored.colour_flat_field = colour["flat_field"].get<std::string>();
     // The version that measured it: its own, or the one it was carried from.
     stored.colour_version = colour.contains("from") && colour["from"].is_string()
                                 ? colour["from"].get<std::string>()

@@ -180,6 +180,49 @@ TEST(PsrigCalibrateColour, TheCorrectedAlbedoOfTheChartMatchesTheReference) {
   EXPECT_LE(sum, 1.5);
 }
 
+// Scans divide by the flat field channel by channel: the chart is read
+// through the current flats (the vignetting gone, the fit closer), the
+// version recorded; a flat field measured later leaves scans without the
+// matrix (and says so) until the colour is calibrated again.
+TEST(PsrigCalibrateColour, ThroughTheFlatFieldAndNotAfterANewOne) {
+  TempDir temp;
+  const auto config = colour_rig(temp);
+  const fs::path store = temp / "state" / "calibrations";
+  calibrate_lights(config);
+  ASSERT_EQ(run_program("psrig",
+                        {"calibrate", "flat", "--config", config.string(), "--frames", "1", "-q"})
+                .exit_code,
+            0);
+  auto run = run_program("psrig", {"calibrate", "colour", "--config", config.string(), "-q"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const json colour = read_json(store / "0003" / "calibration.json")["colour"];
+  EXPECT_EQ(colour["flat_field"], "0002");
+  const double after = colour["delta_e2000"]["after"]["mean"].get<double>();
+  std::printf("through the flat field: mean dE2000 %.3f before, %.3f after\n",
+              colour["delta_e2000"]["before"]["mean"].get<double>(), after);
+  EXPECT_LE(after, 0.2);
+
+  const fs::path scan = temp / "scan";
+  auto scanned = run_program(
+      "psrig", {"scan", "--config", config.string(), "--out", scan.string(), "--no-process", "-q"});
+  ASSERT_EQ(scanned.exit_code, 0) << scanned.err;
+  EXPECT_EQ(read_json(scan / "scan.json")["calibration"]["applied"],
+            json::array({"lights", "flat", "colour"}));
+
+  ASSERT_EQ(run_program("psrig",
+                        {"calibrate", "flat", "--config", config.string(), "--frames", "1", "-q"})
+                .exit_code,
+            0);
+  const fs::path later = temp / "later";
+  auto stale = run_program(
+      "psrig", {"scan", "--config", config.string(), "--out", later.string(), "--no-process"});
+  ASSERT_EQ(stale.exit_code, 0) << stale.err;
+  EXPECT_EQ(read_json(later / "scan.json")["calibration"]["applied"],
+            json::array({"lights", "flat"}));
+  EXPECT_FALSE(read_json(later / "scan.json").contains("colour_correction"));
+  EXPECT_TRUE(contains(stale.err + stale.out, "run psrig calibrate colour again")) << stale.err;
+}
+
 TEST(PsrigCalibrateColour, NoChartIsRefusedNamingTheImageAndTheFixAndWritesNothing) {
   TempDir temp;
   const auto config = colour_rig(temp, "white_card");

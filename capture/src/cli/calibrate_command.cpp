@@ -805,10 +805,45 @@ struct ColourArgs {
 constexpr double kColourMaxSaturated = 0.01;
 constexpr double kColourMinWhite = 0.02;
 
+// The current flat field as processing applies it to a scan (linearise.cpp):
+// per light and channel the flat, smoothed, over the light's incidence,
+// and one level for all of them; the gain is the level over it. A matrix
+// measured through these gains holds for scans flat-fielded alike.
+Result<std::vector<cv::Mat>> colour_flat_gains(const calibration::StoredCalibration& current) {
+  std::vector<cv::Mat> flats;
+  double level = 0;
+  for (std::size_t k = 0; k < current.flat_images.size(); ++k) {
+    const fs::path& file = current.flat_images[k];
+    cv::Mat flat = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+    if (flat.empty() || flat.channels() != 3 || k >= current.lights.size())
+      return std::unexpected(bad_input(file, "flat.images",
+                                       "cannot be read as a colour flat for light " +
+                                           std::to_string(k) +
+                                           ": run psrig calibrate flat again, then colour"));
+    flat.convertTo(flat, CV_32FC3, 1.0 / 65535.0);
+    cv::GaussianBlur(flat, flat, cv::Size(), 2.0);
+    flat /= std::max(current.lights[k].direction[2], 0.05);
+    const cv::Scalar mean = cv::mean(flat);
+    cv::max(flat, cv::Scalar::all(0.01 * (mean[0] + mean[1] + mean[2]) / 3), flat);
+    level += (mean[0] + mean[1] + mean[2]) / 3;
+    flats.push_back(flat);
+  }
+  if (!flats.empty()) level /= static_cast<double>(flats.size());
+  std::vector<cv::Mat> gains;
+  for (const auto& flat : flats) {
+    cv::Mat gain;
+    cv::divide(cv::Scalar::all(level), flat, gain);
+    gains.push_back(gain);
+  }
+  return gains;
+}
+
 // The chart's captures as one linear colour image: every LED's frame of
-// every capture averaged (the chart evenly lit), dark subtracted, 0..1 of
-// full scale; and where any frame reached full scale.
-Result<calibration::LinearColourImage> average_colour_captures(const std::vector<fs::path>& scans) {
+// every capture averaged (the chart evenly lit), dark subtracted, through
+// the flat field's gains when given (one per light), 0..1 of full scale;
+// and where any frame reached full scale.
+Result<calibration::LinearColourImage> average_colour_captures(
+    const std::vector<fs::path>& scans, const std::vector<cv::Mat>& flat_gains) {
   calibration::LinearColourImage out;
   int count = 0;
   for (const auto& directory : scans) {
@@ -822,13 +857,20 @@ Result<calibration::LinearColourImage> average_colour_captures(const std::vector
     const processing::CodeLineariser lineariser(processing::Encoding::linear, d.black_level,
                                                 scan->white_level, scan->depth());
     const cv::Mat dark = scan->dark.empty() ? cv::Mat() : linearised(lineariser, scan->dark);
-    for (const auto& frame : scan->frames) {
-      cv::Mat image = linearised(lineariser, frame);
+    for (std::size_t k = 0; k < scan->frames.size(); ++k) {
+      cv::Mat image = linearised(lineariser, scan->frames[k]);
       cv::Mat planes[3];
       cv::split(image, planes);
       const cv::Mat full = (planes[0] >= 0.98f) | (planes[1] >= 0.98f) | (planes[2] >= 0.98f);
       out.saturated = out.saturated.empty() ? full : cv::Mat(out.saturated | full);
       if (!dark.empty()) image -= dark;
+      if (!flat_gains.empty()) {
+        if (flat_gains.size() != scan->frames.size() || flat_gains[k].size() != image.size())
+          return std::unexpected(bad_input(directory, "flat",
+                                           "does not fit the rig's current flat field (lights "
+                                           "or frame size): run psrig calibrate flat again"));
+        image = image.mul(flat_gains[k]);
+      }
       out.bgr = out.bgr.empty() ? image : cv::Mat(out.bgr + image);
       ++count;
     }
@@ -874,7 +916,17 @@ int run_colour(const ColourArgs& args) {
   fs::path source;
   nlohmann::json sources;
   std::optional<processing::AtomicDirectory> staging;
+  // Scans divide by the current flat field channel by channel: the chart
+  // captured on the rig is read through it too, and the version named.
+  std::vector<cv::Mat> flat_gains;
+  nlohmann::json flat_field = nullptr;
   if (!args.image.empty()) {
+    if (!current->flat_version.empty())
+      std::fprintf(stderr,
+                   "psrig calibrate colour: warning: %s is taken as it is, not through the "
+                   "rig's flat field %s, so scans (which are flat-fielded) will go without this "
+                   "matrix; calibrate on the rig (without --image) for them\n",
+                   args.image.c_str(), current->flat_version.c_str());
     auto read = calibration::read_linear_colour(args.image, args.encoding == "srgb"
                                                                 ? processing::Encoding::srgb
                                                                 : processing::Encoding::linear);
@@ -882,6 +934,12 @@ int run_colour(const ColourArgs& args) {
     image = std::move(*read);
     source = args.image;
   } else {
+    if (!current->flat_images.empty()) {
+      auto gains = colour_flat_gains(*current);
+      if (!gains) return report_error(command, gains.error());
+      flat_gains = std::move(*gains);
+      flat_field = current->flat_version;
+    }
     // The simulated rig puts its ColorChecker under the camera.
     if (config->camera.backend == "sim" && config->sim.target == "swatch")
       config->sim.target = "colour_chart";
@@ -913,7 +971,7 @@ int run_colour(const ColourArgs& args) {
         scans.push_back(outcome->directory);
       }
     }
-    auto averaged = average_colour_captures(scans);
+    auto averaged = average_colour_captures(scans, flat_gains);
     if (!averaged) return report_error(command, averaged.error());
     image = std::move(*averaged);
     source = config->source;
@@ -1001,6 +1059,7 @@ int run_colour(const ColourArgs& args) {
        "weighted least squares in linear light, weights 1/(Y + 0.05), the neutral patches' "
        "sum mapped exactly"},
       {"exposure", fit.exposure},
+      {"flat_field", flat_field},
       {"delta_e2000",
        {{"before",
          {{"mean", std::round(fit.mean_before * 1000) / 1000},
