@@ -7,6 +7,7 @@
 #include <cstdio>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -140,6 +141,22 @@ TEST(ColourCalibration, AnIdentityCameraNeedsNoCorrection) {
       EXPECT_NEAR(fit.matrix(r, c), r == c ? 1.0 : 0.0, 0.03);
 }
 
+// The chart laid the other way round (turned 180°): the neutral row still
+// decides which patch is which.
+TEST(ColourCalibration, AChartUpsideDownIsReadTheRightWayRound) {
+  cv::RNG rng(17);
+  cv::Mat image = capture_chart(kCameraMixing, 0.35, rng);
+  cv::rotate(image, image, cv::ROTATE_180);
+  auto reading = read_colour_chart(image, {}, "sim chart");
+  ASSERT_TRUE(reading) << reading.error().message;
+  // White 9.5 now near the top right.
+  EXPECT_GT(reading->centre[kFirstNeutralPatch].x, image.cols / 2.0);
+  EXPECT_LT(reading->centre[kFirstNeutralPatch].y, image.rows / 2.0);
+  const ColourCorrection fit = fit_colour_correction(reading->rgb);
+  std::printf("upside down: mean dE2000 after %.3f\n", fit.mean_after);
+  EXPECT_LE(fit.mean_after, 1.0);
+}
+
 TEST(ColourCalibration, NoChartIsRefusedNamingTheImageAndTheFix) {
   // A uniform grey card, and the card with noise only.
   cv::Mat card(480, 640, CV_32FC3, cv::Scalar::all(0.4));
@@ -151,6 +168,35 @@ TEST(ColourCalibration, NoChartIsRefusedNamingTheImageAndTheFix) {
       << none.error().message;
   cv::Mat grey(480, 640, CV_8UC1, cv::Scalar(10));
   EXPECT_FALSE(read_colour_chart(grey, {}, "grey.png"));
+}
+
+// scan.json's colour_correction as processing reads it: none, a matrix,
+// and refusals naming the key.
+TEST(ColourCalibration, ScanColourCorrectionIsReadAndBadOnesAreRefused) {
+  const std::filesystem::path file = "/scans/a/scan.json";
+  auto none = processing::read_colour_correction(nlohmann::json::object(), file);
+  ASSERT_TRUE(none);
+  EXPECT_FALSE(none->has_value());
+  const nlohmann::json good = {
+      {"colour_correction",
+       {{"matrix", {{1.6, -0.5, -0.1}, {-0.25, 1.3, -0.05}, {0.02, -0.6, 1.6}}},
+        {"space", "sRGB D65"},
+        {"calibration", "0002"}}}};
+  auto read = processing::read_colour_correction(good, file);
+  ASSERT_TRUE(read && read->has_value());
+  EXPECT_DOUBLE_EQ((*read)->rgb_matrix(2, 1), -0.6);
+  EXPECT_EQ((*read)->calibration, "0002");
+  for (const nlohmann::json& bad :
+       {nlohmann::json{{"colour_correction", {{"matrix", {{1, 0}, {0, 1}}}}}},
+        nlohmann::json{{"colour_correction", {{"matrix", {{1, 0, 0}, {0, 1, 0}, {1, 0, 0}}}}}},
+        nlohmann::json{
+            {"colour_correction",
+             {{"matrix", {{1, 0, 0}, {0, 1, 0}, {0, 0, 1}}}, {"space", "Adobe RGB"}}}}}) {
+    auto refused = processing::read_colour_correction(bad, file);
+    ASSERT_FALSE(refused) << bad.dump();
+    EXPECT_EQ(refused.error().file, file);
+    EXPECT_EQ(refused.error().key.rfind("colour_correction.", 0), 0u) << refused.error().key;
+  }
 }
 
 }  // namespace
