@@ -191,6 +191,31 @@ TEST(GltfExport, WithoutHeightStillValid) {
   expect_valid(dir / "nh" / "nh.gltf");
 }
 
+TEST(GltfExport, TileDirectoryGivesItsSizeAndSaysSeamless) {
+  TempDir dir("psrig-gltf");
+  write_known_maps(dir / "tile", {.report = false});
+  std::ofstream(dir / "tile" / "tile.json")
+      << R"({"format": "psrig-tile/1", "width_px": 200, "height_px": 120, "pixel_size_mm": 0.04,
+            "width_mm": 8.0, "height_mm": 4.8, "repeats": [5, 3], "periodic": true})";
+  auto source = export_::material_source_from(dir / "tile");
+  ASSERT_TRUE(source) << source.error().describe();
+  EXPECT_TRUE(source->tile);
+  EXPECT_TRUE(source->warnings.empty());
+  auto result = export_::export_material(*source, ExportFormat::glb, dir / "t.glb");
+  ASSERT_TRUE(result) << result.error().describe();
+  const auto model = load(dir / "t.glb");
+  EXPECT_NEAR(quad_size(model).width_m, 0.008, 0.008 * 0.001);
+  EXPECT_NEAR(quad_size(model).height_m, 0.0048, 0.0048 * 0.001);
+  EXPECT_TRUE(model.materials[0].extras.Get("psrig").Get("seamless_tile").Get<bool>());
+  expect_valid(dir / "t.glb");
+
+  std::ofstream(dir / "tile" / "tile.json") << R"({"format": "psrig-tile/9"})";
+  auto wrong = export_::material_source_from(dir / "tile");
+  ASSERT_FALSE(wrong);
+  EXPECT_EQ(wrong.error().kind, ErrorKind::bad_input);
+  EXPECT_NE(wrong.error().describe().find("tile.json"), std::string::npos);
+}
+
 TEST(GltfExport, MissingNormalMapIsBadInputNamingTheFile) {
   TempDir dir("psrig-gltf");
   write_known_maps(dir / "maps");
