@@ -9,14 +9,26 @@
 #include <string>
 #include <vector>
 
+#include <opencv2/imgcodecs.hpp>
+
 namespace psrig::processing::exr {
+
+// OpenCV's EXR compression flags are OpenEXR's values.
+static_assert(static_cast<int>(cv::IMWRITE_EXR_COMPRESSION_NO) ==
+              static_cast<int>(Imf::NO_COMPRESSION));
+static_assert(static_cast<int>(cv::IMWRITE_EXR_COMPRESSION_ZIP) ==
+              static_cast<int>(Imf::ZIP_COMPRESSION));
+static_assert(static_cast<int>(cv::IMWRITE_EXR_COMPRESSION_PIZ) ==
+              static_cast<int>(Imf::PIZ_COMPRESSION));
+static_assert(static_cast<int>(cv::IMWRITE_EXR_COMPRESSION_DWAB) ==
+              static_cast<int>(Imf::DWAB_COMPRESSION));
 
 bool can_write(const cv::Mat& image) {
   return image.depth() == CV_32F && (image.channels() == 1 || image.channels() == 3) &&
          !image.empty();
 }
 
-Status write(const std::filesystem::path& file, const cv::Mat& image, bool half,
+Status write(const std::filesystem::path& file, const cv::Mat& image, bool half, int compression,
              const ImageMetadata& metadata) {
   if (!can_write(image)) return std::unexpected(internal_error("exr::write: unsupported image"));
   cv::Mat pixels;
@@ -27,7 +39,9 @@ Status write(const std::filesystem::path& file, const cv::Mat& image, bool half,
   const Imf::PixelType type = half ? Imf::HALF : Imf::FLOAT;
   try {
     Imf::Header header(image.cols, image.rows);
-    header.compression() = Imf::NO_COMPRESSION;  // as image_io's EXRs: floats barely compress
+    if (compression < 0 || compression >= Imf::NUM_COMPRESSION_METHODS)
+      return std::unexpected(internal_error("exr::write: unknown compression"));
+    header.compression() = static_cast<Imf::Compression>(compression);
     for (const auto& [keyword, text] : metadata.text)
       header.insert(keyword, Imf::StringAttribute(text));
     if (metadata.pixel_size_mm && *metadata.pixel_size_mm > 0) {

@@ -15,10 +15,12 @@ namespace psrig::processing::exr {
 // Whether write() takes this image: CV_32F, one or three channels.
 [[nodiscard]] bool can_write(const cv::Mat& image);
 
-// Writes 32-bit float, or half when `half`, with `metadata` as attributes:
-// the text as string attributes under their keywords, the pixel size as
-// the standard xDensity (pixels per inch) and psrig:pixel_size_mm.
+// Writes 32-bit float, or half when `half`, compressed by `compression`
+// (cv::ImwriteEXRCompressionFlags, whose values are OpenEXR's own), with
+// `metadata` as attributes: the text as string attributes under their
+// keywords, the pixel size as the standard xDensity (pixels per inch) and
+// psrig:pixel_size_mm.
 [[nodiscard]] Status write(const std::filesystem::path& file, const cv::Mat& image, bool half,
-                           const ImageMetadata& metadata);
+                           int compression, const ImageMetadata& metadata);
 
 }  // namespace psrig::processing::exr

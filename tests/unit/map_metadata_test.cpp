@@ -126,6 +126,12 @@ TEST(MapMetadata, ExrCarriesAttributes) {
   const cv::Mat back = cv::imread((dir / "h.exr").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(back.type(), CV_32FC1);
   EXPECT_EQ(cv::norm(back, image, cv::NORM_INF), 0.0);
+  // The caller's compression is kept.
+  ASSERT_TRUE(processing::write_image(
+      dir / "z.exr", image, {cv::IMWRITE_EXR_COMPRESSION, cv::IMWRITE_EXR_COMPRESSION_ZIP},
+      sample_metadata(ImageMetadata::ColourSpace::data)));
+  EXPECT_EQ(Imf::InputFile((dir / "z.exr").c_str()).header().compression(), Imf::ZIP_COMPRESSION);
+  EXPECT_EQ(in.header().compression(), Imf::NO_COMPRESSION);
   // Three channels, half: OpenCV reads the colours back in its order.
   cv::Mat colour(4, 5, CV_32FC3, cv::Scalar(0.25, 0.5, 0.75));
   ASSERT_TRUE(processing::write_image(dir / "c.exr", colour,
