@@ -226,8 +226,8 @@ Result<ExportResult> export_gltf(const MaterialSource& source, const fs::path& o
                 {"pixel_size_mm", source.pixel_size_mm ? json(*source.pixel_size_mm) : json()},
                 {"repeats", options.repeats},
                 {"seamless_tile", source.tile},
-                {"sample_id", source.sample_id},
-                {"scan_time", source.scan_time},
+                {"sample_id", source.sample_id.empty() ? json() : json(source.sample_id)},
+                {"scan_time", source.scan_time.empty() ? json() : json(source.scan_time)},
                 {"normal_convention", "OpenGL (+Y up), as glTF"},
                 {"roughness", "not measured: 0.8, a matte fabric's starting point"}};
   std::vector<std::pair<fs::path, std::vector<unsigned char>>> beside;

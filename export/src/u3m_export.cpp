@@ -192,8 +192,8 @@ json u3m_document(const MaterialSource& source, double mean_height, double heigh
              {{"units", source.pixel_size_mm ? "mm" : "px"},
               {"pixel_size_mm", source.pixel_size_mm ? json(*source.pixel_size_mm) : json()},
               {"seamless_tile", source.tile},
-              {"sample_id", source.sample_id},
-              {"scan_time", source.scan_time}}}}}};
+              {"sample_id", source.sample_id.empty() ? json() : json(source.sample_id)},
+              {"scan_time", source.scan_time.empty() ? json() : json(source.scan_time)}}}}}};
 }
 
 Result<ExportResult> export_u3m(const MaterialSource& source, const fs::path& out,
