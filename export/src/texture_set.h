@@ -26,7 +26,7 @@ struct TextureSet {
 [[nodiscard]] Result<TextureSet> load_textures(const MaterialSource& source);
 
 // What a texture file says about itself (image_metadata.h).
-enum class TextureKind { albedo, normal, normal_directx, height };
+enum class TextureKind { albedo, normal, normal_directx, height, occlusion };
 [[nodiscard]] processing::ImageMetadata texture_metadata(const MaterialSource& source,
                                                          const TextureSet& textures,
                                                          TextureKind kind);

@@ -14,6 +14,7 @@
 #include "export_fixture.h"
 #include "psrig/export/export_format.h"
 #include "psrig/export/material_source.h"
+#include "psrig/export/occlusion.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -112,6 +113,11 @@ TEST_P(GltfExport, ValidatesAndReadsBackAtPhysicalSize) {
   cv::Mat normal8;
   maps.normal.convertTo(normal8, CV_8U, 1.0 / 257.0);
   EXPECT_EQ(cv::norm(as_mat(normal), normal8, cv::NORM_INF), 0.0);
+  ASSERT_GE(material.occlusionTexture.index, 0);  // derived from the height map
+  const cv::Mat occlusion =
+      as_mat(model.images.at(model.textures.at(material.occlusionTexture.index).source));
+  EXPECT_EQ(occlusion.size(), maps.albedo.size());
+  EXPECT_GT(cv::mean(occlusion)[0], 128);  // ribs this shallow hide little of the sky
   EXPECT_TRUE(material.extensions.contains("KHR_materials_sheen"));
   EXPECT_TRUE(
       material.pbrMetallicRoughness.baseColorTexture.extensions.contains("KHR_texture_transform"));
@@ -214,6 +220,28 @@ TEST(GltfExport, TileDirectoryGivesItsSizeAndSaysSeamless) {
   ASSERT_FALSE(wrong);
   EXPECT_EQ(wrong.error().kind, ErrorKind::bad_input);
   EXPECT_NE(wrong.error().describe().find("tile.json"), std::string::npos);
+}
+
+TEST(AmbientOcclusion, PlanesAreOpenAndAGrooveBottomKeepsWhatGeometrySays) {
+  const double s = 0.02;
+  cv::Mat plane(40, 60, CV_32F), groove(40, 60, CV_32F);
+  for (int r = 0; r < 40; ++r)
+    for (int c = 0; c < 60; ++c) {
+      plane.at<float>(r, c) = static_cast<float>(0.3 * c * s - 0.2 * r * s);
+      groove.at<float>(r, c) = static_cast<float>(std::abs(c - 30) * s);  // 45 degree walls
+    }
+  double low = 0, high = 0;
+  cv::minMaxLoc(export_::ambient_occlusion(plane, s, 8), &low, &high);
+  EXPECT_NEAR(low, 1.0, 1e-5);
+  EXPECT_NEAR(high, 1.0, 1e-5);
+  // At the bottom: the walls rise at 45 degrees across the groove (sin 0.707)
+  // and at atan(cos 45) on the diagonals (sin 0.577), not along it:
+  // 1 - (2 x 0.7071 + 4 x 0.5774) / 8 = 0.5345.
+  const cv::Mat ao = export_::ambient_occlusion(groove, s, 8);
+  EXPECT_NEAR(ao.at<float>(20, 30), 0.5345, 0.005);
+  // NaN heights count as the lowest: no NaN comes out.
+  groove.at<float>(5, 5) = std::numeric_limits<float>::quiet_NaN();
+  EXPECT_TRUE(cv::checkRange(export_::ambient_occlusion(groove, s, 8)));
 }
 
 TEST(GltfExport, MissingNormalMapIsBadInputNamingTheFile) {
