@@ -30,9 +30,25 @@ bool is_single_file(ExportFormat format) {
   return format == ExportFormat::glb || format == ExportFormat::u3ma;
 }
 
+Status check_export_path(ExportFormat format, const std::filesystem::path& out) {
+  // A single file is named for its format; a folder is not named like the
+  // file it holds (swatch.gltf/ holding swatch.gltf would mislead).
+  const std::string extension = "." + std::string(to_string(format));
+  if (is_single_file(format) && out.extension() != extension)
+    return std::unexpected(
+        bad_input(out, "--out", "name the " + extension + " file, e.g. swatch" + extension));
+  if (!is_single_file(format) && out.extension() == extension)
+    return std::unexpected(bad_input(out, "--out",
+                                     "names a folder for --format " +
+                                         std::string(to_string(format)) + " (it holds STEM" +
+                                         extension + " and the textures); drop the " + extension));
+  return {};
+}
+
 Result<ExportResult> export_material(const MaterialSource& source, ExportFormat format,
                                      const std::filesystem::path& out,
                                      const ExportOptions& options) {
+  if (auto ok = check_export_path(format, out); !ok) return std::unexpected(ok.error());
   switch (format) {
     case ExportFormat::glb:
     case ExportFormat::gltf:

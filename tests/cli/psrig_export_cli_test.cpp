@@ -61,6 +61,15 @@ TEST(PsrigExportCli, BadInputExitsTwoNamingTheFile) {
   const auto bad_format = run_program("psrig", {"export", (dir / "maps").string(), "--format",
                                                 "fbx", "--out", (dir / "a.fbx").string()});
   EXPECT_EQ(bad_format.exit_code, 2);
+  const auto no_extension = run_program("psrig", {"export", (dir / "maps").string(), "--format",
+                                                  "glb", "--out", (dir / "swatch").string()});
+  EXPECT_EQ(no_extension.exit_code, 2);
+  EXPECT_NE(no_extension.err.find("--out: name the .glb file"), std::string::npos)
+      << no_extension.err;
+  const auto folder_as_file = run_program("psrig", {"export", (dir / "maps").string(), "--format",
+                                                    "u3m", "--out", (dir / "s.u3m").string()});
+  EXPECT_EQ(folder_as_file.exit_code, 2);
+  EXPECT_NE(folder_as_file.err.find("drop the .u3m"), std::string::npos) << folder_as_file.err;
   EXPECT_EQ(list_directory(dir.path()), std::vector<std::string>{"maps"});
 }
 

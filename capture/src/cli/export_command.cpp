@@ -50,11 +50,14 @@ Command add_export_command(CLI::App& parent) {
   app->add_flag("-q,--quiet", args->quiet, "Print nothing on success but warnings");
 
   return {app, [args] {
+            const auto format = *export_::parse_export_format(args->format);
+            // A wrong --out is told before the maps are read.
+            if (auto ok = export_::check_export_path(format, args->out); !ok)
+              return report_error("export", ok.error());
             auto source = export_::material_source_from(args->maps);
             if (!source) return report_error("export", source.error());
             for (const auto& warning : source->warnings)
               std::cerr << "psrig export: warning: " << warning << '\n';
-            const auto format = *export_::parse_export_format(args->format);
             export_::ExportOptions options;
             options.directx_normal = args->normal_convention == "directx";
             options.repeats = args->repeats;

@@ -23,6 +23,11 @@ struct ExportOptions {
   int repeats = 1;              // glTF: the quad shows the material this many times a side
 };
 
+// Whether `out` suits `format`: a .glb or .u3ma file is named so; a gltf or
+// u3m folder is not named like the file it holds. Bad input naming --out.
+[[nodiscard]] Status check_export_path(ExportFormat format, const std::filesystem::path& out);
+
+// Checks `out` (check_export_path), then writes the export.
 [[nodiscard]] Result<ExportResult> export_material(const MaterialSource& source,
                                                    ExportFormat format,
                                                    const std::filesystem::path& out,
