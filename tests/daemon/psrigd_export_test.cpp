@@ -1,6 +1,8 @@
 // psrigd serves a scan's exports: made on the first request, kept in the
 // scan directory, made once when asked for at once.
 
+#include <cstdio>
+#include <cstdlib>
 #include <future>
 #include <httplib.h>
 
@@ -45,6 +47,28 @@ TEST(PsrigdExport, GlbAndU3maMadeOnceKeptAndServed) {
   // Kept: a later request serves the same file, not a new one.
   EXPECT_EQ(fetch("glb").second, body_a);
   EXPECT_EQ(fs::last_write_time(kept), made);
+
+  // What psrigd serves passes the Khronos glTF-Validator as psrig export's does.
+  const fs::path tools = fs::path(PSRIG_SOURCE_DIR) / "tools" / "node";
+  if (std::system("node --version > /dev/null 2>&1") == 0 && fs::exists(tools / "node_modules")) {
+    std::FILE* pipe = ::popen(
+        ("node " + (tools / "validate-gltf.mjs").string() + " '" + kept.string() + "'").c_str(),
+        "r");
+    ASSERT_NE(pipe, nullptr);
+    std::string out;
+    char buffer[4096];
+    while (std::size_t n = std::fread(buffer, 1, sizeof buffer, pipe))
+      out.append(buffer, n);
+    ::pclose(pipe);
+    const auto report = nlohmann::json::parse(out, nullptr, false);
+    ASSERT_TRUE(report.is_object() && report.contains("issues")) << out;
+    EXPECT_EQ(report["issues"]["numErrors"], 0) << out;
+    EXPECT_EQ(report["issues"]["numWarnings"], 0) << out;
+  } else {
+    std::printf(
+        "glTF-Validator not run: node or tools/node/node_modules missing "
+        "(scripts/install-deps installs them)\n");
+  }
 
   const auto [u3ma_status, u3ma] = fetch("u3ma");
   ASSERT_EQ(u3ma_status, 200) << u3ma;
