@@ -13,9 +13,10 @@
 #include <string_view>
 #include <thread>
 
+#include "fronted_server.h"
 #include "psrig/base/log.h"
 #include "psrig/processing/scan_layout.h"
-#include "fronted_server.h"
+#include "scan_exports.h"
 
 namespace psrig::daemon {
 namespace {
@@ -241,6 +242,7 @@ struct HttpApi::Impl {
   std::atomic<bool> stopping{false};
   std::atomic<int> event_streams{0};
   int port = 0;
+  ScanExports exports;  // GET /v1/scans/{id}/export/{format} (scan_exports.h)
 
   void routes();
   void status(httplib::Response& res);
@@ -363,6 +365,10 @@ void HttpApi::Impl::routes() {
              [this](const httplib::Request& req, httplib::Response& res) { get(req, res); });
   server.Get(R"(/v1/scans/([^/]+)/files/(.*))",
              [this](const httplib::Request& req, httplib::Response& res) { file(req, res); });
+  server.Get(R"(/v1/scans/([^/]+)/export/([^/]+))",
+             [this](const httplib::Request& req, httplib::Response& res) {
+               serve_scan_export(service.catalogue(), exports, req, res);
+             });
   server.Delete(R"(/v1/scans/([^/]+))",
                 [this](const httplib::Request& req, httplib::Response& res) { remove(req, res); });
   server.Post(kCancelRoute, [this](const httplib::Request& req, httplib::Response& res,
