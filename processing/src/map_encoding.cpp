@@ -74,6 +74,16 @@ cv::Mat encode_normal16(const cv::Mat& p, const cv::Mat& q) {
   return out;
 }
 
+cv::Mat flip_normal_green(const cv::Mat& normal) {
+  cv::Mat out = normal.clone();
+  const double full = normal.depth() == CV_16U ? 65535.0 : 255.0;
+  cv::Mat green;
+  cv::extractChannel(normal, green, 1);  // BGR: 1 is green
+  green.convertTo(green, green.type(), -1.0, full);
+  cv::insertChannel(green, out, 1);
+  return out;
+}
+
 DecodedGradients decode_normal_map(const cv::Mat& image, bool green_down) {
   const int depth = image.depth();
   const int channels = image.channels();

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <fstream>
 #include <functional>
 #include <optional>
@@ -10,10 +11,12 @@
 
 #include "psrig/base/log.h"
 #include "psrig/processing/atomic_directory.h"
+#include "psrig/processing/colour_correction.h"
 #include "psrig/processing/evaluation.h"
 #include "psrig/processing/flatten.h"
 #include "psrig/processing/hole_fill.h"
 #include "psrig/processing/image_io.h"
+#include "psrig/processing/image_metadata.h"
 #include "psrig/processing/map_encoding.h"
 #include "psrig/processing/parallel.h"
 #include "psrig/processing/report.h"
@@ -66,6 +69,13 @@ const std::vector<int> kStoredPng = {cv::IMWRITE_PNG_COMPRESSION, 0};
 // the bytes of the largest map.
 const std::vector<int> kHalfExr = {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_HALF};
 
+// A number for a text chunk: enough digits to give the double back.
+std::string fmt_number(double v) {
+  char text[32];
+  std::snprintf(text, sizeof text, "%.9g", v);
+  return text;
+}
+
 Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
                                          const ProcessOptions& options) {
   auto log = logger("processing");
@@ -109,6 +119,17 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   inputs.depth = scan->depth();
   scan->frames.clear();  // their memory goes back before the maps are made
 
+  // The rig's colour calibration, when the scan carries one: the albedo
+  // in linear light, before it is encoded, becomes linear sRGB D65.
+  auto colour = read_colour_correction(scan->description.document, scan_directory / "scan.json");
+  if (!colour) return std::unexpected(colour.error());
+  cv::Mat albedo = result.albedo;
+  const bool colour_corrected = *colour && albedo.channels() == 3;
+  if (colour_corrected) {
+    albedo = albedo.clone();
+    apply_colour_matrix((*colour)->rgb_matrix, albedo);
+  }
+
   const cv::Mat valid = encode_valid_mask(result.flags);
   GroundTruthSummary truth;
   double evaluate_ms = 0;
@@ -134,6 +155,22 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   // the other maps: one task list on the one pool, the longest chain first.
   const double pixel_size = scan->description.pixel_size_mm.value_or(1.0);
   const bool in_mm = scan->description.pixel_size_mm.has_value();
+  // What every map file says about itself (image_metadata.h): its scale,
+  // the sample and when it was scanned.
+  const auto metadata = [&](ImageMetadata::ColourSpace space) {
+    ImageMetadata m;
+    m.pixel_size_mm = scan->description.pixel_size_mm;
+    m.colour_space = space;
+    if (!scan->description.sample_id.empty())
+      m.text.emplace_back(metadata_keys::kSample, scan->description.sample_id);
+    const auto& doc = scan->description.document;
+    if (doc.contains("capture") && doc["capture"].is_object() &&
+        doc["capture"].contains("started") && doc["capture"]["started"].is_string())
+      m.text.emplace_back(metadata_keys::kScanTime, doc["capture"]["started"].get<std::string>());
+    if (in_mm) m.text.emplace_back(metadata_keys::kPixelSize, fmt_number(pixel_size));
+    m.text.emplace_back(metadata_keys::kSoftware, "psrig");
+    return m;
+  };
   std::optional<HeightSummary> height_summary;
   std::optional<BendSummary> bend_summary;
   double integrate_ms = 0;
@@ -212,27 +249,48 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
              truth.height_rms_error = height_rms_error(*height, scan->ground_truth_height, finite);
            integrate_ms = ms_since(integrate_start);
            log->debug("integration ({}): {:.0f} ms", to_string(summary.method), integrate_ms);
-           if (auto ok = write_image(dir / map_files::kHeightExr, *height); !ok) return ok;
+           ImageMetadata height_meta = metadata(ImageMetadata::ColourSpace::data);
+           height_meta.text.emplace_back(metadata_keys::kUnits, summary.units);
+           if (auto ok = write_image(dir / map_files::kHeightExr, *height, {}, height_meta); !ok)
+             return ok;
            cv::Mat png = encode_height16(*height, low, high);
            png.setTo(0, ~finite);
-           return write_image(dir / map_files::kHeightPng, png, kStoredPng);
+           height_meta.text.emplace_back(metadata_keys::kHeightRange,
+                                         fmt_number(low) + " " + fmt_number(high));
+           return write_image(dir / map_files::kHeightPng, png, kStoredPng, height_meta);
          }});
   }
   tasks.push_back({"statistics", evaluate});
   tasks.push_back({map_files::kNormalPng, [&] {
-                     return write_image(dir / map_files::kNormalPng,
-                                        encode_normal16(result.p, result.q), kStoredPng);
+                     const cv::Mat normal = encode_normal16(result.p, result.q);
+                     ImageMetadata m = metadata(ImageMetadata::ColourSpace::data);
+                     m.text.emplace_back(metadata_keys::kNormalConvention, "OpenGL (+Y up)");
+                     if (auto ok = write_image(dir / map_files::kNormalPng, normal, kStoredPng, m);
+                         !ok || !options.directx_normal)
+                       return ok;
+                     m.text.back().second = "DirectX (+Y down)";
+                     return write_image(dir / map_files::kNormalDirectxPng,
+                                        flip_normal_green(normal), kStoredPng, m);
                    }});
   tasks.push_back({map_files::kAlbedoPng, [&] {
                      return write_image(dir / map_files::kAlbedoPng,
-                                        encode_albedo_srgb8(result.albedo));
+                                        encode_albedo_srgb8(albedo), {},
+                                        metadata(ImageMetadata::ColourSpace::colour));
                    }});
   tasks.push_back({map_files::kAlbedoExr, [&] {
-                     return write_image(dir / map_files::kAlbedoExr, result.albedo, kHalfExr);
+                     return write_image(dir / map_files::kAlbedoExr, albedo, kHalfExr,
+                                        metadata(ImageMetadata::ColourSpace::unspecified));
                    }});
-  tasks.push_back({map_files::kP, [&] { return write_image(dir / map_files::kP, result.p); }});
-  tasks.push_back({map_files::kQ, [&] { return write_image(dir / map_files::kQ, result.q); }});
-  tasks.push_back({map_files::kMask, [&] { return write_image(dir / map_files::kMask, valid); }});
+  ImageMetadata gradient_meta = metadata(ImageMetadata::ColourSpace::unspecified);
+  gradient_meta.text.emplace_back(metadata_keys::kUnits, "dz/dx, dz/dy (y up), unitless");
+  tasks.push_back({map_files::kP,
+                   [&] { return write_image(dir / map_files::kP, result.p, {}, gradient_meta); }});
+  tasks.push_back({map_files::kQ,
+                   [&] { return write_image(dir / map_files::kQ, result.q, {}, gradient_meta); }});
+  tasks.push_back({map_files::kMask, [&] {
+                     return write_image(dir / map_files::kMask, valid, {},
+                                        metadata(ImageMetadata::ColourSpace::data));
+                   }});
 
   stage_start = Clock::now();
   std::vector<std::optional<Error>> errors(tasks.size());
@@ -261,6 +319,14 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   inputs.ground_truth = truth;
   inputs.stage_ms = stages;
   nlohmann::json report = make_report(inputs);
+  // What the albedo's colours mean: sRGB D65 after a colour calibration,
+  // the camera's own RGB without one (processing/colour_correction.h).
+  report["albedo_colour_space"] = colour_corrected         ? kAlbedoColourSpace
+                                  : albedo.channels() == 3 ? "camera RGB"
+                                                           : "grey";
+  report["colour_calibration"] = colour_corrected && !(*colour)->calibration.empty()
+                                     ? nlohmann::json((*colour)->calibration)
+                                     : nlohmann::json(nullptr);
   const fs::path report_path = dir / map_files::kReport;
   std::ofstream out(report_path);
   out << report.dump(2) << '\n';

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cctype>
+#include <cmath>
 #include <cstdio>
 #include <cstdlib>
 #include <cstring>
@@ -437,9 +438,75 @@ Status write_compressed(ChunkWriter& out, const cv::Mat& image, int level) {
   return {};
 }
 
+void put_be32(std::vector<std::uint8_t>& bytes, std::uint32_t v) {
+  std::uint8_t b[4];
+  store_be32(b, v);
+  bytes.insert(bytes.end(), b, b + 4);
+}
+
+// A keyword PNG accepts: 1-79 printable Latin-1 characters (ASCII here).
+std::string png_keyword(const std::string& keyword) {
+  std::string k;
+  for (char c : keyword)
+    if (c >= 32 && c <= 126) k += c;
+  if (k.empty()) k = "Comment";
+  return k.substr(0, 79);
+}
+bool is_printable_ascii(const std::string& text) {
+  return std::all_of(text.begin(), text.end(),
+                     [](char c) { return c == '\n' || (c >= 32 && c <= 126); });
+}
+
+// The ancillary chunks before IDAT (PNG 1.2 / ISO 15948 section 11.3):
+// colour space first, then physical size, then text.
+void write_metadata(ChunkWriter& out, const ImageMetadata& metadata) {
+  using Space = ImageMetadata::ColourSpace;
+  std::vector<std::uint8_t> bytes;
+  if (metadata.colour_space == Space::colour) {
+    // sRGB, with the gAMA and cHRM that section 11.3.3.5 recommends beside
+    // it for decoders that do not know sRGB.
+    const std::uint8_t perceptual = 0;
+    out.chunk("sRGB", &perceptual, 1);
+    put_be32(bytes, 45455);
+    out.chunk("gAMA", bytes.data(), bytes.size());
+    bytes.clear();
+    for (std::uint32_t v : {31270u, 32900u, 64000u, 33000u, 30000u, 60000u, 15000u, 6000u})
+      put_be32(bytes, v);
+    out.chunk("cHRM", bytes.data(), bytes.size());
+    bytes.clear();
+  } else if (metadata.colour_space == Space::data) {
+    put_be32(bytes, 100000);  // gamma 1.0: the samples are numbers, not light
+    out.chunk("gAMA", bytes.data(), bytes.size());
+    bytes.clear();
+  }
+  if (metadata.pixel_size_mm && *metadata.pixel_size_mm > 0) {
+    const auto per_metre =
+        static_cast<std::uint32_t>(std::lround(1000.0 / *metadata.pixel_size_mm));
+    put_be32(bytes, per_metre);
+    put_be32(bytes, per_metre);
+    bytes.push_back(1);  // unit: the metre
+    out.chunk("pHYs", bytes.data(), bytes.size());
+    bytes.clear();
+  }
+  for (const auto& [keyword, text] : metadata.text) {
+    const std::string k = png_keyword(keyword);
+    bytes.assign(k.begin(), k.end());
+    bytes.push_back(0);
+    if (is_printable_ascii(text)) {
+      bytes.insert(bytes.end(), text.begin(), text.end());
+      out.chunk("tEXt", bytes.data(), bytes.size());
+    } else {  // UTF-8: iTXt, uncompressed, no language tag
+      bytes.insert(bytes.end(), {0, 0, 0, 0});
+      bytes.insert(bytes.end(), text.begin(), text.end());
+      out.chunk("iTXt", bytes.data(), bytes.size());
+    }
+    bytes.clear();
+  }
+}
+
 }  // namespace
 
-Status write(const fs::path& file, const cv::Mat& image, int level) {
+Status write(const fs::path& file, const cv::Mat& image, int level, const ImageMetadata& metadata) {
   if (!can_write(image))
     return std::unexpected(internal_error("png::write: unsupported image type"));
   ChunkWriter out(file);
@@ -452,6 +519,7 @@ Status write(const fs::path& file, const cv::Mat& image, int level) {
   header[9] = image.channels() == 3 ? 2 : 0;
   header[10] = header[11] = header[12] = 0;
   out.chunk("IHDR", header, sizeof header);
+  write_metadata(out, metadata);
   if (level <= 0) {
     write_stored(out, image);
   } else if (auto ok = write_compressed(out, image, level); !ok) {

@@ -12,6 +12,7 @@
 #include <opencv2/core.hpp>
 
 #include "psrig/base/error.h"
+#include "psrig/processing/image_metadata.h"
 
 namespace psrig::processing::png {
 
@@ -29,7 +30,10 @@ namespace psrig::processing::png {
 // Whether write() takes this image: CV_8U or CV_16U, one or three channels.
 [[nodiscard]] bool can_write(const cv::Mat& image);
 
-// Writes with zlib-scale compression `level` (0 stores, 1 fastest … 9).
-[[nodiscard]] Status write(const std::filesystem::path& file, const cv::Mat& image, int level);
+// Writes with zlib-scale compression `level` (0 stores, 1 fastest … 9),
+// with `metadata`'s chunks (pHYs, sRGB+gAMA+cHRM or gAMA 1.0, tEXt/iTXt)
+// before the image data.
+[[nodiscard]] Status write(const std::filesystem::path& file, const cv::Mat& image, int level,
+                           const ImageMetadata& metadata = {});
 
 }  // namespace psrig::processing::png

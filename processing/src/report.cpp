@@ -59,7 +59,8 @@ json make_report(const ReportInputs& in) {
       {"reject_outliers", options.solve.reject_outliers},
       {"reject_method", reject_method(options.solve, static_cast<int>(d.lights.size()))},
       {"shadow_ratio", options.solve.shadow_ratio},
-      {"low_signal", options.solve.low_signal}};
+      {"low_signal", options.solve.low_signal},
+      {"normal_convention", options.directx_normal ? "opengl, directx" : "opengl"}};
 
   json times = json::object();
   for (const auto& [stage, ms] : in.stage_ms)

@@ -33,7 +33,7 @@ TEST(ScanLayout, KnowsEveryFileTheRigWritesAndNothingElse) {
 
 TEST(ScanLayout, KnowsEveryMapsFile) {
   for (const char* name : map_files::kAll) EXPECT_TRUE(map_files::is_map_file(name)) << name;
-  EXPECT_EQ(std::size(map_files::kAll), 9u);
+  EXPECT_EQ(std::size(map_files::kAll), 10u);
   for (const char* name : {"albedo.png", "albedo.exr", "normal.png", "p.exr", "q.exr", "height.exr",
                            "height.png", "mask.png", "report.json"})
     EXPECT_TRUE(map_files::is_map_file(name)) << name;

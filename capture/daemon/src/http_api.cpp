@@ -16,6 +16,7 @@
 #include "fronted_server.h"
 #include "psrig/base/log.h"
 #include "psrig/processing/scan_layout.h"
+#include "scan_exports.h"
 #include "scan_previews.h"
 #include "web_catalogue.h"
 
@@ -282,6 +283,7 @@ struct HttpApi::Impl {
   std::atomic<bool> stopping{false};
   std::atomic<int> event_streams{0};
   int port = 0;
+  ScanExports exports;  // GET /v1/scans/{id}/export/{format} (scan_exports.h)
 
   void routes();
   void status(httplib::Response& res);
@@ -410,6 +412,10 @@ void HttpApi::Impl::routes() {
              [this](const httplib::Request& req, httplib::Response& res) { file(req, res); });
   server.Get(R"(/v1/scans/([^/]+)/(thumbnail|relit))",
              [this](const httplib::Request& req, httplib::Response& res) { preview(req, res); });
+  server.Get(R"(/v1/scans/([^/]+)/export/([^/]+))",
+             [this](const httplib::Request& req, httplib::Response& res) {
+               serve_scan_export(service.catalogue(), exports, req, res);
+             });
   server.Delete(R"(/v1/scans/([^/]+))",
                 [this](const httplib::Request& req, httplib::Response& res) { remove(req, res); });
   server.Post(kCancelRoute, [this](const httplib::Request& req, httplib::Response& res,

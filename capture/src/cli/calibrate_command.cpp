@@ -5,6 +5,8 @@
 // psrig calibrate flat: a white card under each LED, kept in the store and
 // applied to every later scan. psrig calibrate scale: millimetres per pixel
 // from a ChArUco board, used as every later scan's pixel size.
+// psrig calibrate colour: a ColorChecker Classic, a matrix from the
+// camera's RGB to linear sRGB D65 applied to every later scan's albedo.
 
 #include <algorithm>
 #include <cstdio>
@@ -16,6 +18,7 @@
 
 #include "command.h"
 #include "psrig/calibration/calibration_store.h"
+#include "psrig/calibration/colour.h"
 #include "psrig/calibration/image_set.h"
 #include "psrig/calibration/light_calibration.h"
 #include "psrig/calibration/scale.h"
@@ -787,6 +790,325 @@ int run_scale(const ScaleArgs& args) {
   return 0;
 }
 
+// ---- psrig calibrate colour --------------------------------------------
+
+struct ColourArgs {
+  std::string config;
+  std::string image;
+  std::string encoding = "linear";
+  int frames = 1;
+  bool quiet = false;
+};
+
+// A patch is refused when more than this of it reached full scale, and the
+// chart when its white patch reads below this of full scale.
+constexpr double kColourMaxSaturated = 0.01;
+constexpr double kColourMinWhite = 0.02;
+
+// The current flat field as processing applies it to a scan (linearise.cpp):
+// per light and channel the flat, smoothed, over the light's incidence,
+// and one level for all of them; the gain is the level over it. A matrix
+// measured through these gains holds for scans flat-fielded alike.
+Result<std::vector<cv::Mat>> colour_flat_gains(const calibration::StoredCalibration& current) {
+  std::vector<cv::Mat> flats;
+  double level = 0;
+  for (std::size_t k = 0; k < current.flat_images.size(); ++k) {
+    const fs::path& file = current.flat_images[k];
+    cv::Mat flat = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+    if (flat.empty() || flat.channels() != 3 || k >= current.lights.size())
+      return std::unexpected(bad_input(file, "flat.images",
+                                       "cannot be read as a colour flat for light " +
+                                           std::to_string(k) +
+                                           ": run psrig calibrate flat again, then colour"));
+    flat.convertTo(flat, CV_32FC3, 1.0 / 65535.0);
+    cv::GaussianBlur(flat, flat, cv::Size(), 2.0);
+    flat /= std::max(current.lights[k].direction[2], 0.05);
+    const cv::Scalar mean = cv::mean(flat);
+    cv::max(flat, cv::Scalar::all(0.01 * (mean[0] + mean[1] + mean[2]) / 3), flat);
+    level += (mean[0] + mean[1] + mean[2]) / 3;
+    flats.push_back(flat);
+  }
+  if (!flats.empty()) level /= static_cast<double>(flats.size());
+  std::vector<cv::Mat> gains;
+  for (const auto& flat : flats) {
+    cv::Mat gain;
+    cv::divide(cv::Scalar::all(level), flat, gain);
+    gains.push_back(gain);
+  }
+  return gains;
+}
+
+// The chart's captures as one linear colour image: every LED's frame of
+// every capture averaged (the chart evenly lit), dark subtracted, through
+// the flat field's gains when given (one per light), 0..1 of full scale;
+// and where any frame reached full scale.
+Result<calibration::LinearColourImage> average_colour_captures(
+    const std::vector<fs::path>& scans, const std::vector<cv::Mat>& flat_gains) {
+  calibration::LinearColourImage out;
+  int count = 0;
+  for (const auto& directory : scans) {
+    auto scan = processing::read_scan(directory);
+    if (!scan) return std::unexpected(scan.error());
+    const auto& d = scan->description;
+    if (scan->channels() != 3)
+      return std::unexpected(bad_input(directory, "camera",
+                                       "holds grey frames; the colour calibration needs a colour "
+                                       "camera (its RGB frames)"));
+    const processing::CodeLineariser lineariser(processing::Encoding::linear, d.black_level,
+                                                scan->white_level, scan->depth());
+    const cv::Mat dark = scan->dark.empty() ? cv::Mat() : linearised(lineariser, scan->dark);
+    for (std::size_t k = 0; k < scan->frames.size(); ++k) {
+      cv::Mat image = linearised(lineariser, scan->frames[k]);
+      cv::Mat planes[3];
+      cv::split(image, planes);
+      const cv::Mat full = (planes[0] >= 0.98f) | (planes[1] >= 0.98f) | (planes[2] >= 0.98f);
+      out.saturated = out.saturated.empty() ? full : cv::Mat(out.saturated | full);
+      if (!dark.empty()) image -= dark;
+      if (!flat_gains.empty()) {
+        if (flat_gains.size() != scan->frames.size() || flat_gains[k].size() != image.size())
+          return std::unexpected(bad_input(directory, "flat",
+                                           "does not fit the rig's current flat field (lights "
+                                           "or frame size): run psrig calibrate flat again"));
+        image = image.mul(flat_gains[k]);
+      }
+      out.bgr = out.bgr.empty() ? image : cv::Mat(out.bgr + image);
+      ++count;
+    }
+  }
+  if (count > 0) out.bgr /= count;
+  return out;
+}
+
+nlohmann::json rounded(const cv::Vec3d& v, double step) {
+  return {std::round(v[0] / step) * step, std::round(v[1] / step) * step,
+          std::round(v[2] / step) * step};
+}
+
+void print_colour(const calibration::ColourCorrection& fit) {
+  const auto& chart = calibration::colorchecker_classic();
+  std::printf("patch              dE2000 before   after\n");
+  for (int p = 0; p < calibration::kChartPatches; ++p) {
+    const auto i = static_cast<std::size_t>(p);
+    std::printf("%2d %-15s %13.2f %7.2f\n", p + 1, chart[i].name, fit.delta_e_before[i],
+                fit.delta_e_after[i]);
+  }
+  std::printf("mean               %13.2f %7.2f\n", fit.mean_before, fit.mean_after);
+  std::printf("max                %13.2f %7.2f\n", fit.max_before, fit.max_after);
+  const auto& m = fit.matrix;
+  std::printf("matrix (camera RGB to linear sRGB D65):\n");
+  for (int r = 0; r < 3; ++r)
+    std::printf("  [%8.4f %8.4f %8.4f]\n", m(r, 0), m(r, 1), m(r, 2));
+}
+
+int run_colour(const ColourArgs& args) {
+  stop_gracefully_on_signals();
+  const std::string command = "calibrate colour";
+  int exit_code = 0;
+  auto config = load_config_or_report(command, args.config, exit_code);
+  if (!config) return exit_code;
+  calibration::CalibrationStore store(config->storage.root);
+  auto current = light_calibration_to_extend(*config, store, "colour");
+  if (!current) return report_error(command, current.error());
+  auto document = calibration::carry_forward(*current, "colour");
+  if (!document) return report_error(command, document.error());
+
+  calibration::LinearColourImage image;
+  fs::path source;
+  nlohmann::json sources;
+  std::optional<processing::AtomicDirectory> staging;
+  // Scans divide by the current flat field channel by channel: the chart
+  // captured on the rig is read through it too, and the version named.
+  std::vector<cv::Mat> flat_gains;
+  nlohmann::json flat_field = nullptr;
+  if (!args.image.empty()) {
+    if (!current->flat_version.empty())
+      std::fprintf(stderr,
+                   "psrig calibrate colour: warning: %s is taken as it is, not through the "
+                   "rig's flat field %s, so scans (which are flat-fielded) will go without this "
+                   "matrix; calibrate on the rig (without --image) for them\n",
+                   args.image.c_str(), current->flat_version.c_str());
+    auto read = calibration::read_linear_colour(args.image, args.encoding == "srgb"
+                                                                ? processing::Encoding::srgb
+                                                                : processing::Encoding::linear);
+    if (!read) return report_error(command, read.error());
+    image = std::move(*read);
+    source = args.image;
+  } else {
+    if (!current->flat_images.empty()) {
+      auto gains = colour_flat_gains(*current);
+      if (!gains) return report_error(command, gains.error());
+      flat_gains = std::move(*gains);
+      flat_field = current->flat_version;
+    }
+    // The simulated rig puts its ColorChecker under the camera.
+    if (config->camera.backend == "sim" && config->sim.target == "swatch")
+      config->sim.target = "colour_chart";
+    auto next = store.begin_next();
+    if (!next) return report_error(command, next.error());
+    staging.emplace(std::move(*next));
+    std::vector<fs::path> scans;
+    {
+      auto rig = open_rig(*config);
+      if (!rig) return report_error(command, rig.error());
+      ScanSequencer sequencer(*config, *rig->lights, *rig->camera);
+      std::error_code ec;
+      fs::create_directories(staging->path() / calibration::kCapturesDirectory, ec);
+      for (int i = 0; i < args.frames; ++i) {
+        ScanRequest request;
+        request.sample_id = "colour-chart";
+        request.description = "colour: ColorChecker Classic, capture " + std::to_string(i + 1) +
+                              " of " + std::to_string(args.frames);
+        request.directory =
+            staging->path() / calibration::kCapturesDirectory / ("colour-" + std::to_string(i));
+        request.process = false;
+        auto outcome = sequencer.capture(request, [&](const ScanProgress& p) {
+          if (!args.quiet) std::fprintf(stderr, "psrig calibrate colour: %s\n", p.step.c_str());
+        });
+        if (!outcome) {
+          const int code = report_error(command, outcome.error());
+          return firmware_host::stop_requested() ? psrig::cli::exit_interrupted : code;
+        }
+        scans.push_back(outcome->directory);
+      }
+    }
+    auto averaged = average_colour_captures(scans, flat_gains);
+    if (!averaged) return report_error(command, averaged.error());
+    image = std::move(*averaged);
+    source = config->source;
+    nlohmann::json captures = nlohmann::json::array();
+    for (const auto& scan : scans)
+      captures.push_back(scan.lexically_relative(staging->path()).string());
+    sources = {{"captures", captures},
+               {"rig", fs::absolute(config->source).lexically_normal().string()}};
+  }
+  // Refusals name the image, or the rig whose capture it was (the capture
+  // goes with the refused version).
+  const auto refuse = [&](const std::string& problem) {
+    Error error = bad_input(source, "", problem);
+    return report_error(command, error);
+  };
+  auto reading = calibration::read_colour_chart(image.bgr, image.saturated, source);
+  if (!reading) {
+    Error error = reading.error();
+    if (args.image.empty()) error.message = "the chart as captured " + error.message;
+    return report_error(command, error);
+  }
+  const auto& chart = calibration::colorchecker_classic();
+  for (int p = 0; p < calibration::kChartPatches; ++p) {
+    const auto i = static_cast<std::size_t>(p);
+    if (reading->saturated[i] > kColourMaxSaturated)
+      return refuse(std::string(args.image.empty() ? "the chart as captured: " : "") +
+                    "its patch " + std::to_string(p + 1) + " (" + chart[i].name +
+                    ") is saturated (" + std::to_string(std::lround(reading->saturated[i] * 100)) +
+                    " % of it at full scale): lower camera.exposure_us or camera.gain, and "
+                    "capture again");
+  }
+  const double white = cv::mean(reading->rgb[calibration::kFirstNeutralPatch])[0] * 4.0 / 3.0;
+  if (white < kColourMinWhite)
+    return refuse(std::string(args.image.empty() ? "the chart as captured: " : "") +
+                  "its white patch reads " + std::to_string(white).substr(0, 5) +
+                  " of full scale: is the chart lit? Raise camera.exposure_us or camera.gain");
+  const calibration::ColourCorrection fit = calibration::fit_colour_correction(reading->rgb);
+
+  if (!staging) {
+    auto next = store.begin_next();
+    if (!next) return report_error(command, next.error());
+    staging.emplace(std::move(*next));
+    const fs::path directory = staging->path() / calibration::kCapturesDirectory / "colour";
+    std::error_code ec;
+    fs::create_directories(directory, ec);
+    fs::copy_file(args.image, directory / fs::path(args.image).filename(), ec);
+    if (ec)
+      return report_error(command, io_error(directory, "cannot copy the image: " + ec.message()));
+    sources = {{"image", "captures/colour/" + fs::path(args.image).filename().string()},
+               {"encoding", args.encoding}};
+  }
+  nlohmann::json patches = nlohmann::json::array();
+  for (int p = 0; p < calibration::kChartPatches; ++p) {
+    const auto i = static_cast<std::size_t>(p);
+    patches.push_back(
+        {{"index", p + 1},
+         {"name", chart[i].name},
+         {"reference_lab", rounded(chart[i].lab_d50, 0.01)},
+         {"camera_rgb", rounded(reading->rgb[i], 1e-5)},
+         {"centre_px",
+          {std::round(reading->centre[i].x * 10) / 10, std::round(reading->centre[i].y * 10) / 10}},
+         {"lab_before", rounded(fit.lab_before[i], 0.01)},
+         {"lab_after", rounded(fit.lab_after[i], 0.01)},
+         {"delta_e2000_before", std::round(fit.delta_e_before[i] * 1000) / 1000},
+         {"delta_e2000_after", std::round(fit.delta_e_after[i] * 1000) / 1000}});
+  }
+  const auto& m = fit.matrix;
+  auto& doc = *document;
+  doc["colour"] = {
+      {"created", doc["created"]},
+      {"matrix",
+       {{m(0, 0), m(0, 1), m(0, 2)}, {m(1, 0), m(1, 1), m(1, 2)}, {m(2, 0), m(2, 1), m(2, 2)}}},
+      {"matrix_maps",
+       "camera linear RGB to linear sRGB, exposure-free (neutrals keep the camera's "
+       "mean level)"},
+      {"space", "sRGB D65"},
+      {"white_point", "D65"},
+      {"reference",
+       {{"chart", "X-Rite ColorChecker Classic, 24 patches"},
+        {"values", "X-Rite, charts made after November 2014, CIE L*a*b* D50 2 deg"},
+        {"delta_e",
+         "CIEDE2000 (lcms2), Lab D50: sRGB D65 adapted to D50 (Bradford) as lcms2's "
+         "relative colorimetric intent does"}}},
+      {"fit",
+       "weighted least squares in linear light, weights 1/(Y + 0.05), the neutral patches' "
+       "sum mapped exactly"},
+      {"exposure", fit.exposure},
+      {"flat_field", flat_field},
+      {"delta_e2000",
+       {{"before",
+         {{"mean", std::round(fit.mean_before * 1000) / 1000},
+          {"max", std::round(fit.max_before * 1000) / 1000}}},
+        {"after",
+         {{"mean", std::round(fit.mean_after * 1000) / 1000},
+          {"max", std::round(fit.max_after * 1000) / 1000}}}}},
+      {"patches", patches},
+      {"chart_corners_px", nlohmann::json::array({{reading->corners[0].x, reading->corners[0].y},
+                                                  {reading->corners[1].x, reading->corners[1].y},
+                                                  {reading->corners[2].x, reading->corners[2].y},
+                                                  {reading->corners[3].x, reading->corners[3].y}})},
+      {"sources", sources}};
+  const std::string text = doc.dump(2) + "\n";
+  if (auto ok = calibration::write_new_file(staging->path() / calibration::kCalibrationFile, text);
+      !ok)
+    return report_error(command, ok.error());
+  const fs::path target = staging->target();
+  if (auto ok = staging->commit(processing::AtomicDirectory::Existing::refuse, true); !ok)
+    return report_error(command, ok.error());
+  if (!args.quiet) {
+    print_colour(fit);
+    std::printf("calibration: %s (current for %s)\n",
+                (target / calibration::kCalibrationFile).c_str(), config->source.c_str());
+  }
+  return 0;
+}
+
+CLI::App* add_colour_subcommand(CLI::App& app, ColourArgs& args) {
+  CLI::App* colour = app.add_subcommand(
+      "colour",
+      "Colour: a ColorChecker Classic, a matrix to sRGB D65 applied to every later albedo");
+  colour
+      ->add_option("--config", args.config,
+                   "Rig configuration: capture the chart on this rig (unless --image) and keep "
+                   "the matrix in its calibration store")
+      ->required();
+  colour->add_option("--image", args.image,
+                     "An image of the chart already taken (RGB), instead of capturing");
+  colour->add_option("--encoding", args.encoding, "How --image stores light: linear or srgb")
+      ->check(CLI::IsMember({"linear", "srgb"}))
+      ->capture_default_str();
+  colour->add_option("--frames", args.frames, "Captures of the chart on the rig, averaged")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  colour->add_flag("-q,--quiet", args.quiet, "Print nothing on success");
+  return colour;
+}
+
 }  // namespace
 
 Command add_calibrate_command(CLI::App& parent) {
@@ -867,7 +1189,11 @@ Command add_calibrate_command(CLI::App& parent) {
       ->capture_default_str();
   scale->add_flag("-q,--quiet", scale_args->quiet, "Print nothing on success");
 
-  return {app, [args, flat_args, flat, scale_args, scale] {
+  auto colour_args = std::make_shared<ColourArgs>();
+  CLI::App* colour = add_colour_subcommand(*app, *colour_args);
+
+  return {app, [args, flat_args, flat, scale_args, scale, colour_args, colour] {
+            if (colour->parsed()) return run_colour(*colour_args);
             if (flat->parsed()) return run_flat(*flat_args);
             if (scale->parsed()) return run_scale(*scale_args);
             if (!args->images.empty()) return run_from_images(*args);

@@ -19,6 +19,7 @@ struct ProcessArgs {
   double flatten_cutoff = processing::kDefaultFlattenCutoffMm;
   int threads = 0;
   bool reject = false;
+  std::string normal_convention = "opengl";
   bool quiet = false;
 };
 
@@ -52,6 +53,11 @@ Command add_process_command(CLI::App& parent) {
   app->add_flag("--reject", args->reject,
                 "With four or more lights, drop each pixel's shadowed, saturated and "
                 "highlighted measurements (robust fit; report.json names the method)");
+  app->add_option("--normal-convention", args->normal_convention,
+                  "opengl (normal.png, +Y up, as glTF and U3M), or directx to add "
+                  "normal_directx.png (+Y down) for Substance and Unreal")
+      ->check(CLI::IsMember({"opengl", "directx"}))
+      ->capture_default_str();
   app->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
 
   return {app, [args] {
@@ -62,6 +68,7 @@ Command add_process_command(CLI::App& parent) {
             options.flatten = *processing::parse_flatten(args->flatten);
             options.flatten_cutoff_mm = args->flatten_cutoff;
             options.solve.reject_outliers = args->reject;
+            options.directx_normal = args->normal_convention == "directx";
             auto summary = processing::process_scan(args->scan, options);
             if (!summary) return report_error("process", summary.error());
             // The solve drops a pixel's outliers only where enough lights remain.

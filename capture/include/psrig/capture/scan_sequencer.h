@@ -40,6 +40,11 @@ struct AppliedCalibration {
   // Its measured pixel size (psrig calibrate scale), replacing
   // geometry.pixel_size_mm.
   std::optional<double> pixel_size_mm;
+  // Its colour matrix (psrig calibrate colour: camera RGB to linear sRGB
+  // D65) and the version that measured it, written into colour scans'
+  // scan.json as `colour_correction` for processing to apply to the albedo.
+  std::optional<cv::Matx33d> colour_matrix;
+  std::string colour_version;
 };
 
 struct ScanRequest {

@@ -127,12 +127,17 @@ struct SimConfig {
   // sim/card_target.h). "flat": a flat matte grey card (albedo 0.6), for
   // the near-field tests.
   std::string target = "swatch";  // "swatch" | "flat" | "chrome_sphere" | "matte_sphere" |
-                                  // "white_card" | "charuco_board"
+                                  // "white_card" | "charuco_board" | "colour_chart"
   double sphere_diameter_mm = 10;
   // Where the sphere rests: its centre in mm from the camera axis (x right,
   // y up); absent: the field's centre. Placing it at two or more places
   // lets calibration find near LEDs' positions.
   std::optional<std::array<double, 2>> sphere_centre_mm;
+  // The camera's colour response: row by row, the 3x3 matrix from the
+  // scene's linear sRGB to the camera's RGB. Absent: identity (the camera
+  // sees sRGB). A real sensor mixes its channels; psrig calibrate colour
+  // finds the inverse from a ColorChecker ("colour_chart").
+  std::optional<std::array<double, 9>> colour_matrix;
   double led_angular_diameter_deg = 2;  // each LED as the sphere sees it (chrome highlight size)
   std::string pattern = "jersey";
   std::uint64_t seed = 1;

@@ -9,6 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "psrig/base/error.h"
+#include "psrig/processing/image_metadata.h"
 
 namespace psrig::processing {
 
@@ -22,6 +23,10 @@ namespace psrig::processing {
 // unless params say otherwise.
 [[nodiscard]] Status write_image(const std::filesystem::path& file, const cv::Mat& image,
                                  const std::vector<int>& params = {});
+// The same, carrying `metadata`: in PNG chunks (8/16-bit grey or colour),
+// in EXR header attributes (one or three float or half channels).
+[[nodiscard]] Status write_image(const std::filesystem::path& file, const cv::Mat& image,
+                                 const std::vector<int>& params, const ImageMetadata& metadata);
 
 // A three-vector image (x, y, z) such as normals, written so that the file's
 // R, G, B channels hold x, y, z (cv::imwrite takes BGR).

@@ -14,6 +14,11 @@ namespace psrig::processing {
 // for cv::imwrite.
 [[nodiscard]] cv::Mat encode_normal16(const cv::Mat& p, const cv::Mat& q);
 
+// An encoded normal map (8- or 16-bit, BGR) in the other convention: green
+// mirrored, OpenGL (+Y up) <-> DirectX (+Y down), as Substance and Unreal
+// expect by default.
+[[nodiscard]] cv::Mat flip_normal_green(const cv::Mat& normal);
+
 // A normal map made anywhere -> gradients p, q (CV_32F), the inverse of
 // encode_normal16 and more: 8- or 16-bit RGB(A) PNGs hold (n + 1) / 2 per
 // channel, float images (EXR, TIFF) hold n itself; colour Mats in OpenCV's

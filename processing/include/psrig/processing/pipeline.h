@@ -36,6 +36,9 @@ struct ProcessOptions {
   // The bend's cut-off wavelength: millimetres, or pixels for a scan
   // without pixel_size_mm.
   double flatten_cutoff_mm = kDefaultFlattenCutoffMm;
+  // normal.png is always OpenGL's convention (+Y up: glTF, U3M, the
+  // preview); directx adds normal_directx.png (+Y down) beside it.
+  bool directx_normal = false;
   SolveOptions solve;
 };
 

@@ -41,6 +41,9 @@ namespace map_files {
 inline constexpr const char* kAlbedoPng = "albedo.png";
 inline constexpr const char* kAlbedoExr = "albedo.exr";
 inline constexpr const char* kNormalPng = "normal.png";
+// The normal map in DirectX's convention (+Y down), on request (psrig process
+// --normal-convention directx): Substance and Unreal take it as is.
+inline constexpr const char* kNormalDirectxPng = "normal_directx.png";
 inline constexpr const char* kP = "p.exr";
 inline constexpr const char* kQ = "q.exr";
 inline constexpr const char* kHeightExr = "height.exr";
@@ -48,8 +51,9 @@ inline constexpr const char* kHeightPng = "height.png";
 inline constexpr const char* kMask = "mask.png";
 inline constexpr const char* kReport = "report.json";
 // Every file of a maps directory, in the order a listing shows them.
-inline constexpr const char* kAll[] = {kAlbedoPng, kAlbedoExr, kNormalPng, kP,     kQ,
-                                       kHeightExr, kHeightPng, kMask,      kReport};
+inline constexpr const char* kAll[] = {kAlbedoPng, kAlbedoExr,       kNormalPng, kP,
+                                       kQ,         kHeightExr,       kHeightPng, kMask,
+                                       kReport,    kNormalDirectxPng};
 
 [[nodiscard]] bool is_map_file(std::string_view name);
 }  // namespace map_files

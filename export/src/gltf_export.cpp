@@ -1,0 +1,348 @@
+#include "psrig/export/gltf_export.h"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <sstream>
+#include <tiny_gltf.h>
+
+#include <nlohmann/json.hpp>
+
+#include "psrig/export/occlusion.h"
+#include "psrig/processing/atomic_directory.h"
+#include "texture_set.h"
+
+namespace psrig::export_ {
+namespace {
+
+namespace fs = std::filesystem;
+using nlohmann::json;
+
+tinygltf::Value to_value(const json& j) {
+  if (j.is_object()) {
+    tinygltf::Value::Object o;
+    for (const auto& [k, v] : j.items())
+      o[k] = to_value(v);
+    return tinygltf::Value(std::move(o));
+  }
+  if (j.is_array()) {
+    tinygltf::Value::Array a;
+    for (const auto& v : j)
+      a.push_back(to_value(v));
+    return tinygltf::Value(std::move(a));
+  }
+  if (j.is_boolean()) return tinygltf::Value(j.get<bool>());
+  if (j.is_number_integer()) return tinygltf::Value(j.get<int>());
+  if (j.is_number()) return tinygltf::Value(j.get<double>());
+  if (j.is_string()) return tinygltf::Value(j.get<std::string>());
+  return {};
+}
+
+template <typename T>
+std::size_t append(std::vector<unsigned char>& buffer, const std::vector<T>& values) {
+  while (buffer.size() % 4 != 0)
+    buffer.push_back(0);
+  const std::size_t at = buffer.size();
+  buffer.resize(at + values.size() * sizeof(T));
+  std::memcpy(buffer.data() + at, values.data(), values.size() * sizeof(T));
+  return at;
+}
+
+int add_view(tinygltf::Model& model, std::size_t offset, std::size_t length, int target) {
+  tinygltf::BufferView view;
+  view.buffer = 0;
+  view.byteOffset = offset;
+  view.byteLength = length;
+  view.target = target;
+  model.bufferViews.push_back(view);
+  return static_cast<int>(model.bufferViews.size()) - 1;
+}
+
+int add_accessor(tinygltf::Model& model, int view, int component, std::size_t count, int type,
+                 std::vector<double> min = {}, std::vector<double> max = {}) {
+  tinygltf::Accessor a;
+  a.bufferView = view;
+  a.componentType = component;
+  a.count = count;
+  a.type = type;
+  a.minValues = std::move(min);
+  a.maxValues = std::move(max);
+  model.accessors.push_back(a);
+  return static_cast<int>(model.accessors.size()) - 1;
+}
+
+// KHR_texture_transform: the texture repeated `repeats` times over the quad.
+tinygltf::ExtensionMap repeat_transform(int repeats) {
+  tinygltf::Value::Object transform;
+  transform["offset"] =
+      tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(0.0), tinygltf::Value(0.0)});
+  transform["scale"] =
+      tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(static_cast<double>(repeats)),
+                                             tinygltf::Value(static_cast<double>(repeats))});
+  return {{"KHR_texture_transform", tinygltf::Value(std::move(transform))}};
+}
+
+// A single-file export may replace an earlier one; a directory only when it
+// holds STEM.gltf (an earlier export), never anything else.
+Result<processing::AtomicDirectory::Existing> check_directory_target(const fs::path& out,
+                                                                     const std::string& main_file) {
+  std::error_code ec;
+  const auto status = fs::symlink_status(out, ec);
+  if (!fs::exists(status)) return processing::AtomicDirectory::Existing::refuse;
+  if (fs::is_directory(status) &&
+      (fs::is_empty(out, ec) || fs::is_regular_file(out / main_file, ec)))
+    return processing::AtomicDirectory::Existing::replace;
+  return std::unexpected(bad_input(out, "--out",
+                                   "exists and is not an earlier export; refusing to replace it "
+                                   "(choose another --out, or remove it)"));
+}
+
+}  // namespace
+
+Result<ExportResult> export_gltf(const MaterialSource& source, const fs::path& out,
+                                 const GltfOptions& options) {
+  if (options.repeats < 1) return std::unexpected(bad_input({}, "--repeat", "must be 1 or more"));
+  std::error_code ec;
+  const std::string stem = out.stem().string();
+  if (options.binary && fs::is_directory(out, ec))
+    return std::unexpected(bad_input(out, "--out", "is a directory; name the .glb file"));
+  std::optional<processing::AtomicDirectory::Existing> existing;
+  if (!options.binary) {
+    auto checked = check_directory_target(out, stem + ".gltf");
+    if (!checked) return std::unexpected(checked.error());
+    existing = *checked;
+  }
+  const fs::path parent = out.has_parent_path() ? out.parent_path() : fs::path(".");
+  if (!fs::is_directory(parent, ec))
+    return std::unexpected(bad_input(out, "--out", "its directory does not exist; make it first"));
+
+  auto textures = load_textures(source);
+  if (!textures) return std::unexpected(textures.error());
+
+  ExportResult result;
+  result.output = out;
+  result.width_mm = source.width_mm();
+  result.height_mm = source.height_mm();
+  result.warnings = source.warnings;
+
+  // glTF viewers read 8-bit textures everywhere; 16-bit normals stay in the
+  // maps directory and the U3M export.
+  auto albedo_png =
+      encode_png(textures->albedo, texture_metadata(source, *textures, TextureKind::albedo));
+  if (!albedo_png) return std::unexpected(albedo_png.error());
+  auto normal_png = encode_png(to_8bit(textures->normal),
+                               texture_metadata(source, *textures, TextureKind::normal));
+  if (!normal_png) return std::unexpected(normal_png.error());
+
+  tinygltf::Model model;
+  model.asset.version = "2.0";
+  model.asset.generator = "psrig";
+  model.buffers.emplace_back();
+  auto& bin = model.buffers[0].data;
+
+  // The quad in the XY plane, facing +Z, centred; the image's top-left at
+  // UV (0, 0) (glTF's origin), so the image's up is +Y as the normal map's.
+  const float w = static_cast<float>(result.width_mm * options.repeats / 1000.0);
+  const float h = static_cast<float>(result.height_mm * options.repeats / 1000.0);
+  const std::vector<float> positions = {-w / 2, h / 2,  0, w / 2,  h / 2,  0,
+                                        w / 2,  -h / 2, 0, -w / 2, -h / 2, 0};
+  const std::vector<float> normals = {0, 0, 1, 0, 0, 1, 0, 0, 1, 0, 0, 1};
+  // Tangents along +U (+X); w = 1: the bitangent N x T = +Y is the image's
+  // up, the normal map's +Y. Given, so no viewer has to generate its own.
+  const std::vector<float> tangents = {1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1, 1, 0, 0, 1};
+  const std::vector<float> uvs = {0, 0, 1, 0, 1, 1, 0, 1};
+  const std::vector<std::uint16_t> indices = {0, 3, 2, 0, 2, 1};  // counter-clockwise seen from +Z
+  const int position_view =
+      add_view(model, append(bin, positions), positions.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER);
+  const int normal_view =
+      add_view(model, append(bin, normals), normals.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER);
+  const int tangent_view =
+      add_view(model, append(bin, tangents), tangents.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER);
+  const int uv_view =
+      add_view(model, append(bin, uvs), uvs.size() * 4, TINYGLTF_TARGET_ARRAY_BUFFER);
+  const int index_view = add_view(model, append(bin, indices), indices.size() * 2,
+                                  TINYGLTF_TARGET_ELEMENT_ARRAY_BUFFER);
+  tinygltf::Primitive primitive;
+  primitive.attributes["POSITION"] =
+      add_accessor(model, position_view, TINYGLTF_COMPONENT_TYPE_FLOAT, 4, TINYGLTF_TYPE_VEC3,
+                   {-w / 2, -h / 2, 0}, {w / 2, h / 2, 0});
+  primitive.attributes["NORMAL"] =
+      add_accessor(model, normal_view, TINYGLTF_COMPONENT_TYPE_FLOAT, 4, TINYGLTF_TYPE_VEC3);
+  primitive.attributes["TANGENT"] =
+      add_accessor(model, tangent_view, TINYGLTF_COMPONENT_TYPE_FLOAT, 4, TINYGLTF_TYPE_VEC4);
+  primitive.attributes["TEXCOORD_0"] =
+      add_accessor(model, uv_view, TINYGLTF_COMPONENT_TYPE_FLOAT, 4, TINYGLTF_TYPE_VEC2);
+  primitive.indices = add_accessor(model, index_view, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT, 6,
+                                   TINYGLTF_TYPE_SCALAR);
+  primitive.mode = TINYGLTF_MODE_TRIANGLES;
+  primitive.material = 0;
+
+  // Textures: inside the .glb, files beside the .gltf.
+  const auto add_image = [&](const std::string& name, const std::vector<unsigned char>& png) {
+    tinygltf::Image image;
+    image.name = name;
+    image.mimeType = "image/png";
+    if (options.binary)
+      image.bufferView = add_view(model, append(bin, png), png.size(), 0);
+    else
+      image.uri = name + ".png";
+    model.images.push_back(image);
+    tinygltf::Texture texture;
+    texture.sampler = 0;
+    texture.source = static_cast<int>(model.images.size()) - 1;
+    model.textures.push_back(texture);
+    return static_cast<int>(model.textures.size()) - 1;
+  };
+  tinygltf::Sampler sampler;
+  sampler.magFilter = TINYGLTF_TEXTURE_FILTER_LINEAR;
+  sampler.minFilter = TINYGLTF_TEXTURE_FILTER_LINEAR_MIPMAP_LINEAR;
+  sampler.wrapS = TINYGLTF_TEXTURE_WRAP_REPEAT;
+  sampler.wrapT = TINYGLTF_TEXTURE_WRAP_REPEAT;
+  model.samplers.push_back(sampler);
+
+  tinygltf::Material material;
+  material.name = source.sample_id.empty() ? "psrig scan" : source.sample_id;
+  material.doubleSided = true;  // cloth is seen from both sides
+  material.pbrMetallicRoughness.baseColorTexture.index = add_image("albedo", *albedo_png);
+  material.pbrMetallicRoughness.baseColorTexture.extensions = repeat_transform(options.repeats);
+  material.pbrMetallicRoughness.metallicFactor = 0.0;
+  // Not measured (photometric stereo assumes a matte surface): a matte
+  // fabric's usual starting point, for the artist to tune.
+  material.pbrMetallicRoughness.roughnessFactor = 0.8;
+  material.normalTexture.index = add_image("normal", *normal_png);
+  material.normalTexture.extensions = repeat_transform(options.repeats);
+  std::vector<unsigned char> occlusion_png;
+  if (!textures->height.empty()) {
+    // Ambient occlusion from the height map (occlusion.h): the crevices
+    // between loops and yarns darken under ambient light. Radius: half a
+    // millimetre, about a yarn, in 4 to 32 pixels.
+    cv::Mat height;
+    textures->height.convertTo(height, CV_32F,
+                               (textures->height_high - textures->height_low) / 65535.0,
+                               textures->height_low);
+    const int radius =
+        source.pixel_size_mm
+            ? std::clamp(static_cast<int>(std::lround(0.5 / *source.pixel_size_mm)), 4, 32)
+            : 16;
+    cv::Mat ao8;
+    ambient_occlusion(height, source.pixel_size_mm.value_or(1.0), radius)
+        .convertTo(ao8, CV_8U, 255.0);
+    auto png = encode_png(ao8, texture_metadata(source, *textures, TextureKind::occlusion));
+    if (!png) return std::unexpected(png.error());
+    occlusion_png = std::move(*png);
+    material.occlusionTexture.index = add_image("occlusion", occlusion_png);
+    material.occlusionTexture.extensions = repeat_transform(options.repeats);
+  }
+  // KHR_materials_sheen: the retro-reflective rim of fibres. Its colour
+  // starts at the fabric's mean colour (linear), a convention, not a
+  // measurement.
+  tinygltf::Value::Object sheen;
+  const cv::Vec3d mean = textures->mean_linear_rgb;
+  sheen["sheenColorFactor"] = tinygltf::Value(tinygltf::Value::Array{
+      tinygltf::Value(mean[0]), tinygltf::Value(mean[1]), tinygltf::Value(mean[2])});
+  sheen["sheenRoughnessFactor"] = tinygltf::Value(0.5);
+  material.extensions["KHR_materials_sheen"] = tinygltf::Value(std::move(sheen));
+
+  json psrig = {{"units", source.pixel_size_mm ? "mm" : "px (no pixel size: 1 px written as 1 mm)"},
+                {"width_mm", result.width_mm},
+                {"height_mm", result.height_mm},
+                {"width_px", source.width_px},
+                {"height_px", source.height_px},
+                {"pixel_size_mm", source.pixel_size_mm ? json(*source.pixel_size_mm) : json()},
+                {"repeats", options.repeats},
+                {"seamless_tile", source.tile},
+                {"sample_id", source.sample_id.empty() ? json() : json(source.sample_id)},
+                {"scan_time", source.scan_time.empty() ? json() : json(source.scan_time)},
+                {"normal_convention", "OpenGL (+Y up), as glTF"},
+                {"roughness", "not measured: 0.8, a matte fabric's starting point"},
+                {"occlusion",
+                 "derived from the height map: horizon-based ambient occlusion "
+                 "(Bavoil et al. 2008), 8 directions, radius 0.5 mm"}};
+  std::vector<std::pair<fs::path, std::vector<unsigned char>>> beside;
+  if (!textures->height.empty()) {
+    auto height_png =
+        encode_png(textures->height, texture_metadata(source, *textures, TextureKind::height));
+    if (!height_png) return std::unexpected(height_png.error());
+    const std::string name = options.binary ? stem + "_height.png" : "height.png";
+    beside.emplace_back(name, std::move(*height_png));
+    psrig["height"] = {{"uri", name},
+                       {"note",
+                        "glTF 2.0 has no displacement map; this 16-bit grey PNG holds the height: "
+                        "grey 0 is `low`, 65535 is `high`"},
+                       {"low", textures->height_low},
+                       {"high", textures->height_high},
+                       {"units", source.height_units}};
+  }
+  if (options.directx_normal) {
+    auto dx = encode_png(to_directx(textures->normal),
+                         texture_metadata(source, *textures, TextureKind::normal_directx));
+    if (!dx) return std::unexpected(dx.error());
+    const std::string name = options.binary ? stem + "_normal_directx.png" : "normal_directx.png";
+    beside.emplace_back(name, std::move(*dx));
+    psrig["normal_directx"] = {{"uri", name},
+                               {"note",
+                                "the normal map with green flipped (DirectX, +Y down), for "
+                                "Substance and Unreal; glTF itself uses the OpenGL one"}};
+  }
+  material.extras = to_value(json{{"psrig", psrig}});
+  model.materials.push_back(material);
+  model.asset.extras = to_value(json{{"psrig", psrig}});
+
+  tinygltf::Mesh mesh;
+  mesh.name = material.name;
+  mesh.primitives.push_back(primitive);
+  model.meshes.push_back(mesh);
+  tinygltf::Node node;
+  node.mesh = 0;
+  node.name = material.name;
+  model.nodes.push_back(node);
+  tinygltf::Scene scene;
+  scene.nodes = {0};
+  model.scenes.push_back(scene);
+  model.defaultScene = 0;
+  model.extensionsUsed = {"KHR_materials_sheen", "KHR_texture_transform"};
+
+  tinygltf::TinyGLTF writer;
+  writer.SetImageWriter(nullptr, nullptr);  // the PNGs are ours, with their metadata
+  if (options.binary) {
+    std::ostringstream stream;
+    if (!writer.WriteGltfSceneToStream(&model, stream, false, true))
+      return std::unexpected(internal_error("tinygltf could not serialise the model"));
+    const std::string glb = stream.str();
+    for (const auto& [name, bytes] : beside) {
+      if (auto ok = write_file_atomically(parent / name, bytes); !ok)
+        return std::unexpected(ok.error());
+      result.beside.push_back(parent / name);
+    }
+    if (auto ok = write_file_atomically(out, std::vector<unsigned char>(glb.begin(), glb.end()));
+        !ok) {
+      for (const auto& file : result.beside)
+        fs::remove(file, ec);
+      return std::unexpected(ok.error());
+    }
+    return result;
+  }
+
+  auto staging = processing::AtomicDirectory::create(out);
+  if (!staging)
+    return std::unexpected(
+        io_error(out, "cannot make the export here: " + staging.error().message));
+  const fs::path dir = staging->path();
+  model.buffers[0].uri = stem + ".bin";
+  if (auto ok = write_bytes(dir / "albedo.png", *albedo_png); !ok)
+    return std::unexpected(ok.error());
+  if (auto ok = write_bytes(dir / "normal.png", *normal_png); !ok)
+    return std::unexpected(ok.error());
+  if (!occlusion_png.empty())
+    if (auto ok = write_bytes(dir / "occlusion.png", occlusion_png); !ok)
+      return std::unexpected(ok.error());
+  for (const auto& [name, bytes] : beside)
+    if (auto ok = write_bytes(dir / name, bytes); !ok) return std::unexpected(ok.error());
+  if (!writer.WriteGltfSceneToFile(&model, (dir / (stem + ".gltf")).string(), false, false, true,
+                                   false))
+    return std::unexpected(io_error(dir / (stem + ".gltf"), "cannot write the glTF"));
+  if (auto ok = staging->commit(*existing, false); !ok) return std::unexpected(ok.error());
+  return result;
+}
+
+}  // namespace psrig::export_
