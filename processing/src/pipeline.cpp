@@ -11,6 +11,7 @@
 #include "psrig/base/log.h"
 #include "psrig/processing/atomic_directory.h"
 #include "psrig/processing/evaluation.h"
+#include "psrig/processing/fabric_measure.h"
 #include "psrig/processing/flatten.h"
 #include "psrig/processing/hole_fill.h"
 #include "psrig/processing/image_io.h"
@@ -136,6 +137,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   const bool in_mm = scan->description.pixel_size_mm.has_value();
   std::optional<HeightSummary> height_summary;
   std::optional<BendSummary> bend_summary;
+  cv::Mat measured_height;  // the height as written, for the fabric measurement
   double integrate_ms = 0;
   struct Task {
     std::string name;
@@ -202,6 +204,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
                         summary.units);
            }
            bend_summary = bend;
+           measured_height = *height;  // for the fabric measurement
 
            double low = 0, high = 0;
            if (summary.pixels > 0) cv::minMaxLoc(*height, &low, &high, nullptr, nullptr, finite);
@@ -254,6 +257,14 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   if (options.integration != IntegrationMethod::none)
     stages.emplace_back("integrate", integrate_ms);
   stages.emplace_back("integrate_and_write", ms_since(stage_start));
+  // The fabric's repeat and densities, from the maps just made.
+  const auto measure_start = Clock::now();
+  MeasureOptions measure;
+  measure.pixel_size_mm = scan->description.pixel_size_mm;
+  measure.hints = fabric_hints(scan->description.document);
+  const auto fabric =
+      measure_fabric(measured_height.empty() ? result.p : measured_height, result.albedo, measure);
+  stages.emplace_back("measure", ms_since(measure_start));
   stages.emplace_back("total", ms_since(start));
 
   inputs.height = height_summary;
@@ -261,6 +272,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   inputs.ground_truth = truth;
   inputs.stage_ms = stages;
   nlohmann::json report = make_report(inputs);
+  if (fabric) report["fabric"] = to_json(*fabric);
   const fs::path report_path = dir / map_files::kReport;
   std::ofstream out(report_path);
   out << report.dump(2) << '\n';
