@@ -21,9 +21,9 @@
 #include <nlohmann/json.hpp>
 
 #include "daemon_process.h"
+#include "raw_http.h"
 #include "psrig/config/config_loader.h"
 #include "psrig/firmware_host/light_controller.h"
-#include "raw_http.h"
 #include "sim_modbus_driver.h"
 
 namespace psrig::test {
@@ -45,6 +45,7 @@ bool reset_peak_rss(pid_t pid) {
   clear_refs << "5" << std::flush;
   return clear_refs.good();
 }
+
 
 // A psrigd whose LEDs are on a simulated Modbus LED driver the test holds
 // (modbus_lights with `modbus_extra`, then `edits`), started but not yet
@@ -140,7 +141,8 @@ TEST(Psrigd, ScanRoundTripSearchDownloadAndDelete) {
   EXPECT_TRUE(contains(daemon.get("/v1/scans?limit=0", 400).value("error", ""), "limit"));
   EXPECT_TRUE(contains(daemon.get("/v1/scans?colour=red", 400).value("error", ""), "colour"));
   EXPECT_EQ(ids("?wales_min=100&wales_max=200"), Ids{});  // measured fabric density range
-  EXPECT_TRUE(contains(daemon.get("/v1/scans?wales_min=six", 400).value("error", ""), "wales_min"));
+  EXPECT_TRUE(
+      contains(daemon.get("/v1/scans?wales_min=six", 400).value("error", ""), "wales_min"));
 
   // Delete: the files go, then the row.
   auto deleted = daemon.http().Delete("/v1/scans/" + std::to_string(first));

@@ -14,9 +14,9 @@
 #include <string_view>
 #include <thread>
 
-#include "fronted_server.h"
 #include "psrig/base/log.h"
 #include "psrig/processing/scan_layout.h"
+#include "fronted_server.h"
 
 namespace psrig::daemon {
 namespace {
