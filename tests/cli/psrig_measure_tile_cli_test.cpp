@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <fstream>
+#include <iterator>
 #include <string>
 
 #include <gtest/gtest.h>
@@ -78,6 +79,38 @@ TEST(PsrigMeasureTile, TurnedJerseyMeasuresAsMadeAndTiles) {
 }
 TEST(PsrigMeasureTile, TurnedTwillMeasuresAsMadeAndTiles) {
   expect_measured_like_truth("twill", "-4");
+}
+
+// The simulated rig (sensor noise, vignetting) with its swatch turned:
+// scan.json carries the gauge truth, the scan's report the measurement, the
+// construction guessed from the structure (no fabric metadata on a rig scan).
+TEST(PsrigMeasureTile, TurnedSwatchOnTheSimulatedRigMeasuresAsMade) {
+  TempDir temp;
+  std::ifstream in(fs::path(PSRIG_SOURCE_DIR) / "config/sim.toml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const auto& [from, to] :
+       {std::pair<std::string, std::string>{"pattern = \"jersey\"",
+                                            "pattern = \"plain\"\nswatch_rotation_deg = -3"},
+        {"root = \"../out/scans\"", "root = \"scans\""}}) {
+    const auto at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  }
+  std::ofstream(temp / "rig.toml") << text;
+  const auto scan = (temp / "scan").string();
+  auto run =
+      run_program("psrig", {"scan", "--config", (temp / "rig.toml").string(), "--out", scan});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(contains(run.out, "fabric: woven (guessed from the structure)")) << run.out;
+  const nlohmann::json truth = read_json(temp / "scan" / "scan.json")["ground_truth"]["fabric"];
+  EXPECT_EQ(truth["rotation_deg"], -3.0);
+  const nlohmann::json fabric = read_json(temp / "scan" / "maps" / "report.json")["fabric"];
+  ASSERT_TRUE(fabric["periodic"].get<bool>()) << fabric.dump(2);
+  EXPECT_EQ(fabric["construction"], "woven");
+  EXPECT_EQ(fabric["construction_source"], "structure");
+  for (const char* key : {"ends_per_cm", "picks_per_cm"})
+    EXPECT_NEAR(fabric[key].get<double>() / truth[key].get<double>(), 1.0, 0.01) << key;
+  EXPECT_NEAR(fabric["rotation_deg"].get<double>(), -3.0, 0.5);
 }
 
 TEST(PsrigMeasureTile, MapsWithoutReportWorkInPixelsWithAWarning) {
