@@ -4,6 +4,7 @@
 #include <array>
 #include <cmath>
 #include <complex>
+#include <limits>
 #include <cstdio>
 #include <numbers>
 #include <utility>
@@ -14,9 +15,11 @@ namespace psrig::processing {
 namespace {
 
 constexpr double kDeg = 180.0 / std::numbers::pi;
-// Measuring works on at most this many pixels a side: periods of the rig's
-// swatches are tens of pixels at full size, still several after halving.
-constexpr int kMaxWorkingSide = 1600;
+// Measuring works on the central square of at most this many pixels a side,
+// at full resolution: tens of repeats of any fabric the rig takes, and the
+// finest weave's threads (15 pixels apart) stay resolved, which shrinking
+// a 12 MP scan would not keep.
+constexpr int kMaxWorkingSide = 1280;
 // A texture repeats when the autocorrelation has a peak off zero this high.
 constexpr double kMinPeak = 0.25;
 // Lattice candidates: peaks within this fraction of the highest. Lower peaks
@@ -300,37 +303,20 @@ int threads_per_repeat(const std::vector<cv::Mat>& details, const cv::Mat& weigh
 struct Prepared {
   std::vector<cv::Mat> details;
   cv::Mat weight;
-  double scale = 1;  // full-size pixels per working pixel
 };
 
 Prepared prepare(const cv::Mat& height, const cv::Mat& albedo) {
   Prepared out;
-  const int side = std::max(height.cols, height.rows);
-  out.scale = std::max(1.0, static_cast<double>(side) / kMaxWorkingSide);
-  const auto shrink = [&](const cv::Mat& m) {
-    if (out.scale == 1.0) return m;
-    // NaN would spread: resize values and validity apart.
-    cv::Mat valid = m == m;
-    cv::Mat values = m.clone();
-    values.setTo(0, ~valid);
-    cv::Mat w, vs, ws;
-    valid.convertTo(w, CV_32F, 1.0 / 255);
-    const cv::Size small(static_cast<int>(m.cols / out.scale),
-                         static_cast<int>(m.rows / out.scale));
-    cv::resize(values, vs, small, 0, 0, cv::INTER_AREA);
-    cv::resize(w, ws, small, 0, 0, cv::INTER_AREA);
-    cv::Mat result = vs / ws;
-    result.setTo(std::numeric_limits<float>::quiet_NaN(), ws < 0.999);
-    return result;
-  };
-  cv::Mat h;
-  height.convertTo(h, CV_32F);
-  h = shrink(h);
+  const int w = std::min(height.cols, kMaxWorkingSide);
+  const int h = std::min(height.rows, kMaxWorkingSide);
+  const cv::Rect centre((height.cols - w) / 2, (height.rows - h) / 2, w, h);
+  cv::Mat hgt;
+  height(centre).convertTo(hgt, CV_32F);
   cv::Mat wh;
-  out.details.push_back(detail_of(h, wh));
+  out.details.push_back(detail_of(hgt, wh));
   out.weight = wh;
   if (!albedo.empty() && albedo.size() == height.size()) {
-    cv::Mat a = shrink(luminance(albedo));
+    cv::Mat a = luminance(albedo(centre));
     a.setTo(std::numeric_limits<float>::quiet_NaN(), wh == 0);
     cv::Mat wa;
     out.details.push_back(detail_of(a, wa));
@@ -378,25 +364,25 @@ std::optional<RepeatLattice> lattice_of(const Prepared& in, std::string* why) {
   const auto ra = refine_peak(map, a, 2);
   const auto rb = refine_peak(map, *b, 2);
   RepeatLattice lattice;
-  lattice.a_px = a * in.scale;
-  lattice.b_px = *b * in.scale;
+  lattice.a_px = a;
+  lattice.b_px = *b;
   lattice.confidence = 0.5 * ((ra ? ra->rho : 0.0) + (rb ? rb->rho : 0.0));
   if (const auto axes = fabric_axes(a, *b)) {
-    lattice.u_px = axes->first * in.scale;
-    lattice.v_px = axes->second * in.scale;
+    lattice.u_px = axes->first;
+    lattice.v_px = axes->second;
   } else {
     // Far from the axes: the more horizontal basis vector is u.
     cv::Point2d x = a, y = *b;
     if (std::abs(x.x) / norm(x) < std::abs(y.x) / norm(y)) std::swap(x, y);
     if (x.x < 0) x = -x;
     if (y.y < 0) y = -y;
-    lattice.u_px = x * in.scale;
-    lattice.v_px = y * in.scale;
+    lattice.u_px = x;
+    lattice.v_px = y;
   }
   // Limits of what a repeat can be: two whole ones inside the maps each way.
-  if (norm(lattice.u_px) * 2 > in.weight.cols * in.scale ||
-      norm(lattice.v_px) * 2 > in.weight.rows * in.scale)
-    return say("no repeat found: the repeat is larger than half the scan");
+  if (norm(lattice.u_px) * 2 > in.weight.cols ||
+      norm(lattice.v_px) * 2 > in.weight.rows)
+    return say("no repeat found: the repeat is larger than half the area measured (the central 1280 pixels a side)");
   return lattice;
 }
 
@@ -472,7 +458,7 @@ Result<FabricMeasurement> measure_fabric(const cv::Mat& height, const cv::Mat& a
   const double primitive = std::abs(cross(lattice->a_px, lattice->b_px));
   const int index = static_cast<int>(std::lround(area / std::max(primitive, 1e-9)));
 
-  const cv::Point2d us = m.u_px / prepared.scale, vs = m.v_px / prepared.scale;
+  const cv::Point2d us = m.u_px, vs = m.v_px;
   const int threads_u = threads_per_repeat(prepared.details, prepared.weight, us, vs, true);
   const int threads_v = threads_per_repeat(prepared.details, prepared.weight, us, vs, false);
 

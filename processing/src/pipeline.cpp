@@ -4,6 +4,7 @@
 #include <cmath>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <optional>
 
 #include <opencv2/imgcodecs.hpp>
@@ -137,7 +138,11 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   const bool in_mm = scan->description.pixel_size_mm.has_value();
   std::optional<HeightSummary> height_summary;
   std::optional<BendSummary> bend_summary;
-  cv::Mat measured_height;  // the height as written, for the fabric measurement
+  // The fabric measurement runs beside the map writes, from the height on.
+  MeasureOptions measure;
+  measure.pixel_size_mm = scan->description.pixel_size_mm;
+  measure.hints = fabric_hints(scan->description.document);
+  std::future<Result<FabricMeasurement>> fabric_future;
   double integrate_ms = 0;
   struct Task {
     std::string name;
@@ -204,7 +209,9 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
                         summary.units);
            }
            bend_summary = bend;
-           measured_height = *height;  // for the fabric measurement
+           fabric_future = std::async(std::launch::async, [&measure, &result, h = *height] {
+             return measure_fabric(h, result.albedo, measure);
+           });
 
            double low = 0, high = 0;
            if (summary.pixels > 0) cv::minMaxLoc(*height, &low, &high, nullptr, nullptr, finite);
@@ -258,12 +265,10 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
     stages.emplace_back("integrate", integrate_ms);
   stages.emplace_back("integrate_and_write", ms_since(stage_start));
   // The fabric's repeat and densities, from the maps just made.
-  const auto measure_start = Clock::now();
-  MeasureOptions measure;
-  measure.pixel_size_mm = scan->description.pixel_size_mm;
-  measure.hints = fabric_hints(scan->description.document);
-  const auto fabric =
-      measure_fabric(measured_height.empty() ? result.p : measured_height, result.albedo, measure);
+  const auto measure_start = Clock::now();  // what is left of it after the writes
+  const auto fabric = fabric_future.valid()
+                          ? fabric_future.get()
+                          : measure_fabric(result.p, result.albedo, measure);  // no height
   stages.emplace_back("measure", ms_since(measure_start));
   stages.emplace_back("total", ms_since(start));
 

@@ -68,6 +68,18 @@ INSTANTIATE_TEST_SUITE_P(Patterns, FabricGauge,
                                                                                    : "_turned_cw");
                          });
 
+// A scan larger than the measured centre (1280 pixels a side): the finest
+// weave's threads, 15 pixels apart, must stay resolved.
+TEST(FabricMeasure, LargeScanIsMeasuredAtFullResolution) {
+  const sim::Swatch swatch = swatch_of({"plain", 3}, {1800, 1400});
+  const auto m = measure_fabric(swatch.height_mm, swatch.albedo,
+                                {0.025, {Construction::woven, "plain"}});
+  ASSERT_TRUE(m && m->periodic);
+  EXPECT_NEAR(m->across_density / 24.0, 1.0, 0.01) << summary_line(*m);
+  EXPECT_NEAR(m->along_density / 22.0, 1.0, 0.01) << summary_line(*m);
+  EXPECT_NEAR(m->rotation_deg, 3.0, 0.5) << summary_line(*m);
+}
+
 // Without metadata the construction comes from the structure: a weave's
 // centred or oblique cell of alike threads, a knit's plain rectangle.
 TEST(FabricMeasure, TellsKnitFromWovenByStructure) {
