@@ -4,8 +4,8 @@
 #include <array>
 #include <cmath>
 #include <complex>
-#include <limits>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 #include <utility>
 
@@ -98,9 +98,25 @@ struct LagMap {
 };
 
 LagMap lag_map(const std::vector<cv::Mat>& details, const cv::Mat& weight) {
-  const cv::Size padded(cv::getOptimalDFTSize(2 * weight.cols),
-                        cv::getOptimalDFTSize(2 * weight.rows));
-  const cv::Mat count = autocorrelation(weight, padded);
+  // Lags up to half the size each way: padding by half keeps them free of wrap-around.
+  const cv::Size padded(cv::getOptimalDFTSize(weight.cols + weight.cols / 2 + 1),
+                        cv::getOptimalDFTSize(weight.rows + weight.rows / 2 + 1));
+  // Pixels overlapping at each lag: (w - |dx|)(h - |dy|) when every pixel
+  // counts, else the weight's own autocorrelation.
+  cv::Mat count;
+  if (cv::countNonZero(weight != 1.0f) == 0) {
+    count = cv::Mat::zeros(padded, CV_32F);
+    for (int r = 0; r < padded.height; ++r) {
+      const int dy = std::min(r, padded.height - r);
+      for (int c = 0; c < padded.width; ++c) {
+        const int dx = std::min(c, padded.width - c);
+        count.at<float>(r, c) = static_cast<float>(std::max(0, weight.cols - dx)) *
+                                static_cast<float>(std::max(0, weight.rows - dy));
+      }
+    }
+  } else {
+    count = autocorrelation(weight, padded);
+  }
   cv::Mat sum = cv::Mat::zeros(padded, CV_32F);
   for (const auto& d : details) {
     cv::Mat acf = autocorrelation(d, padded);
@@ -380,9 +396,10 @@ std::optional<RepeatLattice> lattice_of(const Prepared& in, std::string* why) {
     lattice.v_px = y;
   }
   // Limits of what a repeat can be: two whole ones inside the maps each way.
-  if (norm(lattice.u_px) * 2 > in.weight.cols ||
-      norm(lattice.v_px) * 2 > in.weight.rows)
-    return say("no repeat found: the repeat is larger than half the area measured (the central 1280 pixels a side)");
+  if (norm(lattice.u_px) * 2 > in.weight.cols || norm(lattice.v_px) * 2 > in.weight.rows)
+    return say(
+        "no repeat found: the repeat is larger than half the area measured (the central 1280 "
+        "pixels a side)");
   return lattice;
 }
 
