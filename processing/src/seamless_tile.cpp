@@ -144,7 +144,7 @@ cv::Mat cross_fade(const cv::Mat& e, int width, int height, int band) {
 
 // RMS over the finite values of the second difference across line `k`:
 // columns when `columns`, else rows.
-double line_rms(const cv::Mat& m, int k, bool columns) {
+double line_rms(const cv::Mat& m, int k, bool columns, long* finite = nullptr) {
   double sum = 0;
   long count = 0;
   const int n = columns ? m.rows : m.cols;
@@ -166,6 +166,7 @@ double line_rms(const cv::Mat& m, int k, bool columns) {
       ++count;
     }
   }
+  if (finite) *finite += count;
   return count ? std::sqrt(sum / static_cast<double>(count)) : 0.0;
 }
 
@@ -219,8 +220,11 @@ SeamCheck check_seam(const cv::Mat& map, const std::string& name) {
   cv::Mat twice;
   cv::repeat(map, 2, 2, twice);
   const int w = map.cols, h = map.rows;
-  check.value = std::max({line_rms(twice, w - 1, true), line_rms(twice, w, true),
-                          line_rms(twice, h - 1, false), line_rms(twice, h, false)});
+  long finite = 0;
+  check.value =
+      std::max({line_rms(twice, w - 1, true, &finite), line_rms(twice, w, true, &finite),
+                line_rms(twice, h - 1, false, &finite), line_rms(twice, h, false, &finite)});
+  check.samples = finite;
   std::vector<double> inside;
   for (int c = 1; c < w - 1; ++c)
     inside.push_back(line_rms(map, c, true));
@@ -394,8 +398,12 @@ Result<Tile> make_seamless_tile(const Maps& maps, const std::optional<RepeatLatt
   tile.pixel_size_mm = out.pixel_size_mm;
   tile.width = frame.nu * norm(frame.u) * px;
   tile.height = frame.nv * course_spacing * px;
-  tile.seam = out.height.empty() ? check_seam(grey_of(out.albedo), "albedo")
-                                 : check_seam(out.height, "height");
+  // The height's seam where it has one; a scan whose height is NaN along
+  // the border (outside its mask) is checked on the albedo instead.
+  tile.seam = out.height.empty() ? SeamCheck{} : check_seam(out.height, "height");
+  const long seam_samples = 2L * (out.p.rows + out.p.cols) * 2;  // four lines of the 2x2
+  if (out.height.empty() || tile.seam.samples < seam_samples / 2)
+    tile.seam = check_seam(grey_of(out.albedo), "albedo");
   return tile;
 }
 
@@ -430,6 +438,7 @@ nlohmann::json tile_json(const Tile& tile) {
       {"bound_is", "95th percentile of the same statistic over the tile's interior lines"},
       {"value", tile.seam.value},
       {"map", tile.seam.map},
+      {"samples", tile.seam.samples},
       {"passed", tile.seam.passed()}};
   return j;
 }

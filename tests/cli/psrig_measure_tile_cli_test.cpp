@@ -182,6 +182,7 @@ TEST(PsrigMeasureTile, BeethovenHasNoRepeatAndTilesAsTheWholeScan) {
   const nlohmann::json tj = read_json(temp / "maps" / "tile" / "tile.json");
   EXPECT_FALSE(tj["periodic"].get<bool>());
   EXPECT_TRUE(tj["seam"]["passed"].get<bool>()) << tj["seam"].dump();
+  EXPECT_GT(tj["seam"]["samples"].get<int>(), 400) << tj["seam"].dump();  // checked, not vacuous
   EXPECT_LT(tj["width_px"].get<int>(), 256);
   EXPECT_GT(tj["width_px"].get<int>(), 200);
 }

@@ -51,8 +51,13 @@ Command add_tile_command(CLI::App& parent) {
             auto tile = processing::make_seamless_tile(*maps, lattice, options);
             if (!tile) return report_error("tile", tile.error());
             if (!tile->periodic)
-              std::cerr << "psrig tile: warning: " << (why.empty() ? "" : why + "; ")
-                        << tile->message << '\n';
+              std::cerr << "psrig tile: warning: "
+                        << (why.empty() ? tile->message
+                                        : why +
+                                              "; the tile is the whole scan with its border "
+                                              "cross-faded")
+                        << '\n';
+            ;
             const std::filesystem::path out =
                 args->out.empty() ? std::filesystem::path(args->maps) / processing::kTileDirectory
                                   : std::filesystem::path(args->out);

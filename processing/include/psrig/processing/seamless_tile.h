@@ -32,6 +32,7 @@ struct SeamCheck {
   std::string map;  // "height", or "albedo" for maps without a height
   double value = 0;
   double bound = 0;
+  long samples = 0;  // finite second differences on the seam lines
   [[nodiscard]] bool passed() const { return value <= bound; }
 };
 [[nodiscard]] SeamCheck check_seam(const cv::Mat& map, const std::string& name);
