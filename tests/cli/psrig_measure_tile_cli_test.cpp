@@ -157,8 +157,11 @@ TEST(PsrigMeasureTile, MissingMapsAndUnwritableOutputAreClearErrors) {
   EXPECT_TRUE(contains(refused.err, "not a psrig tile directory")) << refused.err;
   EXPECT_TRUE(fs::exists(temp / "keep" / "notes.txt"));
   EXPECT_FALSE(fs::exists(temp / "keep" / "tile.json"));
-  for (const auto& entry : fs::directory_iterator(temp / "keep" / ".."))  // no staging left behind
-    EXPECT_EQ(entry.path().filename().string().find(".psrig"), std::string::npos) << entry.path();
+  // Nothing half-written: no staging directory (".NAME.partial-PID-N") left beside them.
+  for (const auto& entry : fs::directory_iterator(temp / "keep" / ".."))
+    EXPECT_NE(entry.path().filename().string().front(), '.') << entry.path();
+  for (const auto& entry : fs::directory_iterator(temp / "scan" / "maps"))
+    EXPECT_NE(entry.path().filename().string().front(), '.') << entry.path();
   auto many = run_program("psrig", {"tile", scan + "/maps", "--repeats", "50"});
   EXPECT_EQ(many.exit_code, 2);
   EXPECT_TRUE(contains(many.err, "--repeats")) << many.err;
