@@ -80,6 +80,12 @@ TEST(PsrigMeasureTile, TurnedJerseyMeasuresAsMadeAndTiles) {
 TEST(PsrigMeasureTile, TurnedTwillMeasuresAsMadeAndTiles) {
   expect_measured_like_truth("twill", "-4");
 }
+TEST(PsrigMeasureTile, TurnedRibMeasuresAsMadeAndTiles) {
+  expect_measured_like_truth("rib", "2.5");
+}
+TEST(PsrigMeasureTile, TurnedGarterMeasuresAsMadeAndTiles) {
+  expect_measured_like_truth("garter", "-3");
+}
 
 // The simulated rig (sensor noise, vignetting) with its swatch turned:
 // scan.json carries the gauge truth, the scan's report the measurement, the
@@ -175,6 +181,7 @@ TEST(PsrigMeasureTile, BeethovenHasNoRepeatAndTilesAsTheWholeScan) {
   TempDir temp;
   const auto maps = (temp / "maps").string();
   ASSERT_EQ(run_program("psrig", {"process", data->string(), "--out", maps, "-q"}).exit_code, 0);
+  EXPECT_FALSE(read_json(temp / "maps" / "report.json")["fabric"]["periodic"].get<bool>());
   auto measure = run_program("psrig", {"measure", maps});
   EXPECT_EQ(measure.exit_code, 0) << measure.err;
   EXPECT_TRUE(contains(measure.err, "no pixel_size_mm")) << measure.err;
