@@ -388,6 +388,8 @@ Result<processing::Scan> ScanSequencer::acquire(
                                                    {"created", request.calibration->created},
                                                    {"applied", applied}}
                                   : nlohmann::json(nullptr);
+  if (!request.ground_truth_fabric.is_null())
+    d.document["ground_truth"]["fabric"] = request.ground_truth_fabric;
   return scan;
 }
 

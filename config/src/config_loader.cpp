@@ -478,6 +478,7 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
     }
   }
   PSRIG_TRY(sim->get("pattern", s.pattern, {"jersey", "rib", "garter", "plain", "twill"}));
+  PSRIG_TRY(sim->get("swatch_rotation_deg", s.swatch_rotation_deg, -45, 45));
   PSRIG_TRY(sim->get("seed", s.seed));
   PSRIG_TRY(sim->get("width", s.width, 8, 16384));
   PSRIG_TRY(sim->get("height", s.height, 8, 16384));

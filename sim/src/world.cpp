@@ -46,6 +46,7 @@ Swatch make_world_swatch(const config::SimConfig& sim) {
   params.size = {sim.width, sim.height};
   params.pixel_size_mm = sim.pixel_size_mm;
   params.seed = sim.seed;
+  params.rotation_deg = sim.swatch_rotation_deg;
   return make_swatch(params);
 }
 

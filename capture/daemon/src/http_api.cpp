@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <fstream>
 #include <httplib.h>
 #include <limits>
@@ -451,6 +452,21 @@ void HttpApi::Impl::submit(const std::string& text, httplib::Response& res) {
   reply(res, 202, {{"id", *id}, {"status", "queued"}});
 }
 
+namespace {
+
+// "wales_min" -> (wales_per_cm, false), "picks_max" -> (picks_per_cm, true).
+std::optional<std::pair<std::string, bool>> fabric_range_parameter(const std::string& key) {
+  for (const char* column : CatalogueQuery::kFabricColumns) {
+    const std::string name(column);
+    const std::string stem = name.substr(0, name.find('_'));
+    if (key == stem + "_min") return std::pair{name, false};
+    if (key == stem + "_max") return std::pair{name, true};
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
 void HttpApi::Impl::search(const httplib::Request& req, httplib::Response& res) {
   CatalogueQuery query;
   for (const auto& [key, value] : req.params) {
@@ -480,11 +496,23 @@ void HttpApi::Impl::search(const httplib::Request& req, httplib::Response& res) 
                       key + ": expected a whole number from " + std::to_string(low) +
                           (key == "limit" ? " to " + std::to_string(high) : ""));
       (key == "limit" ? query.limit : query.offset) = number;
+    } else if (const auto range = fabric_range_parameter(key)) {
+      // wales_min=6&wales_max=8: a measured density per cm within a range.
+      double number = 0;
+      const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), number);
+      if (ec != std::errc() || end != value.data() + value.size() || !std::isfinite(number))
+        return refuse(res, 400, key + ": expected a number of threads per cm, e.g. 6.5");
+      auto& ranges = query.fabric;
+      auto it = std::find_if(ranges.begin(), ranges.end(),
+                             [&](const auto& r) { return r.column == range->first; });
+      if (it == ranges.end()) it = ranges.insert(ranges.end(), {range->first, {}, {}});
+      (range->second ? it->max : it->min) = number;
     } else {
       return refuse(res, 400,
                     key +
                         ": unknown parameter (expected sample_id, tag, from, to, status, limit, "
-                        "offset)");
+                        "offset, wales_min, wales_max, courses_min, courses_max, ends_min, "
+                        "ends_max, picks_min, picks_max)");
     }
   }
   auto found = service.catalogue().search(query);

@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "psrig/capture/camera.h"
 #include "psrig/config/rig_config.h"
 #include "psrig/firmware_host/safe_lights.h"
@@ -56,6 +58,8 @@ struct ScanRequest {
   // simulated camera has one).
   cv::Mat ground_truth_normal;
   cv::Mat ground_truth_height;
+  // The simulated swatch's gauge as made (scan.json's ground_truth.fabric), or null.
+  nlohmann::json ground_truth_fabric;
   // The lights as calibrated (one per channel); absent: rig.toml's
   // geometry and lights.intensity, and scan.json's "calibration" is null.
   std::optional<AppliedCalibration> calibration;

@@ -140,6 +140,7 @@ struct SimConfig {
   std::optional<std::array<double, 9>> colour_matrix;
   double led_angular_diameter_deg = 2;  // each LED as the sphere sees it (chrome highlight size)
   std::string pattern = "jersey";
+  double swatch_rotation_deg = 0;  // the fabric turned counterclockwise (as seen) on the rig
   std::uint64_t seed = 1;
   int width = 640;
   int height = 480;
