@@ -478,4 +478,40 @@ Status write_tile(const Tile& tile, const fs::path& directory) {
   return staging->commit(*existing, false);
 }
 
+Result<Tile> cut_tile(const Maps& maps, const TileOptions& options,
+                      std::vector<std::string>& warnings) {
+  std::string why;
+  const cv::Mat& height = maps.height.empty() ? maps.p : maps.height;
+  const auto lattice = find_repeat_lattice(height, maps.albedo, &why);
+  if (!lattice && options.repeats > 0)
+    return std::unexpected(
+        bad_input({}, "--repeats", why + "; --repeats needs a repeating fabric"));
+  auto tile = make_seamless_tile(maps, lattice, options);
+  if (!tile) return tile;
+  if (!tile->periodic)
+    warnings.push_back(why.empty() ? tile->message
+                                   : why + "; the tile is the whole scan with its border "
+                                           "cross-faded");
+  if (!tile->seam.passed())
+    warnings.push_back("the seam's second difference " + std::to_string(tile->seam.value) +
+                       " exceeds the interior's 95th percentile " +
+                       std::to_string(tile->seam.bound));
+  return tile;
+}
+
+Result<fs::path> ensure_tile(const fs::path& maps_directory, std::vector<std::string>& warnings) {
+  const fs::path directory = maps_directory / kTileDirectory;
+  std::error_code tile_ec;
+  std::error_code maps_ec;
+  const auto made = fs::last_write_time(directory / kTileDescription, tile_ec);
+  const auto maps = fs::last_write_time(maps_directory / map_files::kReport, maps_ec);
+  if (!tile_ec && (maps_ec || made >= maps)) return directory;
+  auto read = read_maps(maps_directory, warnings);
+  if (!read) return std::unexpected(read.error());
+  auto tile = cut_tile(*read, {}, warnings);
+  if (!tile) return std::unexpected(tile.error());
+  if (auto ok = write_tile(*tile, directory); !ok) return std::unexpected(ok.error());
+  return directory;
+}
+
 }  // namespace psrig::processing

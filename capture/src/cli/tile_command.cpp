@@ -38,34 +38,17 @@ Command add_tile_command(CLI::App& parent) {
             std::vector<std::string> warnings;
             auto maps = processing::read_maps(args->maps, warnings);
             if (!maps) return report_error("tile", maps.error());
-            for (const auto& w : warnings)
-              std::cerr << "psrig tile: warning: " << w << '\n';
-            std::string why;
-            const cv::Mat& height = maps->height.empty() ? maps->p : maps->height;
-            const auto lattice = processing::find_repeat_lattice(height, maps->albedo, &why);
-            if (!lattice && args->repeats > 0)
-              return report_error(
-                  "tile", bad_input({}, "--repeats", why + "; --repeats needs a repeating fabric"));
             processing::TileOptions options;
             options.repeats = args->repeats;
-            auto tile = processing::make_seamless_tile(*maps, lattice, options);
+            auto tile = processing::cut_tile(*maps, options, warnings);
             if (!tile) return report_error("tile", tile.error());
-            if (!tile->periodic)
-              std::cerr << "psrig tile: warning: "
-                        << (why.empty() ? tile->message
-                                        : why +
-                                              "; the tile is the whole scan with its border "
-                                              "cross-faded")
-                        << '\n';
-            ;
+            for (const auto& w : warnings)
+              std::cerr << "psrig tile: warning: " << w << '\n';
             const std::filesystem::path out =
                 args->out.empty() ? std::filesystem::path(args->maps) / processing::kTileDirectory
                                   : std::filesystem::path(args->out);
             if (auto ok = processing::write_tile(*tile, out); !ok)
               return report_error("tile", ok.error());
-            if (!tile->seam.passed())
-              std::cerr << "psrig tile: warning: the seam's second difference " << tile->seam.value
-                        << " exceeds the interior's 95th percentile " << tile->seam.bound << '\n';
             if (args->quiet) return 0;
             const bool mm = tile->pixel_size_mm.has_value();
             std::printf("tile: %s\n", out.string().c_str());

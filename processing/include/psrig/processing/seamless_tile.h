@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
@@ -59,6 +60,18 @@ struct Tile {
 [[nodiscard]] Result<Tile> make_seamless_tile(const Maps& maps,
                                               const std::optional<RepeatLattice>& lattice,
                                               const TileOptions& options = {});
+
+// The tile of `maps`: its repeat found (find_repeat_lattice), the tile cut.
+// A fabric with no repeat gets the whole scan with its border cross-faded,
+// and a warning saying why; so does a seam the check finds visible.
+[[nodiscard]] Result<Tile> cut_tile(const Maps& maps, const TileOptions& options,
+                                    std::vector<std::string>& warnings);
+
+// The tile directory of a maps directory, `maps_directory/tile`, made
+// (and written) unless one is there already, at least as new as the maps'
+// report.json: what the exports and psrigd use. Its warnings when made.
+[[nodiscard]] Result<std::filesystem::path> ensure_tile(const std::filesystem::path& maps_directory,
+                                                        std::vector<std::string>& warnings);
 
 // tile.json.
 [[nodiscard]] nlohmann::json tile_json(const Tile& tile);
