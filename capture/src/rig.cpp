@@ -63,6 +63,7 @@ std::optional<AppliedCalibration> current_calibration(const config::RigConfig& c
     applied.intensities.push_back(light.intensity);
   }
   applied.pixel_size_mm = stored->pixel_size_mm;
+  applied.led_positions_mm = stored->led_positions_mm;
   for (const auto& image : stored->flat_images) {
     cv::Mat flat = cv::imread(image.string(), cv::IMREAD_UNCHANGED);
     if (flat.empty() || flat.depth() != CV_16U) {

@@ -62,6 +62,9 @@ struct StoredCalibration {
   std::vector<CalibratedLight> lights;
   std::vector<std::filesystem::path> flat_images;
   std::optional<double> pixel_size_mm;  // its scale section's, when measured
+  // Its near LEDs' positions (led_positions_mm.positions), one per light,
+  // when measured.
+  std::vector<cv::Vec3d> led_positions_mm;
 };
 [[nodiscard]] Result<StoredCalibration> read_calibration(const std::filesystem::path& file);
 

@@ -40,6 +40,10 @@ struct AppliedCalibration {
   // Its measured pixel size (psrig calibrate scale), replacing
   // geometry.pixel_size_mm.
   std::optional<double> pixel_size_mm;
+  // Its measured LED positions (psrig calibrate lights --places), one per
+  // light, mm from the camera axis on the reference plane, replacing
+  // rig.toml's geometry; empty: not measured.
+  std::vector<cv::Vec3d> led_positions_mm;
 };
 
 struct ScanRequest {
