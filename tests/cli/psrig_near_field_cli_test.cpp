@@ -155,6 +155,28 @@ TEST(PsrigNearField, SwatchHeightLowersThePositionsInTheScan) {
   EXPECT_EQ(d["principal_point_px"], json::array({300.0, 250.0}));
 }
 
+// [processing] reject: psrig scan processes every scan with robust
+// rejection, and report.json says so.
+TEST(PsrigRigProcessing, RejectFromRigTomlReachesTheReport) {
+  TempDir temp;
+  const fs::path file = temp / "rig.toml";
+  std::ofstream(file) << "[lights]\nchannels = 6\n[camera]\nbackend = \"sim\"\n"
+                         "[storage]\nroot = \"state\"\n[sim]\nwidth = 160\nheight = 120\n";
+  auto plain = run_program(
+      "psrig", {"scan", "--config", file.string(), "--out", (temp / "plain").string(), "-q"});
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  const json without = read_json(temp / "plain" / "maps" / "report.json");
+  EXPECT_FALSE(without["options"]["reject_outliers"].get<bool>());
+  EXPECT_EQ(without["options"]["reject_method"], "none");
+  std::ofstream(file, std::ios::app) << "[processing]\nreject = true\n";
+  auto robust = run_program(
+      "psrig", {"scan", "--config", file.string(), "--out", (temp / "robust").string(), "-q"});
+  ASSERT_EQ(robust.exit_code, 0) << robust.err;
+  const json with = read_json(temp / "robust" / "maps" / "report.json");
+  EXPECT_TRUE(with["options"]["reject_outliers"].get<bool>());
+  EXPECT_EQ(with["options"]["reject_method"], "lts-reweighted");
+}
+
 TEST(PsrigNearField, PlacesNeedAChromeSphereThatMoves) {
   TempDir temp;
   // The default 10 mm sphere cannot move about a 16 x 12 mm field.

@@ -195,5 +195,21 @@ TEST(PsrigdCalibration, CalibrationsRunThroughTheApiQueuedWithScans) {
   EXPECT_TRUE(contains(field["error"].get<std::string>(), "target: unknown field")) << field.dump();
 }
 
+// [processing] reject reaches psrigd's scans too.
+TEST(PsrigdCalibration, ScansUseRejectFromRigToml) {
+  TempDir temp;
+  const int port = free_port();
+  const auto config = daemon_config(temp, port,
+                                    {{"tilts_deg = [0, 120, 240]", "tilts_deg = [0, 90, 180, 270]"},
+                                     {"channels = 3", "channels = 4"},
+                                     {"[storage]", "[processing]\nreject = true\n\n[storage]"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+  const auto entry = daemon.wait_finished(daemon.submit({{"sample_id", "robust"}}));
+  ASSERT_EQ(entry["status"], "done") << entry.dump() << daemon.log();
+  EXPECT_TRUE(entry["report"]["options"]["reject_outliers"].get<bool>()) << entry["report"].dump();
+  EXPECT_EQ(entry["report"]["options"]["reject_method"], "lts-reweighted");
+}
+
 }  // namespace
 }  // namespace psrig::test
