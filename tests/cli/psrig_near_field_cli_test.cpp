@@ -113,6 +113,31 @@ TEST(PsrigNearField, CalibratedLedPositionsCorrectTheWholeField) {
             << image;
   }
 
+  // The same from images already taken: --images once per place (the
+  // captures' LED frames copied out, as a technician's own would be).
+  std::vector<std::string> from_images = {"calibrate",     "lights",      "--config",
+                                          config.string(), "--sphere-mm", "6"};
+  for (int place = 1; place <= 3; ++place) {
+    const fs::path folder = temp / ("place" + std::to_string(place));
+    fs::create_directories(folder);
+    for (int k = 0; k < 3; ++k)
+      fs::copy_file(temp / "state" / "calibrations" / "0001" / "captures" /
+                        ("chrome-p" + std::to_string(place) + "-0") /
+                        ("led" + std::to_string(k) + ".png"),
+                    folder / ("led" + std::to_string(k) + ".png"));
+    from_images.insert(from_images.end(), {"--images", folder.string()});
+  }
+  auto imported = run_program("psrig", from_images);
+  ASSERT_EQ(imported.exit_code, 0) << imported.err;
+  const json again = read_json(temp / "state" / "calibrations" / "0002" / "calibration.json");
+  ASSERT_EQ(again["led_positions_mm"]["places"].size(), 3u);
+  EXPECT_EQ(again["led_positions_mm"]["sphere_diameter_from"], "--sphere-mm");
+  for (int k = 0; k < 3; ++k) {
+    const auto& p = again["led_positions_mm"]["positions"][k];
+    const cv::Vec3d found(p[0].get<double>(), p[1].get<double>(), p[2].get<double>());
+    EXPECT_LT(cv::norm(found - 250.0 * processing::light_direction(120.0 * k, 45)), 10.0) << k;
+  }
+
   // Corrected: the next scan carries the positions and is processed with them.
   auto after = run_program(
       "psrig", {"scan", "--config", config.string(), "--out", (temp / "after").string(), "-q"});
@@ -120,7 +145,8 @@ TEST(PsrigNearField, CalibratedLedPositionsCorrectTheWholeField) {
   const json description = read_json(temp / "after" / "scan.json");
   EXPECT_EQ(description["calibration"]["applied"], json::array({"lights", "led_positions_mm"}));
   for (int k = 0; k < 3; ++k)
-    EXPECT_EQ(description["lights"][k]["position_mm"], section["positions"][k]) << k;
+    EXPECT_EQ(description["lights"][k]["position_mm"], again["led_positions_mm"]["positions"][k])
+        << k;
   const json report = read_json(temp / "after" / "maps" / "report.json");
   EXPECT_TRUE(report["light_model"]["near_field"].get<bool>());
   const double mean = report["ground_truth"]["angular_error_deg"]["mean"].get<double>();

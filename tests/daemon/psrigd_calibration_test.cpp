@@ -174,6 +174,24 @@ TEST(PsrigdCalibration, CalibrationsRunThroughTheApiQueuedWithScans) {
   job = wait_calibration(daemon, failing["id"].get<std::int64_t>());
   EXPECT_EQ(job["status"], "failed") << job.dump();
   EXPECT_TRUE(contains(job["error"].get<std::string>(), "board")) << job.dump();
+  {
+    // Its error event, replayed from the start of the stream.
+    std::string stream;
+    httplib::Client listener("127.0.0.1", port);
+    listener.set_read_timeout(10s);
+    (void)listener.Get("/v1/events", httplib::Headers{{"Last-Event-ID", "0"}},
+                       [&](const char* data, std::size_t length) {
+                         stream.append(data, length);
+                         return !contains(stream, "event: error");
+                       });
+    const auto error = stream.find("event: error");
+    ASSERT_NE(error, std::string::npos) << stream;
+    const auto data = stream.find("data: ", error);
+    const auto event = json::parse(stream.substr(data + 6, stream.find('\n', data) - data - 6));
+    EXPECT_EQ(event["calibration"], failing["id"]) << event.dump();
+    EXPECT_EQ(event["kind"], "scale");
+    EXPECT_TRUE(contains(event["error"].get<std::string>(), "board")) << event.dump();
+  }
   auto logged = firmware_host::read_switch_log_file(switches);
   ASSERT_TRUE(logged) << logged.error().describe();
   firmware_host::SwitchLog log;
