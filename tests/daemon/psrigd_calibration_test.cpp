@@ -80,14 +80,14 @@ TEST(PsrigdCalibration, ScanAndConfigCheckSayWhenACalibrationIsStale) {
   ASSERT_EQ(check.exit_code, 0) << check.err;
   EXPECT_TRUE(contains(check.out, "calibration 0001")) << check.out;
   EXPECT_TRUE(contains(check.out, "stale")) << check.out;
-  auto scan = run_program("psrig", {"scan", "--config", config.string(), "--no-process", "-q"});
+  auto scan = run_program("psrig", {"scan", "--config", config.string(), "--no-process"});
   ASSERT_EQ(scan.exit_code, 0) << scan.err;
   EXPECT_TRUE(contains(scan.err, "psrig scan: warning: the rig's calibration 0001 is")) << scan.err;
   EXPECT_TRUE(contains(scan.err, "max_age_days = 30")) << scan.err;
 
   // 0: never stale.
   std::ofstream(config, std::ios::app) << "\n[calibration]\nmax_age_days = 0\n";
-  scan = run_program("psrig", {"scan", "--config", config.string(), "--no-process", "-q"});
+  scan = run_program("psrig", {"scan", "--config", config.string(), "--no-process"});
   ASSERT_EQ(scan.exit_code, 0) << scan.err;
   EXPECT_FALSE(contains(scan.err, "warning")) << scan.err;
 

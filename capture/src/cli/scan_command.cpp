@@ -71,11 +71,13 @@ Command add_scan_command(CLI::App& parent) {
             int exit_code = 0;
             auto config = load_config_or_report("scan", args->config, exit_code);
             if (!config) return exit_code;
-            // A missing or stale calibration does not stop a scan; it is said.
+            // A missing or stale calibration does not stop a scan; it is said
+            // (unless -q: nothing on success).
             const auto calibration =
                 calibration::calibration_status(calibration::CalibrationStore(config->storage.root),
                                                 config->calibration.max_age_days);
-            if (const auto warning = calibration::staleness_warning(calibration); !warning.empty())
+            if (const auto warning = calibration::staleness_warning(calibration);
+                !warning.empty() && !args->quiet)
               std::fprintf(stderr, "psrig scan: warning: %s\n", warning.c_str());
             auto rig = open_rig(*config);
             if (!rig) return report_error("scan", rig.error());
