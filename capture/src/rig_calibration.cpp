@@ -553,6 +553,13 @@ Result<CalibrationOutcome> lights_on_rig(const config::RigConfig& rig_config,
   }
   const int captures = args.frames > 0 ? args.frames : 3;
   calibration::CalibrationStore store(config.storage.root);
+  // What places the sphere in millimetres, known before the LEDs go on.
+  std::optional<NearFieldScale> scale;
+  if (args.places > 1) {
+    auto known = near_field_scale(args, config, store, {});
+    if (!known) return std::unexpected(known.error());
+    scale = *known;
+  }
   auto staging = store.begin_next();
   if (!staging) return std::unexpected(staging.error());
   std::vector<std::vector<fs::path>> scans(static_cast<std::size_t>(args.places));
@@ -620,10 +627,8 @@ Result<CalibrationOutcome> lights_on_rig(const config::RigConfig& rig_config,
                         args.target == "matte" ? &set : nullptr, camera, 0.95);
   if (!result) return as_captured(result.error());
   nlohmann::json led_positions = nullptr;
-  if (sets.size() > 1) {
-    auto scale =
-        near_field_scale(args, config, store, set.lights.front().frames.front().image.size());
-    if (!scale) return std::unexpected(scale.error());
+  if (sets.size() > 1 && scale) {
+    scale->plane.image_size = set.lights.front().frames.front().image.size();
     auto section = led_positions_section(sets, *scale, staging->path(),
                                          fs::absolute(config.source).lexically_normal());
     if (!section) return as_captured(section.error());

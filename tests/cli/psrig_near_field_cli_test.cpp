@@ -223,6 +223,23 @@ TEST(PsrigNearField, PlacesNeedAChromeSphereThatMoves) {
   EXPECT_NE(run.err.find("move it"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(temp / "state" / "calibrations" / "0001"));
 
+  // A real rig: the pixel size and the sphere's diameter are asked for
+  // before the technician is asked to place the sphere (nothing captured).
+  const fs::path real = temp / "real.toml";
+  std::ofstream(real) << "[camera]\nbackend = \"v4l2\"\ndevice = \"/dev/psrig-no-camera\"\n"
+                         "[storage]\nroot = \"real-state\"\n";
+  run = run_program("psrig", {"calibrate", "lights", "--config", real.string(), "--places", "3"});
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("geometry.pixel_size_mm"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("psrig calibrate scale"), std::string::npos) << run.err;
+  std::ofstream(real, std::ios::app) << "[geometry]\npixel_size_mm = 0.02\n";
+  run = run_program("psrig", {"calibrate", "lights", "--config", real.string(), "--places", "3"});
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find("calibration.sphere_diameter_mm"), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("--sphere-mm"), std::string::npos) << run.err;
+  EXPECT_EQ(run.err.find("press Enter"), std::string::npos) << run.err;
+  EXPECT_FALSE(fs::exists(temp / "real-state" / "calibrations" / "0001"));
+
   // A matte sphere cannot place the LEDs.
   run = run_program("psrig", {"calibrate", "lights", "--config", same.string(), "--places", "3",
                               "--target", "matte"});
