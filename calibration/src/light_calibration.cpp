@@ -402,8 +402,8 @@ Result<std::vector<LedPosition>> triangulate_leds(const std::vector<SpherePlacem
     // every place's highlight alike, not at random.
     double floor_mm = 0;
     for (const auto& placement : placements)
-      floor_mm = std::max(floor_mm, placement.sphere.rms_px * s /
-                                        std::sqrt(std::max(1, placement.sphere.points)));
+      floor_mm = std::max(
+          floor_mm, placement.sphere.rms_px * s / std::sqrt(std::max(1, placement.sphere.points)));
     const int dof = 2 * static_cast<int>(rays.size()) - 3;
     const double scatter = dof > 0 ? sum / dof : p.ray_rms_mm * p.ray_rms_mm;
     const double variance = std::max(scatter, floor_mm * floor_mm);
