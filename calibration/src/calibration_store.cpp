@@ -171,6 +171,7 @@ Result<StoredCalibration> read_calibration(const fs::path& file) {
                                          "flat again"));
       base = base.parent_path() / flat["from"].get<std::string>();
     }
+    stored.flat_version = base.filename().string();
     for (const auto& image : flat["images"]) {
       if (!image.is_string())
         return std::unexpected(bad_input(file, "flat.images", "must be file names"));
@@ -205,6 +206,34 @@ Result<StoredCalibration> read_calibration(const fs::path& file) {
       stored.led_positions_mm.emplace_back(p[0].get<double>(), p[1].get<double>(),
                                            p[2].get<double>());
     }
+  }
+  if (d.contains("colour") && !d["colour"].is_null()) {
+    const json& colour = d["colour"];
+    const auto refuse = [&] {
+      return std::unexpected(bad_input(file, "colour.matrix",
+                                       "must be 3 rows of 3 finite numbers; run psrig calibrate "
+                                       "colour again"));
+    };
+    if (!colour.is_object() || !colour.contains("matrix") || !colour["matrix"].is_array() ||
+        colour["matrix"].size() != 3)
+      return refuse();
+    cv::Matx33d matrix;
+    for (int r = 0; r < 3; ++r) {
+      const json& row = colour["matrix"][static_cast<std::size_t>(r)];
+      if (!row.is_array() || row.size() != 3) return refuse();
+      for (int c = 0; c < 3; ++c) {
+        const json& v = row[static_cast<std::size_t>(c)];
+        if (!v.is_number() || !std::isfinite(v.get<double>())) return refuse();
+        matrix(r, c) = v.get<double>();
+      }
+    }
+    stored.colour_matrix = matrix;
+    if (colour.contains("flat_field") && colour["flat_field"].is_string())
+      stored.colour_flat_field = colour["flat_field"].get<std::string>();
+    // The version that measured it: its own, or the one it was carried from.
+    stored.colour_version = colour.contains("from") && colour["from"].is_string()
+                                ? colour["from"].get<std::string>()
+                                : file.parent_path().filename().string();
   }
   return stored;
 }

@@ -64,6 +64,19 @@ std::optional<AppliedCalibration> current_calibration(const config::RigConfig& c
   }
   applied.pixel_size_mm = stored->pixel_size_mm;
   applied.led_positions_mm = stored->led_positions_mm;
+  // The colour matrix holds for the flat field it was measured through
+  // (scans divide by the flats channel by channel).
+  if (stored->colour_matrix && stored->colour_flat_field != stored->flat_version)
+    log->warn(
+        "the colour calibration of {} was measured {}, but the current flat field is {}; scans "
+        "go without colour correction: run psrig calibrate colour again",
+        file->string(),
+        stored->colour_flat_field.empty() ? "without a flat field"
+                                          : "through flat field " + stored->colour_flat_field,
+        stored->flat_version.empty() ? "none" : stored->flat_version);
+  else
+    applied.colour_matrix = stored->colour_matrix;
+  applied.colour_version = stored->colour_version;
   for (const auto& image : stored->flat_images) {
     cv::Mat flat = cv::imread(image.string(), cv::IMREAD_UNCHANGED);
     if (flat.empty() || flat.depth() != CV_16U) {

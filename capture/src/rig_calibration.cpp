@@ -1,7 +1,8 @@
 // The rig's calibration procedures (rig_calibration.h): lights (chrome or
 // matte sphere; the chrome sphere at several places for near LEDs' positions),
-// flat (a white card under each LED), scale (a ChArUco board). Each captures
-// on the rig, computes, and stores a new version of the calibration.
+// flat (a white card under each LED), scale (a ChArUco board), colour (a
+// ColorChecker Classic). Each captures on the rig, computes, and stores a
+// new version of the calibration.
 
 #include "psrig/capture/rig_calibration.h"
 
@@ -17,6 +18,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/calibration/calibration_store.h"
+#include "psrig/calibration/colour.h"
 #include "psrig/calibration/image_set.h"
 #include "psrig/calibration/light_calibration.h"
 #include "psrig/calibration/scale.h"
@@ -713,19 +715,139 @@ FlatQuality flat_quality(const cv::Mat& flat) {
   return q;
 }
 
-// The rig's current calibration, which a flat or a scale extends (each is
-// stored with the lights); bad input naming the fix where there is none.
-Result<calibration::StoredCalibration> light_calibration_to_extend(
-    const config::RigConfig& config, const calibration::CalibrationStore& store,
-    const std::string& what) {
+// ---- what flat, scale and colour share ----
+
+// The rig's current calibration, which a flat, a scale or a colour extends
+// (each is stored with the lights), and the new version's document with
+// its other sections carried over; bad input naming the fix where there
+// is no light calibration.
+struct Extension {
+  fs::path current_file;
+  calibration::StoredCalibration current;
+  nlohmann::json document;
+};
+
+Result<Extension> extend_current(const config::RigConfig& config,
+                                 const calibration::CalibrationStore& store,
+                                 const std::string& kind) {
   const auto current_file = store.current();
   if (!current_file)
     return std::unexpected(bad_input(config.source, "storage.root",
                                      "has no light calibration (" + store.directory().string() +
-                                         "): run psrig calibrate lights first; the " + what +
+                                         "): run psrig calibrate lights first; the " + kind +
                                          " is stored with the lights"));
-  return calibration::read_calibration(*current_file);
+  auto current = calibration::read_calibration(*current_file);
+  if (!current) return std::unexpected(current.error());
+  auto document = calibration::carry_forward(*current, kind);
+  if (!document) return std::unexpected(document.error());
+  return Extension{*current_file, std::move(*current), std::move(*document)};
 }
+
+// The simulated rig puts `target` under its camera in place of the swatch;
+// a target named in [sim] target stays.
+config::RigConfig with_sim_target(const config::RigConfig& config, const std::string& target) {
+  config::RigConfig placed = config;
+  if (placed.camera.backend == "sim" && placed.sim.target == "swatch") placed.sim.target = target;
+  return placed;
+}
+
+// `frames` captures of what lies under the camera (every LED in turn, the
+// dark frame), unprocessed, into captures/NAME-I of the staged version.
+Result<std::vector<fs::path>> capture_target(const config::RigConfig& config,
+                                             const processing::AtomicDirectory& staging,
+                                             const std::string& name, const std::string& sample_id,
+                                             const std::string& description, int frames,
+                                             const CalibrationRequest& args) {
+  auto rig = open_rig(config);
+  if (!rig) return std::unexpected(rig.error());
+  ScanSequencer sequencer(config, *rig->lights, *rig->camera);
+  std::error_code ec;
+  fs::create_directories(staging.path() / calibration::kCapturesDirectory, ec);
+  std::vector<fs::path> scans;
+  for (int i = 0; i < frames; ++i) {
+    const std::string count = "capture " + std::to_string(i + 1) + " of " + std::to_string(frames);
+    ScanRequest request;
+    request.sample_id = sample_id;
+    request.description = description + ", " + count;
+    request.directory =
+        staging.path() / calibration::kCapturesDirectory / (name + "-" + std::to_string(i));
+    request.process = false;
+    auto outcome = sequencer.capture(request, [&](const ScanProgress& p) {
+      tell(args, frames > 1 ? count + ": " + p.step : p.step);
+    });
+    if (!outcome) return std::unexpected(outcome.error());
+    scans.push_back(outcome->directory);
+  }
+  return scans;
+}
+
+// The captures' names in the staged version, as a calibration section's
+// "sources" gives them.
+nlohmann::json captured_sources(const std::vector<fs::path>& scans,
+                                const processing::AtomicDirectory& staging,
+                                const config::RigConfig& config) {
+  nlohmann::json captures = nlohmann::json::array();
+  for (const auto& scan : scans)
+    captures.push_back(scan.lexically_relative(staging.path()).string());
+  return {{"captures", captures}, {"rig", fs::absolute(config.source).lexically_normal().string()}};
+}
+
+// A new version staged for an image already taken (--image), the image
+// copied into its captures/KIND/; returns its name there.
+Result<std::string> stage_given_image(const calibration::CalibrationStore& store,
+                                      const fs::path& image, const std::string& kind,
+                                      std::optional<processing::AtomicDirectory>& staging) {
+  auto next = store.begin_next();
+  if (!next) return std::unexpected(next.error());
+  staging.emplace(std::move(*next));
+  const fs::path directory = staging->path() / calibration::kCapturesDirectory / kind;
+  std::error_code ec;
+  fs::create_directories(directory, ec);
+  fs::copy_file(image, directory / image.filename(), ec);
+  if (ec) return std::unexpected(io_error(directory, "cannot copy the image: " + ec.message()));
+  return "captures/" + kind + "/" + image.filename().string();
+}
+
+// Every LED's frame of every capture averaged (the target evenly lit),
+// linear, dark subtracted, 0..1 of full scale, its channels kept; each
+// light's frame times its gain first when `gains` holds one per light
+// (the flat field as scans apply it); and where any frame reached full
+// scale.
+Result<calibration::LinearColourImage> average_captures(const std::vector<fs::path>& scans,
+                                                        const std::vector<cv::Mat>& gains = {}) {
+  calibration::LinearColourImage out;
+  int count = 0;
+  for (const auto& directory : scans) {
+    auto scan = processing::read_scan(directory);
+    if (!scan) return std::unexpected(scan.error());
+    const auto& d = scan->description;
+    const processing::CodeLineariser lineariser(processing::Encoding::linear, d.black_level,
+                                                scan->white_level, scan->depth());
+    const cv::Mat dark = scan->dark.empty() ? cv::Mat() : linearised(lineariser, scan->dark);
+    for (std::size_t k = 0; k < scan->frames.size(); ++k) {
+      cv::Mat image = linearised(lineariser, scan->frames[k]);
+      cv::Mat brightest;
+      cv::reduce(image.reshape(1, static_cast<int>(image.total())), brightest, 1, cv::REDUCE_MAX);
+      const cv::Mat full = brightest.reshape(1, image.rows) >= 0.98f;
+      out.saturated = out.saturated.empty() ? full : cv::Mat(out.saturated | full);
+      if (!dark.empty()) image -= dark;
+      if (!gains.empty()) {
+        if (gains.size() != scan->frames.size() || gains[k].size() != image.size() ||
+            gains[k].channels() != image.channels())
+          return std::unexpected(bad_input(directory, "flat",
+                                           "does not fit the rig's current flat field (lights "
+                                           "or frame size): run psrig calibrate flat again"));
+        image = image.mul(gains[k]);
+      }
+      out.bgr = out.bgr.empty() ? image : cv::Mat(out.bgr + image);
+      ++count;
+    }
+  }
+  if (count > 0) out.bgr /= count;
+  return out;
+}
+
+// ---- flat ----
 
 // A card is refused when it is not flat and uniform (the textile or a
 // sphere still under the camera), saturated, or unlit.
@@ -736,49 +858,25 @@ constexpr double kFlatMinMean = 0.02;
 Result<CalibrationOutcome> flat_on_rig(const config::RigConfig& rig_config,
                                        const CalibrationRequest& args) {
   const int frames = args.frames > 0 ? args.frames : 3;
-  std::optional<config::RigConfig> config = rig_config;
-  calibration::CalibrationStore store(config->storage.root);
-  const auto current_file = store.current();
-  auto current = light_calibration_to_extend(*config, store, "flat");
-  if (!current) return std::unexpected(current.error());
-  if (current->lights.size() != static_cast<std::size_t>(config->lights.channels))
-    return std::unexpected(bad_input(
-        *current_file, "lights.per_light",
-        "has " + std::to_string(current->lights.size()) + " lights but " + config->source.string() +
-            " " + std::to_string(config->lights.channels) + ": run psrig calibrate lights again"));
-  auto document = calibration::carry_forward(*current, "flat");
-  if (!document) return std::unexpected(document.error());
-  // The simulated rig puts the white card under its camera in place of the
-  // swatch; a sphere named in [sim] target stays (the card forgotten).
-  if (config->camera.backend == "sim" && config->sim.target == "swatch")
-    config->sim.target = "white_card";
+  calibration::CalibrationStore store(rig_config.storage.root);
+  auto extension = extend_current(rig_config, store, "flat");
+  if (!extension) return std::unexpected(extension.error());
+  if (extension->current.lights.size() != static_cast<std::size_t>(rig_config.lights.channels))
+    return std::unexpected(bad_input(extension->current_file, "lights.per_light",
+                                     "has " + std::to_string(extension->current.lights.size()) +
+                                         " lights but " + rig_config.source.string() + " " +
+                                         std::to_string(rig_config.lights.channels) +
+                                         ": run psrig calibrate lights again"));
+  // The simulated rig puts the white card under its camera; a sphere named
+  // in [sim] target stays (the card forgotten).
+  const config::RigConfig config = with_sim_target(rig_config, "white_card");
 
   auto staging = store.begin_next();
   if (!staging) return std::unexpected(staging.error());
-  std::vector<fs::path> scans;
-  {
-    auto rig = open_rig(*config);
-    if (!rig) return std::unexpected(rig.error());
-    ScanSequencer sequencer(*config, *rig->lights, *rig->camera);
-    std::error_code ec;
-    fs::create_directories(staging->path() / calibration::kCapturesDirectory, ec);
-    for (int i = 0; i < frames; ++i) {
-      ScanRequest request;
-      request.sample_id = "flat-card";
-      request.description = "flat field: white card, capture " + std::to_string(i + 1) + " of " +
-                            std::to_string(frames);
-      request.directory =
-          staging->path() / calibration::kCapturesDirectory / ("flat-" + std::to_string(i));
-      request.process = false;
-      auto outcome = sequencer.capture(request, [&](const ScanProgress& p) {
-        tell(args,
-             "capture " + std::to_string(i + 1) + " of " + std::to_string(frames) + ": " + p.step);
-      });
-      if (!outcome) return std::unexpected(outcome.error());
-      scans.push_back(outcome->directory);
-    }
-  }
-  auto flats = load_flats(scans);
+  auto scans =
+      capture_target(config, *staging, "flat", "flat-card", "flat field: white card", frames, args);
+  if (!scans) return std::unexpected(scans.error());
+  auto flats = load_flats(*scans);
   if (!flats) return std::unexpected(flats.error());
   nlohmann::json per_light = nlohmann::json::array();
   std::vector<FlatQuality> quality;
@@ -800,10 +898,7 @@ Result<CalibrationOutcome> flat_on_rig(const config::RigConfig& rig_config,
                 std::to_string(q.roughness * 100).substr(0, 4) +
                 " % RMS from pixel to pixel): lay a flat white or grey card over the whole "
                 "field, then run psrig calibrate flat again";
-    if (!problem.empty()) {
-      Error error = bad_input(config->source, "", problem);
-      return std::unexpected(error);
-    }
+    if (!problem.empty()) return std::unexpected(bad_input(config.source, "", problem));
     per_light.push_back({{"index", k},
                          {"image", "captures/flat/flat" + std::to_string(k) + ".png"},
                          {"mean", std::round(q.mean * 1e4) / 1e4},
@@ -824,17 +919,12 @@ Result<CalibrationOutcome> flat_on_rig(const config::RigConfig& rig_config,
       return std::unexpected(io_error(staging->path() / name, "cannot write"));
     images.push_back(name);
   }
-  nlohmann::json sources = nlohmann::json::array();
-  for (const auto& scan : scans)
-    sources.push_back(scan.lexically_relative(staging->path()).string());
-  auto& doc = *document;
-  doc["flat"] = {
-      {"created", doc["created"]},
-      {"images", images},
-      {"encoding", "linear, dark subtracted, 65535 = full scale"},
-      {"sources",
-       {{"captures", sources}, {"rig", fs::absolute(config->source).lexically_normal().string()}}},
-      {"per_light", per_light}};
+  auto& doc = extension->document;
+  doc["flat"] = {{"created", doc["created"]},
+                 {"images", images},
+                 {"encoding", "linear, dark subtracted, 65535 = full scale"},
+                 {"sources", captured_sources(*scans, *staging, config)},
+                 {"per_light", per_light}};
   return commit_version(std::move(*staging), "flat", doc);
 }
 
@@ -858,12 +948,9 @@ Result<CalibrationOutcome> scale_on_rig(const config::RigConfig& rig_config,
                                      spec.dictionary +
                                          " is not an OpenCV predefined dictionary (DICT_4X4_50, "
                                          "DICT_5X5_100, …, DICT_ARUCO_ORIGINAL)"));
-  std::optional<config::RigConfig> config = rig_config;
-  calibration::CalibrationStore store(config->storage.root);
-  auto current = light_calibration_to_extend(*config, store, "scale");
-  if (!current) return std::unexpected(current.error());
-  auto document = calibration::carry_forward(*current, "scale");
-  if (!document) return std::unexpected(document.error());
+  calibration::CalibrationStore store(rig_config.storage.root);
+  auto extension = extend_current(rig_config, store, "scale");
+  if (!extension) return std::unexpected(extension.error());
 
   cv::Mat image;
   fs::path source;
@@ -875,32 +962,19 @@ Result<CalibrationOutcome> scale_on_rig(const config::RigConfig& rig_config,
     image = *read;
     source = args.image;
   } else {
-    if (config->camera.backend == "sim" && config->sim.target == "swatch")
-      config->sim.target = "charuco_board";
+    const config::RigConfig config = with_sim_target(rig_config, "charuco_board");
     auto next = store.begin_next();
     if (!next) return std::unexpected(next.error());
     staging.emplace(std::move(*next));
-    auto rig = open_rig(*config);
-    if (!rig) return std::unexpected(rig.error());
-    ScanSequencer sequencer(*config, *rig->lights, *rig->camera);
-    std::error_code ec;
-    fs::create_directories(staging->path() / calibration::kCapturesDirectory, ec);
-    ScanRequest request;
-    request.sample_id = "charuco-board";
-    request.description = "scale: ChArUco board";
-    request.directory = staging->path() / calibration::kCapturesDirectory / "scale-0";
-    request.process = false;
-    auto outcome = sequencer.capture(request, [&](const ScanProgress& p) { tell(args, p.step); });
-    if (!outcome) return std::unexpected(outcome.error());
-    auto set = load_captures("scale", {outcome->directory});
-    if (!set) return std::unexpected(set.error());
-    // Every light's frame, averaged: the board evenly lit.
-    for (const auto& light : set->lights)
-      for (const auto& frame : light.frames)
-        image = image.empty() ? frame.image.clone() : cv::Mat(image + frame.image);
-    source = config->source;
-    sources = {{"capture", "captures/scale-0"},
-               {"rig", fs::absolute(config->source).lexically_normal().string()}};
+    auto scans =
+        capture_target(config, *staging, "scale", "charuco-board", "scale: ChArUco board", 1, args);
+    if (!scans) return std::unexpected(scans.error());
+    auto averaged = average_captures(*scans);
+    if (!averaged) return std::unexpected(averaged.error());
+    image = averaged->bgr;
+    if (image.channels() == 3) cv::transform(image, image, cv::Matx13f(1.f / 3, 1.f / 3, 1.f / 3));
+    source = config.source;
+    sources = captured_sources(*scans, *staging, config);
   }
   auto estimate = calibration::measure_scale(image, spec, source);
   if (!estimate) {
@@ -909,17 +983,11 @@ Result<CalibrationOutcome> scale_on_rig(const config::RigConfig& rig_config,
     return std::unexpected(error);
   }
   if (!staging) {
-    auto next = store.begin_next();
-    if (!next) return std::unexpected(next.error());
-    staging.emplace(std::move(*next));
-    const fs::path directory = staging->path() / calibration::kCapturesDirectory / "scale";
-    std::error_code ec;
-    fs::create_directories(directory, ec);
-    fs::copy_file(args.image, directory / fs::path(args.image).filename(), ec);
-    if (ec) return std::unexpected(io_error(directory, "cannot copy the image: " + ec.message()));
-    sources = {{"image", "captures/scale/" + fs::path(args.image).filename().string()}};
+    auto copied = stage_given_image(store, args.image, "scale", staging);
+    if (!copied) return std::unexpected(copied.error());
+    sources = {{"image", *copied}};
   }
-  auto& doc = *document;
+  auto& doc = extension->document;
   doc["scale"] = {{"created", doc["created"]},
                   {"pixel_size_mm", estimate->pixel_size_mm},
                   {"uncertainty_mm", estimate->uncertainty_mm},
@@ -937,10 +1005,193 @@ Result<CalibrationOutcome> scale_on_rig(const config::RigConfig& rig_config,
   return commit_version(std::move(*staging), "scale", doc);
 }
 
+// ---- colour ----
+
+// A patch is refused when more than this of it reached full scale, and the
+// chart when its white patch reads below this of full scale.
+constexpr double kColourMaxSaturated = 0.01;
+constexpr double kColourMinWhite = 0.02;
+
+// The current flat field as processing applies it to a scan (linearise.cpp):
+// per light and channel the flat, smoothed, over the light's incidence,
+// and one level for all of them; the gain is the level over it. A matrix
+// measured through these gains holds for scans flat-fielded alike.
+Result<std::vector<cv::Mat>> colour_flat_gains(const calibration::StoredCalibration& current) {
+  std::vector<cv::Mat> flats;
+  double level = 0;
+  for (std::size_t k = 0; k < current.flat_images.size(); ++k) {
+    const fs::path& file = current.flat_images[k];
+    cv::Mat flat = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+    if (flat.empty() || flat.channels() != 3 || k >= current.lights.size())
+      return std::unexpected(bad_input(file, "flat.images",
+                                       "cannot be read as a colour flat for light " +
+                                           std::to_string(k) +
+                                           ": run psrig calibrate flat again, then colour"));
+    flat.convertTo(flat, CV_32FC3, 1.0 / 65535.0);
+    cv::GaussianBlur(flat, flat, cv::Size(), 2.0);
+    flat /= std::max(current.lights[k].direction[2], 0.05);
+    const cv::Scalar mean = cv::mean(flat);
+    cv::max(flat, cv::Scalar::all(0.01 * (mean[0] + mean[1] + mean[2]) / 3), flat);
+    level += (mean[0] + mean[1] + mean[2]) / 3;
+    flats.push_back(flat);
+  }
+  if (!flats.empty()) level /= static_cast<double>(flats.size());
+  std::vector<cv::Mat> gains;
+  for (const auto& flat : flats) {
+    cv::Mat gain;
+    cv::divide(cv::Scalar::all(level), flat, gain);
+    gains.push_back(gain);
+  }
+  return gains;
+}
+
+nlohmann::json rounded(const cv::Vec3d& v, double step) {
+  return {std::round(v[0] / step) * step, std::round(v[1] / step) * step,
+          std::round(v[2] / step) * step};
+}
+
+Result<CalibrationOutcome> colour_on_rig(const config::RigConfig& rig_config,
+                                         const CalibrationRequest& args) {
+  const int frames = args.frames > 0 ? args.frames : 1;
+  calibration::CalibrationStore store(rig_config.storage.root);
+  auto extension = extend_current(rig_config, store, "colour");
+  if (!extension) return std::unexpected(extension.error());
+  const calibration::StoredCalibration& current = extension->current;
+
+  calibration::LinearColourImage image;
+  fs::path source;
+  nlohmann::json sources;
+  std::optional<processing::AtomicDirectory> staging;
+  // Scans divide by the current flat field channel by channel: the chart
+  // captured on the rig is read through it too, and the version named.
+  nlohmann::json flat_field = nullptr;
+  if (!args.image.empty()) {
+    if (!current.flat_version.empty() && args.warn)
+      args.warn(args.image.string() + " is taken as it is, not through the rig's flat field " +
+                current.flat_version +
+                ", so scans (which are flat-fielded) will go without this matrix; calibrate on "
+                "the rig (without --image) for them");
+    auto read = calibration::read_linear_colour(args.image, args.encoding == "srgb"
+                                                                ? processing::Encoding::srgb
+                                                                : processing::Encoding::linear);
+    if (!read) return std::unexpected(read.error());
+    image = std::move(*read);
+    source = args.image;
+  } else {
+    std::vector<cv::Mat> flat_gains;
+    if (!current.flat_images.empty()) {
+      auto gains = colour_flat_gains(current);
+      if (!gains) return std::unexpected(gains.error());
+      flat_gains = std::move(*gains);
+      flat_field = current.flat_version;
+    }
+    // The simulated rig puts its ColorChecker under the camera.
+    const config::RigConfig config = with_sim_target(rig_config, "colour_chart");
+    auto next = store.begin_next();
+    if (!next) return std::unexpected(next.error());
+    staging.emplace(std::move(*next));
+    auto scans = capture_target(config, *staging, "colour", "colour-chart",
+                                "colour: ColorChecker Classic", frames, args);
+    if (!scans) return std::unexpected(scans.error());
+    auto averaged = average_captures(*scans, flat_gains);
+    if (!averaged) return std::unexpected(averaged.error());
+    if (averaged->bgr.channels() != 3)
+      return std::unexpected(bad_input(scans->front(), "camera",
+                                       "holds grey frames; the colour calibration needs a "
+                                       "colour camera (its RGB frames)"));
+    image = std::move(*averaged);
+    source = config.source;
+    sources = captured_sources(*scans, *staging, config);
+  }
+  // Refusals name the image, or the rig whose capture it was (the capture
+  // goes with the refused version).
+  const std::string as_captured = args.image.empty() ? "the chart as captured: " : "";
+  const auto refuse = [&](const std::string& problem) {
+    return std::unexpected(bad_input(source, "", as_captured + problem));
+  };
+  auto reading = calibration::read_colour_chart(image.bgr, image.saturated, source);
+  if (!reading) {
+    Error error = reading.error();
+    if (args.image.empty()) error.message = "the chart as captured " + error.message;
+    return std::unexpected(error);
+  }
+  const auto& chart = calibration::colorchecker_classic();
+  for (int p = 0; p < calibration::kChartPatches; ++p) {
+    const auto i = static_cast<std::size_t>(p);
+    if (reading->saturated[i] > kColourMaxSaturated)
+      return refuse("its patch " + std::to_string(p + 1) + " (" + chart[i].name +
+                    ") is saturated (" + std::to_string(std::lround(reading->saturated[i] * 100)) +
+                    " % of it at full scale): lower camera.exposure_us or camera.gain, and "
+                    "capture again");
+  }
+  const double white = cv::mean(reading->rgb[calibration::kFirstNeutralPatch])[0] * 4.0 / 3.0;
+  if (white < kColourMinWhite)
+    return refuse("its white patch reads " + std::to_string(white).substr(0, 5) +
+                  " of full scale: is the chart lit? Raise camera.exposure_us or camera.gain");
+  const calibration::ColourCorrection fit = calibration::fit_colour_correction(reading->rgb);
+
+  if (!staging) {
+    auto copied = stage_given_image(store, args.image, "colour", staging);
+    if (!copied) return std::unexpected(copied.error());
+    sources = {{"image", *copied}, {"encoding", args.encoding}};
+  }
+  nlohmann::json patches = nlohmann::json::array();
+  for (int p = 0; p < calibration::kChartPatches; ++p) {
+    const auto i = static_cast<std::size_t>(p);
+    patches.push_back(
+        {{"index", p + 1},
+         {"name", chart[i].name},
+         {"reference_lab", rounded(chart[i].lab_d50, 0.01)},
+         {"camera_rgb", rounded(reading->rgb[i], 1e-5)},
+         {"centre_px",
+          {std::round(reading->centre[i].x * 10) / 10, std::round(reading->centre[i].y * 10) / 10}},
+         {"lab_before", rounded(fit.lab_before[i], 0.01)},
+         {"lab_after", rounded(fit.lab_after[i], 0.01)},
+         {"delta_e2000_before", std::round(fit.delta_e_before[i] * 1000) / 1000},
+         {"delta_e2000_after", std::round(fit.delta_e_after[i] * 1000) / 1000}});
+  }
+  const auto& m = fit.matrix;
+  auto& doc = extension->document;
+  doc["colour"] = {
+      {"created", doc["created"]},
+      {"matrix",
+       {{m(0, 0), m(0, 1), m(0, 2)}, {m(1, 0), m(1, 1), m(1, 2)}, {m(2, 0), m(2, 1), m(2, 2)}}},
+      {"matrix_maps",
+       "camera linear RGB to linear sRGB, exposure-free (neutrals keep the camera's "
+       "mean level)"},
+      {"space", "sRGB D65"},
+      {"white_point", "D65"},
+      {"reference",
+       {{"chart", "X-Rite ColorChecker Classic, 24 patches"},
+        {"values", "X-Rite, charts made after November 2014, CIE L*a*b* D50 2 deg"},
+        {"delta_e",
+         "CIEDE2000 (lcms2), Lab D50: sRGB D65 adapted to D50 (Bradford) as lcms2's "
+         "relative colorimetric intent does"}}},
+      {"fit",
+       "weighted least squares in linear light, weights 1/(Y + 0.05), the neutral patches' "
+       "sum mapped exactly"},
+      {"exposure", fit.exposure},
+      {"flat_field", flat_field},
+      {"delta_e2000",
+       {{"before",
+         {{"mean", std::round(fit.mean_before * 1000) / 1000},
+          {"max", std::round(fit.max_before * 1000) / 1000}}},
+        {"after",
+         {{"mean", std::round(fit.mean_after * 1000) / 1000},
+          {"max", std::round(fit.max_after * 1000) / 1000}}}}},
+      {"patches", patches},
+      {"chart_corners_px", nlohmann::json::array({{reading->corners[0].x, reading->corners[0].y},
+                                                  {reading->corners[1].x, reading->corners[1].y},
+                                                  {reading->corners[2].x, reading->corners[2].y},
+                                                  {reading->corners[3].x, reading->corners[3].y}})},
+      {"sources", sources}};
+  return commit_version(std::move(*staging), "colour", doc);
+}
+
 }  // namespace
 
 const std::vector<std::string>& calibration_kinds() {
-  static const std::vector<std::string> kinds = {"lights", "flat", "scale"};
+  static const std::vector<std::string> kinds = {"lights", "flat", "scale", "colour"};
   return kinds;
 }
 
@@ -956,10 +1207,11 @@ Result<CalibrationOutcome> run_calibration(const config::RigConfig& config,
                                   : lights_from_images(config, request);
   if (request.kind == "flat") return flat_on_rig(config, request);
   if (request.kind == "scale") return scale_on_rig(config, request);
+  if (request.kind == "colour") return colour_on_rig(config, request);
   return std::unexpected(bad_input({}, "kind",
                                    "\"" + request.kind +
                                        "\" is not a calibration this rig runs (lights, flat, "
-                                       "scale)"));
+                                       "scale, colour)"));
 }
 
 Result<CalibrationOutcome> calibrate_lights_to_file(const CalibrationRequest& request,

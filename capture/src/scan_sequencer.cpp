@@ -391,6 +391,18 @@ Result<processing::Scan> ScanSequencer::acquire(
           static_cast<std::size_t>(config_.lights.channels) &&
       d.near_field())
     applied.push_back("led_positions_mm");
+  // The colour matrix goes with colour frames only; processing applies it.
+  const bool coloured = request.calibration && request.calibration->colour_matrix &&
+                        !scan.frames.empty() && scan.frames.front().channels() == 3;
+  if (coloured) {
+    const cv::Matx33d& m = *request.calibration->colour_matrix;
+    d.document["colour_correction"] = {
+        {"matrix",
+         {{m(0, 0), m(0, 1), m(0, 2)}, {m(1, 0), m(1, 1), m(1, 2)}, {m(2, 0), m(2, 1), m(2, 2)}}},
+        {"space", "sRGB D65"},
+        {"calibration", request.calibration->colour_version}};
+    applied.push_back("colour");
+  }
   d.document["calibration"] = request.calibration
                                   ? nlohmann::json{{"file", request.calibration->file.string()},
                                                    {"created", request.calibration->created},

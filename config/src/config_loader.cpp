@@ -476,9 +476,9 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   auto sim = sub(top, "sim");
   if (!sim) return std::unexpected(sim.error());
   auto& s = c.sim;
-  PSRIG_TRY(
-      sim->get("target", s.target,
-               {"swatch", "flat", "chrome_sphere", "matte_sphere", "white_card", "charuco_board"}));
+  PSRIG_TRY(sim->get("target", s.target,
+                     {"swatch", "flat", "chrome_sphere", "matte_sphere", "white_card",
+                      "charuco_board", "colour_chart"}));
   // "flat", the older name of a grey card: the white card at albedo 0.6.
   if (s.target == "flat") {
     s.target = "white_card";
@@ -521,6 +521,20 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
     s.led_distance_mm = distance;
   } else {
     sim->node("led_distance_mm");
+  }
+  {
+    std::vector<double> mixing;
+    PSRIG_TRY(sim->get("colour_matrix", mixing, -10, 10));
+    if (sim->find("colour_matrix")) {
+      if (mixing.size() != 9)
+        return std::unexpected(sim->error_at(
+            sim->find("colour_matrix"), "colour_matrix",
+            "expected 9 numbers, the 3x3 matrix from the scene's linear sRGB to the camera's "
+            "RGB row by row (e.g. [0.7, 0.25, 0.05, 0.1, 0.8, 0.1, 0.02, 0.28, 0.7])"));
+      std::array<double, 9> m{};
+      std::copy(mixing.begin(), mixing.end(), m.begin());
+      s.colour_matrix = m;
+    }
   }
   PSRIG_TRY(sim->get("pattern", s.pattern, {"jersey", "rib", "garter", "plain", "twill"}));
   PSRIG_TRY(sim->get("seed", s.seed));

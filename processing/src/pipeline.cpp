@@ -10,6 +10,7 @@
 
 #include "psrig/base/log.h"
 #include "psrig/processing/atomic_directory.h"
+#include "psrig/processing/colour_correction.h"
 #include "psrig/processing/evaluation.h"
 #include "psrig/processing/flatten.h"
 #include "psrig/processing/hole_fill.h"
@@ -108,6 +109,17 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   inputs.channels = scan->channels();
   inputs.depth = scan->depth();
   scan->frames.clear();  // their memory goes back before the maps are made
+
+  // The rig's colour calibration, when the scan carries one: the albedo
+  // in linear light, before it is encoded, becomes linear sRGB D65.
+  auto colour = read_colour_correction(scan->description.document, scan_directory / "scan.json");
+  if (!colour) return std::unexpected(colour.error());
+  cv::Mat albedo = result.albedo;
+  const bool colour_corrected = *colour && albedo.channels() == 3;
+  if (colour_corrected) {
+    albedo = albedo.clone();
+    apply_colour_matrix((*colour)->rgb_matrix, albedo);
+  }
 
   const cv::Mat valid = encode_valid_mask(result.flags);
   GroundTruthSummary truth;
@@ -224,12 +236,10 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
                                         encode_normal16(result.p, result.q), kStoredPng);
                    }});
   tasks.push_back({map_files::kAlbedoPng, [&] {
-                     return write_image(dir / map_files::kAlbedoPng,
-                                        encode_albedo_srgb8(result.albedo));
+                     return write_image(dir / map_files::kAlbedoPng, encode_albedo_srgb8(albedo));
                    }});
-  tasks.push_back({map_files::kAlbedoExr, [&] {
-                     return write_image(dir / map_files::kAlbedoExr, result.albedo, kHalfExr);
-                   }});
+  tasks.push_back({map_files::kAlbedoExr,
+                   [&] { return write_image(dir / map_files::kAlbedoExr, albedo, kHalfExr); }});
   tasks.push_back({map_files::kP, [&] { return write_image(dir / map_files::kP, result.p); }});
   tasks.push_back({map_files::kQ, [&] { return write_image(dir / map_files::kQ, result.q); }});
   tasks.push_back({map_files::kMask, [&] { return write_image(dir / map_files::kMask, valid); }});
@@ -261,6 +271,14 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   inputs.ground_truth = truth;
   inputs.stage_ms = stages;
   nlohmann::json report = make_report(inputs);
+  // What the albedo's colours mean: sRGB D65 after a colour calibration,
+  // the camera's own RGB without one (processing/colour_correction.h).
+  report["albedo_colour_space"] = colour_corrected         ? kAlbedoColourSpace
+                                  : albedo.channels() == 3 ? "camera RGB"
+                                                           : "grey";
+  report["colour_calibration"] = colour_corrected && !(*colour)->calibration.empty()
+                                     ? nlohmann::json((*colour)->calibration)
+                                     : nlohmann::json(nullptr);
   const fs::path report_path = dir / map_files::kReport;
   std::ofstream out(report_path);
   out << report.dump(2) << '\n';

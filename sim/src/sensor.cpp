@@ -34,7 +34,17 @@ Sensor::Sensor(const config::SimConfig& config, std::uint64_t seed)
       vignetting_(std::clamp(config.vignetting, 0.0, 0.9)),
       led_irradiance_(config.led_irradiance),
       ambient_(config.ambient),
-      seed_(seed) {}
+      seed_(seed) {
+  if (config.colour_matrix) {
+    // Configured for RGB; the frames are BGR: reverse rows and columns.
+    const auto& m = *config.colour_matrix;
+    cv::Matx33f bgr;
+    for (int r = 0; r < 3; ++r)
+      for (int c = 0; c < 3; ++c)
+        bgr(2 - r, 2 - c) = static_cast<float>(m[r * 3 + c]);
+    colour_bgr_ = bgr;
+  }
+}
 
 cv::Mat Sensor::expose(const World& world, Clock::time_point begin, const SensorSettings& settings,
                        std::uint64_t frame_number) const {
@@ -48,6 +58,11 @@ cv::Mat Sensor::expose(const World& world, Clock::time_point begin, const Sensor
     if (weights[k] > 0)
       cv::scaleAdd(world.radiance(static_cast<int>(k)), weights[k] * led_irradiance_ * scale,
                    signal, signal);
+  if (colour_bgr_) {
+    cv::Mat mixed;
+    cv::transform(signal, mixed, *colour_bgr_);
+    signal = mixed;
+  }
   const cv::Mat fall_off = vignette(signal.size(), vignetting_);
   cv::Mat fall_off3;
   cv::merge(std::vector<cv::Mat>{fall_off, fall_off, fall_off}, fall_off3);

@@ -6,6 +6,7 @@
 #include "psrig/firmware_host/simulated_rig.h"
 #include "psrig/processing/light_matrix.h"
 #include "psrig/sim/card_target.h"
+#include "psrig/sim/colour_chart_target.h"
 #include "psrig/sim/lambertian_render.h"
 #include "psrig/sim/sphere_target.h"
 
@@ -33,6 +34,7 @@ Swatch make_world_swatch(const config::SimConfig& sim) {
                       static_cast<float>(sim.card_albedo));
   if (sim.target == "charuco_board")
     return charuco_board({sim.width, sim.height}, sim.pixel_size_mm);
+  if (sim.target == "colour_chart") return colour_chart({sim.width, sim.height}, sim.pixel_size_mm);
   SwatchParams params;
   params.pattern = parse_swatch_pattern(sim.pattern).value_or(SwatchPattern::jersey);
   params.size = {sim.width, sim.height};

@@ -1,9 +1,10 @@
-// psrig calibrate lights|flat|scale: the command line of the rig's
+// psrig calibrate lights|flat|scale|colour: the command line of the rig's
 // calibration procedures (psrig/capture/rig_calibration.h, which psrigd
 // runs too): their options parsed, their progress and results printed.
 // lights: directions and relative intensities from a chrome or a matte
 // sphere, and near LEDs' positions from the chrome sphere at several
-// places; flat: a white card under each LED; scale: a ChArUco board.
+// places; flat: a white card under each LED; scale: a ChArUco board;
+// colour: a ColorChecker Classic, a matrix to linear sRGB D65.
 
 #include <cstdio>
 #include <iostream>
@@ -106,6 +107,32 @@ void print_scale(const json& s) {
       s["markers"].get<int>(), number(s["fit_rms_px"]), number(s["rotation_deg"]));
 }
 
+struct ColourArgs {
+  std::string config;
+  std::string image;
+  std::string encoding = "linear";
+  int frames = 1;
+  bool quiet = false;
+};
+
+// The colour section: ΔE2000 per patch before and after, mean, max, and
+// the matrix.
+void print_colour(const json& colour) {
+  std::printf("patch              dE2000 before   after\n");
+  for (const auto& p : colour["patches"])
+    std::printf("%2d %-15s %13.2f %7.2f\n", p["index"].get<int>(),
+                p["name"].get<std::string>().c_str(), number(p["delta_e2000_before"]),
+                number(p["delta_e2000_after"]));
+  const json& e = colour["delta_e2000"];
+  std::printf("mean               %13.2f %7.2f\n", number(e["before"]["mean"]),
+              number(e["after"]["mean"]));
+  std::printf("max                %13.2f %7.2f\n", number(e["before"]["max"]),
+              number(e["after"]["max"]));
+  std::printf("matrix (camera RGB to linear sRGB D65):\n");
+  for (const auto& row : colour["matrix"])
+    std::printf("  [%8.4f %8.4f %8.4f]\n", number(row[0]), number(row[1]), number(row[2]));
+}
+
 void print_outcome(const CalibrationOutcome& outcome, const std::string& rig) {
   const json& d = outcome.document;
   if (outcome.kind == "lights") {
@@ -117,6 +144,8 @@ void print_outcome(const CalibrationOutcome& outcome, const std::string& rig) {
     print_flat(d["flat"]);
   } else if (outcome.kind == "scale") {
     print_scale(d["scale"]);
+  } else if (outcome.kind == "colour") {
+    print_colour(d["colour"]);
   }
   if (rig.empty())
     std::printf("calibration: %s\n", outcome.file.c_str());
@@ -136,6 +165,9 @@ int run(const std::string& command, const std::string& config_file, CalibrationR
     request.progress = [command](const std::string& step) {
       std::fprintf(stderr, "psrig %s: %s\n", command.c_str(), step.c_str());
     };
+  request.warn = [command](const std::string& warning) {
+    std::fprintf(stderr, "psrig %s: warning: %s\n", command.c_str(), warning.c_str());
+  };
   auto outcome = run_calibration(*config, request);
   if (!outcome) {
     const int code = report_error(command, outcome.error());
@@ -284,7 +316,35 @@ Command add_calibrate_command(CLI::App& parent) {
       ->capture_default_str();
   scale->add_flag("-q,--quiet", scale_args->quiet, "Print nothing on success");
 
-  return {app, [args, flat_args, flat, scale_args, scale] {
+  auto colour_args = std::make_shared<ColourArgs>();
+  CLI::App* colour = app->add_subcommand(
+      "colour",
+      "Colour: a ColorChecker Classic, a matrix to sRGB D65 applied to every later albedo");
+  colour
+      ->add_option("--config", colour_args->config,
+                   "Rig configuration: capture the chart on this rig (unless --image) and keep "
+                   "the matrix in its calibration store")
+      ->required();
+  colour->add_option("--image", colour_args->image,
+                     "An image of the chart already taken (RGB), instead of capturing");
+  colour
+      ->add_option("--encoding", colour_args->encoding, "How --image stores light: linear or srgb")
+      ->check(CLI::IsMember({"linear", "srgb"}))
+      ->capture_default_str();
+  colour->add_option("--frames", colour_args->frames, "Captures of the chart on the rig, averaged")
+      ->check(CLI::Range(1, 64))
+      ->capture_default_str();
+  colour->add_flag("-q,--quiet", colour_args->quiet, "Print nothing on success");
+
+  return {app, [args, flat_args, flat, scale_args, scale, colour_args, colour] {
+            if (colour->parsed()) {
+              CalibrationRequest request;
+              request.kind = "colour";
+              request.image = colour_args->image;
+              request.encoding = colour_args->encoding;
+              request.frames = colour_args->frames;
+              return run("calibrate colour", colour_args->config, request, colour_args->quiet);
+            }
             if (flat->parsed()) {
               CalibrationRequest request;
               request.kind = "flat";

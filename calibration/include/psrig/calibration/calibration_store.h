@@ -65,6 +65,16 @@ struct StoredCalibration {
   // Its near LEDs' positions (led_positions_mm.positions), one per light,
   // when measured.
   std::vector<cv::Vec3d> led_positions_mm;
+  // Its colour section's matrix (camera RGB to linear sRGB D65), when
+  // measured, and the version that measured it ("0003").
+  std::optional<cv::Matx33d> colour_matrix;
+  std::string colour_version;
+  // The flat field's version ("0002"; empty without one) and the one the
+  // colour matrix was measured through (its "flat_field"; empty: none).
+  // Scans divide their frames by the flats channel by channel, so the
+  // matrix holds for the flat field it was measured through only.
+  std::string flat_version;
+  std::string colour_flat_field;
 };
 [[nodiscard]] Result<StoredCalibration> read_calibration(const std::filesystem::path& file);
 

@@ -19,7 +19,7 @@
 
 namespace psrig::capture {
 
-// "lights", "flat", "scale".
+// "lights", "flat", "scale", "colour".
 [[nodiscard]] const std::vector<std::string>& calibration_kinds();
 [[nodiscard]] bool calibration_kind_supported(const std::string& kind);
 
@@ -37,14 +37,20 @@ struct CalibrationRequest {
   std::filesystem::path mask;
   std::filesystem::path matte;
   std::filesystem::path matte_mask;
-  std::string encoding = "linear";  // how the images store light: "linear" | "srgb"
+  std::string encoding = "linear";  // how the images (or colour's image) store light:
+                                    // "linear" | "srgb"
+  // scale, colour: the board or the chart already taken, instead of capturing
+  std::filesystem::path image;
   // scale
-  std::filesystem::path image;  // the board already taken, instead of capturing
   std::string squares = "7x5";
   double square_mm = 2.0;
   double marker_mm = 1.4;
   std::string dictionary = "DICT_4X4_50";
-  // flat: frames as for lights (0: 3)
+  // flat: frames as for lights (0: 3); colour: frames (0: 1), encoding for image
+
+  // What the technician should know that does not stop it (colour: an
+  // --image read without the rig's flat field). Unset: not said.
+  std::function<void(const std::string& warning)> warn;
 
   // Each step, for people ("place 2 of 3, capture 1 of 3: light 2 of 3").
   std::function<void(const std::string& step)> progress;

@@ -44,6 +44,11 @@ struct AppliedCalibration {
   // light, mm from the camera axis on the reference plane, replacing
   // rig.toml's geometry; empty: not measured.
   std::vector<cv::Vec3d> led_positions_mm;
+  // Its colour matrix (psrig calibrate colour: camera RGB to linear sRGB
+  // D65) and the version that measured it, written into colour scans'
+  // scan.json as `colour_correction` for processing to apply to the albedo.
+  std::optional<cv::Matx33d> colour_matrix;
+  std::string colour_version;
 };
 
 struct ScanRequest {

@@ -153,7 +153,7 @@ struct SimConfig {
   // sim/card_target.h). rig.toml's "flat" is read as "white_card" with
   // card_albedo 0.6 (a flat matte grey card; the name older configs use).
   std::string target = "swatch";  // "swatch" | "chrome_sphere" | "matte_sphere" |
-                                  // "white_card" | "charuco_board"
+                                  // "white_card" | "charuco_board" | "colour_chart"
   double card_albedo = 0.75;      // the white card's albedo (0.6: a grey card)
   double sphere_diameter_mm = 10;
   // Where the sphere rests: its centre in mm from the camera axis (x right,
@@ -167,6 +167,11 @@ struct SimConfig {
   // tilts) when [geometry] gives no positions: a near-field rig whose
   // geometry nobody measured, for calibration to find.
   std::optional<double> led_distance_mm;
+  // The camera's colour response: row by row, the 3x3 matrix from the
+  // scene's linear sRGB to the camera's RGB. Absent: identity (the camera
+  // sees sRGB). A real sensor mixes its channels; psrig calibrate colour
+  // finds the inverse from a ColorChecker ("colour_chart").
+  std::optional<std::array<double, 9>> colour_matrix;
   double led_angular_diameter_deg = 2;  // each LED as the sphere sees it (chrome highlight size)
   std::string pattern = "jersey";
   std::uint64_t seed = 1;

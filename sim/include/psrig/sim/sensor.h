@@ -1,11 +1,13 @@
 #pragma once
 // The simulated camera's sensor: what it records of the simulated world
-// over one exposure. Exposure and gain scale the light, vignetting darkens
+// over one exposure. Exposure and gain scale the light, the colour matrix
+// (when configured) mixes the channels, vignetting darkens
 // the corners, shot noise (from the full-well capacity) and read noise are
 // added, then the black level, and the result is quantised to the ADC's bit
 // depth in a 16-bit container. Deterministic for a seed and frame number.
 
 #include <cstdint>
+#include <optional>
 
 #include <opencv2/core.hpp>
 
@@ -39,6 +41,7 @@ class Sensor {
   double vignetting_;
   double led_irradiance_;
   double ambient_;
+  std::optional<cv::Matx33f> colour_bgr_;  // scene BGR to camera BGR; absent: identity
   std::uint64_t seed_;
 };
 
