@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
+#include <opencv2/core.hpp>
 
 #include "daemon_process.h"
 #include "psrig/calibration/calibration_store.h"
@@ -211,6 +212,76 @@ TEST(PsrigdCalibration, CalibrationsRunThroughTheApiQueuedWithScans) {
   auto [field_status, field] = post(daemon, {{"kind", "flat"}, {"target", "chrome"}});
   EXPECT_EQ(field_status, 400) << field.dump();
   EXPECT_TRUE(contains(field["error"].get<std::string>(), "target: unknown field")) << field.dump();
+}
+
+// The colour calibration through the API: the simulated ColorChecker under
+// a camera that mixes its channels (a known answer), stored as the new
+// version's colour section, listed in the status, applied to later scans.
+TEST(PsrigdCalibration, ColourRunsThroughTheApi) {
+  TempDir temp;
+  const int port = free_port();
+  // Rows: the camera's R, G, B from the scene's linear sRGB; the target
+  // stays the swatch (each calibration puts its own under the camera).
+  const cv::Matx33d mixing(0.62, 0.30, 0.08, 0.12, 0.80, 0.08, 0.03, 0.27, 0.55);
+  const auto config = daemon_config(
+      temp, port,
+      {{"width = 160", "width = 640"},
+       {"height = 120", "height = 480"},
+       {"[sim]\n",
+        "[sim]\ncolour_matrix = [0.62, 0.30, 0.08, 0.12, 0.80, 0.08, 0.03, 0.27, 0.55]\n"}});
+  Daemon daemon(config, port, temp / "psrigd.log");
+  ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
+
+  // Before the lights: refused, nothing stored.
+  auto [early_status, early] = post(daemon, {{"kind", "colour"}});
+  ASSERT_EQ(early_status, 202) << early.dump();
+  auto job = wait_calibration(daemon, early["id"].get<std::int64_t>());
+  EXPECT_EQ(job["status"], "failed") << job.dump();
+  EXPECT_TRUE(contains(job["error"].get<std::string>(), "psrig calibrate lights first"))
+      << job.dump();
+  EXPECT_TRUE(daemon.get("/v1/status")["calibration"]["missing"].get<bool>());
+
+  auto [lights_status, lights] = post(daemon, {{"kind", "lights"}, {"frames", 1}});
+  ASSERT_EQ(lights_status, 202) << lights.dump();
+  ASSERT_EQ(wait_calibration(daemon, lights["id"].get<std::int64_t>())["status"], "done")
+      << daemon.log();
+  auto [status, queued] = post(daemon, {{"kind", "colour"}, {"frames", 2}});
+  ASSERT_EQ(status, 202) << queued.dump();
+  EXPECT_EQ(queued["kind"], "colour");
+  job = wait_calibration(daemon, queued["id"].get<std::int64_t>(), 180s);
+  ASSERT_EQ(job["status"], "done") << job.dump() << daemon.log();
+  EXPECT_EQ(job["version"], "0002");
+
+  const auto calibration = daemon.get("/v1/status")["calibration"];
+  EXPECT_EQ(calibration["version"], "0002");
+  EXPECT_EQ(calibration["sections"], json::array({"lights", "colour"})) << calibration.dump();
+  const json colour = daemon.get("/v1/calibrations/current")["calibration"]["colour"];
+  ASSERT_TRUE(colour.is_object()) << colour.dump();
+  EXPECT_EQ(colour["space"], "sRGB D65");
+  EXPECT_EQ(colour["sources"]["captures"].size(), 2u) << colour["sources"].dump();
+  EXPECT_LE(colour["delta_e2000"]["after"]["mean"].get<double>(), 1.0) << colour.dump();
+  EXPECT_GE(colour["delta_e2000"]["before"]["mean"].get<double>(), 5.0) << colour.dump();
+  // The matrix undoes the camera's mixing, up to the exposure's scale.
+  cv::Matx33d matrix;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      matrix(r, c) = colour["matrix"][r][c].get<double>();
+  const cv::Matx33d product = matrix * mixing;
+  const double scale = (product(0, 0) + product(1, 1) + product(2, 2)) / 3;
+  for (int r = 0; r < 3; ++r)
+    for (int c = 0; c < 3; ++c)
+      EXPECT_NEAR(product(r, c) / scale, r == c ? 1.0 : 0.0, 0.02) << r << "," << c;
+
+  // Later scans carry it: their albedo is sRGB D65.
+  const auto scan = daemon.wait_finished(daemon.submit({{"sample_id", "coloured"}}));
+  ASSERT_EQ(scan["status"], "done") << scan.dump() << daemon.log();
+  EXPECT_EQ(scan["report"]["albedo_colour_space"], "sRGB D65") << scan["report"].dump();
+  EXPECT_EQ(scan["report"]["colour_calibration"], "0002");
+
+  // Files on this machine are not the API's: no --image over HTTP.
+  auto [image_status, image] = post(daemon, {{"kind", "colour"}, {"image", "/tmp/chart.png"}});
+  EXPECT_EQ(image_status, 400) << image.dump();
+  EXPECT_TRUE(contains(image["error"].get<std::string>(), "image: unknown field")) << image.dump();
 }
 
 // [processing] reject reaches psrigd's scans too.

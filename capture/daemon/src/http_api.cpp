@@ -397,16 +397,15 @@ void HttpApi::Impl::calibrate(const std::string& text, httplib::Response& res) {
   const json body = json::parse(text, nullptr, false);
   if (body.is_discarded()) return refuse(res, 400, "malformed JSON in the request body");
   if (!body.is_object()) return refuse(res, 400, "expected a JSON object");
+  std::string kinds;
+  for (const auto& kind : capture::calibration_kinds())
+    kinds += (kinds.empty() ? "" : ", ") + kind;
   if (!body.contains("kind") || !body["kind"].is_string())
-    return refuse(res, 400, "kind: expected a string (lights, flat, scale)");
+    return refuse(res, 400, "kind: expected a string (" + kinds + ")");
   capture::CalibrationRequest request;
   request.kind = body["kind"].get<std::string>();
-  if (!capture::calibration_kind_supported(request.kind)) {
-    std::string kinds;
-    for (const auto& kind : capture::calibration_kinds())
-      kinds += (kinds.empty() ? "" : ", ") + kind;
+  if (!capture::calibration_kind_supported(request.kind))
     return refuse(res, 400, "kind: \"" + request.kind + "\" is not supported (" + kinds + ")");
-  }
   // The options of `psrig calibrate KIND` that need no files on this machine.
   const auto whole = [&](const char* key, int& out, int lo, int hi) -> std::optional<std::string> {
     if (!body.contains(key)) return std::nullopt;

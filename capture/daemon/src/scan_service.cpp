@@ -184,6 +184,9 @@ void ScanService::run_calibration(const ScanJob& job) {
     calibrations_.step(id, step);
     recorder_.calibration_progress(id, kind, step);
   };
+  request.warn = [&](const std::string& warning) {
+    log->warn("calibration {} ({}): {}", id, kind, warning);
+  };
   log->info("calibration {} ({}) running", id, kind);
   Result<capture::CalibrationOutcome> outcome = std::unexpected(internal_error("not run"));
   try {
