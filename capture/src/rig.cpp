@@ -64,6 +64,7 @@ std::optional<AppliedCalibration> current_calibration(const config::RigConfig& c
     applied.intensities.push_back(light.intensity);
   }
   applied.pixel_size_mm = stored->pixel_size_mm;
+  applied.led_positions_mm = stored->led_positions_mm;
   // The colour matrix holds for the flat field it was measured through
   // (scans divide by the flats channel by channel).
   if (stored->colour_matrix && stored->colour_flat_field != stored->flat_version)

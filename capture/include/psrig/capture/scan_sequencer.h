@@ -42,6 +42,10 @@ struct AppliedCalibration {
   // Its measured pixel size (psrig calibrate scale), replacing
   // geometry.pixel_size_mm.
   std::optional<double> pixel_size_mm;
+  // Its measured LED positions (psrig calibrate lights --places), one per
+  // light, mm from the camera axis on the reference plane, replacing
+  // rig.toml's geometry; empty: not measured.
+  std::vector<cv::Vec3d> led_positions_mm;
   // Its colour matrix (psrig calibrate colour: camera RGB to linear sRGB
   // D65) and the version that measured it, written into colour scans'
   // scan.json as `colour_correction` for processing to apply to the albedo.
