@@ -188,6 +188,25 @@ Result<StoredCalibration> read_calibration(const fs::path& file) {
                                        "again"));
     stored.pixel_size_mm = scale["pixel_size_mm"].get<double>();
   }
+  if (d.contains("led_positions_mm") && !d["led_positions_mm"].is_null()) {
+    const json& section = d["led_positions_mm"];
+    const auto refuse = [&](const std::string& key) {
+      return std::unexpected(bad_input(file, key,
+                                       "must list [x, y, z] in mm (z > 0) for each light; run "
+                                       "psrig calibrate lights --places 3 again"));
+    };
+    if (!section.is_object() || !section.contains("positions") ||
+        !section["positions"].is_array() || section["positions"].size() != stored.lights.size())
+      return refuse("led_positions_mm.positions");
+    for (const auto& p : section["positions"]) {
+      if (!p.is_array() || p.size() != 3 ||
+          !std::all_of(p.begin(), p.end(), [](const json& v) { return v.is_number(); }) ||
+          !(p[2].get<double>() > 0))
+        return refuse("led_positions_mm.positions");
+      stored.led_positions_mm.emplace_back(p[0].get<double>(), p[1].get<double>(),
+                                           p[2].get<double>());
+    }
+  }
   if (d.contains("colour") && !d["colour"].is_null()) {
     const json& colour = d["colour"];
     const auto refuse = [&] {

@@ -395,6 +395,22 @@ Result<std::vector<LedPosition>> triangulate_leds(const std::vector<SpherePlacem
         p.baseline_mm = std::max(p.baseline_mm, cv::norm(o - other.first));
     }
     p.ray_rms_mm = std::sqrt(sum / static_cast<double>(rays.size()));
+    // The least-squares covariance: the rays' scatter about the point (2
+    // constraints a ray, 3 unknowns) through the normal equations' inverse,
+    // the scatter no less than the spheres' places are known to (their
+    // fits). The highlights' own size is left out: an LED's disc moves
+    // every place's highlight alike, not at random.
+    double floor_mm = 0;
+    for (const auto& placement : placements)
+      floor_mm = std::max(
+          floor_mm, placement.sphere.rms_px * s / std::sqrt(std::max(1, placement.sphere.points)));
+    const int dof = 2 * static_cast<int>(rays.size()) - 3;
+    const double scatter = dof > 0 ? sum / dof : p.ray_rms_mm * p.ray_rms_mm;
+    const double variance = std::max(scatter, floor_mm * floor_mm);
+    const cv::Matx33d covariance = a.inv(cv::DECOMP_SVD) * variance;
+    cv::Vec3d variances;
+    cv::eigen(covariance, variances);
+    p.uncertainty_mm = std::sqrt(std::max(0.0, variances[0]));
     result.push_back(p);
   }
   return result;

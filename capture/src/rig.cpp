@@ -7,6 +7,7 @@
 
 #include "psrig/base/log.h"
 #include "psrig/calibration/calibration_store.h"
+#include "psrig/sim/swatch_model.h"
 
 namespace psrig::capture {
 
@@ -63,6 +64,7 @@ std::optional<AppliedCalibration> current_calibration(const config::RigConfig& c
     applied.intensities.push_back(light.intensity);
   }
   applied.pixel_size_mm = stored->pixel_size_mm;
+  applied.led_positions_mm = stored->led_positions_mm;
   // The colour matrix holds for the flat field it was measured through
   // (scans divide by the flats channel by channel).
   if (stored->colour_matrix && stored->colour_flat_field != stored->flat_version)
@@ -99,6 +101,18 @@ ScanRequest Rig::request(const config::RigConfig& config) const {
   if (world && config.camera.backend == "sim") {
     request.ground_truth_normal = world->swatch().normal;
     request.ground_truth_height = world->swatch().height_mm;
+    if (config.sim.target == "swatch") {
+      const auto pattern = sim::parse_swatch_pattern(config.sim.pattern);
+      const sim::SwatchGauge gauge =
+          sim::swatch_gauge(pattern.value_or(sim::SwatchPattern::jersey));
+      request.ground_truth_fabric = {
+          {"construction", gauge.knitted ? "knit" : "woven"},
+          {"structure", config.sim.pattern},
+          {gauge.knitted ? "wales_per_cm" : "ends_per_cm", gauge.across_per_cm},
+          {gauge.knitted ? "courses_per_cm" : "picks_per_cm", gauge.along_per_cm},
+          {"rotation_deg", config.sim.swatch_rotation_deg},
+          {"skew_deg", 0.0}};
+    }
   }
   return request;
 }

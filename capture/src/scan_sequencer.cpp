@@ -298,11 +298,23 @@ Result<processing::Scan> ScanSequencer::acquire(
                           : use_calibration ? calibrated->intensities[channel]
                                             : intensity[phase.channel]),
            false, std::nullopt});
-      // Near-field LEDs: each light's position from the rig's geometry.
+      // Near-field LEDs: each light's position as calibrated, else from the
+      // rig's geometry; relative to the swatch's top (swatch_height_mm
+      // above the plane they were measured from).
       const auto positions = config::led_positions_mm(config_.geometry);
-      if (channel < positions.size())
-        scan.description.lights.back().position_mm =
-            cv::Vec3d(positions[channel][0], positions[channel][1], positions[channel][2]);
+      const bool measured = calibrated &&
+                            calibrated->led_positions_mm.size() ==
+                                static_cast<std::size_t>(config_.lights.channels) &&
+                            channel < calibrated->led_positions_mm.size();
+      std::optional<cv::Vec3d> position;
+      if (measured)
+        position = calibrated->led_positions_mm[channel];
+      else if (channel < positions.size())
+        position = cv::Vec3d(positions[channel][0], positions[channel][1], positions[channel][2]);
+      if (position) {
+        (*position)[2] -= config_.geometry.swatch_height_mm;
+        scan.description.lights.back().position_mm = position;
+      }
     }
   }
   if (auto ok = lights_.all_off(); !ok) return std::unexpected(ok.error());
@@ -319,9 +331,12 @@ Result<processing::Scan> ScanSequencer::acquire(
   scan.white_level = *d.white_level;
   const bool scaled = request.calibration && request.calibration->pixel_size_mm;
   d.pixel_size_mm = scaled ? *request.calibration->pixel_size_mm : config_.geometry.pixel_size_mm;
-  if (d.near_field() && !scan.frames.empty())  // the camera axis through the image centre
-    d.principal_point_px =
-        cv::Point2d(0.5 * (scan.frames.front().cols - 1), 0.5 * (scan.frames.front().rows - 1));
+  if (d.near_field() && !scan.frames.empty())  // rig.toml's, else the image centre
+    d.principal_point_px = config_.camera.principal_point_px
+                               ? cv::Point2d((*config_.camera.principal_point_px)[0],
+                                             (*config_.camera.principal_point_px)[1])
+                               : cv::Point2d(0.5 * (scan.frames.front().cols - 1),
+                                             0.5 * (scan.frames.front().rows - 1));
   d.document = {
       {"capture",
        {{"camera", camera_.describe()},
@@ -371,6 +386,11 @@ Result<processing::Scan> ScanSequencer::acquire(
   nlohmann::json applied = nlohmann::json::array({"lights"});
   if (flat_fielded) applied.push_back("flat");
   if (scaled) applied.push_back("scale");
+  if (request.calibration &&
+      request.calibration->led_positions_mm.size() ==
+          static_cast<std::size_t>(config_.lights.channels) &&
+      d.near_field())
+    applied.push_back("led_positions_mm");
   // The colour matrix goes with colour frames only; processing applies it.
   const bool coloured = request.calibration && request.calibration->colour_matrix &&
                         !scan.frames.empty() && scan.frames.front().channels() == 3;
@@ -388,6 +408,8 @@ Result<processing::Scan> ScanSequencer::acquire(
                                                    {"created", request.calibration->created},
                                                    {"applied", applied}}
                                   : nlohmann::json(nullptr);
+  if (!request.ground_truth_fabric.is_null())
+    d.document["ground_truth"]["fabric"] = request.ground_truth_fabric;
   return scan;
 }
 
@@ -410,7 +432,9 @@ Result<ScanOutcome> ScanSequencer::capture(
   committed_ = true;
   if (request.process.value_or(config_.capture.process)) {
     if (progress) progress({ScanStage::processing, "processing", 0, 1});
-    auto maps = processing::process_scan(outcome.directory);
+    processing::ProcessOptions options;
+    options.solve.reject_outliers = config_.processing.reject;  // [processing] reject
+    auto maps = processing::process_scan(outcome.directory, options);
     if (!maps) return std::unexpected(maps.error());
     outcome.maps = std::move(*maps);
   }

@@ -90,7 +90,10 @@ nlohmann::json scan_json(const Scan& scan) {
   if (d.principal_point_px)
     doc["principal_point_px"] = {d.principal_point_px->x, d.principal_point_px->y};
   if (!scan.ground_truth_normal.empty() || !scan.ground_truth_height.empty()) {
-    nlohmann::json truth = nlohmann::json::object();
+    // Other truths the document carries (the simulator's fabric gauge) stay.
+    nlohmann::json truth = doc.contains("ground_truth") && doc["ground_truth"].is_object()
+                               ? doc["ground_truth"]
+                               : nlohmann::json::object();
     if (!scan.ground_truth_normal.empty()) truth["normal"] = files::kGroundTruthNormal;
     if (!scan.ground_truth_height.empty()) truth["height"] = files::kGroundTruthHeight;
     doc["ground_truth"] = truth;

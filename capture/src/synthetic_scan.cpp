@@ -28,6 +28,18 @@ processing::Scan make_synthetic_scan(const SyntheticScanParams& params) {
                   {"noise", params.noise},
                   {"seed", params.swatch.seed},
                   {"cast_shadows", params.cast_shadows}}}};
+  // The gauge as made, for checking `psrig measure` (ground_truth.fabric).
+  const sim::SwatchGauge gauge = sim::swatch_gauge(params.swatch.pattern);
+  const char* construction = gauge.knitted ? "knit" : "woven";
+  if (params.fabric_metadata)
+    d.document["fabric"] = {{"construction", construction}, {"structure", pattern}};
+  d.document["ground_truth"]["fabric"] = {
+      {"construction", construction},
+      {"structure", pattern},
+      {gauge.knitted ? "wales_per_cm" : "ends_per_cm", gauge.across_per_cm},
+      {gauge.knitted ? "courses_per_cm" : "picks_per_cm", gauge.along_per_cm},
+      {"rotation_deg", params.swatch.rotation_deg},
+      {"skew_deg", 0.0}};
 
   for (int k = 0; k < 3; ++k) {
     const cv::Vec3d direction = processing::light_direction(120.0 * k, params.slant_deg);

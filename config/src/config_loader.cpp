@@ -315,6 +315,7 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   } else {
     geometry->node("led_distance_mm");
   }
+  PSRIG_TRY(geometry->get("swatch_height_mm", c.geometry.swatch_height_mm, 0, 1000));
   geometry->finish();
 
   auto lights = sub(top, "lights");
@@ -427,6 +428,18 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   PSRIG_TRY(camera->get("frames_average", cam.frames_average, 1, 64));
   PSRIG_TRY(camera->get("frames_discard", cam.frames_discard, 0, 64));
   PSRIG_TRY(camera->get("timeout_ms", cam.timeout_ms, 1, 600000));
+  {
+    std::vector<double> point;
+    PSRIG_TRY(camera->get("principal_point_px", point, 0, 65535));
+    if (camera->find("principal_point_px")) {
+      if (point.size() != 2)
+        return std::unexpected(camera->error_at(
+            camera->find("principal_point_px"), "principal_point_px",
+            "expected [x, y] in pixels (where the camera axis meets the image, from the "
+            "top-left corner); leave it out for the image centre"));
+      cam.principal_point_px = std::array<double, 2>{point[0], point[1]};
+    }
+  }
   camera->finish();
 
   auto capture = sub(top, "capture");
@@ -435,6 +448,23 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   PSRIG_TRY(capture->get("settle_ms", c.capture.settle_ms, 0, 60000));
   PSRIG_TRY(capture->get("process", c.capture.process));
   capture->finish();
+
+  auto processing = sub(top, "processing");
+  if (!processing) return std::unexpected(processing.error());
+  PSRIG_TRY(processing->get("reject", c.processing.reject));
+  processing->finish();
+
+  auto calibration = sub(top, "calibration");
+  if (!calibration) return std::unexpected(calibration.error());
+  PSRIG_TRY(calibration->get("max_age_days", c.calibration.max_age_days, 0, 36500));
+  if (calibration->find("sphere_diameter_mm")) {
+    double diameter = 0;
+    PSRIG_TRY(calibration->get("sphere_diameter_mm", diameter, 0, 1000, true));
+    c.calibration.sphere_diameter_mm = diameter;
+  } else {
+    calibration->node("sphere_diameter_mm");
+  }
+  calibration->finish();
 
   auto storage = sub(top, "storage");
   if (!storage) return std::unexpected(storage.error());
@@ -450,6 +480,12 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   PSRIG_TRY(sim->get("target", s.target,
                      {"swatch", "flat", "chrome_sphere", "matte_sphere", "white_card",
                       "charuco_board", "colour_chart"}));
+  // "flat", the older name of a grey card: the white card at albedo 0.6.
+  if (s.target == "flat") {
+    s.target = "white_card";
+    s.card_albedo = 0.6;
+  }
+  PSRIG_TRY(sim->get("card_albedo", s.card_albedo, 0, 1, true));
   PSRIG_TRY(sim->get("sphere_diameter_mm", s.sphere_diameter_mm, 0.1, 1000, true));
   PSRIG_TRY(sim->get("led_angular_diameter_deg", s.led_angular_diameter_deg, 0.01, 20, true));
   {
@@ -462,6 +498,30 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
                           "expected [x, y] in millimetres from the camera axis"));
       s.sphere_centre_mm = std::array<double, 2>{centre[0], centre[1]};
     }
+  }
+  if (const toml::node* places = sim->node("sphere_places_mm")) {
+    const toml::array* array = places->as_array();
+    if (!array || array->empty())
+      return std::unexpected(
+          sim->error_at(places, "sphere_places_mm",
+                        "expected a list of [x, y] places in millimetres "
+                        "from the camera axis, e.g. [[-8, 5], [8, 5], [0, -7]]"));
+    for (const auto& element : *array) {
+      const toml::array* pair = element.as_array();
+      std::optional<double> x, y;
+      if (pair && pair->size() == 2) x = (*pair)[0].value<double>(), y = (*pair)[1].value<double>();
+      if (!x || !y || std::abs(*x) > 1e4 || std::abs(*y) > 1e4)
+        return std::unexpected(sim->error_at(
+            &element, "sphere_places_mm", "expected [x, y] in millimetres from the camera axis"));
+      s.sphere_places_mm.push_back({*x, *y});
+    }
+  }
+  if (sim->find("led_distance_mm")) {
+    double distance = 0;
+    PSRIG_TRY(sim->get("led_distance_mm", distance, 0, 1e5, true));
+    s.led_distance_mm = distance;
+  } else {
+    sim->node("led_distance_mm");
   }
   {
     std::vector<double> mixing;
@@ -478,6 +538,7 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
     }
   }
   PSRIG_TRY(sim->get("pattern", s.pattern, {"jersey", "rib", "garter", "plain", "twill"}));
+  PSRIG_TRY(sim->get("swatch_rotation_deg", s.swatch_rotation_deg, -45, 45));
   PSRIG_TRY(sim->get("seed", s.seed));
   PSRIG_TRY(sim->get("width", s.width, 8, 16384));
   PSRIG_TRY(sim->get("height", s.height, 8, 16384));

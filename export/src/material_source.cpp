@@ -7,6 +7,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "psrig/processing/scan_layout.h"
+#include "psrig/processing/seamless_tile.h"
 
 namespace psrig::export_ {
 namespace {
@@ -119,13 +120,21 @@ Status read_maps_facts(MaterialSource& source) {
 Status read_tile_facts(MaterialSource& source, const fs::path& tile_file) {
   auto tile = read_json(tile_file);
   if (!tile) return std::unexpected(tile.error());
-  if (!tile->contains("format") || (*tile)["format"] != kTileFormat)
+  if (!tile->contains("format") || (*tile)["format"] != processing::kTileFormat)
     return std::unexpected(bad_input(
         tile_file, "format",
-        std::string("expected \"") + kTileFormat + "\"; remake the tile with psrig tile"));
+        std::string("expected \"") + processing::kTileFormat + "\"; remake the tile with psrig tile"));
   auto pixel = optional_length(*tile, tile_file, "pixel_size_mm");
   if (!pixel) return std::unexpected(pixel.error());
   source.pixel_size_mm = *pixel;
+  if (*pixel) {
+    for (auto [key, size] : {std::pair{"width_mm", &source.tile_width_mm},
+                             std::pair{"height_mm", &source.tile_height_mm}}) {
+      auto length = optional_length(*tile, tile_file, key);
+      if (!length) return std::unexpected(length.error());
+      *size = *length;
+    }
+  }
   source.tile = true;
   source.sample_id = sample_id_of(*tile);
   source.sample_description = sample_description_of(*tile);
@@ -164,7 +173,7 @@ Result<MaterialSource> material_source_from(const fs::path& directory) {
   if (fs::is_regular_file(directory / map_files::kHeightPng, ec))
     source.height_png = directory / map_files::kHeightPng;
 
-  const fs::path tile_file = directory / kTileDescription;
+  const fs::path tile_file = directory / processing::kTileDescription;
   if (auto ok =
           fs::exists(tile_file, ec) ? read_tile_facts(source, tile_file) : read_maps_facts(source);
       !ok)
@@ -183,7 +192,7 @@ Result<MaterialSource> material_source_from(const fs::path& directory) {
     source.height_units = "px";
     source.warnings.push_back(
         "no pixel size (pixel_size_mm) in " +
-        (source.tile ? (directory / kTileDescription).string()
+        (source.tile ? (directory / processing::kTileDescription).string()
                      : (directory / map_files::kReport).string()) +
         ": the export is in pixels, one pixel written as 1 mm; calibrate the rig's scale "
         "(psrig calibrate scale) for real sizes");
@@ -192,6 +201,22 @@ Result<MaterialSource> material_source_from(const fs::path& directory) {
     source.warnings.push_back(
         "no height map (height.exr, height.png): the export has no "
         "displacement");
+  return source;
+}
+
+Result<MaterialSource> material_for_export(const fs::path& directory, bool whole_scan) {
+  std::error_code ec;
+  if (whole_scan || fs::is_regular_file(directory / processing::kTileDescription, ec) ||
+      !fs::is_directory(directory, ec))
+    return material_source_from(directory);
+  std::vector<std::string> warnings;
+  auto tile = processing::ensure_tile(directory, warnings);
+  auto source = material_source_from(tile ? *tile : directory);
+  if (!source) return source;
+  if (!tile)
+    warnings.push_back("no seamless tile (" + tile.error().describe() +
+                       "); exporting the whole scan, which shows a seam where it repeats");
+  source->warnings.insert(source->warnings.begin(), warnings.begin(), warnings.end());
   return source;
 }
 

@@ -5,6 +5,7 @@
 #include <cstdio>
 #include <fstream>
 #include <functional>
+#include <future>
 #include <optional>
 
 #include <opencv2/imgcodecs.hpp>
@@ -13,6 +14,7 @@
 #include "psrig/processing/atomic_directory.h"
 #include "psrig/processing/colour_correction.h"
 #include "psrig/processing/evaluation.h"
+#include "psrig/processing/fabric_measure.h"
 #include "psrig/processing/flatten.h"
 #include "psrig/processing/hole_fill.h"
 #include "psrig/processing/image_io.h"
@@ -173,6 +175,11 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   };
   std::optional<HeightSummary> height_summary;
   std::optional<BendSummary> bend_summary;
+  // The fabric measurement runs beside the map writes, from the height on.
+  MeasureOptions measure;
+  measure.pixel_size_mm = scan->description.pixel_size_mm;
+  measure.hints = fabric_hints(scan->description.document);
+  std::future<Result<FabricMeasurement>> fabric_future;
   double integrate_ms = 0;
   struct Task {
     std::string name;
@@ -239,6 +246,9 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
                         summary.units);
            }
            bend_summary = bend;
+           fabric_future = std::async(std::launch::async, [&measure, &result, h = *height] {
+             return measure_fabric(h, result.albedo, measure);
+           });
 
            double low = 0, high = 0;
            if (summary.pixels > 0) cv::minMaxLoc(*height, &low, &high, nullptr, nullptr, finite);
@@ -312,6 +322,12 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   if (options.integration != IntegrationMethod::none)
     stages.emplace_back("integrate", integrate_ms);
   stages.emplace_back("integrate_and_write", ms_since(stage_start));
+  // The fabric's repeat and densities, from the maps just made.
+  const auto measure_start = Clock::now();  // what is left of it after the writes
+  const auto fabric = fabric_future.valid()
+                          ? fabric_future.get()
+                          : measure_fabric(result.p, result.albedo, measure);  // no height
+  stages.emplace_back("measure", ms_since(measure_start));
   stages.emplace_back("total", ms_since(start));
 
   inputs.height = height_summary;
@@ -327,6 +343,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   report["colour_calibration"] = colour_corrected && !(*colour)->calibration.empty()
                                      ? nlohmann::json((*colour)->calibration)
                                      : nlohmann::json(nullptr);
+  if (fabric) report["fabric"] = to_json(*fabric);
   const fs::path report_path = dir / map_files::kReport;
   std::ofstream out(report_path);
   out << report.dump(2) << '\n';

@@ -154,7 +154,41 @@ std::string_view to_string(SwatchPattern pattern) {
   return "unknown";
 }
 
+SwatchGauge swatch_gauge(SwatchPattern pattern) {
+  const PatternSpec spec = spec_for(pattern);
+  if (!spec.knitted) return {false, spec.weave.ends_per_cm, spec.weave.picks_per_cm};
+  const detail::KnitSpec& k = spec.knit;
+  const double wale_mm = k.structure == detail::KnitStructure::rib
+                             ? 0.5 * (k.knit_wale_mm + k.purl_wale_mm)
+                             : k.knit_wale_mm;
+  return {true, 10.0 / wale_mm, 10.0 / k.course_mm};
+}
+
 Swatch make_swatch(const SwatchParams& params) {
+  if (params.rotation_deg != 0 && params.size.width > 0 && params.size.height > 0) {
+    // Render square enough to cover the turned frame, turn it about the
+    // centre, keep the middle.
+    SwatchParams square = params;
+    square.rotation_deg = 0;
+    const int side =
+        static_cast<int>(std::ceil(std::hypot(params.size.width, params.size.height))) + 8;
+    square.size = {side, side};
+    Swatch big = make_swatch(square);
+    if (big.height_mm.empty()) return big;
+    const cv::Point2f centre(0.5f * static_cast<float>(side - 1),
+                             0.5f * static_cast<float>(side - 1));
+    cv::Mat turn = cv::getRotationMatrix2D(centre, params.rotation_deg, 1.0);
+    turn.at<double>(0, 2) -= 0.5 * (side - params.size.width);
+    turn.at<double>(1, 2) -= 0.5 * (side - params.size.height);
+    Swatch swatch;
+    swatch.pixel_size_mm = params.pixel_size_mm;
+    cv::warpAffine(big.height_mm, swatch.height_mm, turn, params.size, cv::INTER_CUBIC,
+                   cv::BORDER_REFLECT);
+    cv::warpAffine(big.albedo, swatch.albedo, turn, params.size, cv::INTER_LINEAR,
+                   cv::BORDER_REFLECT);
+    swatch.normal = normals_from_height(swatch.height_mm, params.pixel_size_mm);
+    return swatch;
+  }
   Swatch swatch;
   swatch.pixel_size_mm = params.pixel_size_mm;
   if (params.size.width <= 0 || params.size.height <= 0 || !(params.pixel_size_mm > 0)) {

@@ -28,16 +28,10 @@ std::optional<SphereTarget> sphere_target(const config::SimConfig& sim) {
 }
 
 Swatch make_world_swatch(const config::SimConfig& sim) {
-  if (sim.target == "flat") {  // a flat matte grey card
-    Swatch card;
-    card.pixel_size_mm = sim.pixel_size_mm;
-    card.height_mm = cv::Mat(sim.height, sim.width, CV_32F, cv::Scalar(0));
-    card.normal = cv::Mat(sim.height, sim.width, CV_32FC3, cv::Scalar(0, 0, 1));
-    card.albedo = cv::Mat(sim.height, sim.width, CV_32FC3, cv::Scalar::all(0.6));
-    return card;
-  }
   if (const auto sphere = sphere_target(sim)) return sphere_scene(*sphere);
-  if (sim.target == "white_card") return white_card({sim.width, sim.height}, sim.pixel_size_mm);
+  if (sim.target == "white_card")
+    return white_card({sim.width, sim.height}, sim.pixel_size_mm,
+                      static_cast<float>(sim.card_albedo));
   if (sim.target == "charuco_board")
     return charuco_board({sim.width, sim.height}, sim.pixel_size_mm);
   if (sim.target == "colour_chart") return colour_chart({sim.width, sim.height}, sim.pixel_size_mm);
@@ -46,6 +40,7 @@ Swatch make_world_swatch(const config::SimConfig& sim) {
   params.size = {sim.width, sim.height};
   params.pixel_size_mm = sim.pixel_size_mm;
   params.seed = sim.seed;
+  params.rotation_deg = sim.swatch_rotation_deg;
   return make_swatch(params);
 }
 
@@ -56,7 +51,14 @@ World::World(const config::RigConfig& config, std::shared_ptr<firmware_host::Sim
       leds_(leds ? std::move(leds)
                  : std::make_shared<firmware_host::SimulatedLeds>(config.lights.channels)) {
   const auto sphere = sphere_target(config.sim);
-  const auto positions = config::led_positions_mm(config.geometry);
+  // Near LEDs where the geometry places them, else (an unmeasured rig) at
+  // [sim] led_distance_mm along the geometry's slant and tilts.
+  auto positions = config::led_positions_mm(config.geometry);
+  if (positions.empty() && config.sim.led_distance_mm) {
+    config::Geometry truth = config.geometry;
+    truth.led_distance_mm = config.sim.led_distance_mm;
+    positions = config::led_positions_mm(truth);
+  }
   for (int k = 0; k < config.lights.channels; ++k) {
     const auto& tilts = config.geometry.tilts_deg;
     const double tilt_deg =

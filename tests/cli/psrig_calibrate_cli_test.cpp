@@ -126,7 +126,11 @@ TEST(PsrigCalibrate, AScanWithoutACalibrationSaysSoInScanJson) {
   auto scanned = run_program(
       "psrig", {"scan", "--config", config.string(), "--out", scan.string(), "--no-process", "-q"});
   ASSERT_EQ(scanned.exit_code, 0) << scanned.err;
-  EXPECT_TRUE(scanned.err.empty()) << scanned.err;
+  EXPECT_TRUE(scanned.err.empty()) << scanned.err;  // -q: nothing on success
+  auto said = run_program("psrig", {"scan", "--config", config.string(), "--out",
+                                    (temp / "said").string(), "--no-process"});
+  ASSERT_EQ(said.exit_code, 0) << said.err;
+  EXPECT_TRUE(contains(said.err, "psrig scan: warning: the rig has no calibration")) << said.err;
   const json description = read_json(scan / "scan.json");
   ASSERT_TRUE(description.contains("calibration"));
   EXPECT_TRUE(description["calibration"].is_null());

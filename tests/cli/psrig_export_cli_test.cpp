@@ -1,5 +1,8 @@
 // psrig export: the command line over the export library.
 
+#include <cstdio>
+#include <fstream>
+
 #include <gtest/gtest.h>
 
 #include "../unit/export_fixture.h"
@@ -17,7 +20,8 @@ TEST(PsrigExportCli, WritesEachFormatAndSaysItsSize) {
     const fs::path out =
         dir / (format == "glb" || format == "u3ma" ? "m." + format : "m-" + format);
     const auto run = run_program(
-        "psrig", {"export", (dir / "maps").string(), "--format", format, "--out", out.string()});
+        "psrig", {"export", (dir / "maps").string(), "--format", format, "--out", out.string(),
+                  "--whole-scan"});
     EXPECT_EQ(run.exit_code, 0) << format << ": " << run.err;
     EXPECT_TRUE(fs::exists(out)) << format;
     EXPECT_NE(run.out.find("size: 10.000 x 6.000 mm (200 x 120 px)"), std::string::npos) << run.out;
@@ -40,10 +44,37 @@ TEST(PsrigExportCli, WithoutPixelSizeWarnsAndExportsInPixels) {
   TempDir dir("psrig-export-cli");
   write_known_maps(dir / "maps", {.pixel_size_mm = std::nullopt});
   const auto run = run_program("psrig", {"export", (dir / "maps").string(), "--format", "glb",
-                                         "--out", (dir / "a.glb").string()});
+                                         "--out", (dir / "a.glb").string(), "--whole-scan"});
   EXPECT_EQ(run.exit_code, 0) << run.err;
   EXPECT_NE(run.err.find("warning: no pixel size"), std::string::npos) << run.err;
   EXPECT_NE(run.out.find("(200 x 120 px)"), std::string::npos) << run.out;
+}
+
+// By default a maps directory is exported as its seamless tile (made once
+// into MAPS_DIR/tile), so the material repeats without a seam.
+TEST(PsrigExportCli, AMapsDirectoryExportsItsSeamlessTile) {
+  TempDir dir("psrig-export-cli");
+  const std::string scan = (dir / "scan").string();
+  ASSERT_EQ(run_program("psrig", {"synth", "--out", scan, "--size", "400x300", "-q"}).exit_code, 0);
+  ASSERT_EQ(run_program("psrig", {"process", scan, "-q"}).exit_code, 0);
+  const fs::path maps = dir / "scan" / "maps";
+  const auto run = run_program(
+      "psrig", {"export", maps.string(), "--format", "glb", "--out", (dir / "t.glb").string()});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(run.err.empty()) << run.err;
+  ASSERT_TRUE(fs::exists(maps / "tile" / "tile.json"));
+  const auto tile = nlohmann::json::parse(std::ifstream(maps / "tile" / "tile.json"));
+  EXPECT_TRUE(tile["periodic"].get<bool>()) << tile.dump();
+  char size[96];
+  std::snprintf(size, sizeof size, "size: %.3f x %.3f mm", tile["width_mm"].get<double>(),
+                tile["height_mm"].get<double>());
+  EXPECT_NE(run.out.find(size), std::string::npos) << run.out << " vs " << size;
+  EXPECT_NE(run.out.find("seamless tile"), std::string::npos) << run.out;
+  // The whole scan on request: 400 x 300 px.
+  const auto whole = run_program("psrig", {"export", maps.string(), "--format", "glb", "--out",
+                                           (dir / "w.glb").string(), "--whole-scan"});
+  ASSERT_EQ(whole.exit_code, 0) << whole.err;
+  EXPECT_NE(whole.out.find("(400 x 300 px)"), std::string::npos) << whole.out;
 }
 
 TEST(PsrigExportCli, BadInputExitsTwoNamingTheFile) {

@@ -415,6 +415,59 @@ TEST(Catalogue, RowsLeftQueuedOrRunningByADeadRunFailAtTheNextStart) {
   EXPECT_TRUE(search(*catalogue, query([](auto& q) { q.status = ScanStatus::running; })).empty());
 }
 
+// "wales between 6 and 8 per cm": the report's fabric figures as columns,
+// also on rows a version-1 catalogue stored before it had them.
+TEST(Catalogue, SearchByMeasuredFabricDensity) {
+  TempDir temp;
+  const auto done_with = [&](Catalogue& catalogue, const std::string& sample,
+                             const nlohmann::json& fabric) {
+    const auto id = add(catalogue, sample);
+    const fs::path scan = catalogue.storage_root() / ("scan-" + sample);
+    EXPECT_TRUE(catalogue.mark_running(id, scan));
+    make_scan(scan);
+    EXPECT_TRUE(catalogue.mark_done(id, scan / "maps", {{"fabric", fabric}}));
+    return id;
+  };
+  std::int64_t jersey = 0, rib = 0, plain = 0;
+  {
+    auto catalogue = open(temp.path());
+    jersey = done_with(*catalogue, "jersey", {{"wales_per_cm", 6.99}, {"courses_per_cm", 9.0}});
+    rib = done_with(*catalogue, "rib", {{"wales_per_cm", 11.1}, {"courses_per_cm", 9.0}});
+  }
+  // Back to version 1 with a row it wrote: the migration must add the columns.
+  sqlite3* db = nullptr;
+  ASSERT_EQ(sqlite3_open((temp / Catalogue::kFileName).c_str(), &db), SQLITE_OK);
+  for (const char* column :
+       {"wales_per_cm", "courses_per_cm", "ends_per_cm", "picks_per_cm", "construction"})
+    EXPECT_EQ(sqlite3_exec(db, ("ALTER TABLE scans DROP COLUMN " + std::string(column)).c_str(),
+                           nullptr, nullptr, nullptr),
+              SQLITE_OK)
+        << sqlite3_errmsg(db);
+  EXPECT_EQ(sqlite3_exec(db, "PRAGMA user_version = 1", nullptr, nullptr, nullptr), SQLITE_OK);
+  sqlite3_close(db);
+  auto catalogue = open(temp.path());
+  ASSERT_TRUE(catalogue);
+  plain = done_with(*catalogue, "plain", {{"ends_per_cm", 24.0}, {"picks_per_cm", 22.0}});
+  using Range = CatalogueQuery::FabricRange;
+  using Ids = std::vector<std::int64_t>;
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.fabric = {Range{"wales_per_cm", 6.0, 8.0}};
+            })),
+            Ids{jersey});
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.fabric = {Range{"wales_per_cm", 6.0, std::nullopt}};
+            })),
+            (Ids{rib, jersey}));
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.fabric = {Range{"courses_per_cm", 8.5, 9.5}, Range{"wales_per_cm", 10, 12}};
+            })),
+            Ids{rib});
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.fabric = {Range{"picks_per_cm", std::nullopt, 23.0}};
+            })),
+            Ids{plain});
+}
+
 TEST(Catalogue, ANewerSchemaIsRefused) {
   TempDir temp;
   { ASSERT_TRUE(open(temp.path())); }

@@ -140,6 +140,12 @@ TEST(Psrigd, ScanRoundTripSearchDownloadAndDelete) {
   EXPECT_TRUE(contains(daemon.get("/v1/scans?from=yesterday", 400).value("error", ""), "from"));
   EXPECT_TRUE(contains(daemon.get("/v1/scans?limit=0", 400).value("error", ""), "limit"));
   EXPECT_TRUE(contains(daemon.get("/v1/scans?colour=red", 400).value("error", ""), "colour"));
+  // The simulated rig's jersey, about 7 wales per cm: "wales between 6 and 8 per cm".
+  EXPECT_EQ(ids("?wales_min=6&wales_max=8"), (Ids{second, first}));
+  EXPECT_EQ(ids("?wales_min=6&wales_max=8&courses_min=8.5&courses_max=9.5"), (Ids{second, first}));
+  EXPECT_EQ(ids("?wales_min=100&wales_max=200"), Ids{});  // measured fabric density range
+  EXPECT_TRUE(
+      contains(daemon.get("/v1/scans?wales_min=six", 400).value("error", ""), "wales_min"));
 
   // Delete: the files go, then the row.
   auto deleted = daemon.http().Delete("/v1/scans/" + std::to_string(first));

@@ -35,7 +35,8 @@ config::RigConfig near_rig() {
   c.geometry.slant_deg = 45;
   c.geometry.tilts_deg = {0, 120, 240};
   c.geometry.led_distance_mm = 250;
-  c.sim.target = "flat";
+  c.sim.target = "white_card";
+  c.sim.card_albedo = 0.6;
   c.sim.width = 640;
   c.sim.height = 480;
   c.sim.pixel_size_mm = 0.025;

@@ -41,7 +41,8 @@ TEST(SimWorld, NearLedsArePointSources) {
   config::RigConfig c;
   c.sim.width = 641;  // an odd size: the centre pixel sits on the axis
   c.sim.height = 481;
-  c.sim.target = "flat";
+  c.sim.target = "white_card";
+  c.sim.card_albedo = 0.6;
   c.sim.pixel_size_mm = 0.025;  // a 16 x 12 mm field
   c.geometry.led_distance_mm = 250;
   World world(c);

@@ -56,6 +56,21 @@ CREATE TABLE scan_tags (
 );
 CREATE INDEX scan_tags_tag ON scan_tags (tag);
 )sql",
+    // The fabric's measured densities (report.json's fabric section), as
+    // columns to search by range; computed from the stored report, so rows
+    // written before this step have them too.
+    R"sql(
+ALTER TABLE scans ADD COLUMN wales_per_cm REAL
+  GENERATED ALWAYS AS (json_extract(report, '$.fabric.wales_per_cm')) VIRTUAL;
+ALTER TABLE scans ADD COLUMN courses_per_cm REAL
+  GENERATED ALWAYS AS (json_extract(report, '$.fabric.courses_per_cm')) VIRTUAL;
+ALTER TABLE scans ADD COLUMN ends_per_cm REAL
+  GENERATED ALWAYS AS (json_extract(report, '$.fabric.ends_per_cm')) VIRTUAL;
+ALTER TABLE scans ADD COLUMN picks_per_cm REAL
+  GENERATED ALWAYS AS (json_extract(report, '$.fabric.picks_per_cm')) VIRTUAL;
+ALTER TABLE scans ADD COLUMN construction TEXT
+  GENERATED ALWAYS AS (json_extract(report, '$.fabric.construction')) VIRTUAL;
+)sql",
 };
 static_assert(std::size(kMigrations) == Catalogue::kSchemaVersion);
 
@@ -546,6 +561,13 @@ Filter filter_of(const CatalogueQuery& query) {
   if (query.from) condition("s.created >= ?", {*query.from});
   if (query.to) condition("s.created <= ?", {*query.to});
   if (query.status) condition("s.status = ?", {to_string(*query.status)});
+  for (const auto& range : query.fabric) {
+    // Column names from the fixed list in CatalogueQuery, never the user's text.
+    if (range.min)
+      condition("s." + range.column + " >= CAST(? AS REAL)", {std::to_string(*range.min)});
+    if (range.max)
+      condition("s." + range.column + " <= CAST(? AS REAL)", {std::to_string(*range.max)});
+  }
   return f;
 }
 

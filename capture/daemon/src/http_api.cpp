@@ -5,6 +5,7 @@
 #include <atomic>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 #include <fstream>
 #include <httplib.h>
 #include <limits>
@@ -15,6 +16,8 @@
 
 #include "fronted_server.h"
 #include "psrig/base/log.h"
+#include "psrig/calibration/calibration_status.h"
+#include "psrig/capture/rig_calibration.h"
 #include "psrig/processing/scan_layout.h"
 #include "scan_exports.h"
 #include "scan_previews.h"
@@ -183,10 +186,12 @@ std::optional<std::string> string_field(const json& body, const char* key, std::
 const char* const kScansRoute = "/v1/scans";
 const char* const kCancelRoute = R"(/v1/scans/([^/]+)/cancel)";
 const char* const kLightsOffRoute = "/v1/lights/off";
+const char* const kCalibrationsRoute = "/v1/calibrations";
 
 bool reads_body(const httplib::Request& req) {
-  static const std::array<std::regex, 3> routes = {
-      std::regex(kScansRoute), std::regex(kCancelRoute), std::regex(kLightsOffRoute)};
+  static const std::array<std::regex, 4> routes = {
+      std::regex(kScansRoute), std::regex(kCancelRoute), std::regex(kLightsOffRoute),
+      std::regex(kCalibrationsRoute)};
   return req.method == "POST" && std::ranges::any_of(routes, [&](const std::regex& route) {
            return std::regex_match(req.path, route);
          });
@@ -296,6 +301,9 @@ struct HttpApi::Impl {
   void cancel(const httplib::Request& req, httplib::Response& res);
   void events(const httplib::Request& req, httplib::Response& res);
   void lights_off(httplib::Response& res);
+  void calibrate(const std::string& text, httplib::Response& res);
+  void calibrations(httplib::Response& res);
+  void current_calibration(httplib::Response& res);
 };
 
 void HttpApi::Impl::routes() {
@@ -428,6 +436,130 @@ void HttpApi::Impl::routes() {
                                       const httplib::ContentReader& reader) {
     if (read_body(req, reader, options.max_body_bytes, res)) lights_off(res);
   });
+  server.Post(kCalibrationsRoute, [this](const httplib::Request& req, httplib::Response& res,
+                                         const httplib::ContentReader& reader) {
+    if (auto body = read_body(req, reader, options.max_body_bytes, res)) calibrate(*body, res);
+  });
+  server.Get(kCalibrationsRoute,
+             [this](const httplib::Request&, httplib::Response& res) { calibrations(res); });
+  server.Get("/v1/calibrations/current",
+             [this](const httplib::Request&, httplib::Response& res) { current_calibration(res); });
+}
+
+// POST /v1/calibrations {"kind", …options}: queued with the scans.
+void HttpApi::Impl::calibrate(const std::string& text, httplib::Response& res) {
+  const json body = json::parse(text, nullptr, false);
+  if (body.is_discarded()) return refuse(res, 400, "malformed JSON in the request body");
+  if (!body.is_object()) return refuse(res, 400, "expected a JSON object");
+  std::string kinds;
+  for (const auto& kind : capture::calibration_kinds())
+    kinds += (kinds.empty() ? "" : ", ") + kind;
+  if (!body.contains("kind") || !body["kind"].is_string())
+    return refuse(res, 400, "kind: expected a string (" + kinds + ")");
+  capture::CalibrationRequest request;
+  request.kind = body["kind"].get<std::string>();
+  if (!capture::calibration_kind_supported(request.kind))
+    return refuse(res, 400, "kind: \"" + request.kind + "\" is not supported (" + kinds + ")");
+  // The options of `psrig calibrate KIND` that need no files on this machine.
+  const auto whole = [&](const char* key, int& out, int lo, int hi) -> std::optional<std::string> {
+    if (!body.contains(key)) return std::nullopt;
+    if (!body[key].is_number_integer() || body[key].get<std::int64_t>() < lo ||
+        body[key].get<std::int64_t>() > hi)
+      return std::string(key) + ": expected a whole number, " + std::to_string(lo) + " to " +
+             std::to_string(hi);
+    out = body[key].get<int>();
+    return std::nullopt;
+  };
+  const auto positive = [&](const char* key, double& out) -> std::optional<std::string> {
+    if (!body.contains(key)) return std::nullopt;
+    if (!body[key].is_number() || !(body[key].get<double>() > 0) ||
+        !(body[key].get<double>() < 1e6))
+      return std::string(key) + ": expected a positive number";
+    out = body[key].get<double>();
+    return std::nullopt;
+  };
+  const auto text_field = [&](const char* key, std::string& out) -> std::optional<std::string> {
+    return string_field(body, key, 64, out);
+  };
+  std::set<std::string> allowed = {"kind", "frames"};
+  if (request.kind == "lights") allowed.insert({"target", "places", "sphere_mm", "focal_px"});
+  if (request.kind == "scale") allowed.insert({"squares", "square_mm", "marker_mm", "dictionary"});
+  for (const auto& [key, value] : body.items())
+    if (!allowed.contains(key)) {
+      std::string list;
+      for (const auto& a : allowed)
+        list += (list.empty() ? "" : ", ") + a;
+      return refuse(res, 400,
+                    key + ": unknown field for kind " + request.kind + " (expected " + list + ")");
+    }
+  std::optional<std::string> problem;
+  if (request.kind == "scale" && body.contains("frames"))
+    problem = "frames: the scale takes one capture";
+  if (!problem) problem = whole("frames", request.frames, 1, 64);
+  if (!problem) problem = whole("places", request.places, 1, 16);
+  if (!problem && body.contains("target")) {
+    problem = text_field("target", request.target);
+    if (!problem && request.target != "chrome" && request.target != "matte")
+      problem = "target: expected \"chrome\" or \"matte\"";
+  }
+  double number = 0;
+  if (!problem && body.contains("sphere_mm") && !(problem = positive("sphere_mm", number)))
+    request.sphere_mm = number;
+  if (!problem && body.contains("focal_px") && !(problem = positive("focal_px", number)))
+    request.focal_px = number;
+  if (!problem) problem = text_field("squares", request.squares);
+  if (!problem) problem = positive("square_mm", request.square_mm);
+  if (!problem) problem = positive("marker_mm", request.marker_mm);
+  if (!problem) problem = text_field("dictionary", request.dictionary);
+  if (problem) return refuse(res, 400, *problem);
+  auto id = service.submit_calibration(body, std::move(request));
+  if (!id) {
+    if (id.error().code == ErrorCode::queue_full) {
+      res.set_header("Retry-After", "5");
+      return refuse(res, 503, id.error().message);
+    }
+    return refuse(res, 503, id.error().describe());
+  }
+  reply(res, 202, {{"id", *id}, {"kind", body["kind"]}, {"status", "queued"}});
+}
+
+// GET /v1/calibrations: the store's versions, the current one, and the
+// calibrations asked of this psrigd since it started.
+void HttpApi::Impl::calibrations(httplib::Response& res) {
+  const config::RigConfig config = service.config();
+  const calibration::CalibrationStore store(config.storage.root);
+  json versions = json::array();
+  for (const auto& version : store.versions()) {
+    const fs::path file = version / calibration::kCalibrationFile;
+    std::ifstream in(file);
+    const json document = json::parse(in, nullptr, false);
+    const bool readable = document.is_object();
+    versions.push_back({{"version", version.filename().string()},
+                        {"created", readable ? document.value("created", json()) : json()},
+                        {"contains", readable ? document.value("contains", json()) : json()},
+                        {"file", file.string()}});
+  }
+  reply(res, 200,
+        {{"versions", versions},
+         {"current", calibration::to_json(
+                         calibration::calibration_status(store, config.calibration.max_age_days))},
+         {"jobs", service.calibrations().to_json()}});
+}
+
+// GET /v1/calibrations/current: the current calibration.json, with its
+// version and staleness; 404 when the rig has none.
+void HttpApi::Impl::current_calibration(httplib::Response& res) {
+  const config::RigConfig config = service.config();
+  const calibration::CalibrationStore store(config.storage.root);
+  const auto status = calibration::calibration_status(store, config.calibration.max_age_days);
+  if (status.missing)
+    return refuse(res, 404,
+                  status.problem.empty()
+                      ? "the rig has no calibration: POST /v1/calibrations {\"kind\": \"lights\"}"
+                      : status.problem);
+  std::ifstream in(status.file);
+  const json document = json::parse(in, nullptr, false);
+  reply(res, 200, {{"status", calibration::to_json(status)}, {"calibration", document}});
 }
 
 void HttpApi::Impl::status(httplib::Response& res) {
@@ -453,7 +585,10 @@ void HttpApi::Impl::status(httplib::Response& res) {
          {"uptime_s", std::chrono::duration<double>(s.uptime).count()},
          {"devices",
           {{"open", d.open}, {"lights", d.lights}, {"camera", d.camera}, {"error", d.open_error}}},
-         {"storage_root", service.catalogue().storage_root().string()}});
+         {"storage_root", service.catalogue().storage_root().string()},
+         {"calibration", calibration::to_json(calibration::calibration_status(
+                             calibration::CalibrationStore(service.config().storage.root),
+                             service.config().calibration.max_age_days))}});
 }
 
 void HttpApi::Impl::submit(const std::string& text, httplib::Response& res) {
@@ -498,6 +633,21 @@ void HttpApi::Impl::submit(const std::string& text, httplib::Response& res) {
   reply(res, 202, {{"id", *id}, {"status", "queued"}});
 }
 
+namespace {
+
+// "wales_min" -> (wales_per_cm, false), "picks_max" -> (picks_per_cm, true).
+std::optional<std::pair<std::string, bool>> fabric_range_parameter(const std::string& key) {
+  for (const char* column : CatalogueQuery::kFabricColumns) {
+    const std::string name(column);
+    const std::string stem = name.substr(0, name.find('_'));
+    if (key == stem + "_min") return std::pair{name, false};
+    if (key == stem + "_max") return std::pair{name, true};
+  }
+  return std::nullopt;
+}
+
+}  // namespace
+
 void HttpApi::Impl::search(const httplib::Request& req, httplib::Response& res) {
   CatalogueQuery query;
   for (const auto& [key, value] : req.params) {
@@ -529,11 +679,23 @@ void HttpApi::Impl::search(const httplib::Request& req, httplib::Response& res) 
                       key + ": expected a whole number from " + std::to_string(low) +
                           (key == "limit" ? " to " + std::to_string(high) : ""));
       (key == "limit" ? query.limit : query.offset) = number;
+    } else if (const auto range = fabric_range_parameter(key)) {
+      // wales_min=6&wales_max=8: a measured density per cm within a range.
+      double number = 0;
+      const auto [end, ec] = std::from_chars(value.data(), value.data() + value.size(), number);
+      if (ec != std::errc() || end != value.data() + value.size() || !std::isfinite(number))
+        return refuse(res, 400, key + ": expected a number of threads per cm, e.g. 6.5");
+      auto& ranges = query.fabric;
+      auto it = std::find_if(ranges.begin(), ranges.end(),
+                             [&](const auto& r) { return r.column == range->first; });
+      if (it == ranges.end()) it = ranges.insert(ranges.end(), {range->first, {}, {}});
+      (range->second ? it->max : it->min) = number;
     } else {
       return refuse(res, 400,
                     key +
                         ": unknown parameter (expected q, sample_id, tag, from, to, status, limit, "
-                        "offset)");
+                        "offset, wales_min, wales_max, courses_min, courses_max, ends_min, "
+                        "ends_max, picks_min, picks_max)");
     }
   }
   auto found = service.catalogue().search(query);

@@ -52,7 +52,7 @@ Result<fs::path> ScanExports::get(const fs::path& scan_directory, const fs::path
       fs::last_write_time(target, ec) >= fs::last_write_time(maps_directory, maps_ec) && !ec &&
       !maps_ec)
     return target;
-  auto source = export_::material_source_from(maps_directory);
+  auto source = export_::material_for_export(maps_directory);  // its seamless tile
   if (!source) return std::unexpected(source.error());
   fs::create_directories(target.parent_path(), ec);
   if (ec) return std::unexpected(io_error(target.parent_path(), "cannot create: " + ec.message()));

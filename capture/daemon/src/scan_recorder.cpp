@@ -118,6 +118,30 @@ void ScanRecorder::failed(std::int64_t id, ScanStatus status, ScanErrorCode code
   events_.publish("error", std::move(event));
 }
 
+void ScanRecorder::calibration_progress(std::int64_t id, const std::string& kind,
+                                        const std::string& step) {
+  {
+    std::lock_guard lock(mutex_);
+    status_.step = "calibrating " + kind + ": " + step;
+    status_.progress_percent = 0;
+    if (!stopping_) status_.state = DaemonState::scanning;
+  }
+  events_.publish("progress", {{"calibration", id}, {"kind", kind}, {"step", step}});
+}
+
+void ScanRecorder::calibration_ended(std::int64_t id, const std::string& kind, bool ok,
+                                     const nlohmann::json& details) {
+  {
+    std::lock_guard lock(mutex_);
+    status_.step.clear();
+    status_.progress_percent = 0;
+    if (!stopping_) status_.state = DaemonState::idle;
+  }
+  nlohmann::json event = {{"calibration", id}, {"kind", kind}};
+  event.update(details);
+  events_.publish(ok ? "done" : "error", std::move(event));
+}
+
 Status ScanRecorder::make_durable(const fs::path& scan_directory,
                                   const fs::path& maps_directory) const {
   return flush_tree(maps_directory.empty() ? scan_directory : maps_directory);

@@ -72,6 +72,8 @@ DaemonStatus ScanService::status() const {
   std::lock_guard lock(outcome_mutex_);
   DaemonStatus status = recorder_.status();
   status.current_scan = queue_.running();
+  // A calibration runs as -id: not a scan.
+  if (status.current_scan && *status.current_scan < 0) status.current_scan.reset();
   status.queue_length = queue_.length();
   status.uptime = std::chrono::steady_clock::now() - started_;
   return status;
@@ -121,9 +123,95 @@ Status ScanService::lights_off() {
   log->info("lights off requested");
   auto off = rig_.lights_off(config());
   for (const auto& job : dropped)
-    if (auto ok = recorder_.cancelled(job.id, "lights off requested"); !ok)
-      log->error("scan {}: {}", job.id, ok.error().describe());
+    drop(job, "lights off requested", false);
   return off;
+}
+
+void ScanService::drop(const ScanJob& job, const std::string& message, bool stopping) {
+  if (job.submission.calibration != 0) {
+    calibrations_.ended(job.submission.calibration, "aborted", message, "");
+    return;
+  }
+  if (stopping) return recorder_.abandoned(job.id);
+  if (auto ok = recorder_.cancelled(job.id, message); !ok)
+    logger("daemon")->error("scan {}: {}", job.id, ok.error().describe());
+}
+
+Result<std::int64_t> ScanService::submit_calibration(nlohmann::json options,
+                                                     capture::CalibrationRequest request) {
+  const CalibrationJob job = calibrations_.add(options, std::move(request));
+  ScanSubmission submission;
+  submission.source = "http";
+  submission.calibration = job.id;
+  // The queue knows it as -id: never a scan's (catalogue) id.
+  auto queued = queue_.push(std::move(submission),
+                            [&](const ScanSubmission&) { return Result<std::int64_t>(-job.id); });
+  if (!queued) {
+    calibrations_.forget(job.id);
+    Error error = queued.error();
+    if (error.code == ErrorCode::queue_full) error.message += "; try again when one has run";
+    return std::unexpected(std::move(error));
+  }
+  logger("daemon")->info("calibration {} ({}) queued", job.id, job.kind);
+  return job.id;
+}
+
+void ScanService::run_calibration(const ScanJob& job) {
+  auto log = logger("daemon");
+  beat();
+  apply_pending_config();
+  const std::int64_t id = job.submission.calibration;
+  auto queued = calibrations_.get(id);
+  if (!queued) return queue_.finish_running();
+  const std::string kind = queued->kind;
+  if (queue_.abort_requested() || firmware_host::stop_requested()) {
+    calibrations_.ended(id, "aborted", "aborted before it started", "");
+    recorder_.calibration_ended(id, kind, false, {{"status", "aborted"}, {"error", "aborted"}});
+    return queue_.finish_running();
+  }
+  {
+    const DaemonStatus now = recorder_.status();
+    calibrations_.started(id, static_cast<std::int64_t>(now.scans_completed + now.scans_failed));
+  }
+  const config::RigConfig config = this->config();
+  // The procedure opens the rig as it needs it (the simulated rig's target
+  // and the sphere's places change the world): the daemon's is closed,
+  // LEDs off, and opened again by the next scan.
+  rig_.close();
+  capture::CalibrationRequest request = queued->request;
+  request.progress = [&](const std::string& step) {
+    beat();
+    calibrations_.step(id, step);
+    recorder_.calibration_progress(id, kind, step);
+  };
+  request.warn = [&](const std::string& warning) {
+    log->warn("calibration {} ({}): {}", id, kind, warning);
+  };
+  log->info("calibration {} ({}) running", id, kind);
+  Result<capture::CalibrationOutcome> outcome = std::unexpected(internal_error("not run"));
+  try {
+    outcome = capture::run_calibration(config, request);
+  } catch (const std::exception& e) {
+    outcome = std::unexpected(internal_error(std::string("internal error: ") + e.what()));
+  }
+  // However it ended: every LED off (the procedure's rig is gone by now).
+  if (auto ok = rig_.lights_off(config); !ok)
+    log->error("turning the LEDs off after calibration {}: {}", id, ok.error().describe());
+  beat();
+  if (!outcome) {
+    const std::string message = outcome.error().describe();
+    log->error("calibration {} ({}) failed: {}", id, kind, message);
+    calibrations_.ended(id, "failed", message, "");
+    recorder_.calibration_ended(id, kind, false, {{"status", "failed"}, {"error", message}});
+  } else {
+    const std::string version = outcome->file.parent_path().filename().string();
+    log->info("calibration {} ({}) done: {}", id, kind, outcome->file.string());
+    calibrations_.ended(id, "done", "", version);
+    recorder_.calibration_ended(
+        id, kind, true,
+        {{"status", "done"}, {"version", version}, {"file", outcome->file.string()}});
+  }
+  queue_.finish_running();
 }
 
 // A scan that has not finished is cancelled or aborted, never deleted: the
@@ -366,6 +454,10 @@ void ScanService::work() {
       continue;
     }
     const ScanJob& job = *next.job;
+    if (job.submission.calibration != 0) {
+      run_calibration(job);
+      continue;
+    }
     try {
       run(job);
     } catch (const std::exception& e) {
@@ -393,7 +485,7 @@ void ScanService::stop() {
   (void)rig_.lights_off(config());
   if (worker_.joinable()) worker_.join();
   for (const auto& job : abandoned)
-    recorder_.abandoned(job.id);
+    drop(job, "psrigd stopped", true);
   recorder_.close();
 }
 

@@ -27,6 +27,8 @@ Command add_status_command(CLI::App& parent);
 Command add_calibrate_command(CLI::App& parent);
 Command add_import_command(CLI::App& parent);
 Command add_export_command(CLI::App& parent);
+Command add_measure_command(CLI::App& parent);
+Command add_tile_command(CLI::App& parent);
 
 // A command that drives lights polls firmware_host::stop_requested() and
 // winds down by itself on SIGINT/SIGTERM (after the lights are already off);

@@ -56,6 +56,8 @@ void print_maps_summary(const processing::ProcessSummary& summary) {
         "ground truth: mean angular error %.3f deg (median %.3f, p95 %.3f) over valid pixels\n",
         e["mean"].get<double>(), e["median"].get<double>(), e["p95"].get<double>());
   }
+  if (r.contains("fabric") && r["fabric"].contains("summary"))
+    std::printf("fabric: %s\n", r["fabric"]["summary"].get<std::string>().c_str());
   std::printf("time: %.0f ms\n", r["timings_ms"]["total"].get<double>());
 }
 

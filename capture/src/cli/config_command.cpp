@@ -6,6 +6,7 @@
 #include <string>
 
 #include "command.h"
+#include "psrig/calibration/calibration_status.h"
 #include "psrig/calibration/calibration_store.h"
 
 namespace psrig::capture::cli {
@@ -48,6 +49,17 @@ Command add_config_command(CLI::App& parent) {
               "light calibration: none in %s; scans use the geometry above (psrig "
               "calibrate lights measures it)\n",
               store.directory().c_str());
+        }
+        const auto age = calibration::calibration_status(store, config->calibration.max_age_days);
+        if (!age.missing) {
+          const std::string sections = nlohmann::json(age.sections).dump();
+          std::printf("calibration %s: %s, %s%s\n", age.version.c_str(), sections.c_str(),
+                      age.age_days
+                          ? (std::to_string(static_cast<int>(*age.age_days)) + " days old").c_str()
+                          : "undated",
+                      age.stale ? " (stale: older than [calibration] max_age_days; calibrate again)"
+                      : config->calibration.max_age_days == 0 ? " (max_age_days = 0: never stale)"
+                                                              : "");
         }
         const auto& d = config->daemon;
         std::string modbus = "off";

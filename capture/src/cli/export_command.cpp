@@ -18,6 +18,7 @@ struct ExportArgs {
   std::string out;
   std::string normal_convention = "opengl";
   int repeats = 1;
+  bool whole_scan = false;
   bool quiet = false;
 };
 
@@ -47,6 +48,9 @@ Command add_export_command(CLI::App& parent) {
                   "glTF: the quad shows the material N times a side (KHR_texture_transform)")
       ->check(CLI::PositiveNumber)
       ->capture_default_str();
+  app->add_flag("--whole-scan", args->whole_scan,
+                "Export the whole scan rather than its seamless tile (MAPS_DIR/tile, made by "
+                "psrig tile or here on first use)");
   app->add_flag("-q,--quiet", args->quiet, "Print nothing on success but warnings");
 
   return {app, [args] {
@@ -54,7 +58,7 @@ Command add_export_command(CLI::App& parent) {
             // A wrong --out is told before the maps are read.
             if (auto ok = export_::check_export_path(format, args->out); !ok)
               return report_error("export", ok.error());
-            auto source = export_::material_source_from(args->maps);
+            auto source = export_::material_for_export(args->maps, args->whole_scan);
             if (!source) return report_error("export", source.error());
             for (const auto& warning : source->warnings)
               std::cerr << "psrig export: warning: " << warning << '\n';

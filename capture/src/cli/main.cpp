@@ -23,5 +23,6 @@ int main(int argc, char** argv) {
                      {add_process_command(app), add_integrate_command(app), add_synth_command(app),
                       add_scan_command(app), add_lights_command(app), add_config_command(app),
                       add_devices_command(app), add_status_command(app), add_calibrate_command(app),
-                      add_import_command(app), add_export_command(app)});
+                      add_import_command(app), add_export_command(app), add_measure_command(app),
+                      add_tile_command(app)});
 }

@@ -7,6 +7,7 @@
 #include <memory>
 
 #include "command.h"
+#include "psrig/calibration/calibration_status.h"
 #include "psrig/capture/rig.h"
 #include "psrig/capture/scan_sequencer.h"
 #include "psrig/firmware_host/emergency_stop.h"
@@ -70,6 +71,14 @@ Command add_scan_command(CLI::App& parent) {
             int exit_code = 0;
             auto config = load_config_or_report("scan", args->config, exit_code);
             if (!config) return exit_code;
+            // A missing or stale calibration does not stop a scan; it is said
+            // (unless -q: nothing on success).
+            const auto calibration =
+                calibration::calibration_status(calibration::CalibrationStore(config->storage.root),
+                                                config->calibration.max_age_days);
+            if (const auto warning = calibration::staleness_warning(calibration);
+                !warning.empty() && !args->quiet)
+              std::fprintf(stderr, "psrig scan: warning: %s\n", warning.c_str());
             auto rig = open_rig(*config);
             if (!rig) return report_error("scan", rig.error());
             ScanSequencer sequencer(*config, *rig->lights, *rig->camera);

@@ -50,6 +50,22 @@ void print_status(const std::string& url, const nlohmann::json& s) {
     std::printf("devices: not open%s%s\n", reply_text(devices["error"]).empty() ? "" : ": ",
                 reply_text(devices["error"]).c_str());
   std::printf("storage: %s\n", reply_text(s["storage_root"]).c_str());
+  if (s.contains("calibration") && s["calibration"].is_object()) {
+    const auto& c = s["calibration"];
+    if (c.value("missing", true)) {
+      std::printf("calibration: missing (psrig calibrate lights, flat, scale)\n");
+    } else {
+      std::string sections;
+      for (const auto& section : c["sections"])
+        sections += (sections.empty() ? "" : ", ") + section.get<std::string>();
+      char age[32] = "undated";
+      if (c["age_days"].is_number())
+        std::snprintf(age, sizeof age, "%.1f days old", c["age_days"].get<double>());
+      std::printf("calibration: %s (%s), %s%s\n", reply_text(c["version"]).c_str(),
+                  sections.c_str(), age,
+                  c.value("stale", false) ? ", STALE: calibrate the rig again" : "");
+    }
+  }
 }
 
 }  // namespace

@@ -22,6 +22,8 @@ struct SynthArgs {
   std::uint64_t seed = 1;
   double pixel_size = 0.025;
   int bits = 16;
+  double rotate = 0;
+  bool no_fabric_metadata = false;
   bool quiet = false;
 };
 
@@ -54,6 +56,12 @@ Command add_synth_command(CLI::App& parent) {
   app->add_option("--bits", args->bits, "Bit depth of the frames")
       ->check(CLI::IsMember({8, 16}))
       ->capture_default_str();
+  app->add_option("--rotate", args->rotate,
+                  "Turn the fabric counterclockwise by this many degrees (its gauge truth says so)")
+      ->check(CLI::Range(-45.0, 45.0))
+      ->capture_default_str();
+  app->add_flag("--no-fabric-metadata", args->no_fabric_metadata,
+                "Leave scan.json's fabric (construction, structure) out");
   app->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
 
   return {app, [args] {
@@ -70,6 +78,8 @@ Command add_synth_command(CLI::App& parent) {
             params.swatch.size = {size->width, size->height};
             params.swatch.pixel_size_mm = args->pixel_size;
             params.swatch.seed = args->seed;
+            params.swatch.rotation_deg = args->rotate;
+            params.fabric_metadata = !args->no_fabric_metadata;
             params.slant_deg = args->slant;
             params.noise = args->noise;
             params.depth = args->bits == 8 ? CV_8U : CV_16U;

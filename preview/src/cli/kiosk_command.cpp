@@ -15,6 +15,7 @@
 #include "kiosk_output.h"
 #include "psrig/preview/clear_frame.h"
 #include "psrig/preview/newest_scan.h"
+#include "psrig/preview/patch_tile.h"
 #include "psrig/preview/scene_motion.h"
 #include "psrig/processing/map_encoding.h"
 #include "psrig/processing/scan_layout.h"
@@ -117,6 +118,7 @@ int run_kiosk(const KioskArgs& args) {
       }();
       if (newest && !same(newest, shown) && !same(newest, failed)) {
         auto maps = load_swatch_maps(newest->maps);
+        if (maps) maps = patch_tile(*maps).maps;  // the patch repeats the seamless tile
         auto next = maps ? SwatchRenderer::create(*maps, options)
                          : Result<std::unique_ptr<SwatchRenderer>>(std::unexpected(maps.error()));
         if (next) {

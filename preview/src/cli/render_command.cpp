@@ -3,6 +3,7 @@
 #include <iostream>
 
 #include "command.h"
+#include "psrig/preview/patch_tile.h"
 #include "psrig/processing/image_io.h"
 
 namespace psrig::preview::cli {
@@ -20,6 +21,13 @@ int render(const RenderArgs& args) {
   auto maps = load_maps_argument(args.maps);
   if (!maps) return report_error("render", maps.error());
   const SceneView view = scene_view(args.view);
+  if (view.kind == ViewKind::patch) {
+    // The sheet repeats the seamless tile, not the scan's own edges.
+    PatchTile tile = patch_tile(*maps);
+    std::cout << "patch: tile " << tile.repeats_u << "x" << tile.repeats_v << " repeats, "
+              << tile.source << (tile.periodic ? "" : " (no repeat found: whole scan)") << "\n";
+    maps = std::move(tile.maps);
+  }
   cv::Size size = view.kind == ViewKind::flat ? maps->size() : cv::Size(1280, 960);
   if (!args.size.empty()) {
     auto parsed = parse_size(args.size, "--size");

@@ -62,6 +62,9 @@ struct StoredCalibration {
   std::vector<CalibratedLight> lights;
   std::vector<std::filesystem::path> flat_images;
   std::optional<double> pixel_size_mm;  // its scale section's, when measured
+  // Its near LEDs' positions (led_positions_mm.positions), one per light,
+  // when measured.
+  std::vector<cv::Vec3d> led_positions_mm;
   // Its colour section's matrix (camera RGB to linear sRGB D65), when
   // measured, and the version that measured it ("0003").
   std::optional<cv::Matx33d> colour_matrix;

@@ -107,6 +107,10 @@ struct LedPosition {
   cv::Vec3d position_mm{0, 0, 0};  // camera axes, origin where the axis meets the swatch plane
   double ray_rms_mm = 0;           // RMS distance of the rays from it
   double baseline_mm = 0;          // largest distance between the rays' origins
+  // One standard deviation along its worst axis (mostly the distance, when
+  // the baseline is short): the least-squares covariance from the rays'
+  // scatter about the point (floored by the spheres' fits).
+  double uncertainty_mm = 0;
 };
 
 // Each light's position from two or more placements (every placement with

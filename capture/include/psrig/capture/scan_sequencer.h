@@ -17,6 +17,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "psrig/capture/camera.h"
 #include "psrig/config/rig_config.h"
 #include "psrig/firmware_host/safe_lights.h"
@@ -40,6 +42,10 @@ struct AppliedCalibration {
   // Its measured pixel size (psrig calibrate scale), replacing
   // geometry.pixel_size_mm.
   std::optional<double> pixel_size_mm;
+  // Its measured LED positions (psrig calibrate lights --places), one per
+  // light, mm from the camera axis on the reference plane, replacing
+  // rig.toml's geometry; empty: not measured.
+  std::vector<cv::Vec3d> led_positions_mm;
   // Its colour matrix (psrig calibrate colour: camera RGB to linear sRGB
   // D65) and the version that measured it, written into colour scans'
   // scan.json as `colour_correction` for processing to apply to the albedo.
@@ -56,6 +62,8 @@ struct ScanRequest {
   // simulated camera has one).
   cv::Mat ground_truth_normal;
   cv::Mat ground_truth_height;
+  // The simulated swatch's gauge as made (scan.json's ground_truth.fabric), or null.
+  nlohmann::json ground_truth_fabric;
   // The lights as calibrated (one per channel); absent: rig.toml's
   // geometry and lights.intensity, and scan.json's "calibration" is null.
   std::optional<AppliedCalibration> calibration;

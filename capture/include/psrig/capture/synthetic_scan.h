@@ -16,6 +16,9 @@ struct SyntheticScanParams {
   int depth = CV_16U;     // CV_8U or CV_16U
   double exposure = 1.0;  // scales the radiance before quantisation
   bool cast_shadows = true;
+  // scan.json's `fabric` (construction and structure) as a lab would enter
+  // it; off, the measurement has to tell knit from woven by itself.
+  bool fabric_metadata = true;
 };
 
 // Frames, light directions and ground truth (normals, height in mm), ready

@@ -25,6 +25,10 @@ struct Geometry {
   // the LEDs are distant (a direction each, the same over the field).
   std::vector<std::array<double, 3>> led_positions_mm;
   std::optional<double> led_distance_mm;
+  // The swatch's top above the reference plane the LED positions are
+  // measured from (a thick swatch, a raised bed): near-field scans place
+  // the LEDs that much lower relative to the swatch (scan.json's position_mm).
+  double swatch_height_mm = 0;
 
   bool operator==(const Geometry&) const = default;
 };
@@ -107,12 +111,34 @@ struct CameraConfig {
   int frames_average = 2;  // frames averaged per light
   int frames_discard = 1;  // frames thrown away after each switch, on top of the stale-frame rule
   int timeout_ms = 2000;   // per frame
+  // Where the camera axis meets the image, pixels (x right, y down);
+  // absent: the image centre, ((w - 1)/2, (h - 1)/2). Near-field scans and
+  // the LEDs' positions are measured from it.
+  std::optional<std::array<double, 2>> principal_point_px;
 };
 
 struct CaptureConfig {
   bool dark_frame = true;  // capture a frame with every LED off
   int settle_ms = 10;      // after an LED turns on, before an exposure may start
   bool process = true;     // process the scan into maps after capturing it
+};
+
+// [processing]: how psrig scan and psrigd process every scan.
+struct ProcessingConfig {
+  // Robust rejection (processing's --reject): shadows, saturation and
+  // unsaturated highlights left out of each pixel's solve.
+  bool reject = false;
+};
+
+// [calibration]: the rig's calibration procedures and how old one may get.
+struct CalibrationConfig {
+  // A calibration older than this many days is stale (psrig scan warns,
+  // psrig status and psrigd's status say so); 0: never stale.
+  int max_age_days = 30;
+  // The chrome sphere's diameter, mm, for the LEDs' positions (psrig
+  // calibrate lights --places; --sphere-mm overrides); absent: the
+  // simulated sphere's on the simulated rig.
+  std::optional<double> sphere_diameter_mm;
 };
 
 struct StorageConfig {
@@ -124,15 +150,23 @@ struct SimConfig {
   // What lies under the camera: the swatch, or a calibration target (a
   // chrome or a matte sphere resting on black velvet in the field's centre,
   // or a flat white card filling the field, or a ChArUco board printed on it:
-  // sim/card_target.h). "flat": a flat matte grey card (albedo 0.6), for
-  // the near-field tests.
-  std::string target = "swatch";  // "swatch" | "flat" | "chrome_sphere" | "matte_sphere" |
+  // sim/card_target.h). rig.toml's "flat" is read as "white_card" with
+  // card_albedo 0.6 (a flat matte grey card; the name older configs use).
+  std::string target = "swatch";  // "swatch" | "chrome_sphere" | "matte_sphere" |
                                   // "white_card" | "charuco_board" | "colour_chart"
+  double card_albedo = 0.75;      // the white card's albedo (0.6: a grey card)
   double sphere_diameter_mm = 10;
   // Where the sphere rests: its centre in mm from the camera axis (x right,
   // y up); absent: the field's centre. Placing it at two or more places
   // lets calibration find near LEDs' positions.
   std::optional<std::array<double, 2>> sphere_centre_mm;
+  // The places psrig calibrate lights --places moves the sphere to, in
+  // order (mm from the camera axis); empty: spread round the field.
+  std::vector<std::array<double, 2>> sphere_places_mm;
+  // The simulated LEDs' true distance (mm, along the geometry's slant and
+  // tilts) when [geometry] gives no positions: a near-field rig whose
+  // geometry nobody measured, for calibration to find.
+  std::optional<double> led_distance_mm;
   // The camera's colour response: row by row, the 3x3 matrix from the
   // scene's linear sRGB to the camera's RGB. Absent: identity (the camera
   // sees sRGB). A real sensor mixes its channels; psrig calibrate colour
@@ -140,6 +174,7 @@ struct SimConfig {
   std::optional<std::array<double, 9>> colour_matrix;
   double led_angular_diameter_deg = 2;  // each LED as the sphere sees it (chrome highlight size)
   std::string pattern = "jersey";
+  double swatch_rotation_deg = 0;  // the fabric turned counterclockwise (as seen) on the rig
   std::uint64_t seed = 1;
   int width = 640;
   int height = 480;
@@ -188,6 +223,8 @@ struct RigConfig {
   CameraConfig camera;
   CaptureConfig capture;
   StorageConfig storage;
+  ProcessingConfig processing;
+  CalibrationConfig calibration;
   SimConfig sim;
   DaemonConfig daemon;
 };

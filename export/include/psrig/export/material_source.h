@@ -34,14 +34,20 @@ struct MaterialSource {
   // What is missing and what the export does instead, for the user.
   std::vector<std::string> warnings;
 
+  // A tile's own size in mm (tile.json): its pixels are not quite square,
+  // a whole number of repeats resampled to whole pixels.
+  std::optional<double> tile_width_mm, tile_height_mm;
+
   [[nodiscard]] bool has_height() const { return !height_exr.empty() || !height_png.empty(); }
   // The physical size in mm (pixels when the pixel size is unknown).
-  [[nodiscard]] double width_mm() const { return width_px * pixel_size_mm.value_or(1.0); }
-  [[nodiscard]] double height_mm() const { return height_px * pixel_size_mm.value_or(1.0); }
+  [[nodiscard]] double width_mm() const {
+    return tile_width_mm.value_or(width_px * pixel_size_mm.value_or(1.0));
+  }
+  [[nodiscard]] double height_mm() const {
+    return tile_height_mm.value_or(height_px * pixel_size_mm.value_or(1.0));
+  }
 };
 
-inline constexpr const char* kTileDescription = "tile.json";
-inline constexpr const char* kTileFormat = "psrig-tile/1";
 
 // The material in `directory`: a tile directory when it holds tile.json,
 // else a maps directory. Missing albedo or normal maps, an unreadable or
@@ -49,5 +55,13 @@ inline constexpr const char* kTileFormat = "psrig-tile/1";
 // A maps directory without report.json or without a pixel size is still a
 // source, with a warning saying what is missing.
 [[nodiscard]] Result<MaterialSource> material_source_from(const std::filesystem::path& directory);
+
+// What an export of `directory` is made from: the tile directory itself
+// when given one; for a maps directory its seamless tile (made once into
+// `directory/tile`, processing::ensure_tile), so the material repeats
+// without a seam, or the whole scan when `whole_scan` or when no tile can
+// be cut from the maps (a warning says why).
+[[nodiscard]] Result<MaterialSource> material_for_export(const std::filesystem::path& directory,
+                                                         bool whole_scan = false);
 
 }  // namespace psrig::export_

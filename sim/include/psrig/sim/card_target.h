@@ -17,7 +17,8 @@ inline constexpr float kWhiteCardAlbedo = 0.75f;
 
 // A flat card at height 0 facing the camera, uniform albedo, covering the
 // whole field.
-[[nodiscard]] Swatch white_card(cv::Size size, double pixel_size_mm);
+[[nodiscard]] Swatch white_card(cv::Size size, double pixel_size_mm,
+                                float albedo = kWhiteCardAlbedo);
 
 // The simulated ChArUco board (psrig calibrate scale's defaults): 7 x 5
 // squares of 2 mm, markers 1.4 mm, DICT_4X4_50, printed on the white card

@@ -23,7 +23,19 @@ struct SwatchParams {
   cv::Size size{640, 480};       // pixels
   double pixel_size_mm = 0.025;  // millimetres per pixel on the swatch
   std::uint64_t seed = 1;        // same seed, same swatch
+  // The fabric turned counterclockwise (as seen) by this much on the rig.
+  double rotation_deg = 0;
 };
+
+// The swatch's gauge as made: a knit's wales and courses per cm (a 1x1
+// rib's wales count knit and purl wales, garter's courses both ridges'
+// courses), a woven's ends and picks per cm.
+struct SwatchGauge {
+  bool knitted = true;
+  double across_per_cm = 0;  // wales or ends: threads met going across the image
+  double along_per_cm = 0;   // courses or picks: going up it
+};
+[[nodiscard]] SwatchGauge swatch_gauge(SwatchPattern pattern);
 
 struct Swatch {
   cv::Mat height_mm;  // CV_32F, millimetres above the lowest point; row 0 is the image top

@@ -61,6 +61,16 @@ struct CatalogueQuery {
   std::optional<std::string> from;       // created at or after (ISO-8601 date or date-time, UTC)
   std::optional<std::string> to;         // created at or before; a date alone means its whole day
   std::optional<ScanStatus> status;
+  // Measured fabric densities per cm within [min, max] (report.json's
+  // fabric): column is one of kFabricColumns.
+  struct FabricRange {
+    std::string column;
+    std::optional<double> min;
+    std::optional<double> max;
+  };
+  inline static constexpr const char* kFabricColumns[] = {"wales_per_cm", "courses_per_cm",
+                                                          "ends_per_cm", "picks_per_cm"};
+  std::vector<FabricRange> fabric;
   int limit = 50;
   int offset = 0;
 };
@@ -79,7 +89,7 @@ class Catalogue {
   // row of a scan that failed for want of space can still say so.
   inline static constexpr const char* kReserveFileName = "catalogue.sqlite-reserve";
   inline static constexpr std::uintmax_t kReserveBytes = 256 << 10;
-  inline static constexpr int kSchemaVersion = 1;
+  inline static constexpr int kSchemaVersion = 2;
 
   // Opens (creating the storage root and the database if need be) and
   // brings the schema up to date. A database newer than this program is

@@ -44,6 +44,9 @@ struct ScanSubmission {
   std::string description;
   std::vector<std::string> tags;
   std::string source;  // "http", "modbus", "cli": for the log and the catalogue
+  // Not a scan but a calibration (CalibrationJobs' id): it queues with the
+  // scans because it needs the rig. 0: a scan.
+  std::int64_t calibration = 0;
 };
 
 struct DaemonStatus {

@@ -64,6 +64,12 @@ class ScanRecorder {
   // (a full disk); the worker calls it between scans and every idle second.
   void retry_pending() { (void)catalogue_->flush_pending(); }
 
+  // A calibration's life on the status page (state scanning, its step)
+  // and the event stream: `progress`, `done` or `error` events carrying
+  // `calibration` (its id) and `kind` in place of a scan's `id`.
+  void calibration_progress(std::int64_t id, const std::string& kind, const std::string& step);
+  void calibration_ended(std::int64_t id, const std::string& kind, bool ok,
+                         const nlohmann::json& details);
   // The event stream ends: the daemon is stopping.
   void close();
 

@@ -16,6 +16,7 @@
 #include <thread>
 
 #include "psrig/config/rig_config.h"
+#include "psrig/daemon/calibration_jobs.h"
 #include "psrig/daemon/catalogue.h"
 #include "psrig/daemon/rig_holder.h"
 #include "psrig/daemon/scan_control.h"
@@ -55,6 +56,12 @@ class ScanService final : public ScanControl {
   [[nodiscard]] DaemonStatus status() const override;
   [[nodiscard]] Result<std::int64_t> submit(ScanSubmission submission) override;
   [[nodiscard]] Status lights_off() override;
+  // Queues a calibration with the scans (capture/rig_calibration.h): it
+  // runs when the scans before it have, with the rig to itself, LEDs off
+  // after. Its id in calibrations(); a full queue as submit() says.
+  [[nodiscard]] Result<std::int64_t> submit_calibration(nlohmann::json options,
+                                                        capture::CalibrationRequest request);
+  [[nodiscard]] const CalibrationJobs& calibrations() const { return calibrations_; }
 
   // Cancels a queued scan, aborts the running one, or deletes a finished one.
   [[nodiscard]] Result<ScanRemoval> remove(std::int64_t id);
@@ -97,6 +104,9 @@ class ScanService final : public ScanControl {
   ScanService(config::RigConfig config, std::unique_ptr<Catalogue> catalogue);
   void work();
   void run(const ScanJob& job);
+  void run_calibration(const ScanJob& job);
+  // A queued job dropped (lights off, stopping): its row, or its calibration.
+  void drop(const ScanJob& job, const std::string& message, bool stopping);
   void apply_pending_config();
   // The scan's files removed unless kept, then its end recorded.
   void finish(const ScanJob& job, ScanStatus status, ScanErrorCode code, const std::string& message,
@@ -109,6 +119,7 @@ class ScanService final : public ScanControl {
   ScanRecorder recorder_;
   ScanQueue queue_;
   RigHolder rig_;
+  CalibrationJobs calibrations_;
   StorageBudget storage_;
 
   // Held while a scan's end is recorded (its row, the status page, the
