@@ -8,7 +8,7 @@ import * as THREE from 'three';
 import { GLTFLoader } from 'three/examples/jsm/loaders/GLTFLoader.js';
 import { h } from './dom.js';
 
-const SHEET_MIN_M = 0.12; // the sheet is at least this wide, whatever the tile
+const SHEET_MIN_M = 0.05; // the sheet is at least this wide, whatever the tile
 const SHEET_SEGMENTS = 96;
 
 // The glTF export's material and the tile's size in metres (its quad).
@@ -95,7 +95,7 @@ export class SwatchView {
       class: 'swatch-canvas',
       tabindex: 0,
       role: 'img',
-      'aria-label': 'The swatch in 3D. Drag or use the arrow keys to turn it.',
+      'aria-label': 'The swatch in 3D at real size. Drag or use the arrow keys to turn it, the wheel to come closer.',
     });
     this.lightAzimuth = 35;
     this.lightElevation = 40;
@@ -113,14 +113,16 @@ export class SwatchView {
       preserveDrawingBuffer: true, // so a screenshot or a test can read the picture
     });
     this.renderer.outputColorSpace = THREE.SRGBColorSpace;
-    this.renderer.toneMapping = THREE.ACESFilmicToneMapping;
+    this.renderer.toneMapping = THREE.NeutralToneMapping; // keeps the yarn's colour
     this.scene = new THREE.Scene();
     this.scene.background = new THREE.Color(0x2a2d33);
     this.camera = new THREE.PerspectiveCamera(35, 1, 0.005, 10);
     this.model = new THREE.Group();
     this.scene.add(this.model);
-    this.scene.add(new THREE.HemisphereLight(0xdfe8ff, 0x3a3026, 0.35));
-    this.light = new THREE.PointLight(0xffffff, 2.2, 0, 0);
+    this.scene.add(new THREE.HemisphereLight(0xdfe8ff, 0x3a3026, 0.6));
+    // No falloff (decay 0): the swatch is as bright at any size; the
+    // direction changes across the sheet as a lamp's would.
+    this.light = new THREE.PointLight(0xffffff, 2.6, 0, 0);
     this.lightMarker = new THREE.Mesh(
       new THREE.SphereGeometry(0.004, 16, 12),
       new THREE.MeshBasicMaterial({ color: 0xfff6d8 }),
@@ -194,6 +196,16 @@ export class SwatchView {
       this.turn(dragging.light, dx * 0.5, dy * 0.5);
     });
     const end = () => (dragging = null);
+    // The wheel brings the camera closer, down to a few stitches.
+    this.canvas.addEventListener(
+      'wheel',
+      (event) => {
+        event.preventDefault();
+        this.zoom = Math.min(1.5, Math.max(0.08, (this.zoom ?? 1) * Math.exp(event.deltaY * 0.001)));
+        this.fit();
+      },
+      { passive: false },
+    );
     this.canvas.addEventListener('pointerup', end);
     this.canvas.addEventListener('pointercancel', end);
     this.canvas.addEventListener('keydown', (event) => {
@@ -249,9 +261,10 @@ export class SwatchView {
     this.renderer.setPixelRatio(Math.min(window.devicePixelRatio, 2));
     this.renderer.setSize(width, height, false);
     this.camera.aspect = width / height;
-    const distance = (this.size ?? 0.15) * 1.9;
+    const distance = (this.size ?? 0.15) * 1.9 * (this.zoom ?? 1);
     this.camera.position.set(0, distance * 0.35, distance);
-    this.camera.lookAt(0, -0.01, 0);
+    // Aim between the sheet and the ruler behind it, so both stay in view.
+    this.camera.lookAt(0, -0.1 * (this.size ?? 0.15), -0.2 * (this.size ?? 0.15));
     this.camera.near = distance / 100;
     this.camera.far = distance * 10;
     this.camera.updateProjectionMatrix();
@@ -270,7 +283,6 @@ export class SwatchView {
     const az = THREE.MathUtils.degToRad(this.lightAzimuth);
     const el = THREE.MathUtils.degToRad(this.lightElevation);
     this.light.position.set(r * Math.cos(el) * Math.cos(az), r * Math.sin(el), r * Math.cos(el) * Math.sin(az));
-    this.light.intensity = 2.4 * r * r * 40; // physically falling off: keep the swatch lit at any size
     this.lightMarker.position.copy(this.light.position);
     this.model.rotation.set(THREE.MathUtils.degToRad(this.modelPitch), THREE.MathUtils.degToRad(this.modelYaw), 0, 'XYZ');
     this.renderer.render(this.scene, this.camera);

@@ -5,7 +5,9 @@
 //   PSRIGD=build/bin/psrigd PSRIG_SOURCE_DIR=. PSRIG_WEB_ROOT=build/web \
 //     node --test web/tests/catalogue.test.mjs
 import assert from 'node:assert/strict';
-import { existsSync, mkdirSync, readFileSync, writeFileSync } from 'node:fs';
+import { execFileSync } from 'node:child_process';
+import { existsSync, mkdirSync, mkdtempSync, readdirSync, readFileSync, rmSync } from 'node:fs';
+import { tmpdir } from 'node:os';
 import { createRequire } from 'node:module';
 import { dirname, join, resolve } from 'node:path';
 import { fileURLToPath } from 'node:url';
@@ -168,6 +170,23 @@ describe('web catalogue', { skip }, () => {
     const moved = await canvasPixels(page);
     assert.ok(meanDifference(before, moved) > 2, 'moving the light did not change the picture');
     await shot(page, 'scan');
+
+    // Download the glTF from the page, as a designer would, and validate it.
+    const downloads = mkdtempSync(join(tmpdir(), 'psrig-downloads-'));
+    const cdp = await page.createCDPSession();
+    await cdp.send('Browser.setDownloadBehavior', { behavior: 'allow', downloadPath: downloads });
+    const [glbButton] = await page.$$('xpath/.//button[contains(., ".glb")]');
+    await glbButton.click();
+    const glb = join(downloads, 'JERSEY-0042.glb');
+    for (let i = 0; i < 100 && !existsSync(glb); i++) await new Promise((r) => setTimeout(r, 100));
+    assert.ok(existsSync(glb), `no download in ${downloads}: ${readdirSync(downloads)}`);
+    const validator = join(sourceDir, 'tools/node/validate-gltf.mjs');
+    assert.ok(existsSync(join(sourceDir, 'tools/node/node_modules/gltf-validator')),
+      'the glTF-Validator is not installed: run scripts/install-deps');
+    const report = JSON.parse(execFileSync('node', [validator, glb], { encoding: 'utf8' }));
+    assert.equal(report.issues.numErrors, 0, JSON.stringify(report.issues.messages));
+    assert.equal(report.issues.numWarnings, 0, JSON.stringify(report.issues.messages));
+    rmSync(downloads, { recursive: true, force: true });
     assert.deepEqual(problems, []);
     await page.close();
   });

@@ -69,7 +69,7 @@ void serve_web_catalogue(httplib::Server& server, const fs::path& root) {
     // Everything the page loads comes from psrigd; textures and downloads
     // are blob: URLs of what the API answered.
     res.set_header("Content-Security-Policy",
-                   "default-src 'self'; img-src 'self' blob: data:; connect-src 'self'; "
+                   "default-src 'self'; img-src 'self' blob: data:; connect-src 'self' blob:; "
                    "style-src 'self'; script-src 'self'; object-src 'none'; "
                    "frame-ancestors 'none'; base-uri 'self'");
     // Built files carry a content hash in their names: cache them for good;
