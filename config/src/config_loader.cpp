@@ -274,6 +274,12 @@ class Section {
 
 constexpr double kNoMax = 1e308;
 
+// A path the file gives: absolute as written, relative to the file's folder.
+fs::path relative_to_file(const fs::path& file, const std::string& text) {
+  return fs::path(text).is_absolute() ? fs::path(text)
+                                      : (file.parent_path() / text).lexically_normal();
+}
+
 Result<RigConfig> read(const toml::table& root, const fs::path& file,
                        std::vector<std::string>* warnings) {
   RigConfig c;
@@ -381,10 +387,7 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
     std::string switch_log;
     PSRIG_TRY(sim_lights->get("switch_log", switch_log));
     // Relative to the configuration file, as storage.root is.
-    if (!switch_log.empty())
-      c.lights.sim.switch_log = fs::path(switch_log).is_absolute()
-                                    ? fs::path(switch_log)
-                                    : (file.parent_path() / switch_log).lexically_normal();
+    if (!switch_log.empty()) c.lights.sim.switch_log = relative_to_file(file, switch_log);
     sim_lights->finish();
   }
   lights->finish();
@@ -468,9 +471,7 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   std::string storage_root = c.storage.root.string();
   PSRIG_TRY(storage->get("root", storage_root));
   // Relative to the configuration file, not to wherever psrig was started.
-  c.storage.root = fs::path(storage_root).is_absolute()
-                       ? fs::path(storage_root)
-                       : (file.parent_path() / storage_root).lexically_normal();
+  c.storage.root = relative_to_file(file, storage_root);
   storage->finish();
 
   auto sim = sub(top, "sim");
@@ -570,7 +571,18 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   PSRIG_TRY(daemon->get("modbus_address", d.modbus_address));
   PSRIG_TRY(daemon->get("modbus_port", d.modbus_port, 0, 65535));
   PSRIG_TRY(daemon->get("modbus_allow", d.modbus_allow));
+  std::string web_root;
+  PSRIG_TRY(daemon->get("web_root", web_root));
   daemon->finish();
+  if (!web_root.empty()) {
+    d.web_root = relative_to_file(file, web_root);
+    if (!std::filesystem::is_regular_file(d.web_root / "index.html"))
+      return std::unexpected(daemon->error_at(
+          daemon->find("web_root"), "web_root",
+          "\"" + d.web_root.string() +
+              "\" holds no index.html; build the catalogue (scripts/build) and point web_root "
+              "at its output (build/web), or leave web_root out"));
+  }
   for (std::size_t i = 0; i < d.modbus_allow.size(); ++i) {
     in_addr parsed{};
     if (::inet_pton(AF_INET, d.modbus_allow[i].c_str(), &parsed) != 1)

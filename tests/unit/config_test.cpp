@@ -1,6 +1,7 @@
 // rig.toml: the shipped files load clean, every mistake names its place.
 
 #include <cmath>
+#include <fstream>
 
 #include <gtest/gtest.h>
 
@@ -66,6 +67,19 @@ TEST(Config, WrongTypeNamesTheKey) {
       e.describe().find("/etc/psrig/rig.toml:2:15: camera.exposure_us: expected a whole number"),
       std::string::npos)
       << e.describe();
+}
+
+TEST(Config, WebRootMustHoldTheBuiltCatalogue) {
+  const auto e = expect_error("[daemon]\nweb_root = \"no-such-folder\"\n", "daemon.web_root", 2);
+  EXPECT_NE(e.message.find("/etc/psrig/no-such-folder"), std::string::npos) << e.message;
+  EXPECT_NE(e.message.find("scripts/build"), std::string::npos) << e.message;
+
+  test::TempDir temp;
+  std::ofstream(temp / "index.html") << "<!doctype html>";
+  auto config = parse_config("[daemon]\nweb_root = \"" + temp.path().string() + "\"\n",
+                             "/etc/psrig/rig.toml");
+  ASSERT_TRUE(config) << config.error().describe();
+  EXPECT_EQ(config->daemon.web_root, temp.path());
 }
 
 TEST(Config, OutOfRangeSaysWhatIsAllowed) {

@@ -523,27 +523,73 @@ Result<std::optional<CatalogueEntry>> Catalogue::get(std::int64_t id) const {
   return entry;
 }
 
-Result<std::vector<CatalogueEntry>> Catalogue::search(const CatalogueQuery& query) const {
+namespace {
+
+// A search's WHERE clause and the texts it binds, in order.
+struct Filter {
   std::string where;
   std::vector<std::string> texts;
-  const auto condition = [&](const std::string& sql, const std::string& value) {
-    where += (where.empty() ? " WHERE " : " AND ") + sql;
-    texts.push_back(value);
+};
+
+// `text` for LIKE, its own % and _ taken literally.
+std::string like_pattern(const std::string& text) {
+  std::string pattern = "%";
+  for (const char c : text) {
+    if (c == '%' || c == '_' || c == '\\') pattern += '\\';
+    pattern += c;
+  }
+  return pattern + "%";
+}
+
+Filter filter_of(const CatalogueQuery& query) {
+  Filter f;
+  const auto condition = [&](const std::string& sql, std::initializer_list<std::string> values) {
+    f.where += (f.where.empty() ? " WHERE " : " AND ") + sql;
+    f.texts.insert(f.texts.end(), values);
   };
-  if (query.sample_id) condition("s.sample_id = ?", *query.sample_id);
+  if (query.text) {
+    const std::string pattern = like_pattern(*query.text);
+    condition(
+        "(s.sample_id LIKE ? ESCAPE '\\' OR s.description LIKE ? ESCAPE '\\' OR EXISTS "
+        "(SELECT 1 FROM scan_tags t WHERE t.scan_id = s.id AND t.tag LIKE ? ESCAPE '\\'))",
+        {pattern, pattern, pattern});
+  }
+  if (query.sample_id) condition("s.sample_id = ?", {*query.sample_id});
   if (query.tag)
     condition("EXISTS (SELECT 1 FROM scan_tags t WHERE t.scan_id = s.id AND t.tag = ?)",
-              *query.tag);
-  if (query.from) condition("s.created >= ?", *query.from);
-  if (query.to) condition("s.created <= ?", *query.to);
-  if (query.status) condition("s.status = ?", to_string(*query.status));
+              {*query.tag});
+  if (query.from) condition("s.created >= ?", {*query.from});
+  if (query.to) condition("s.created <= ?", {*query.to});
+  if (query.status) condition("s.status = ?", {to_string(*query.status)});
   for (const auto& range : query.fabric) {
     // Column names from the fixed list in CatalogueQuery, never the user's text.
     if (range.min)
-      condition("s." + range.column + " >= CAST(? AS REAL)", std::to_string(*range.min));
+      condition("s." + range.column + " >= CAST(? AS REAL)", {std::to_string(*range.min)});
     if (range.max)
-      condition("s." + range.column + " <= CAST(? AS REAL)", std::to_string(*range.max));
+      condition("s." + range.column + " <= CAST(? AS REAL)", {std::to_string(*range.max)});
   }
+  return f;
+}
+
+}  // namespace
+
+Result<std::int64_t> Catalogue::count(const CatalogueQuery& query) const {
+  const Filter filter = filter_of(query);
+  std::lock_guard lock(mutex_);
+  auto select = Statement::prepare(db_, "SELECT count(*) FROM scans s" + filter.where);
+  if (!select) return std::unexpected(select.error());
+  int index = 1;
+  for (const auto& text : filter.texts)
+    select->bind(index++, text);
+  auto row = select->step();
+  if (!row) return std::unexpected(row.error());
+  return *row ? select->integer(0) : 0;
+}
+
+Result<std::vector<CatalogueEntry>> Catalogue::search(const CatalogueQuery& query) const {
+  const Filter filter = filter_of(query);
+  const std::string& where = filter.where;
+  const std::vector<std::string>& texts = filter.texts;
 
   std::vector<CatalogueEntry> entries;
   {

@@ -20,6 +20,8 @@
 #include "psrig/capture/rig_calibration.h"
 #include "psrig/processing/scan_layout.h"
 #include "scan_exports.h"
+#include "scan_previews.h"
+#include "web_catalogue.h"
 
 namespace psrig::daemon {
 namespace {
@@ -88,6 +90,44 @@ void refuse_and_close(httplib::Response& res, int status, const std::string& mes
                              sink.write(text->data() + offset, length);
                              return false;  // written: now close
                            });
+}
+
+// A file of a scan's as the answer, streamed; 404 saying `missing` when it
+// is not there. An ETag from its size and time, so a page that has it
+// already gets a 304.
+void send_file(const httplib::Request& req, httplib::Response& res, const fs::path& path,
+               const std::string& missing) {
+  std::error_code ec;
+  const auto size = fs::file_size(path, ec);
+  if (ec || !fs::is_regular_file(path, ec)) return refuse(res, 404, missing);
+  const auto time = fs::last_write_time(path, ec).time_since_epoch().count();
+  const std::string etag = "\"" + std::to_string(size) + "-" + std::to_string(time) + "\"";
+  res.set_header("ETag", etag);
+  res.set_header("Cache-Control", "private, no-cache");
+  if (req.get_header_value("If-None-Match") == etag) {
+    res.status = 304;
+    return;
+  }
+  auto stream = std::make_shared<std::ifstream>(path, std::ios::binary);
+  if (!*stream) return refuse(res, 500, "cannot read " + path.filename().string());
+  res.status = 200;
+  res.set_content_provider(
+      static_cast<std::size_t>(size), content_type(path.filename().string()),
+      [stream](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
+        // httplib runs providers outside its exception handler: nothing may
+        // escape, or the daemon ends. A failure ends this download only.
+        try {
+          std::array<char, 64 * 1024> buffer;
+          stream->seekg(static_cast<std::streamoff>(offset));
+          const auto chunk = std::min(length, buffer.size());
+          stream->read(buffer.data(), static_cast<std::streamsize>(chunk));
+          const auto got = static_cast<std::size_t>(stream->gcount());
+          return got > 0 && sink.write(buffer.data(), got);
+        } catch (const std::exception& e) {
+          logger("http")->error("download: {}", e.what());
+          return false;
+        }
+      });
 }
 
 std::optional<std::int64_t> parse_id(const std::string& text) {
@@ -217,6 +257,7 @@ HttpApiOptions http_api_options(const config::DaemonConfig& daemon) {
   options.address = daemon.listen_address;
   options.port = daemon.port;
   options.token = daemon.token;
+  options.web_root = find_web_root(daemon);
   return options;
 }
 
@@ -255,6 +296,7 @@ struct HttpApi::Impl {
   void search(const httplib::Request& req, httplib::Response& res);
   void get(const httplib::Request& req, httplib::Response& res);
   void file(const httplib::Request& req, httplib::Response& res);
+  void preview(const httplib::Request& req, httplib::Response& res);
   void remove(const httplib::Request& req, httplib::Response& res);
   void cancel(const httplib::Request& req, httplib::Response& res);
   void events(const httplib::Request& req, httplib::Response& res);
@@ -276,7 +318,9 @@ void HttpApi::Impl::routes() {
           refuse_and_close(res, status, message);
           return httplib::Server::HandlerResponse::Handled;
         };
-        if (!token.empty() &&
+        // The catalogue's pages need no token (they ask for it, for the API).
+        const bool page = !is_api_path(req.path) && (req.method == "GET" || req.method == "HEAD");
+        if (!token.empty() && !page &&
             !constant_time_equal(req.get_header_value("Authorization"), "Bearer " + token)) {
           res.set_header("WWW-Authenticate", "Bearer");
           return close_with(401, "missing or wrong bearer token (Authorization: Bearer TOKEN)");
@@ -361,6 +405,7 @@ void HttpApi::Impl::routes() {
     log->debug("{} {} -> {}", req.method, req.path, res.status);
   });
 
+  serve_web_catalogue(server, options.web_root);
   server.Get("/v1/status",
              [this](const httplib::Request&, httplib::Response& res) { status(res); });
   server.Post(kScansRoute, [this](const httplib::Request& req, httplib::Response& res,
@@ -373,6 +418,8 @@ void HttpApi::Impl::routes() {
              [this](const httplib::Request& req, httplib::Response& res) { get(req, res); });
   server.Get(R"(/v1/scans/([^/]+)/files/(.*))",
              [this](const httplib::Request& req, httplib::Response& res) { file(req, res); });
+  server.Get(R"(/v1/scans/([^/]+)/(thumbnail|relit))",
+             [this](const httplib::Request& req, httplib::Response& res) { preview(req, res); });
   server.Get(R"(/v1/scans/([^/]+)/export/([^/]+))",
              [this](const httplib::Request& req, httplib::Response& res) {
                serve_scan_export(service.catalogue(), exports, req, res);
@@ -604,7 +651,9 @@ std::optional<std::pair<std::string, bool>> fabric_range_parameter(const std::st
 void HttpApi::Impl::search(const httplib::Request& req, httplib::Response& res) {
   CatalogueQuery query;
   for (const auto& [key, value] : req.params) {
-    if (key == "sample_id") {
+    if (key == "q") {
+      if (!value.empty()) query.text = value;
+    } else if (key == "sample_id") {
       query.sample_id = value;
     } else if (key == "tag") {
       query.tag = value;
@@ -644,17 +693,20 @@ void HttpApi::Impl::search(const httplib::Request& req, httplib::Response& res) 
     } else {
       return refuse(res, 400,
                     key +
-                        ": unknown parameter (expected sample_id, tag, from, to, status, limit, "
+                        ": unknown parameter (expected q, sample_id, tag, from, to, status, limit, "
                         "offset, wales_min, wales_max, courses_min, courses_max, ends_min, "
                         "ends_max, picks_min, picks_max)");
     }
   }
   auto found = service.catalogue().search(query);
   if (!found) return refuse(res, 500, found.error().describe());
+  auto total = service.catalogue().count(query);
+  if (!total) return refuse(res, 500, total.error().describe());
   json scans = json::array();
   for (const auto& entry : *found)
     scans.push_back(entry_json(entry));
-  reply(res, 200, {{"scans", scans}, {"limit", query.limit}, {"offset", query.offset}});
+  reply(res, 200,
+        {{"scans", scans}, {"total", *total}, {"limit", query.limit}, {"offset", query.offset}});
 }
 
 void HttpApi::Impl::get(const httplib::Request& req, httplib::Response& res) {
@@ -682,31 +734,23 @@ void HttpApi::Impl::file(const httplib::Request& req, httplib::Response& res) {
   const fs::path& directory =
       *home == ScanFileHome::scan ? (*entry)->scan_directory : (*entry)->maps_directory;
   if (directory.empty()) return refuse(res, 404, "scan " + std::to_string(*id) + " has no " + name);
-  const fs::path path = directory / name;
-  std::error_code ec;
-  const auto size = fs::file_size(path, ec);
-  if (ec || !fs::is_regular_file(path, ec))
-    return refuse(res, 404, "scan " + std::to_string(*id) + " has no " + name);
-  auto stream = std::make_shared<std::ifstream>(path, std::ios::binary);
-  if (!*stream) return refuse(res, 500, "cannot read " + name);
-  res.status = 200;
-  res.set_content_provider(
-      static_cast<std::size_t>(size), content_type(name),
-      [stream](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
-        // httplib runs providers outside its exception handler: nothing may
-        // escape, or the daemon ends. A failure ends this download only.
-        try {
-          std::array<char, 64 * 1024> buffer;
-          stream->seekg(static_cast<std::streamoff>(offset));
-          const auto chunk = std::min(length, buffer.size());
-          stream->read(buffer.data(), static_cast<std::streamsize>(chunk));
-          const auto got = static_cast<std::size_t>(stream->gcount());
-          return got > 0 && sink.write(buffer.data(), got);
-        } catch (const std::exception& e) {
-          logger("http")->error("download: {}", e.what());
-          return false;
-        }
-      });
+  send_file(req, res, directory / name, "scan " + std::to_string(*id) + " has no " + name);
+}
+
+void HttpApi::Impl::preview(const httplib::Request& req, httplib::Response& res) {
+  const auto id = parse_id(req.matches[1]);
+  if (!id) return refuse(res, 404, "no such scan");
+  const auto kind = req.matches[2] == "relit" ? ScanPreview::relit : ScanPreview::thumbnail;
+  auto entry = service.catalogue().get(*id);
+  if (!entry) return refuse(res, 500, entry.error().describe());
+  if (!*entry) return refuse(res, 404, "no scan " + std::to_string(*id));
+  if ((*entry)->maps_directory.empty())
+    return refuse(res, 404, "scan " + std::to_string(*id) + " has no maps yet");
+  auto file = scan_preview((*entry)->maps_directory, kind);
+  if (!file)
+    return refuse(res, file.error().kind == ErrorKind::bad_input ? 404 : 500,
+                  file.error().describe());
+  send_file(req, res, *file, "scan " + std::to_string(*id) + " has no " + file_name(kind));
 }
 
 void HttpApi::Impl::remove(const httplib::Request& req, httplib::Response& res) {
@@ -827,10 +871,14 @@ Result<std::unique_ptr<HttpApi>> HttpApi::start(ScanService& service, HttpApiOpt
   auto& server = impl->server;
   server.set_payload_max_length(options.max_body_bytes);
   impl->routes();
-  if (!server.bind_to_port(options.address, options.port))
+  // Port 0: one the kernel picks (tests, benchmarks); port() says which.
+  const int port = options.port == 0
+                       ? server.bind_to_any_port(options.address)
+                       : (server.bind_to_port(options.address, options.port) ? options.port : -1);
+  if (port <= 0)
     return std::unexpected(
         io_error(where, "cannot listen (address in use, or not one of this machine's)"));
-  impl->port = options.port;
+  impl->port = port;
   impl->listener = std::thread([&server] { server.listen_after_bind(); });
   // Until it runs, httplib's stop() would not stop it.
   for (int waited = 0; !server.is_running() && waited < 2000; ++waited)

@@ -208,6 +208,9 @@ struct DaemonConfig {
   // IPv4 addresses of the PLCs that may connect to it; empty: anyone who
   // can reach modbus_address (Modbus has no authentication).
   std::vector<std::string> modbus_allow;
+  // The web catalogue's built files (web/ → build/web); empty: found beside
+  // psrigd (../web in the build tree, ../share/psrig/web when installed).
+  std::filesystem::path web_root;
 };
 
 // A loopback address (127.0.0.0/8, ::1, "localhost"): only this machine can connect.

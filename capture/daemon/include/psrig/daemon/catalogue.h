@@ -55,6 +55,7 @@ struct CatalogueEntry {
 
 // A search: every field given must match; newest first.
 struct CatalogueQuery {
+  std::optional<std::string> text;       // in the sample id, description or a tag, any case
   std::optional<std::string> sample_id;  // exact
   std::optional<std::string> tag;        // exact, one of the scan's tags
   std::optional<std::string> from;       // created at or after (ISO-8601 date or date-time, UTC)
@@ -128,6 +129,9 @@ class Catalogue {
 
   [[nodiscard]] Result<std::optional<CatalogueEntry>> get(std::int64_t id) const;
   [[nodiscard]] Result<std::vector<CatalogueEntry>> search(const CatalogueQuery& query) const;
+  // How many rows match the query, all pages together (limit and offset
+  // ignored; rows whose end is still pending counted as written).
+  [[nodiscard]] Result<std::int64_t> count(const CatalogueQuery& query) const;
 
   // Removes the scan's files (only inside the storage root), then its row.
   // False when there is no such row.

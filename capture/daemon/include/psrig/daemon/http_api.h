@@ -15,6 +15,7 @@
 // is required to start at all.
 
 #include <cstddef>
+#include <filesystem>
 #include <memory>
 #include <string>
 
@@ -25,12 +26,13 @@ namespace psrig::daemon {
 
 struct HttpApiOptions {
   std::string address = "127.0.0.1";
-  int port = 8470;
+  int port = 8470;  // 0: any free port (HttpApi::port() says which)
   std::string token;  // empty: no authentication (loopback only)
   std::size_t max_body_bytes = 64 * 1024;
   int threads = 8;  // general requests served at once, event streams included (lights-off
                     // and status have threads of their own: fronted_server.h)
   int max_event_streams = 4;  // so that listeners cannot take every thread
+  std::filesystem::path web_root;  // the web catalogue's files; empty: not served
 };
 
 [[nodiscard]] HttpApiOptions http_api_options(const config::DaemonConfig& daemon);
