@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "fronted_server.h"
+#include "http_answers.h"
 #include "psrig/base/log.h"
 #include "psrig/calibration/calibration_status.h"
 #include "psrig/capture/rig_calibration.h"
@@ -58,23 +59,6 @@ std::string content_type(const std::string& name) {
   return "application/octet-stream";
 }
 
-// JSON as text that never throws: a device's or driver's message may hold
-// bytes that are not UTF-8, and nlohmann's dump() throws on them, which
-// inside a streaming provider (outside httplib's try/catch) would end the
-// daemon. Such bytes become U+FFFD.
-std::string to_text(const json& value) {
-  return value.dump(-1, ' ', false, json::error_handler_t::replace);
-}
-
-void reply(httplib::Response& res, int status, const json& body) {
-  res.status = status;
-  res.set_content(to_text(body) + "\n", "application/json");
-}
-
-void refuse(httplib::Response& res, int status, const std::string& message) {
-  reply(res, status, {{"error", message}});
-}
-
 // A refusal after which the connection is closed, for a request whose body
 // is left unread: the rest of it must not be read as the next request.
 // httplib 0.11 closes a connection only where the request asked for it (or
@@ -90,51 +74,6 @@ void refuse_and_close(httplib::Response& res, int status, const std::string& mes
                              sink.write(text->data() + offset, length);
                              return false;  // written: now close
                            });
-}
-
-// A file of a scan's as the answer, streamed; 404 saying `missing` when it
-// is not there. An ETag from its size and time, so a page that has it
-// already gets a 304.
-void send_file(const httplib::Request& req, httplib::Response& res, const fs::path& path,
-               const std::string& missing) {
-  std::error_code ec;
-  const auto size = fs::file_size(path, ec);
-  if (ec || !fs::is_regular_file(path, ec)) return refuse(res, 404, missing);
-  const auto time = fs::last_write_time(path, ec).time_since_epoch().count();
-  const std::string etag = "\"" + std::to_string(size) + "-" + std::to_string(time) + "\"";
-  res.set_header("ETag", etag);
-  res.set_header("Cache-Control", "private, no-cache");
-  if (req.get_header_value("If-None-Match") == etag) {
-    res.status = 304;
-    return;
-  }
-  auto stream = std::make_shared<std::ifstream>(path, std::ios::binary);
-  if (!*stream) return refuse(res, 500, "cannot read " + path.filename().string());
-  res.status = 200;
-  res.set_content_provider(
-      static_cast<std::size_t>(size), content_type(path.filename().string()),
-      [stream](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
-        // httplib runs providers outside its exception handler: nothing may
-        // escape, or the daemon ends. A failure ends this download only.
-        try {
-          std::array<char, 64 * 1024> buffer;
-          stream->seekg(static_cast<std::streamoff>(offset));
-          const auto chunk = std::min(length, buffer.size());
-          stream->read(buffer.data(), static_cast<std::streamsize>(chunk));
-          const auto got = static_cast<std::size_t>(stream->gcount());
-          return got > 0 && sink.write(buffer.data(), got);
-        } catch (const std::exception& e) {
-          logger("http")->error("download: {}", e.what());
-          return false;
-        }
-      });
-}
-
-std::optional<std::int64_t> parse_id(const std::string& text) {
-  std::int64_t id = 0;
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), id);
-  if (ec != std::errc() || end != text.data() + text.size() || id <= 0) return std::nullopt;
-  return id;
 }
 
 json entry_json(const CatalogueEntry& e) {
@@ -734,7 +673,8 @@ void HttpApi::Impl::file(const httplib::Request& req, httplib::Response& res) {
   const fs::path& directory =
       *home == ScanFileHome::scan ? (*entry)->scan_directory : (*entry)->maps_directory;
   if (directory.empty()) return refuse(res, 404, "scan " + std::to_string(*id) + " has no " + name);
-  send_file(req, res, directory / name, "scan " + std::to_string(*id) + " has no " + name);
+  send_file(req, res, directory / name, content_type(name),
+            "scan " + std::to_string(*id) + " has no " + name);
 }
 
 void HttpApi::Impl::preview(const httplib::Request& req, httplib::Response& res) {
@@ -750,7 +690,8 @@ void HttpApi::Impl::preview(const httplib::Request& req, httplib::Response& res)
   if (!file)
     return refuse(res, file.error().kind == ErrorKind::bad_input ? 404 : 500,
                   file.error().describe());
-  send_file(req, res, *file, "scan " + std::to_string(*id) + " has no " + file_name(kind));
+  send_file(req, res, *file, "image/png",
+            "scan " + std::to_string(*id) + " has no " + file_name(kind));
 }
 
 void HttpApi::Impl::remove(const httplib::Request& req, httplib::Response& res) {

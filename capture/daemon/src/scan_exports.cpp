@@ -7,30 +7,12 @@
 
 #include <nlohmann/json.hpp>
 
+#include "http_answers.h"
 #include "psrig/base/log.h"
 #include "psrig/export/material_source.h"
 
 namespace psrig::daemon {
-namespace {
-
 namespace fs = std::filesystem;
-
-void refuse(httplib::Response& res, int status, const std::string& message) {
-  res.status = status;
-  res.set_content(nlohmann::json{{"error", message}}.dump(
-                      -1, ' ', false, nlohmann::json::error_handler_t::replace) +
-                      "\n",
-                  "application/json");
-}
-
-std::optional<std::int64_t> parse_id(const std::string& text) {
-  std::int64_t id = 0;
-  const auto [end, ec] = std::from_chars(text.data(), text.data() + text.size(), id);
-  if (ec != std::errc() || end != text.data() + text.size() || id <= 0) return std::nullopt;
-  return id;
-}
-
-}  // namespace
 
 Result<fs::path> ScanExports::get(const fs::path& scan_directory, const fs::path& maps_directory,
                                   export_::ExportFormat format) {
@@ -81,31 +63,11 @@ void serve_scan_export(const Catalogue& catalogue, ScanExports& exports,
   if (!path)
     return refuse(res, path.error().kind == ErrorKind::bad_input ? 409 : 500,
                   path.error().describe());
-  std::error_code ec;
-  const auto size = fs::file_size(*path, ec);
-  if (ec) return refuse(res, 500, "cannot read the export: " + ec.message());
-  auto stream = std::make_shared<std::ifstream>(*path, std::ios::binary);
-  if (!*stream) return refuse(res, 500, "cannot read the export");
-  res.status = 200;
-  res.set_header("Content-Disposition", "attachment; filename=\"scan-" + std::to_string(*id) + "." +
-                                            std::string(export_::to_string(*format)) + "\"");
-  res.set_content_provider(
-      static_cast<std::size_t>(size),
+  send_file(
+      req, res, *path,
       *format == export_::ExportFormat::glb ? "model/gltf-binary" : "application/octet-stream",
-      [stream](std::size_t offset, std::size_t length, httplib::DataSink& sink) {
-        // Nothing may escape a provider (httplib runs it outside its handler).
-        try {
-          std::array<char, 64 * 1024> buffer;
-          stream->seekg(static_cast<std::streamoff>(offset));
-          const auto chunk = std::min(length, buffer.size());
-          stream->read(buffer.data(), static_cast<std::streamsize>(chunk));
-          const auto got = static_cast<std::size_t>(stream->gcount());
-          return got > 0 && sink.write(buffer.data(), got);
-        } catch (const std::exception& e) {
-          logger("http")->error("export download: {}", e.what());
-          return false;
-        }
-      });
+      "scan " + std::to_string(*id) + "'s export is gone",
+      "scan-" + std::to_string(*id) + "." + std::string(export_::to_string(*format)));
 }
 
 }  // namespace psrig::daemon
