@@ -48,6 +48,9 @@ json make_report(const ReportInputs& in) {
                  {"flats", !d.flats.empty()},
                  {"pixel_size_mm", d.pixel_size_mm ? json(*d.pixel_size_mm) : json()}};
   if (d.document.contains("capture")) inputs["capture"] = d.document["capture"];
+  // Which of the rig's calibrations the scan applied (scan.json), so the
+  // maps say it too: the catalogue and the web page show it.
+  if (d.document.contains("calibration")) inputs["calibration"] = d.document["calibration"];
   report["inputs"] = inputs;
 
   const auto& options = *in.options;

@@ -107,7 +107,7 @@ export function renderRig(main) {
     h('div', { class: 'rig-columns' },
       scanForm(follow),
       h('section', { 'aria-labelledby': 'status-title' }, h('h2', { id: 'status-title' }, 'psrigd'), statusList)),
-    h('section', { 'aria-labelledby': 'live-title' }, h('h2', { id: 'live-title' }, 'Scans in progress'), list),
+    h('section', { 'aria-labelledby': 'live-title' }, h('h2', { id: 'live-title' }, 'Scans started or seen here'), list),
   );
   const stopWatching = onStatus((status) => {
     const calibration = calibrationText(status);

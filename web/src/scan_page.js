@@ -43,6 +43,14 @@ function heightScale(report) {
   );
 }
 
+// scan.json's calibration: {"file", "created", "applied": ["lights", ...]}.
+function calibrationText(calibration) {
+  if (!calibration || typeof calibration !== 'object') return 'none (light directions from rig.toml)';
+  const version = String(calibration.file ?? '').match(/calibrations\/(\d+)\//)?.[1];
+  const applied = Array.isArray(calibration.applied) ? calibration.applied.join(', ') : '';
+  return `${version ? `version ${version}` : 'yes'}${calibration.created ? ` of ${formatTime(calibration.created)}` : ''}${applied ? `: ${applied}` : ''}`;
+}
+
 function reportFigures(scan) {
   const report = scan.report ?? {};
   const pixels = report.pixels ?? {};
@@ -57,8 +65,7 @@ function reportFigures(scan) {
   if (typeof error === 'number') items.push(figure('Angular error vs. truth', `${error.toFixed(2)}° mean`));
   const fabric = fabricFigures(scan.fabric ?? report.fabric);
   if (fabric.length) items.push(figure('Fabric', fabric.join(' · ')));
-  const calibration = report.inputs?.calibration ?? scan.calibration;
-  items.push(figure('Calibration', calibration ? (calibration.version ?? calibration.id ?? JSON.stringify(calibration)) : 'none (directions from rig.toml)'));
+  items.push(figure('Calibration', calibrationText(report.inputs?.calibration)));
   const directions = matrix.directions;
   const table = Array.isArray(directions)
     ? h(

@@ -207,6 +207,31 @@ describe('web catalogue', { skip }, () => {
     await page.close();
   });
 
+  test('Cancel stops a queued scan; All lights off stops everything', async () => {
+    const page = await browser.newPage();
+    await page.goto(`${daemon.url}/#/rig`);
+    await page.waitForSelector('form.start-scan');
+    // Three at once: the first runs, the others wait and can be cancelled.
+    for (const id of ['Q-1', 'Q-2', 'Q-3']) {
+      await page.$eval('#scan-sample', (input, value) => (input.value = value), id);
+      await page.click('form.start-scan button[type=submit]');
+      await page.waitForFunction((value) => [...document.querySelectorAll('li.followed a')].some((a) => a.textContent === value), {}, id);
+    }
+    const cancel = await page.waitForSelector('xpath/.//li[contains(@class, "followed")][a[text()="Q-3"]]//button[text()="Cancel"]');
+    await cancel.click();
+    await page.waitForFunction(() =>
+      [...document.querySelectorAll('li.followed')].some((li) => li.querySelector('a').textContent === 'Q-3' && li.dataset.state === 'aborted'));
+    await page.click('#lights-off');
+    await page.waitForFunction(() => /Every LED is off/.test(document.getElementById('notices').textContent));
+    // Every scan has ended, none is left waiting, and psrigd still serves.
+    await page.waitForFunction(() => [...document.querySelectorAll('li.followed')].every((li) => !['queued', 'running'].includes(li.dataset.state)), { timeout: 30_000 });
+    const status = await (await daemon.api('/v1/status')).json();
+    assert.equal(status.queue_length, 0);
+    assert.ok(['idle', 'error'].includes(status.state), status.state);
+    await shot(page, 'rig-lights-off');
+    await page.close();
+  });
+
   test('no serious accessibility violations (axe-core)', async () => {
     const axe = readFileSync(require.resolve('axe-core/axe.min.js'), 'utf8');
     const page = await browser.newPage();
