@@ -95,7 +95,22 @@ std::string exchange(int port, const std::uint8_t* data, std::size_t size, int d
   address.sin_family = AF_INET;
   address.sin_addr.s_addr = htonl(INADDR_LOOPBACK);
   address.sin_port = htons(static_cast<std::uint16_t>(port));
-  if (::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address) != 0) {
+  int connected = ::connect(fd, reinterpret_cast<sockaddr*>(&address), sizeof address);
+  if (connected != 0 && errno == EINTR) {
+    // A signal (libFuzzer's own timer) interrupted it; the connection goes
+    // on by itself: wait for it and take its outcome.
+    pollfd p{fd, POLLOUT, 0};
+    while (::poll(&p, 1, 5000) < 0 && errno == EINTR) {
+    }
+    int error = 0;
+    socklen_t length = sizeof error;
+    if (::getsockopt(fd, SOL_SOCKET, SO_ERROR, &error, &length) == 0 && error == 0 &&
+        (p.revents & POLLOUT))
+      connected = 0;
+    else
+      errno = error != 0 ? error : ETIMEDOUT;
+  }
+  if (connected != 0) {
     // The server is gone (it should never go while the target runs).
     std::perror("psrig fuzz: connect");
     std::abort();
