@@ -185,6 +185,8 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   // options record it).
   const std::vector<int> png_out = png_params(options.storage.png_level);
   const std::vector<int> float_exr = exr_params(options.storage.exr_compression);
+  // Half floats hold albedo (linear, about 0..1) to 1 part in 2000, at half
+  // the bytes of a float map.
   const std::vector<int> half_exr = exr_params(options.storage.exr_compression, true);
   std::vector<Task> tasks;
   if (options.integration != IntegrationMethod::none) {
