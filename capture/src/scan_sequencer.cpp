@@ -428,12 +428,14 @@ Result<ScanOutcome> ScanSequencer::capture(
   if (progress) progress({ScanStage::writing, "writing", 0, 1});
   std::error_code ec;
   fs::create_directories(outcome.directory.parent_path(), ec);
-  if (auto ok = write_scan(*scan, outcome.directory); !ok) return std::unexpected(ok.error());
+  if (auto ok = write_scan(*scan, outcome.directory, storage_options(config_.storage)); !ok)
+    return std::unexpected(ok.error());
   committed_ = true;
   if (request.process.value_or(config_.capture.process)) {
     if (progress) progress({ScanStage::processing, "processing", 0, 1});
     processing::ProcessOptions options;
     options.solve.reject_outliers = config_.processing.reject;  // [processing] reject
+    options.storage = storage_options(config_.storage);         // [storage]
     auto maps = processing::process_scan(outcome.directory, options);
     if (!maps) return std::unexpected(maps.error());
     outcome.maps = std::move(*maps);

@@ -105,7 +105,8 @@ nlohmann::json scan_json(const Scan& scan) {
 
 namespace {
 
-Status write_scan_unguarded(const Scan& scan, const fs::path& directory) {
+Status write_scan_unguarded(const Scan& scan, const fs::path& directory,
+                            const processing::StorageOptions& storage) {
   if (scan.frames.size() != scan.description.lights.size() || scan.frames.size() < 3)
     return std::unexpected(internal_error("write_scan: need one frame per light, at least three"));
   std::error_code ec;
@@ -119,8 +120,10 @@ Status write_scan_unguarded(const Scan& scan, const fs::path& directory) {
   processing::parallel_chunks(static_cast<int>(files.size()), 1, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
       const fs::path path = staging->path() / files[i].name;
-      auto written = files[i].vector_exr ? processing::write_vector_exr(path, *files[i].image)
-                                         : processing::write_image(path, *files[i].image);
+      auto written = files[i].vector_exr
+                         ? processing::write_vector_exr(path, *files[i].image)
+                         : processing::write_image(path, *files[i].image,
+                                                   processing::png_params(storage.png_level));
       if (!written) errors[i] = written.error();
     }
   });
@@ -137,13 +140,24 @@ Status write_scan_unguarded(const Scan& scan, const fs::path& directory) {
 
 }  // namespace
 
-Status write_scan(const Scan& scan, const fs::path& directory) {
+Status write_scan(const Scan& scan, const fs::path& directory,
+                  const processing::StorageOptions& storage) {
+  if (storage.png_level < 0 || storage.png_level > 9)
+    return std::unexpected(internal_error("write_scan: PNG level outside 0-9"));
   try {
-    return write_scan_unguarded(scan, directory);
+    return write_scan_unguarded(scan, directory, storage);
   } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
     return std::unexpected(
         internal_error(directory.string() + ": writing the scan failed: " + e.what()));
   }
+}
+
+processing::StorageOptions storage_options(const config::StorageConfig& storage) {
+  processing::StorageOptions options;
+  options.exr_compression =
+      processing::parse_exr_compression(storage.exr_compression).value_or(options.exr_compression);
+  options.png_level = storage.png_level;
+  return options;
 }
 
 }  // namespace psrig::capture

@@ -470,6 +470,9 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   if (!storage) return std::unexpected(storage.error());
   std::string storage_root = c.storage.root.string();
   PSRIG_TRY(storage->get("root", storage_root));
+  PSRIG_TRY(
+      storage->get("exr_compression", c.storage.exr_compression, {"auto", "zip", "piz", "none"}));
+  PSRIG_TRY(storage->get("png_level", c.storage.png_level, 0, 9));
   // Relative to the configuration file, not to wherever psrig was started.
   c.storage.root = relative_to_file(file, storage_root);
   storage->finish();

@@ -64,13 +64,6 @@ Result<AtomicDirectory::Existing> check_output(const fs::path& output) {
                 "(choose another --out, or remove it)"));
 }
 
-// Noisy 16-bit maps barely deflate (12 MP normals: 64 MB against 74 MB
-// stored) at ~0.4 s of CPU each; they are stored uncompressed.
-const std::vector<int> kStoredPng = {cv::IMWRITE_PNG_COMPRESSION, 0};
-// Half floats hold albedo (linear, about 0..1) to 1 part in 2000, at half
-// the bytes of the largest map.
-const std::vector<int> kHalfExr = {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_HALF};
-
 // A number for a text chunk: enough digits to give the double back.
 std::string fmt_number(double v) {
   char text[32];
@@ -87,6 +80,9 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   if (!(options.flatten_cutoff_mm > 0) || !std::isfinite(options.flatten_cutoff_mm))
     return std::unexpected(
         bad_input({}, "--flatten-cutoff", "the bend's cut-off must be a positive length (mm)"));
+  if (options.storage.png_level < 0 || options.storage.png_level > 9)
+    return std::unexpected(
+        bad_input({}, "--png-level", "the PNG compression level must be 0 (stored) to 9"));
   // A scan directory that is not there is the error, not the maps
   // directory inside it that cannot be made.
   std::error_code ec;
@@ -185,6 +181,13 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
     std::string name;
     std::function<Status()> run;
   };
+  // Every map losslessly compressed as [storage] says (report.json's
+  // options record it).
+  const std::vector<int> png_out = png_params(options.storage.png_level);
+  const std::vector<int> float_exr = exr_params(options.storage.exr_compression);
+  // Half floats hold albedo (linear, about 0..1) to 1 part in 2000, at half
+  // the bytes of a float map.
+  const std::vector<int> half_exr = exr_params(options.storage.exr_compression, true);
   std::vector<Task> tasks;
   if (options.integration != IntegrationMethod::none) {
     tasks.push_back(
@@ -261,13 +264,14 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
            log->debug("integration ({}): {:.0f} ms", to_string(summary.method), integrate_ms);
            ImageMetadata height_meta = metadata(ImageMetadata::ColourSpace::data);
            height_meta.text.emplace_back(metadata_keys::kUnits, summary.units);
-           if (auto ok = write_image(dir / map_files::kHeightExr, *height, {}, height_meta); !ok)
+           if (auto ok = write_image(dir / map_files::kHeightExr, *height, float_exr, height_meta);
+               !ok)
              return ok;
            cv::Mat png = encode_height16(*height, low, high);
            png.setTo(0, ~finite);
            height_meta.text.emplace_back(metadata_keys::kHeightRange,
                                          fmt_number(low) + " " + fmt_number(high));
-           return write_image(dir / map_files::kHeightPng, png, kStoredPng, height_meta);
+           return write_image(dir / map_files::kHeightPng, png, png_out, height_meta);
          }});
   }
   tasks.push_back({"statistics", evaluate});
@@ -275,30 +279,31 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
                      const cv::Mat normal = encode_normal16(result.p, result.q);
                      ImageMetadata m = metadata(ImageMetadata::ColourSpace::data);
                      m.text.emplace_back(metadata_keys::kNormalConvention, "OpenGL (+Y up)");
-                     if (auto ok = write_image(dir / map_files::kNormalPng, normal, kStoredPng, m);
+                     if (auto ok = write_image(dir / map_files::kNormalPng, normal, png_out, m);
                          !ok || !options.directx_normal)
                        return ok;
                      m.text.back().second = "DirectX (+Y down)";
                      return write_image(dir / map_files::kNormalDirectxPng,
-                                        flip_normal_green(normal), kStoredPng, m);
+                                        flip_normal_green(normal), png_out, m);
                    }});
   tasks.push_back({map_files::kAlbedoPng, [&] {
-                     return write_image(dir / map_files::kAlbedoPng,
-                                        encode_albedo_srgb8(albedo), {},
-                                        metadata(ImageMetadata::ColourSpace::colour));
+                     return write_image(dir / map_files::kAlbedoPng, encode_albedo_srgb8(albedo),
+                                        png_out, metadata(ImageMetadata::ColourSpace::colour));
                    }});
   tasks.push_back({map_files::kAlbedoExr, [&] {
-                     return write_image(dir / map_files::kAlbedoExr, albedo, kHalfExr,
+                     return write_image(dir / map_files::kAlbedoExr, albedo, half_exr,
                                         metadata(ImageMetadata::ColourSpace::unspecified));
                    }});
   ImageMetadata gradient_meta = metadata(ImageMetadata::ColourSpace::unspecified);
   gradient_meta.text.emplace_back(metadata_keys::kUnits, "dz/dx, dz/dy (y up), unitless");
-  tasks.push_back({map_files::kP,
-                   [&] { return write_image(dir / map_files::kP, result.p, {}, gradient_meta); }});
-  tasks.push_back({map_files::kQ,
-                   [&] { return write_image(dir / map_files::kQ, result.q, {}, gradient_meta); }});
+  tasks.push_back({map_files::kP, [&] {
+                     return write_image(dir / map_files::kP, result.p, float_exr, gradient_meta);
+                   }});
+  tasks.push_back({map_files::kQ, [&] {
+                     return write_image(dir / map_files::kQ, result.q, float_exr, gradient_meta);
+                   }});
   tasks.push_back({map_files::kMask, [&] {
-                     return write_image(dir / map_files::kMask, valid, {},
+                     return write_image(dir / map_files::kMask, valid, png_out,
                                         metadata(ImageMetadata::ColourSpace::data));
                    }});
 

@@ -63,7 +63,9 @@ json make_report(const ReportInputs& in) {
       {"reject_method", reject_method(options.solve, static_cast<int>(d.lights.size()))},
       {"shadow_ratio", options.solve.shadow_ratio},
       {"low_signal", options.solve.low_signal},
-      {"normal_convention", options.directx_normal ? "opengl, directx" : "opengl"}};
+      {"normal_convention", options.directx_normal ? "opengl, directx" : "opengl"},
+      {"exr_compression", to_string(options.storage.exr_compression)},
+      {"png_level", options.storage.png_level}};
 
   json times = json::object();
   for (const auto& [stage, ms] : in.stage_ms)

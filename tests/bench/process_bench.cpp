@@ -6,6 +6,7 @@
 
 #include <cstdio>
 #include <fstream>
+#include <string>
 #include <vector>
 
 #include <benchmark/benchmark.h>
@@ -50,9 +51,12 @@ std::size_t directory_bytes(const fs::path& dir) {
 
 std::size_t maps_bytes = 0;  // measured by BM_Process, used by BM_FileCopy
 
-void BM_Process(benchmark::State& state) {
+// Processes the 12 MP scan with `storage`'s compression; counts the bytes
+// of the maps (output_MB), of the frames (input_MB) and of both (stored_MB).
+void process_12mp(benchmark::State& state, const psrig::processing::StorageOptions& storage) {
   const fs::path& scan = scan_12mp();
   psrig::processing::ProcessOptions options;
+  options.storage = storage;
   options.output = workspace() / "maps";
   for (auto _ : state) {
     state.PauseTiming();
@@ -64,6 +68,22 @@ void BM_Process(benchmark::State& state) {
   maps_bytes = directory_bytes(options.output);
   state.counters["output_MB"] = static_cast<double>(maps_bytes) / 1e6;
   state.counters["input_MB"] = static_cast<double>(directory_bytes(scan)) / 1e6;
+  state.counters["stored_MB"] = static_cast<double>(maps_bytes + directory_bytes(scan)) / 1e6;
+}
+
+// The defaults, as `psrig process` and rig.toml's [storage] give them.
+void BM_Process(benchmark::State& state) {
+  process_12mp(state, {});
+}
+
+// The other choices, for picking the defaults by bytes and time.
+void BM_ProcessExr(benchmark::State& state) {
+  psrig::processing::StorageOptions storage;
+  storage.exr_compression = static_cast<psrig::processing::ExrCompression>(state.range(0));
+  storage.png_level = static_cast<int>(state.range(1));
+  state.SetLabel(std::string("exr ") + to_string(storage.exr_compression) + ", png level " +
+                 std::to_string(storage.png_level));
+  process_12mp(state, storage);
 }
 
 void BM_FileCopy(benchmark::State& state) {
@@ -97,5 +117,15 @@ BENCHMARK(BM_FileCopy)
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(5);
+
+BENCHMARK(BM_ProcessExr)
+    ->Name("BM_ProcessStorage/12MP")
+    ->Args({static_cast<int>(psrig::processing::ExrCompression::none), 1})
+    ->Args({static_cast<int>(psrig::processing::ExrCompression::zip), 1})
+    ->Args({static_cast<int>(psrig::processing::ExrCompression::piz), 1})
+    ->Args({static_cast<int>(psrig::processing::ExrCompression::automatic), 6})
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime()
+    ->Iterations(2);
 
 }  // namespace

@@ -87,10 +87,35 @@ TEST(PsrigCli, RejectWithTwelveLightsNamesTheMethodInTheReport) {
   EXPECT_GT(report["pixels"]["highlights_rejected"].get<int>(), 0);
 }
 
+// --exr-compression and --png-level reach the maps: report.json records
+// them, and ZIP makes the EXRs smaller than none does.
+TEST(PsrigCli, ProcessStorageOptionsReachTheMaps) {
+  TempDir temp;
+  const fs::path scan = temp / "scan";
+  ASSERT_EQ(
+      run_program("psrig", {"synth", "--out", scan.string(), "--size", "128x96", "-q"}).exit_code,
+      0);
+  for (const char* exr : {"none", "zip"}) {
+    const fs::path maps = temp / exr;
+    auto run = run_program("psrig", {"process", scan.string(), "--out", maps.string(),
+                                     "--exr-compression", exr, "--png-level", "9", "-q"});
+    ASSERT_EQ(run.exit_code, 0) << run.err;
+    std::ifstream report_file(maps / "report.json");
+    const auto report = nlohmann::json::parse(report_file);
+    EXPECT_EQ(report["options"]["exr_compression"], exr);
+    EXPECT_EQ(report["options"]["png_level"], 9);
+  }
+  EXPECT_LT(fs::file_size(temp / "zip" / "albedo.exr"),
+            fs::file_size(temp / "none" / "albedo.exr"));
+  EXPECT_LT(fs::file_size(temp / "zip" / "p.exr"), fs::file_size(temp / "none" / "p.exr"));
+}
+
 TEST(PsrigCli, UsageErrorsExitTwo) {
   EXPECT_EQ(run_program("psrig", {}).exit_code, 2);
   EXPECT_EQ(run_program("psrig", {"process"}).exit_code, 2);
   EXPECT_EQ(run_program("psrig", {"process", "x", "--integrate", "magic"}).exit_code, 2);
+  EXPECT_EQ(run_program("psrig", {"process", "x", "--exr-compression", "dwab"}).exit_code, 2);
+  EXPECT_EQ(run_program("psrig", {"process", "x", "--png-level", "10"}).exit_code, 2);
   TempDir temp;
   auto bad_size = run_program("psrig", {"synth", "--out", (temp / "s").string(), "--size", "big"});
   EXPECT_EQ(bad_size.exit_code, 2);

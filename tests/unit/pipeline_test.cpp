@@ -13,6 +13,7 @@
 #include "psrig/capture/scan_writer.h"
 #include "psrig/capture/synthetic_scan.h"
 #include "psrig/processing/evaluation.h"
+#include "psrig/processing/image_io.h"
 #include "psrig/processing/map_encoding.h"
 #include "psrig/sim/swatch_model.h"
 #include "synthetic_scene.h"
@@ -352,6 +353,60 @@ TEST(Pipeline, BadInputWritesNothing) {
   EXPECT_EQ(failed.error().kind, ErrorKind::bad_input);
   EXPECT_EQ(test::list_directory(temp.path()), std::vector<std::string>{"scan"});
   EXPECT_FALSE(fs::exists(temp / "scan" / "maps"));
+}
+
+// Every compression [storage] offers is lossless: the maps read back the
+// same pixels, bit for bit, as the uncompressed ones, and compressing does
+// make the smooth sphere's EXRs and PNGs smaller. report.json records it.
+TEST(Pipeline, StorageCompressionIsLosslessAndRecorded) {
+  test::TempDir temp;
+  auto scan =
+      test::render_scan(test::sphere_surface({96, 80}, 30, 3), test::ring_lights(3, 45), CV_16U);
+  ASSERT_TRUE(capture::write_scan(scan, temp / "scan"));
+  const auto process_with = [&](ExrCompression exr, int png_level) {
+    ProcessOptions options;
+    options.storage = {exr, png_level};
+    options.output = temp / (std::string(to_string(exr)) + std::to_string(png_level));
+    auto summary = process_scan(temp / "scan", options);
+    EXPECT_TRUE(summary) << summary.error().describe();
+    if (summary) {
+      EXPECT_EQ(summary->report["options"]["exr_compression"], to_string(exr));
+      EXPECT_EQ(summary->report["options"]["png_level"], png_level);
+    }
+    return options.output;
+  };
+  const fs::path plain = process_with(ExrCompression::none, 0);
+  for (const auto& [exr, level] : {std::pair{ExrCompression::zip, 1},
+                                   {ExrCompression::piz, 9},
+                                   {ExrCompression::automatic, 1}}) {
+    const fs::path packed = process_with(exr, level);
+    for (const char* name : {"albedo.exr", "p.exr", "q.exr", "height.exr", "normal.png",
+                             "height.png", "albedo.png", "mask.png"}) {
+      SCOPED_TRACE(packed / name);
+      auto a = read_image(plain / name, name);
+      auto b = read_image(packed / name, name);
+      ASSERT_TRUE(a && b);
+      ASSERT_EQ(a->type(), b->type());
+      ASSERT_EQ(a->size(), b->size());
+      cv::Mat differs;
+      cv::compare(a->reshape(1), b->reshape(1), differs, cv::CMP_NE);
+      // NaN heights (none here) would differ from themselves.
+      EXPECT_EQ(cv::countNonZero(differs), 0);
+    }
+    EXPECT_LT(fs::file_size(packed / "albedo.exr"), fs::file_size(plain / "albedo.exr"));
+    EXPECT_LT(fs::file_size(packed / "normal.png"), fs::file_size(plain / "normal.png"));
+    if (exr != ExrCompression::automatic)
+      EXPECT_LT(fs::file_size(packed / "p.exr"), fs::file_size(plain / "p.exr"));
+    else  // auto leaves the float maps uncompressed
+      EXPECT_EQ(fs::file_size(packed / "p.exr"), fs::file_size(plain / "p.exr"));
+  }
+  ProcessOptions bad;
+  bad.storage.png_level = 10;
+  bad.output = temp / "bad";
+  auto refused = process_scan(temp / "scan", bad);
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().describe().find("--png-level"), std::string::npos);
+  EXPECT_FALSE(fs::exists(temp / "bad"));
 }
 
 }  // namespace

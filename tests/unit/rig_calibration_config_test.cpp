@@ -74,5 +74,20 @@ TEST(RigCalibrationConfig, MistakesNameTheirPlace) {
   expect_error("[sim]\nled_distance_mm = 0\n", "sim.led_distance_mm", 2);
 }
 
+// [storage]'s compression keys: the defaults, the values read, bad ones
+// refused naming the key and line.
+TEST(RigCalibrationConfig, StorageCompression) {
+  auto defaults = parse_config("", "rig.toml");
+  ASSERT_TRUE(defaults);
+  EXPECT_EQ(defaults->storage.exr_compression, "auto");
+  EXPECT_EQ(defaults->storage.png_level, 1);
+  auto c = parse_config("[storage]\nexr_compression = \"piz\"\npng_level = 6\n", "rig.toml");
+  ASSERT_TRUE(c) << c.error().describe();
+  EXPECT_EQ(c->storage.exr_compression, "piz");
+  EXPECT_EQ(c->storage.png_level, 6);
+  expect_error("[storage]\nexr_compression = \"dwab\"\n", "storage.exr_compression", 2);
+  expect_error("[storage]\npng_level = 10\n", "storage.png_level", 2);
+}
+
 }  // namespace
 }  // namespace psrig::config

@@ -20,6 +20,8 @@ struct ProcessArgs {
   int threads = 0;
   bool reject = false;
   std::string normal_convention = "opengl";
+  std::string exr_compression = processing::to_string(processing::StorageOptions{}.exr_compression);
+  int png_level = processing::StorageOptions{}.png_level;
   bool quiet = false;
 };
 
@@ -58,6 +60,16 @@ Command add_process_command(CLI::App& parent) {
                   "normal_directx.png (+Y down) for Substance and Unreal")
       ->check(CLI::IsMember({"opengl", "directx"}))
       ->capture_default_str();
+  app->add_option("--exr-compression", args->exr_compression,
+                  "Lossless compression of the EXR maps: auto (PIZ for the half-float albedo, "
+                  "none for the float maps, whose noise does not compress), zip, piz or none "
+                  "([storage] exr_compression in rig.toml for psrig scan and psrigd)")
+      ->check(CLI::IsMember({"auto", "zip", "piz", "none"}))
+      ->capture_default_str();
+  app->add_option("--png-level", args->png_level,
+                  "Deflate level of the PNG maps: 0 (stored) to 9 ([storage] png_level)")
+      ->check(CLI::Range(0, 9))
+      ->capture_default_str();
   app->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
 
   return {app, [args] {
@@ -69,6 +81,9 @@ Command add_process_command(CLI::App& parent) {
             options.flatten_cutoff_mm = args->flatten_cutoff;
             options.solve.reject_outliers = args->reject;
             options.directx_normal = args->normal_convention == "directx";
+            options.storage.exr_compression =
+                *processing::parse_exr_compression(args->exr_compression);
+            options.storage.png_level = args->png_level;
             auto summary = processing::process_scan(args->scan, options);
             if (!summary) return report_error("process", summary.error());
             // The solve drops a pixel's outliers only where enough lights remain.

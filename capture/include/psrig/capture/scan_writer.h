@@ -7,7 +7,9 @@
 #include <nlohmann/json.hpp>
 
 #include "psrig/base/error.h"
+#include "psrig/config/rig_config.h"
 #include "psrig/processing/scan.h"
+#include "psrig/processing/storage_options.h"
 
 namespace psrig::capture {
 
@@ -20,6 +22,11 @@ namespace psrig::capture {
 // Writes the images and scan.json into `directory`, which must not exist
 // yet: the directory appears whole, flushed to disk, or not at all.
 [[nodiscard]] Status write_scan(const processing::Scan& scan,
-                                const std::filesystem::path& directory);
+                                const std::filesystem::path& directory,
+                                const processing::StorageOptions& storage = {});
+
+// rig.toml's [storage] compression as processing's options (the loader has
+// checked the values).
+[[nodiscard]] processing::StorageOptions storage_options(const config::StorageConfig& storage);
 
 }  // namespace psrig::capture

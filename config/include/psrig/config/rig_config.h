@@ -143,6 +143,11 @@ struct CalibrationConfig {
 
 struct StorageConfig {
   std::filesystem::path root = "/var/lib/psrig/scans";
+  // Lossless compression of what a scan writes: the EXR maps ("auto",
+  // "zip", "piz" or "none"; processing's storage_options.h says what auto
+  // does) and the PNG frames and maps (deflate 0 stored … 9).
+  std::string exr_compression = "auto";
+  int png_level = 1;
 };
 
 // The simulated world: the swatch, the simulated camera, its timing.

@@ -11,6 +11,7 @@
 #include "psrig/base/error.h"
 #include "psrig/processing/flatten.h"
 #include "psrig/processing/integration.h"
+#include "psrig/processing/storage_options.h"
 #include "psrig/processing/woodham.h"
 
 namespace psrig::processing {
@@ -40,6 +41,7 @@ struct ProcessOptions {
   // preview); directx adds normal_directx.png (+Y down) beside it.
   bool directx_normal = false;
   SolveOptions solve;
+  StorageOptions storage;  // the maps' lossless compression
 };
 
 struct ProcessSummary {
