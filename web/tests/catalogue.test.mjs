@@ -241,7 +241,7 @@ describe('web catalogue', { skip }, () => {
       await page.evaluate(axe);
       const result = await page.evaluate(async () => window.axe.run(document, { resultTypes: ['violations'] }));
       const serious = result.violations.filter((v) => ['serious', 'critical'].includes(v.impact));
-      assert.deepEqual(serious.map((v) => `${name}: ${v.id}: ${v.help}`), []);
+      assert.deepEqual(serious.map((v) => `${name}: ${v.id}: ${v.help}: ${v.nodes.map((n) => n.target.join(' ')).join(', ')}`), []);
     }
     await page.close();
   });
