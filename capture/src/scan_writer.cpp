@@ -157,6 +157,8 @@ processing::StorageOptions storage_options(const config::StorageConfig& storage)
   options.exr_compression =
       processing::parse_exr_compression(storage.exr_compression).value_or(options.exr_compression);
   options.png_level = storage.png_level;
+  options.map_precision =
+      processing::parse_map_precision(storage.map_precision).value_or(options.map_precision);
   return options;
 }
 

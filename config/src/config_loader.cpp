@@ -473,6 +473,7 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   PSRIG_TRY(
       storage->get("exr_compression", c.storage.exr_compression, {"auto", "zip", "piz", "none"}));
   PSRIG_TRY(storage->get("png_level", c.storage.png_level, 0, 9));
+  PSRIG_TRY(storage->get("map_precision", c.storage.map_precision, {"half", "float"}));
   // Relative to the configuration file, not to wherever psrig was started.
   c.storage.root = relative_to_file(file, storage_root);
   storage->finish();

@@ -184,10 +184,12 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   // Every map losslessly compressed as [storage] says (report.json's
   // options record it).
   const std::vector<int> png_out = png_params(options.storage.png_level);
-  const std::vector<int> float_exr = exr_params(options.storage.exr_compression);
   // Half floats hold albedo (linear, about 0..1) to 1 part in 2000, at half
-  // the bytes of a float map.
+  // the bytes of a float map; p, q and height as [storage] map_precision
+  // says (storage_options.h: why half is the default).
   const std::vector<int> half_exr = exr_params(options.storage.exr_compression, true);
+  const std::vector<int> map_exr = exr_params(options.storage.exr_compression,
+                                              options.storage.map_precision == MapPrecision::half);
   std::vector<Task> tasks;
   if (options.integration != IntegrationMethod::none) {
     tasks.push_back(
@@ -264,7 +266,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
            log->debug("integration ({}): {:.0f} ms", to_string(summary.method), integrate_ms);
            ImageMetadata height_meta = metadata(ImageMetadata::ColourSpace::data);
            height_meta.text.emplace_back(metadata_keys::kUnits, summary.units);
-           if (auto ok = write_image(dir / map_files::kHeightExr, *height, float_exr, height_meta);
+           if (auto ok = write_image(dir / map_files::kHeightExr, *height, map_exr, height_meta);
                !ok)
              return ok;
            cv::Mat png = encode_height16(*height, low, high);
@@ -297,10 +299,10 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   ImageMetadata gradient_meta = metadata(ImageMetadata::ColourSpace::unspecified);
   gradient_meta.text.emplace_back(metadata_keys::kUnits, "dz/dx, dz/dy (y up), unitless");
   tasks.push_back({map_files::kP, [&] {
-                     return write_image(dir / map_files::kP, result.p, float_exr, gradient_meta);
+                     return write_image(dir / map_files::kP, result.p, map_exr, gradient_meta);
                    }});
   tasks.push_back({map_files::kQ, [&] {
-                     return write_image(dir / map_files::kQ, result.q, float_exr, gradient_meta);
+                     return write_image(dir / map_files::kQ, result.q, map_exr, gradient_meta);
                    }});
   tasks.push_back({map_files::kMask, [&] {
                      return write_image(dir / map_files::kMask, valid, png_out,

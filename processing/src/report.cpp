@@ -65,7 +65,8 @@ json make_report(const ReportInputs& in) {
       {"low_signal", options.solve.low_signal},
       {"normal_convention", options.directx_normal ? "opengl, directx" : "opengl"},
       {"exr_compression", to_string(options.storage.exr_compression)},
-      {"png_level", options.storage.png_level}};
+      {"png_level", options.storage.png_level},
+      {"map_precision", to_string(options.storage.map_precision)}};
 
   json times = json::object();
   for (const auto& [stage, ms] : in.stage_ms)

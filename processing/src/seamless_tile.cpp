@@ -443,33 +443,35 @@ nlohmann::json tile_json(const Tile& tile) {
   return j;
 }
 
-Status write_tile(const Tile& tile, const fs::path& directory) {
+Status write_tile(const Tile& tile, const fs::path& directory, const StorageOptions& storage) {
   const auto existing = check_tile_output(directory);
   if (!existing) return std::unexpected(existing.error());
   auto staging = AtomicDirectory::create(directory);
   if (!staging) return std::unexpected(staging.error());
   const fs::path dir = staging->path();
   const Maps& m = tile.maps;
-  const std::vector<int> stored = {cv::IMWRITE_PNG_COMPRESSION, 0};
-  const std::vector<int> half = {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_HALF};
-  if (auto ok = write_image(dir / map_files::kAlbedoPng, encode_albedo_srgb8(m.albedo)); !ok)
+  const std::vector<int> png = png_params(storage.png_level);
+  const std::vector<int> half = exr_params(storage.exr_compression, true);
+  const std::vector<int> map_exr =
+      exr_params(storage.exr_compression, storage.map_precision == MapPrecision::half);
+  if (auto ok = write_image(dir / map_files::kAlbedoPng, encode_albedo_srgb8(m.albedo), png); !ok)
     return ok;
   if (auto ok = write_image(dir / map_files::kAlbedoExr, m.albedo, half); !ok) return ok;
-  if (auto ok = write_image(dir / map_files::kNormalPng, encode_normal16(m.p, m.q), stored); !ok)
+  if (auto ok = write_image(dir / map_files::kNormalPng, encode_normal16(m.p, m.q), png); !ok)
     return ok;
-  if (auto ok = write_image(dir / map_files::kP, m.p); !ok) return ok;
-  if (auto ok = write_image(dir / map_files::kQ, m.q); !ok) return ok;
+  if (auto ok = write_image(dir / map_files::kP, m.p, map_exr); !ok) return ok;
+  if (auto ok = write_image(dir / map_files::kQ, m.q, map_exr); !ok) return ok;
   if (!m.height.empty()) {
-    if (auto ok = write_image(dir / map_files::kHeightExr, m.height); !ok) return ok;
+    if (auto ok = write_image(dir / map_files::kHeightExr, m.height, map_exr); !ok) return ok;
     const cv::Mat finite = m.height == m.height;
     double low = 0, high = 0;
     if (cv::countNonZero(finite) > 0)
       cv::minMaxLoc(m.height, &low, &high, nullptr, nullptr, finite);
-    cv::Mat png = encode_height16(m.height, low, high);
-    png.setTo(0, ~finite);
-    if (auto ok = write_image(dir / map_files::kHeightPng, png, stored); !ok) return ok;
+    cv::Mat height16 = encode_height16(m.height, low, high);
+    height16.setTo(0, ~finite);
+    if (auto ok = write_image(dir / map_files::kHeightPng, height16, png); !ok) return ok;
   }
-  if (auto ok = write_image(dir / map_files::kMask, m.mask); !ok) return ok;
+  if (auto ok = write_image(dir / map_files::kMask, m.mask, png); !ok) return ok;
   const fs::path json_path = dir / kTileDescription;
   std::ofstream out(json_path);
   out << tile_json(tile).dump(2) << '\n';
@@ -490,8 +492,9 @@ Result<Tile> cut_tile(const Maps& maps, const TileOptions& options,
   if (!tile) return tile;
   if (!tile->periodic)
     warnings.push_back(why.empty() ? tile->message
-                                   : why + "; the tile is the whole scan with its border "
-                                           "cross-faded");
+                                   : why +
+                                         "; the tile is the whole scan with its border "
+                                         "cross-faded");
   if (!tile->seam.passed())
     warnings.push_back("the seam's second difference " + std::to_string(tile->seam.value) +
                        " exceeds the interior's 95th percentile " +

@@ -81,8 +81,9 @@ void BM_ProcessExr(benchmark::State& state) {
   psrig::processing::StorageOptions storage;
   storage.exr_compression = static_cast<psrig::processing::ExrCompression>(state.range(0));
   storage.png_level = static_cast<int>(state.range(1));
+  storage.map_precision = static_cast<psrig::processing::MapPrecision>(state.range(2));
   state.SetLabel(std::string("exr ") + to_string(storage.exr_compression) + ", png level " +
-                 std::to_string(storage.png_level));
+                 std::to_string(storage.png_level) + ", maps " + to_string(storage.map_precision));
   process_12mp(state, storage);
 }
 
@@ -107,6 +108,9 @@ void BM_FileCopy(benchmark::State& state) {
   }
 }
 
+constexpr int kHalf = static_cast<int>(psrig::processing::MapPrecision::half);
+constexpr int kFloat = static_cast<int>(psrig::processing::MapPrecision::full);
+
 BENCHMARK(BM_Process)
     ->Name("BM_Process/12MP")
     ->Unit(benchmark::kMillisecond)
@@ -120,10 +124,12 @@ BENCHMARK(BM_FileCopy)
 
 BENCHMARK(BM_ProcessExr)
     ->Name("BM_ProcessStorage/12MP")
-    ->Args({static_cast<int>(psrig::processing::ExrCompression::none), 1})
-    ->Args({static_cast<int>(psrig::processing::ExrCompression::zip), 1})
-    ->Args({static_cast<int>(psrig::processing::ExrCompression::piz), 1})
-    ->Args({static_cast<int>(psrig::processing::ExrCompression::automatic), 6})
+    ->Args({static_cast<int>(psrig::processing::ExrCompression::none), 1, kHalf})
+    ->Args({static_cast<int>(psrig::processing::ExrCompression::zip), 1, kHalf})
+    ->Args({static_cast<int>(psrig::processing::ExrCompression::piz), 1, kHalf})
+    ->Args({static_cast<int>(psrig::processing::ExrCompression::automatic), 6, kHalf})
+    // The maps before half precision: the same run's baseline.
+    ->Args({static_cast<int>(psrig::processing::ExrCompression::automatic), 1, kFloat})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(2);

@@ -95,15 +95,17 @@ TEST(PsrigCli, ProcessStorageOptionsReachTheMaps) {
   ASSERT_EQ(
       run_program("psrig", {"synth", "--out", scan.string(), "--size", "128x96", "-q"}).exit_code,
       0);
-  for (const char* exr : {"none", "zip"}) {
+  for (const auto& [exr, precision] : {std::pair{"none", "float"}, {"zip", "half"}}) {
     const fs::path maps = temp / exr;
-    auto run = run_program("psrig", {"process", scan.string(), "--out", maps.string(),
-                                     "--exr-compression", exr, "--png-level", "9", "-q"});
+    auto run =
+        run_program("psrig", {"process", scan.string(), "--out", maps.string(), "--exr-compression",
+                              exr, "--png-level", "9", "--map-precision", precision, "-q"});
     ASSERT_EQ(run.exit_code, 0) << run.err;
     std::ifstream report_file(maps / "report.json");
     const auto report = nlohmann::json::parse(report_file);
     EXPECT_EQ(report["options"]["exr_compression"], exr);
     EXPECT_EQ(report["options"]["png_level"], 9);
+    EXPECT_EQ(report["options"]["map_precision"], precision);
   }
   EXPECT_LT(fs::file_size(temp / "zip" / "albedo.exr"),
             fs::file_size(temp / "none" / "albedo.exr"));
@@ -116,6 +118,7 @@ TEST(PsrigCli, UsageErrorsExitTwo) {
   EXPECT_EQ(run_program("psrig", {"process", "x", "--integrate", "magic"}).exit_code, 2);
   EXPECT_EQ(run_program("psrig", {"process", "x", "--exr-compression", "dwab"}).exit_code, 2);
   EXPECT_EQ(run_program("psrig", {"process", "x", "--png-level", "10"}).exit_code, 2);
+  EXPECT_EQ(run_program("psrig", {"process", "x", "--map-precision", "double"}).exit_code, 2);
   TempDir temp;
   auto bad_size = run_program("psrig", {"synth", "--out", (temp / "s").string(), "--size", "big"});
   EXPECT_EQ(bad_size.exit_code, 2);

@@ -81,10 +81,15 @@ TEST(RigCalibrationConfig, StorageCompression) {
   ASSERT_TRUE(defaults);
   EXPECT_EQ(defaults->storage.exr_compression, "auto");
   EXPECT_EQ(defaults->storage.png_level, 1);
-  auto c = parse_config("[storage]\nexr_compression = \"piz\"\npng_level = 6\n", "rig.toml");
+  EXPECT_EQ(defaults->storage.map_precision, "half");
+  auto c = parse_config(
+      "[storage]\nexr_compression = \"piz\"\npng_level = 6\nmap_precision = \"float\"\n",
+      "rig.toml");
   ASSERT_TRUE(c) << c.error().describe();
   EXPECT_EQ(c->storage.exr_compression, "piz");
   EXPECT_EQ(c->storage.png_level, 6);
+  EXPECT_EQ(c->storage.map_precision, "float");
+  expect_error("[storage]\nmap_precision = \"double\"\n", "storage.map_precision", 2);
   expect_error("[storage]\nexr_compression = \"dwab\"\n", "storage.exr_compression", 2);
   expect_error("[storage]\npng_level = 10\n", "storage.png_level", 2);
 }

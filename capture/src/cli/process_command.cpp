@@ -22,6 +22,7 @@ struct ProcessArgs {
   std::string normal_convention = "opengl";
   std::string exr_compression = processing::to_string(processing::StorageOptions{}.exr_compression);
   int png_level = processing::StorageOptions{}.png_level;
+  std::string map_precision = processing::to_string(processing::StorageOptions{}.map_precision);
   bool quiet = false;
 };
 
@@ -70,6 +71,12 @@ Command add_process_command(CLI::App& parent) {
                   "Deflate level of the PNG maps: 0 (stored) to 9 ([storage] png_level)")
       ->check(CLI::Range(0, 9))
       ->capture_default_str();
+  app->add_option(
+         "--map-precision", args->map_precision,
+         "p.exr, q.exr and height.exr as half floats (1 part in 2048: at most 0.028° "
+         "of angle, far below the solve's noise) or 32-bit float ([storage] map_precision)")
+      ->check(CLI::IsMember({"half", "float"}))
+      ->capture_default_str();
   app->add_flag("-q,--quiet", args->quiet, "Print nothing on success");
 
   return {app, [args] {
@@ -84,6 +91,7 @@ Command add_process_command(CLI::App& parent) {
             options.storage.exr_compression =
                 *processing::parse_exr_compression(args->exr_compression);
             options.storage.png_level = args->png_level;
+            options.storage.map_precision = *processing::parse_map_precision(args->map_precision);
             auto summary = processing::process_scan(args->scan, options);
             if (!summary) return report_error("process", summary.error());
             // The solve drops a pixel's outliers only where enough lights remain.

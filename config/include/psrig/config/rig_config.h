@@ -148,6 +148,9 @@ struct StorageConfig {
   // does) and the PNG frames and maps (deflate 0 stored … 9).
   std::string exr_compression = "auto";
   int png_level = 1;
+  // p, q and height.exr as "half" or 32-bit "float" floats (processing's
+  // storage_options.h says why half is the default).
+  std::string map_precision = "half";
 };
 
 // The simulated world: the swatch, the simulated camera, its timing.

@@ -16,6 +16,7 @@
 #include "psrig/base/error.h"
 #include "psrig/processing/fabric_measure.h"
 #include "psrig/processing/maps_reader.h"
+#include "psrig/processing/storage_options.h"
 
 namespace psrig::processing {
 
@@ -78,7 +79,9 @@ struct Tile {
 
 // Writes the tile's maps (the maps directory's names) and tile.json into
 // `directory`, which appears whole or not at all; an earlier tile there is
-// replaced, anything else refused.
-[[nodiscard]] Status write_tile(const Tile& tile, const std::filesystem::path& directory);
+// replaced, anything else refused. Compressed as `storage` says (the maps
+// directory's defaults unless given).
+[[nodiscard]] Status write_tile(const Tile& tile, const std::filesystem::path& directory,
+                                const StorageOptions& storage = {});
 
 }  // namespace psrig::processing
