@@ -12,11 +12,11 @@
 
 #include <benchmark/benchmark.h>
 
-#include "psrig/preview/knit_fabric.h"
+#include "psrig/cloth/knit_fabric.h"
 
 namespace {
 
-using namespace psrig::preview;
+using namespace psrig::cloth;
 
 void knit_update(benchmark::State& state, bool relax) {
   const int side = static_cast<int>(std::lround(std::sqrt(static_cast<double>(state.range(0)))));

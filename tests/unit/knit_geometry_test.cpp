@@ -8,9 +8,9 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
-#include "psrig/preview/knit_fabric.h"
+#include "psrig/cloth/knit_fabric.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 namespace {
 
 KnitLayout layout_of(int columns, int rows, auto purl) {
@@ -268,4 +268,4 @@ TEST(StitchMesh, DeformationGradientOfAStretchAndShear) {
 }
 
 }  // namespace
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

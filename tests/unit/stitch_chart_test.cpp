@@ -2,14 +2,14 @@
 // promise, the file is read bottom course first, the repeat tiles, colours
 // land on the right stitches, and every mistake is reported at its line.
 
-#include "psrig/preview/stitch_chart.h"
+#include "psrig/cloth/stitch_chart.h"
 
 #include <gtest/gtest.h>
 
 #include "pattern_error.h"
 #include "test_support.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 namespace {
 
 namespace fs = std::filesystem;
@@ -223,4 +223,4 @@ TEST(StitchChart, AnUnreadableFileIsAnIoError) {
 }
 
 }  // namespace
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

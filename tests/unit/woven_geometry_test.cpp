@@ -2,11 +2,11 @@
 // says, and a satin's front and back showing different threads.
 #include <gtest/gtest.h>
 
-#include "psrig/preview/knit_fabric.h"
-#include "psrig/preview/woven_fabric.h"
+#include "psrig/cloth/knit_fabric.h"
+#include "psrig/cloth/woven_fabric.h"
 #include "test_support.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 namespace {
 
 // z of a thread's sample nearest to (x, y) seen from the front.
@@ -80,4 +80,4 @@ TEST(KnitLayout, ChartTiledWithItsColours) {
 }
 
 }  // namespace
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

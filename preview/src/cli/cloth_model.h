@@ -6,9 +6,9 @@
 #include <optional>
 #include <variant>
 
-#include "psrig/preview/knit_fabric.h"
-#include "psrig/preview/weave_matrix.h"
-#include "psrig/preview/woven_fabric.h"
+#include "psrig/cloth/knit_fabric.h"
+#include "psrig/cloth/weave_matrix.h"
+#include "psrig/cloth/woven_fabric.h"
 
 namespace psrig::preview::cli {
 
@@ -18,21 +18,21 @@ class ClothModel {
   // given, replaces the chart's palette and the style's colour.
   [[nodiscard]] static Result<ClothModel> load(const std::filesystem::path& pattern, int columns,
                                                int rows, std::optional<Eigen::Vector3f> colour,
-                                               ClothShape shape = ClothShape::flat);
+                                               cloth::ClothShape shape = cloth::ClothShape::flat);
 
   // This deformation's yarns into `yarns` (storage reused).
-  void update(ClothDeformation deformation, YarnSet& yarns);
+  void update(cloth::ClothDeformation deformation, cloth::YarnSet& yarns);
   [[nodiscard]] bool woven() const { return std::holds_alternative<Woven>(cloth_); }
 
  private:
   struct Woven {
-    WeaveMatrix weave;
-    WovenParameters parameters;
+    cloth::WeaveMatrix weave;
+    cloth::WovenParameters parameters;
     int warps = 0, wefts = 0;
   };
-  std::variant<KnitFabric, Woven> cloth_;
+  std::variant<cloth::KnitFabric, Woven> cloth_;
 
-  explicit ClothModel(std::variant<KnitFabric, Woven> cloth) : cloth_(std::move(cloth)) {}
+  explicit ClothModel(std::variant<cloth::KnitFabric, Woven> cloth) : cloth_(std::move(cloth)) {}
 };
 
 }  // namespace psrig::preview::cli

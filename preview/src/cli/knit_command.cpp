@@ -12,7 +12,7 @@
 
 #include "cloth_model.h"
 #include "command.h"
-#include "psrig/preview/srgb_hex.h"
+#include "psrig/cloth/srgb.h"
 #include "psrig/preview/yarn_renderer.h"
 #include "psrig/processing/image_io.h"
 
@@ -48,7 +48,7 @@ double milliseconds(Clock::duration duration) {
 // The yarn's colour: given, the scan's mean albedo, or none (the chart's).
 Result<std::optional<Eigen::Vector3f>> yarn_colour(const KnitArgs& args) {
   if (!args.yarn_colour.empty()) {
-    const auto colour = parse_srgb_hex(args.yarn_colour);
+    const auto colour = cloth::parse_srgb_hex(args.yarn_colour);
     if (!colour)
       return std::unexpected(bad_input(
           {}, "--yarn-color", "'" + args.yarn_colour + "' is not #RRGGBB (sRGB, hexadecimal)"));
@@ -76,8 +76,8 @@ KnitView knit_view(const KnitArgs& args) {
   return view;
 }
 
-ClothShape cloth_shape(const KnitArgs& args) {
-  return args.draped ? ClothShape::draped : ClothShape::flat;
+cloth::ClothShape cloth_shape(const KnitArgs& args) {
+  return args.draped ? cloth::ClothShape::draped : cloth::ClothShape::flat;
 }
 
 // What both render and bench draw with.
@@ -100,7 +100,7 @@ int render(const KnitArgs& args) {
   if (!colour) return report_error("knit", colour.error());
   auto cloth = ClothModel::load(args.pattern, args.stitches, args.rows, *colour, cloth_shape(args));
   if (!cloth) return report_error("knit", cloth.error());
-  YarnSet yarns;
+  cloth::YarnSet yarns;
   cloth->update({args.stretch, args.shear}, yarns);
 
   auto canvas = open_canvas(*size, args.samples);
@@ -132,7 +132,7 @@ int bench(const KnitArgs& args) {
     const int side = static_cast<int>(std::lround(std::sqrt(stitches)));
     auto cloth = ClothModel::load(args.pattern, side, side, std::nullopt, cloth_shape(args));
     if (!cloth) return report_error("knit", cloth.error());
-    YarnSet yarns;
+    cloth::YarnSet yarns;
     double update_ms = 0, frame_ms = 0;
     for (int frame = -2; frame < args.frames; ++frame) {  // two untimed warm-up frames
       const float phase = 0.2f * static_cast<float>(frame);

@@ -1,13 +1,13 @@
-#include "psrig/preview/knit_fabric.h"
+#include "psrig/cloth/knit_fabric.h"
 
 #include <cmath>
 #include <numbers>
 #include <random>
 
-#include "psrig/preview/yarn_spline.h"
+#include "psrig/cloth/yarn_spline.h"
 #include "psrig/processing/parallel.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 namespace {
 
 // Rest layout of one stitch in face coordinates (u across, v up; the
@@ -261,4 +261,4 @@ void KnitFabric::sample(const StitchMesh& mesh, YarnSet& yarns) const {
   });
 }
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

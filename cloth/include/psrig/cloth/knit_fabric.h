@@ -22,12 +22,12 @@
 
 #include <Eigen/Core>
 
-#include "psrig/preview/knot_relaxation.h"
-#include "psrig/preview/stitch_chart.h"
-#include "psrig/preview/stitch_mesh.h"
-#include "psrig/preview/yarn_curves.h"
+#include "psrig/cloth/knot_relaxation.h"
+#include "psrig/cloth/stitch_chart.h"
+#include "psrig/cloth/stitch_mesh.h"
+#include "psrig/cloth/yarn_curves.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 // The fabric's stitches (a chart tiled to size), as seen from the front.
 struct KnitLayout {
@@ -113,4 +113,4 @@ class KnitFabric {
   std::vector<KnotState> initial_, states_;
 };
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

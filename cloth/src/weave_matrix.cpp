@@ -1,4 +1,4 @@
-#include "psrig/preview/weave_matrix.h"
+#include "psrig/cloth/weave_matrix.h"
 
 #include <algorithm>
 #include <cctype>
@@ -6,7 +6,7 @@
 
 #include "pattern_text.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 namespace fs = std::filesystem;
 using pattern_text::error_at;
@@ -75,4 +75,4 @@ bool looks_like_weave(const fs::path& file) {
   return extension == ".weave";
 }
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

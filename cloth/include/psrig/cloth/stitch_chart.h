@@ -13,7 +13,7 @@
 
 #include "psrig/base/error.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 // A stitch as seen from the fabric's front (right side): a knit loop shows
 // as a V, a purl as a bump.
@@ -42,4 +42,4 @@ struct StitchChart {
 // A .chart file; an io error when it cannot be read.
 [[nodiscard]] Result<StitchChart> load_stitch_chart(const std::filesystem::path& file);
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -18,9 +18,9 @@
 
 #include <Eigen/Core>
 
-#include "psrig/preview/stitch_mesh.h"
+#include "psrig/cloth/stitch_mesh.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 struct KnotState {
   float theta = 0;  // radians, d = cos(theta) e1 + sin(theta) e2
@@ -85,4 +85,4 @@ struct KnotProblem {
 void relax_knots(std::span<const KnotProblem> problems, int iterations, KnotWeights weights,
                  std::span<KnotState> out);
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -5,11 +5,11 @@
 // lies a radius in front of the cloth's middle and the weft a radius behind,
 // and the other way round elsewhere.
 
-#include "psrig/preview/stitch_mesh.h"
-#include "psrig/preview/weave_matrix.h"
-#include "psrig/preview/yarn_curves.h"
+#include "psrig/cloth/stitch_mesh.h"
+#include "psrig/cloth/weave_matrix.h"
+#include "psrig/cloth/yarn_curves.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 struct WovenParameters {
   YarnStyle style{
@@ -28,4 +28,4 @@ struct WovenParameters {
 void weave_yarns(const WeaveMatrix& weave, const StitchMesh& mesh,
                  const WovenParameters& parameters, YarnSet& yarns);
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -5,7 +5,7 @@
 #include <fstream>
 #include <sstream>
 
-namespace psrig::preview::pattern_text {
+namespace psrig::cloth::pattern_text {
 
 std::vector<Line> split_lines(std::string_view text) {
   std::vector<Line> lines;
@@ -67,4 +67,4 @@ Result<std::string> read_text_file(const std::filesystem::path& file) {
   return std::move(text).str();
 }
 
-}  // namespace psrig::preview::pattern_text
+}  // namespace psrig::cloth::pattern_text

@@ -1,4 +1,4 @@
-#include "psrig/preview/knot_relaxation.h"
+#include "psrig/cloth/knot_relaxation.h"
 
 #include <algorithm>
 #include <cmath>
@@ -6,7 +6,7 @@
 
 #include <Eigen/Geometry>
 
-namespace psrig::preview {
+namespace psrig::cloth {
 namespace {
 
 // The maths below is written once for a T that is either float (one knot)
@@ -401,4 +401,4 @@ void relax_knots(std::span<const KnotProblem> problems, int iterations, KnotWeig
   if (filled > 0) run_batch();
 }
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -1,12 +1,12 @@
-#include "psrig/preview/stitch_chart.h"
+#include "psrig/cloth/stitch_chart.h"
 
 #include <cctype>
 #include <optional>
 
 #include "pattern_text.h"
-#include "psrig/preview/srgb_hex.h"
+#include "psrig/cloth/srgb.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 namespace {
 
 namespace fs = std::filesystem;
@@ -226,4 +226,4 @@ Result<StitchChart> load_stitch_chart(const fs::path& file) {
   return parse_stitch_chart(*text, file);
 }
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -11,7 +11,7 @@
 
 #include "psrig/base/error.h"
 
-namespace psrig::preview::pattern_text {
+namespace psrig::cloth::pattern_text {
 
 // One line of the file, without its line break. Views into the text.
 struct Line {
@@ -52,4 +52,4 @@ struct Line {
 // (or a directory), an io error when it cannot be read.
 [[nodiscard]] Result<std::string> read_text_file(const std::filesystem::path& file);
 
-}  // namespace psrig::preview::pattern_text
+}  // namespace psrig::cloth::pattern_text

@@ -8,7 +8,7 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 // How a yarn looks, the same for every yarn of a fabric.
 struct YarnStyle {
@@ -53,4 +53,4 @@ struct YarnSet {
   }
 };
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -1,10 +1,10 @@
-#include "psrig/preview/woven_fabric.h"
+#include "psrig/cloth/woven_fabric.h"
 
 #include <vector>
 
-#include "psrig/preview/yarn_spline.h"
+#include "psrig/cloth/yarn_spline.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 StitchMesh woven_mesh(int warps, int wefts, const WovenParameters& parameters,
                       ClothDeformation deformation) {
@@ -49,4 +49,4 @@ void weave_yarns(const WeaveMatrix& weave, const StitchMesh& mesh,
   }
 }
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -11,7 +11,7 @@
 
 #include "psrig/base/error.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 struct WeaveMatrix {
   std::string name;
@@ -35,4 +35,4 @@ struct WeaveMatrix {
 // chart (`.chart`), by its extension in any case.
 [[nodiscard]] bool looks_like_weave(const std::filesystem::path& file);
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth
