@@ -1,0 +1,105 @@
+#pragma once
+// A knitted scan's stitch chart, read off its maps: which stitches are knit
+// and which purl, where each stitch lies, its colour, and the gauge.
+//
+// The fabric measurement (processing/fabric_measure.h) gives the repeat's
+// lattice, u along the courses and v along the wales; a repeat holds some
+// number of wales along u and of courses along v, which it cannot count (a
+// seed-stitch repeat is two by two, a stockinette one is one by one). Here
+// each split of the repeat into k x k' stitches (up to 16 each way) is
+// tried: the height map is folded onto one repeat (the mean over every
+// repeat in the maps), cut into stitch faces at every phase (1/16 of a
+// stitch apart), and each face correlated (normalised cross-correlation,
+// Lewis 1995, "Fast normalized cross-correlation") with a knit and a purl
+// face the cloth model renders at that stitch size (stitch_templates.h).
+// The split and phase whose faces fit best are the stitches; each face is
+// knit or purl by the better fit. That phase is also where one stitch ends
+// and the next begins: the stitch lattice.
+//
+// Every stitch of the maps is then classified on its own, against the
+// scan's own knit and purl (the folded faces of each kind), and its mean
+// albedo taken; the colours are quantised to a palette (colour_palette.h).
+// The chart is the repeat with those colours (each repeat cell's most
+// common one), its gauge the stitch lattice's spacing.
+//
+// Conventions: the chart's row 0 is the bottom course, as in .chart files,
+// and its stitch (0, 0) is the grid's bottom-left stitch. A chart is only
+// defined up to a cyclic shift of its repeat (where the repeat starts is
+// where the maps start); compare charts with same_chart_up_to_shift().
+
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "psrig/base/error.h"
+#include "psrig/cloth/stitch_chart.h"
+#include "psrig/processing/fabric_measure.h"
+
+namespace psrig::cloth {
+
+// Where the stitches lie on the maps, pixels (x = column, y = row down).
+struct StitchLattice {
+  cv::Point2d origin_px;       // the bottom-left corner of stitch (0, 0)'s face
+  cv::Point2d next_wale_px;    // one stitch along the course, to the right
+  cv::Point2d next_course_px;  // one course up the wale (y decreasing)
+  // The face corner of stitch (column, row).
+  [[nodiscard]] cv::Point2d corner(double column, double row) const {
+    return origin_px + column * next_wale_px + row * next_course_px;
+  }
+};
+
+struct InferredKnit {
+  // The repeat: knit and purl, a palette of the scan's colours (linear
+  // RGB) and each cell's colour, the measured gauge (wales_per_cm,
+  // courses_per_cm; zero without a pixel size). Named "inferred".
+  StitchChart chart;
+  StitchLattice lattice;
+  // Every stitch whose face lies inside the maps: columns x rows, row-major,
+  // row 0 the bottom course; each classified on its own.
+  int columns = 0;
+  int rows = 0;
+  std::vector<Stitch> stitches;
+  std::vector<Eigen::Vector3f> colours;  // mean albedo, linear RGB
+  std::vector<std::uint8_t> colour_index;  // into chart.palette
+  // Mean normalised correlation of the repeat's folded faces with the
+  // better of the knit and purl faces (1: exactly the model's).
+  double fit = 0;
+  // Stitches that agree with the chart tiled over the grid.
+  double agreement = 0;
+  // Wales and courses per cm (per pixel without a pixel size), measured
+  // across the wales and the course lines as fabric_measure.h does.
+  double wales_per_cm = 0;
+  double courses_per_cm = 0;
+  bool per_pixel = false;
+  std::vector<std::string> notes;
+};
+
+struct ChartInferenceOptions {
+  int max_stitches_per_repeat = 16;  // each way
+  int samples = 16;                  // per stitch face, each way
+};
+
+// height: CV_32F (NaN: none); albedo: CV_32FC3 linear BGR (as the maps
+// directory's albedo.exr), CV_32FC1, or empty (then no palette). `fabric`
+// is the maps' measurement. Bad input naming the reason: a woven fabric
+// (by the scan's metadata), no repeat, a repeat too small to hold a stitch,
+// or faces that look like no knit or purl stitch.
+[[nodiscard]] Result<InferredKnit> infer_knit_chart(const cv::Mat& height, const cv::Mat& albedo,
+                                                    const processing::FabricMeasurement& fabric,
+                                                    const ChartInferenceOptions& options = {});
+
+// The same stitches, both repeats tiled, whatever stitch each starts at:
+// equal sizes and one cyclic shift that maps one onto the other (stitches
+// only, not colours).
+[[nodiscard]] bool same_chart_up_to_shift(const StitchChart& a, const StitchChart& b);
+
+// The fraction of `grid` (columns x rows, row-major, row 0 the bottom) that
+// agrees with `chart` tiled over it at the best cyclic shift of the chart.
+[[nodiscard]] double agreement_with_chart(const std::vector<Stitch>& grid, int columns, int rows,
+                                          const StitchChart& chart);
+
+}  // namespace psrig::cloth
