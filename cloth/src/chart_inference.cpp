@@ -42,8 +42,11 @@ constexpr int kMaxWorkingSide = 1280;
 // and purl faces do not show, so the best lone fit can be a wrong split.
 constexpr int kSmallSplit = 4;
 constexpr int kBestLoneFits = 2;
-// Below this correlation with its knitted chart the maps look like no knit.
-constexpr double kMinFit = 0.5;
+// Below this correlation with its knitted chart the maps look like no knit:
+// the cloth model's own charts fit 0.90 to 0.99, an egg-crate of round
+// bumps 0.60 (chart_inference_test.cpp). Real knits, which the model only
+// approximates, may fit lower; untried on real scans yet.
+constexpr double kMinFit = 0.7;
 // The wale spacing lone faces are rendered at (only the aspect matters: the
 // yarn follows the loop at the usual tightness).
 constexpr float kTemplateWaleMm = 1.4f;
@@ -367,6 +370,8 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
     colour_chart(chart, out.colour_index, out.columns, out.rows);
   }
   out.fit = match.score;
+  out.wales_per_repeat = reading.candidate.split.wales;
+  out.courses_per_repeat = reading.candidate.split.courses;
   int agree = 0;
   for (int row = 0; row < out.rows; ++row)
     for (int column = 0; column < out.columns; ++column)
@@ -395,6 +400,19 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
   if (out.per_pixel)
     out.notes.emplace_back("no pixel size: the gauge is per pixel and the chart has none");
   return out;
+}
+
+void count_stitches(processing::FabricMeasurement& fabric, const InferredKnit& knit) {
+  fabric.threads_u = knit.wales_per_repeat;
+  fabric.threads_v = knit.courses_per_repeat;
+  fabric.across_density = knit.wales_per_cm;
+  fabric.along_density = knit.courses_per_cm;
+  std::erase_if(fabric.notes, [](const std::string& note) {
+    return note.starts_with("knit structure not given");
+  });
+  fabric.notes.push_back("stitches counted on the maps (chart inference): " +
+                         describe(knit.wales_per_repeat, knit.courses_per_repeat) +
+                         " wales x courses to the repeat");
 }
 
 double agreement_with_chart(const std::vector<Stitch>& grid, int columns, int rows,

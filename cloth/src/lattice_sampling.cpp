@@ -164,14 +164,18 @@ std::vector<Eigen::Vector3f> colours_of(const cv::Mat& albedo, const StitchBlock
   cv::split(albedo, channels);
   std::vector<Eigen::Vector3f> colours;
   colours.reserve(static_cast<std::size_t>(block.columns * block.rows));
-  // The middle half of the face each way, where the stitch's own yarn lies
-  // (its edges hold its neighbours' loops, maybe of another colour).
+  // Where the stitch's own yarn shows: the middle half across, and up the
+  // face the half a quarter below its middle (the V's legs and the purl
+  // bump sit low in the face; above them the next course's loop comes
+  // through, maybe of another colour). Measured on the cloth model's
+  // two-colour stripes: this window gives each stitch its own yarn's colour.
   const int from = n / 4, to = n - n / 4;
+  const int top = 3 * n / 8, bottom = 7 * n / 8;
   for (int row = 0; row < block.rows; ++row)
     for (int column = 0; column < block.columns; ++column) {
       Eigen::Vector3d sum = Eigen::Vector3d::Zero();
       int count = 0;
-      for (int r = from; r < to; ++r)
+      for (int r = top; r < bottom; ++r)
         for (int c = from; c < to; ++c) {
           const cv::Point2d p =
               block.lattice.corner(column + (c + 0.5) / n, row + 1 - (r + 0.5) / n);

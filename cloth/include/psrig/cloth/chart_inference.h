@@ -75,6 +75,10 @@ struct InferredKnit {
   double wales_per_cm = 0;
   double courses_per_cm = 0;
   bool per_pixel = false;
+  // Stitches in the measured repeat: wales along its u, courses along its
+  // v (FabricMeasurement::threads_u, threads_v counted).
+  int wales_per_repeat = 1;
+  int courses_per_repeat = 1;
   std::vector<std::string> notes;
 };
 
@@ -91,6 +95,11 @@ struct ChartInferenceOptions {
 [[nodiscard]] Result<InferredKnit> infer_knit_chart(const cv::Mat& height, const cv::Mat& albedo,
                                                     const processing::FabricMeasurement& fabric,
                                                     const ChartInferenceOptions& options = {});
+
+// The measurement with its stitches counted rather than assumed: the
+// wales and courses in its repeat, and so its densities, from `knit`; the
+// note on the assumption replaced by one on the count.
+void count_stitches(processing::FabricMeasurement& fabric, const InferredKnit& knit);
 
 // The same stitches, both repeats tiled, whatever stitch each starts at:
 // equal sizes and one cyclic shift that maps one onto the other (stitches
