@@ -22,6 +22,7 @@
 
 #include "bench_config.h"
 #include "postgres_server.h"
+#include "psrig/base/log.h"
 #include "psrig/config/config_loader.h"
 #include "psrig/daemon/catalogue.h"
 #include "psrig/daemon/scan_service.h"
@@ -125,6 +126,7 @@ PostgresServer* bench_server(std::string& why_not) {
 // `rigs` simulated rigs on the catalogue `url` (empty: each its embedded
 // one), fed scans for kFeeding, then drained; the counters.
 void run_rigs(benchmark::State& state, int rigs, const std::string& url) {
+  psrig::set_log_level(spdlog::level::warn);  // hundreds of scans' info lines otherwise
   TempDir temp("psrig-shared-bench");
   WriteTimes times;
   std::vector<std::unique_ptr<daemon::ScanService>> services;

@@ -108,7 +108,7 @@ struct CatalogueOptions {
   std::string rig_name;   // written in every row this catalogue adds
   std::filesystem::path journal;  // PostgreSQL: catalogue.journal
   // PostgreSQL: how long open() waits for a database that does not answer.
-  std::chrono::seconds start_patience{10};
+  std::chrono::seconds start_patience{20};
 };
 
 [[nodiscard]] CatalogueOptions catalogue_options(const config::RigConfig& config);
