@@ -508,7 +508,7 @@ TEST(SqliteCatalogue, AnOlderCatalogueIsBroughtUpToDate) {
   sqlite3* db = nullptr;
   ASSERT_EQ(sqlite3_open((temp / "catalogue.sqlite").c_str(), &db), SQLITE_OK);
   for (const char* sql :
-       {"DROP TABLE rigs", "DROP INDEX scans_rig", "ALTER TABLE scans DROP COLUMN rig",
+       {"DROP INDEX scans_rig", "ALTER TABLE scans DROP COLUMN rig",
         "ALTER TABLE scans DROP COLUMN wales_per_cm", "ALTER TABLE scans DROP COLUMN courses_per_cm",
         "ALTER TABLE scans DROP COLUMN ends_per_cm", "ALTER TABLE scans DROP COLUMN picks_per_cm",
         "ALTER TABLE scans DROP COLUMN construction", "PRAGMA user_version = 1"})

@@ -151,6 +151,12 @@ Result<std::unique_ptr<Catalogue>> PostgresCatalogue::open(const CatalogueOption
                                     std::to_string(waiting) +
                                         " row write(s) from the last run cannot be written to the "
                                         "catalogue database yet; psrigd starts once they can"));
+  // Ids in reserve from the start: scans can be queued through an outage
+  // that begins before the first one.
+  {
+    std::lock_guard lock(catalogue->write_mutex_);
+    (void)catalogue->refill_ids();
+  }
   return std::unique_ptr<Catalogue>(std::move(catalogue));
 }
 

@@ -13,8 +13,9 @@ constexpr auto kFirstBackoff = std::chrono::milliseconds(200);
 constexpr auto kLongestBackoff = std::chrono::seconds(5);
 
 // libpq's own settings the catalogue wants unless the URL says otherwise:
-// a bounded connect, dead TCP peers noticed within seconds, no statement
-// waiting for ever on a lock.
+// a bounded connect, a peer gone silent noticed within 6 s (a row write
+// holds the scan worker, and psrigd's status waits on a scan's end), no
+// statement waiting for ever on a lock.
 std::string with_defaults(std::string url, const std::string& name) {
   const auto add = [&](const std::string& key, const std::string& value) {
     if (url.find(key + "=") != std::string::npos) return;
@@ -22,10 +23,10 @@ std::string with_defaults(std::string url, const std::string& name) {
   };
   add("connect_timeout", "3");
   add("application_name", name);
-  add("keepalives_idle", "5");
-  add("keepalives_interval", "2");
+  add("keepalives_idle", "3");
+  add("keepalives_interval", "1");
   add("keepalives_count", "3");
-  add("tcp_user_timeout", "10000");
+  add("tcp_user_timeout", "6000");
   add("options", "-c%20statement_timeout%3D15000");
   return url;
 }

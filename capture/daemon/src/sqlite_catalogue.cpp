@@ -65,7 +65,7 @@ ALTER TABLE scans ADD COLUMN construction TEXT
   GENERATED ALWAYS AS (json_extract(report, '$.fabric.construction')) VIRTUAL;
 )sql",
     // The rig that scanned each row (rows from before this step: the rig
-    // that opens it next, set by open()), and the rigs list. The fabric
+    // that opens it next, set by open()). The fabric
     // columns again, numbers only: a string in the report matched any
     // lower bound (SQLite orders text after numbers), as the shared
     // catalogue's never did.
@@ -88,13 +88,6 @@ ALTER TABLE scans ADD COLUMN picks_per_cm REAL GENERATED ALWAYS AS
         THEN json_extract(report, '$.fabric.picks_per_cm') END) VIRTUAL;
 ALTER TABLE scans ADD COLUMN rig TEXT NOT NULL DEFAULT '';
 CREATE INDEX scans_rig ON scans (rig);
-CREATE TABLE rigs (
-  name TEXT PRIMARY KEY,
-  api_url TEXT NOT NULL DEFAULT '',
-  token TEXT NOT NULL DEFAULT '',
-  status TEXT NOT NULL DEFAULT '{}',
-  last_seen TEXT NOT NULL
-);
 )sql",
 };
 static_assert(std::size(kMigrations) == SqliteCatalogue::kSchemaVersion);
@@ -565,41 +558,20 @@ Result<CatalogueRecovery> SqliteCatalogue::recover() {
 }
 
 Status SqliteCatalogue::announce(const RigRecord& rig) {
-  return with_room([&]() -> Status {
-    std::lock_guard lock(mutex_);
-    auto upsert = Statement::prepare(db_, R"sql(
-INSERT INTO rigs (name, api_url, token, status, last_seen) VALUES (?, ?, ?, ?, ?)
-ON CONFLICT (name) DO UPDATE SET api_url = excluded.api_url, token = excluded.token,
-  status = excluded.status, last_seen = excluded.last_seen)sql");
-    if (!upsert) return std::unexpected(upsert.error());
-    upsert->bind(1, rig.name);
-    upsert->bind(2, rig.api_url);
-    upsert->bind(3, rig.token);
-    upsert->bind(4, rig.status.dump());
-    upsert->bind(5, utc_timestamp_now());
-    return upsert->run();
-  });
+  std::lock_guard lock(rig_mutex_);
+  announced_ = rig;
+  announced_->last_seen = utc_timestamp_now();
+  announced_at_ = std::chrono::steady_clock::now();
+  return {};
 }
 
 Result<std::vector<RigRecord>> SqliteCatalogue::rigs() const {
-  std::lock_guard lock(mutex_);
-  auto select = Statement::prepare(db_, R"sql(
-SELECT name, api_url, token, status, last_seen,
-       (julianday('now') - julianday(last_seen)) * 86400.0
-FROM rigs ORDER BY name)sql");
-  if (!select) return std::unexpected(select.error());
-  std::vector<RigRecord> rigs;
-  for (;;) {
-    auto row = select->step();
-    if (!row) return std::unexpected(row.error());
-    if (!*row) break;
-    RigRecord rig{select->text(0), select->text(1), select->text(2),
-                  nlohmann::json::parse(select->text(3), nullptr, false), select->text(4),
-                  select->real(5)};
-    if (!rig.status.is_object()) rig.status = nlohmann::json::object();
-    rigs.push_back(std::move(rig));
-  }
-  return rigs;
+  std::lock_guard lock(rig_mutex_);
+  if (!announced_) return std::vector<RigRecord>{};
+  RigRecord rig = *announced_;
+  rig.seen_seconds_ago =
+      std::chrono::duration<double>(std::chrono::steady_clock::now() - announced_at_).count();
+  return std::vector<RigRecord>{rig};
 }
 
 }  // namespace psrig::daemon

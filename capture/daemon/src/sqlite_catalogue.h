@@ -6,6 +6,7 @@
 // the next write; if the daemon ends first, recover() marks the row failed
 // at the next start. One connection behind a mutex.
 
+#include <chrono>
 #include <cstdint>
 #include <filesystem>
 #include <map>
@@ -59,6 +60,9 @@ class SqliteCatalogue final : public Catalogue {
   [[nodiscard]] Result<bool> remove(std::int64_t id) override;
   // The embedded catalogue has one writer: every unfinished row is its.
   [[nodiscard]] Result<CatalogueRecovery> recover() override;
+  // The rigs list of an embedded catalogue is its own rig alone, as it
+  // last announced itself: kept in memory (no one else reads the file),
+  // so the presence's beat costs the disk nothing.
   [[nodiscard]] Status announce(const RigRecord& rig) override;
   [[nodiscard]] Result<std::vector<RigRecord>> rigs() const override;
 
@@ -112,6 +116,9 @@ class SqliteCatalogue final : public Catalogue {
   mutable std::mutex fault_mutex_;
   std::optional<Error> write_fault_;
   int writes_before_fault_ = 0;
+  mutable std::mutex rig_mutex_;
+  std::optional<RigRecord> announced_;
+  std::chrono::steady_clock::time_point announced_at_;
 };
 
 }  // namespace psrig::daemon

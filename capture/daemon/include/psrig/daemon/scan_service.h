@@ -135,8 +135,10 @@ class ScanService final : public ScanControl {
   // queue), and by status() and cancel(): whoever sees a scan finished
   // anywhere finds it finished everywhere. Taken before the queue's and
   // the recorder's locks, never after. The row's write is a few ms; only
-  // another process holding the catalogue's lock stretches it, up to the
-  // busy timeout (5 s), well inside the watchdog's 30 s.
+  // another process holding the SQLite catalogue's lock stretches it, up
+  // to the busy timeout (5 s), or a shared catalogue's database gone
+  // silent, up to 6 s (postgres_link.cpp; one that refuses costs nothing),
+  // well inside the watchdog's 30 s.
   mutable std::mutex outcome_mutex_;
   mutable std::mutex config_mutex_;
   config::RigConfig config_;
