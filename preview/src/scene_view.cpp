@@ -22,7 +22,7 @@ Eigen::Matrix4f rotation(const Eigen::Matrix3f& turn) {
 FrameSetup frame_setup(cv::Size2d swatch_extent, const SceneView& view, cv::Size viewport) {
   FrameSetup setup;
   const bool flat = view.kind == ViewKind::flat;
-  setup.shape = flat ? PatchShape::flat : PatchShape::draped;
+  setup.shape = flat ? cloth::PatchShape::flat : cloth::PatchShape::draped;
   const double tiles = flat ? 1.0 : kDrapedTiles;
   setup.patch_extent = {swatch_extent.width * tiles, swatch_extent.height * tiles};
   const auto diagonal =

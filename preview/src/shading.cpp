@@ -34,14 +34,4 @@ cv::Vec4f shade(const SurfaceSample& sample, cv::Vec3f to_light, cv::Vec3f to_ey
   return colour;
 }
 
-float srgb_encode(float linear) {
-  linear = std::clamp(linear, 0.0f, 1.0f);
-  return linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1.0f / 2.4f) - 0.055f;
-}
-
-float srgb_decode(float encoded) {
-  encoded = std::clamp(encoded, 0.0f, 1.0f);
-  return encoded <= 0.04045f ? encoded / 12.92f : std::pow((encoded + 0.055f) / 1.055f, 2.4f);
-}
-
 }  // namespace psrig::preview

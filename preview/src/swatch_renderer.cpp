@@ -39,25 +39,25 @@ void upload_levels(GLuint texture, const std::vector<cv::Mat>& levels, GLint int
     glTexParameterf(GL_TEXTURE_2D, kTextureMaxAnisotropy, options.max_anisotropy);
 }
 
-Mesh upload_patch(const PatchMesh& patch) {
+Mesh upload_patch(const cloth::PatchMesh& patch) {
   Mesh mesh;
   glGenVertexArrays(1, &mesh.array);
   glBindVertexArray(mesh.array);
   glGenBuffers(1, &mesh.vertices);
   glBindBuffer(GL_ARRAY_BUFFER, mesh.vertices);
   glBufferData(GL_ARRAY_BUFFER,
-               static_cast<GLsizeiptr>(patch.vertices.size() * sizeof(PatchVertex)),
+               static_cast<GLsizeiptr>(patch.vertices.size() * sizeof(cloth::PatchVertex)),
                patch.vertices.data(), GL_STATIC_DRAW);
   const auto attribute = [](GLuint location, GLint size, std::size_t offset) {
     glEnableVertexAttribArray(location);
-    glVertexAttribPointer(location, size, GL_FLOAT, GL_FALSE, sizeof(PatchVertex),
+    glVertexAttribPointer(location, size, GL_FLOAT, GL_FALSE, sizeof(cloth::PatchVertex),
                           reinterpret_cast<const void*>(offset));
   };
-  attribute(0, 3, offsetof(PatchVertex, position));
-  attribute(1, 3, offsetof(PatchVertex, normal));
-  attribute(2, 3, offsetof(PatchVertex, tangent));
-  attribute(3, 3, offsetof(PatchVertex, bitangent));
-  attribute(4, 2, offsetof(PatchVertex, uv));
+  attribute(0, 3, offsetof(cloth::PatchVertex, position));
+  attribute(1, 3, offsetof(cloth::PatchVertex, normal));
+  attribute(2, 3, offsetof(cloth::PatchVertex, tangent));
+  attribute(3, 3, offsetof(cloth::PatchVertex, bitangent));
+  attribute(4, 2, offsetof(cloth::PatchVertex, uv));
   glGenBuffers(1, &mesh.indices);
   glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, mesh.indices);
   glBufferData(GL_ELEMENT_ARRAY_BUFFER,
@@ -118,7 +118,7 @@ void release(Mesh& mesh) {
 struct SwatchRenderer::Gl {
   std::optional<GlProgram> swatch, marker;
   GLuint albedo = 0, normal = 0;
-  Mesh patches[2];  // indexed by PatchShape
+  Mesh patches[2];  // indexed by cloth::PatchShape
   Mesh sphere;
   bool blend = false;  // only with an alpha map: opaque swatches skip it
   ~Gl() {
@@ -156,13 +156,13 @@ Result<std::unique_ptr<SwatchRenderer>> SwatchRenderer::create(const SwatchMaps&
   glGenTextures(1, &gl.normal);
   upload_levels(gl.normal, levels.normal_gloss, GL_RGBA16F, GL_HALF_FLOAT, options);
 
-  for (const PatchShape shape : {PatchShape::flat, PatchShape::draped}) {
+  for (const cloth::PatchShape shape : {cloth::PatchShape::flat, cloth::PatchShape::draped}) {
     SceneView view;
-    view.kind = shape == PatchShape::flat ? ViewKind::flat : ViewKind::patch;
+    view.kind = shape == cloth::PatchShape::flat ? ViewKind::flat : ViewKind::patch;
     const cv::Size2d extent = frame_setup(renderer->extent_, view, {1, 1}).patch_extent;
-    const int segments = shape == PatchShape::flat ? 1 : options.segments;
+    const int segments = shape == cloth::PatchShape::flat ? 1 : options.segments;
     gl.patches[static_cast<int>(shape)] = upload_patch(
-        tessellate(BezierPatch::make(shape, extent), segments, extent, renderer->extent_));
+        cloth::tessellate(cloth::BezierPatch::make(shape, extent), segments, extent, renderer->extent_));
   }
   gl.sphere = upload_sphere();
   if (const GLenum error = glGetError(); error != GL_NO_ERROR)

@@ -129,7 +129,7 @@ Result<std::unique_ptr<YarnRenderer>> YarnRenderer::create(const YarnRendererOpt
 
 YarnRenderer::~YarnRenderer() = default;
 
-void YarnRenderer::update(const YarnSet& yarns) {
+void YarnRenderer::update(const cloth::YarnSet& yarns) {
   style_ = yarns.style;
   Packed& packed = *packed_;
   packed.points.clear();
@@ -143,7 +143,7 @@ void YarnRenderer::update(const YarnSet& yarns) {
   std::size_t pieces = 0;
   bounds_.setEmpty();
   const Eigen::Vector3f default_normal = Eigen::Vector3f::UnitZ();
-  for (const YarnCurve& curve : yarns.curves) {
+  for (const cloth::YarnCurve& curve : yarns.curves) {
     const std::size_t first = packed.points.size();
     float arc = 0;
     for (std::size_t i = 0; i < curve.points.size(); ++i) {

@@ -57,7 +57,7 @@ Eigen::Vector3f tube_normal(const Eigen::Vector3f& yarn_tangent, const Eigen::Ve
   return across * side + std::sqrt(1 - across * across) * facing;
 }
 
-float ply_helix_angle(const YarnStyle& style) {
+float ply_helix_angle(const cloth::YarnStyle& style) {
   if (style.twist_pitch_mm <= 0) return 0;
   return std::atan(std::numbers::pi_v<float> * style.radius_mm / style.twist_pitch_mm);
 }
@@ -71,7 +71,7 @@ float crossing_light(float lift, const FibreShading& shading) {
   return 1 - shading.crossing_occlusion * (1 - std::min(std::abs(lift), 1.0f));
 }
 
-float fibre_detail(float around, float arc_mm, const YarnStyle& style, const FibreShading& shading,
+float fibre_detail(float around, float arc_mm, const cloth::YarnStyle& style, const FibreShading& shading,
                    float fibres_per_pixel) {
   const int plies = std::max(style.plies, 1);
   const int fibres_per_ply = std::max(shading.fibres_per_ply, 1);

@@ -5,16 +5,16 @@
 #include <cmath>
 #include <numbers>
 
-#include "psrig/preview/yarn_curves.h"
+#include "psrig/cloth/yarn_curves.h"
 
 namespace psrig::preview::testing {
 
 // A straight yarn along x through (0, y, z), `length` mm long, with
 // `lift(t)` for t from 0 to 1 along it.
 template <class Lift>
-YarnCurve straight_yarn_lifted(float length, int points, float y, float z, Lift lift,
+cloth::YarnCurve straight_yarn_lifted(float length, int points, float y, float z, Lift lift,
                                const Eigen::Vector3f& colour) {
-  YarnCurve curve;
+  cloth::YarnCurve curve;
   for (int i = 0; i < points; ++i) {
     const float t = static_cast<float>(i) / static_cast<float>(points - 1);
     curve.points.emplace_back((t - 0.5f) * length, y, z);
@@ -25,14 +25,14 @@ YarnCurve straight_yarn_lifted(float length, int points, float y, float z, Lift 
   return curve;
 }
 
-inline YarnCurve straight_yarn(float length, int points, float y = 0, float z = 0, float lift = 1,
+inline cloth::YarnCurve straight_yarn(float length, int points, float y = 0, float z = 0, float lift = 1,
                                const Eigen::Vector3f& colour = {0.55f, 0.18f, 0.12f}) {
   return straight_yarn_lifted(
       length, points, y, z, [lift](float) { return lift; }, colour);
 }
 
 // The same yarn turned a quarter about z: along y through (x, 0, z).
-inline YarnCurve along_y(YarnCurve curve, float x) {
+inline cloth::YarnCurve along_y(cloth::YarnCurve curve, float x) {
   for (Eigen::Vector3f& point : curve.points)
     point = {x, point.x(), point.z()};
   return curve;
@@ -40,9 +40,9 @@ inline YarnCurve along_y(YarnCurve curve, float x) {
 
 // Two yarns touching where they cross at the origin: `under` along x at
 // z = -radius behind, `over` along y at z = +radius in front.
-inline YarnSet crossing_yarns(float radius, float length, const Eigen::Vector3f& under_colour,
+inline cloth::YarnSet crossing_yarns(float radius, float length, const Eigen::Vector3f& under_colour,
                               const Eigen::Vector3f& over_colour) {
-  YarnSet set;
+  cloth::YarnSet set;
   set.style.radius_mm = radius;
   set.curves.push_back(straight_yarn(length, 161, 0, -radius, -1, under_colour));
   set.curves.push_back(along_y(straight_yarn(length, 161, 0, radius, 1, over_colour), 0));
@@ -51,14 +51,14 @@ inline YarnSet crossing_yarns(float radius, float length, const Eigen::Vector3f&
 
 // `rows` yarns along x, `spacing` apart in y, waving in z over and under
 // (alternate rows in opposite phase), about `points_per_mm` points a mm.
-inline YarnSet wavy_grid(int rows, float length, float spacing, float radius,
+inline cloth::YarnSet wavy_grid(int rows, float length, float spacing, float radius,
                          float points_per_mm = 4) {
-  YarnSet set;
+  cloth::YarnSet set;
   set.style.radius_mm = radius;
   const int points = static_cast<int>(length * points_per_mm) + 1;
   const float wave = 2 * std::numbers::pi_v<float> / (2 * spacing);
   for (int row = 0; row < rows; ++row) {
-    YarnCurve curve;
+    cloth::YarnCurve curve;
     const float y = (static_cast<float>(row) - static_cast<float>(rows - 1) / 2) * spacing;
     const float phase = row % 2 == 0 ? 0.0f : std::numbers::pi_v<float>;
     for (int i = 0; i < points; ++i) {

@@ -86,7 +86,7 @@ TEST_F(YarnRendererTest, StraightYarnHeadOnMatchesCpuShading) {
   // Shadows and fibre detail off: every covered pixel is the CPU shading of
   // the tube normal its strip coordinate gives (no multisampling, so each
   // pixel is its centre's fragment).
-  YarnSet set;
+  cloth::YarnSet set;
   set.style.radius_mm = 1;
   const Eigen::Vector3f colour(0.6f, 0.25f, 0.1f);
   set.curves.push_back(testing::straight_yarn(40, 81, 0, 0, 0.5f, colour));
@@ -134,7 +134,7 @@ TEST_F(YarnRendererTest, StraightYarnHeadOnMatchesCpuShading) {
 }
 
 TEST_F(YarnRendererTest, YarnCoversTwoRadiiAcrossAndNothingElse) {
-  YarnSet set;
+  cloth::YarnSet set;
   set.style.radius_mm = 0.8f;
   set.curves.push_back(testing::straight_yarn(40, 121));
   auto renderer = make_renderer();
@@ -166,7 +166,7 @@ TEST_F(YarnRendererTest, YarnUnderACrossingIsShadowedBesideIt) {
   // Light from +x, 60 degrees slant: the yarn in front shadows the one
   // behind over x from about -3.7 to -1 radii.
   const float radius = 1;
-  const YarnSet set = testing::crossing_yarns(radius, 40, {0.5f, 0.5f, 0.5f}, {0.5f, 0.5f, 0.5f});
+  const cloth::YarnSet set = testing::crossing_yarns(radius, 40, {0.5f, 0.5f, 0.5f}, {0.5f, 0.5f, 0.5f});
   auto renderer = make_renderer();
   auto target = make_target();
   ASSERT_TRUE(renderer && target);
@@ -206,8 +206,8 @@ TEST_F(YarnRendererTest, YarnBetweenTheLayersIsDarker) {
   auto target = make_target();
   ASSERT_TRUE(renderer && target);
   const KnitView view = plain_view(40);
-  const auto linear_at = [&](const YarnCurve& curve, const std::vector<float>& xs) {
-    YarnSet set;
+  const auto linear_at = [&](const cloth::YarnCurve& curve, const std::vector<float>& xs) {
+    cloth::YarnSet set;
     set.style.radius_mm = 1;
     set.curves.push_back(curve);
     renderer->update(set);
@@ -231,7 +231,7 @@ TEST_F(YarnRendererTest, YarnBetweenTheLayersIsDarker) {
 }
 
 TEST_F(YarnRendererTest, FarViewDrawsLinesNearViewTubesBlendedBetween) {
-  const YarnSet set = testing::wavy_grid(12, 40, 2, 0.6f);
+  const cloth::YarnSet set = testing::wavy_grid(12, 40, 2, 0.6f);
   auto renderer = make_renderer();
   auto target = make_target();
   ASSERT_TRUE(renderer && target);
@@ -281,7 +281,7 @@ TEST_F(YarnRendererTest, FarViewDrawsLinesNearViewTubesBlendedBetween) {
 
 TEST_F(YarnRendererTest, FrontAndBackDiffer) {
   // Red in front of blue: from behind (yaw 180) blue covers the crossing.
-  const YarnSet set = testing::crossing_yarns(1, 30, {0.05f, 0.1f, 0.8f}, {0.8f, 0.1f, 0.05f});
+  const cloth::YarnSet set = testing::crossing_yarns(1, 30, {0.05f, 0.1f, 0.8f}, {0.8f, 0.1f, 0.05f});
   auto renderer = make_renderer();
   auto target = make_target();
   ASSERT_TRUE(renderer && target);
@@ -300,7 +300,7 @@ TEST_F(YarnRendererTest, FrontAndBackDiffer) {
 }
 
 TEST_F(YarnRendererTest, UpdateMovesTheYarnsAndKeepsItsBuffer) {
-  YarnSet set = testing::wavy_grid(6, 30, 3, 0.6f);
+  cloth::YarnSet set = testing::wavy_grid(6, 30, 3, 0.6f);
   auto renderer = make_renderer();
   auto target = make_target();
   ASSERT_TRUE(renderer && target);
@@ -312,7 +312,7 @@ TEST_F(YarnRendererTest, UpdateMovesTheYarnsAndKeepsItsBuffer) {
 
   // One point of one yarn pushed sideways, inside the bounds: the camera
   // stays, the yarn bends there.
-  YarnCurve& moved = set.curves[2];
+  cloth::YarnCurve& moved = set.curves[2];
   moved.points[moved.points.size() / 2].y() += 1.2f;
   renderer->update(set);
   EXPECT_EQ(renderer->buffer_allocations(), 1) << "same point count: rewritten in place";
@@ -337,7 +337,7 @@ TEST_F(YarnRendererTest, EmptySetDrawsBackground) {
   auto renderer = make_renderer();
   auto target = make_target();
   ASSERT_TRUE(renderer && target);
-  renderer->update(YarnSet{});
+  renderer->update(cloth::YarnSet{});
   const KnitView view = plain_view(0);
   const cv::Mat frame = draw(*renderer, *target, view);
   EXPECT_EQ(frame.at<cv::Vec3b>(10, 10), background_code(view));

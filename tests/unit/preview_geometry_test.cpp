@@ -5,14 +5,14 @@
 #include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
-#include "psrig/preview/bezier_patch.h"
+#include "psrig/cloth/bezier_patch.h"
 #include "psrig/preview/scene_view.h"
 
 namespace psrig::preview {
 namespace {
 
 TEST(BezierPatch, AnalyticDerivativesMatchFiniteDifferences) {
-  const BezierPatch patch = BezierPatch::make(PatchShape::draped, {32, 24});
+  const cloth::BezierPatch patch = cloth::BezierPatch::make(cloth::PatchShape::draped, {32, 24});
   constexpr float h = 1e-3f;
   for (const float u : {0.1f, 0.5f, 0.83f})
     for (const float v : {0.2f, 0.5f, 0.9f}) {
@@ -24,8 +24,8 @@ TEST(BezierPatch, AnalyticDerivativesMatchFiniteDifferences) {
 }
 
 TEST(BezierPatch, DrapedSheetIsCurvedFlatOneIsNot) {
-  const BezierPatch flat = BezierPatch::make(PatchShape::flat, {30, 20});
-  const BezierPatch draped = BezierPatch::make(PatchShape::draped, {30, 20});
+  const cloth::BezierPatch flat = cloth::BezierPatch::make(cloth::PatchShape::flat, {30, 20});
+  const cloth::BezierPatch draped = cloth::BezierPatch::make(cloth::PatchShape::draped, {30, 20});
   EXPECT_NEAR(flat.position(0.3f, 0.7f).z(), 0, 1e-5);
   EXPECT_NEAR(flat.position(0, 0).x(), -15, 1e-4);
   EXPECT_NEAR(flat.position(1, 1).y(), 10, 1e-4);
@@ -34,10 +34,10 @@ TEST(BezierPatch, DrapedSheetIsCurvedFlatOneIsNot) {
 
 TEST(BezierPatch, TessellationCarriesOrthonormalFramesAndTiles) {
   const cv::Size2d extent(40, 30), tile(20, 15);
-  const PatchMesh mesh = tessellate(BezierPatch::make(PatchShape::draped, extent), 8, extent, tile);
+  const cloth::PatchMesh mesh = cloth::tessellate(cloth::BezierPatch::make(cloth::PatchShape::draped, extent), 8, extent, tile);
   ASSERT_EQ(mesh.vertices.size(), 81u);
   EXPECT_EQ(mesh.indices.size(), 8u * 8u * 6u);
-  for (const PatchVertex& vertex : mesh.vertices) {
+  for (const cloth::PatchVertex& vertex : mesh.vertices) {
     const Eigen::Vector3f n(vertex.normal), t(vertex.tangent), b(vertex.bitangent);
     EXPECT_NEAR(n.norm(), 1, 1e-5);
     EXPECT_NEAR(t.norm(), 1, 1e-5);
@@ -89,7 +89,7 @@ TEST(SceneView, PatchViewKeepsTheWholeSheetInFrame) {
   for (const cv::Size viewport : {cv::Size(1920, 1080), cv::Size(480, 800)}) {
     const FrameSetup setup = frame_setup({16, 12}, view, viewport);
     const Eigen::Matrix4f to_clip = setup.projection * setup.view * setup.model;
-    const BezierPatch patch = BezierPatch::make(setup.shape, setup.patch_extent);
+    const cloth::BezierPatch patch = cloth::BezierPatch::make(setup.shape, setup.patch_extent);
     for (const float u : {0.0f, 1.0f})
       for (const float v : {0.0f, 1.0f}) {
         const Eigen::Vector4f clip = to_clip * patch.position(u, v).homogeneous();

@@ -2,14 +2,14 @@
 // promise, the file is read bottom course first, the repeat tiles, colours
 // land on the right stitches, and every mistake is reported at its line.
 
-#include "psrig/preview/stitch_chart.h"
+#include "psrig/cloth/stitch_chart.h"
 
 #include <gtest/gtest.h>
 
 #include "pattern_error.h"
 #include "test_support.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 namespace {
 
 namespace fs = std::filesystem;
@@ -46,7 +46,11 @@ TEST(StitchChart, StockinetteIsAllKnit) {
   const StitchChart chart = shipped("stockinette.chart");
   for (const Stitch stitch : chart.cells)
     EXPECT_EQ(stitch, Stitch::knit);
-  EXPECT_TRUE(chart.palette.empty());
+  EXPECT_EQ(chart.palette.size(), 1U);
+  // Its size in real units.
+  EXPECT_FLOAT_EQ(chart.gauge.wales_per_cm, 7.0f);
+  EXPECT_FLOAT_EQ(chart.gauge.courses_per_cm, 9.0f);
+  EXPECT_FLOAT_EQ(chart.gauge.yarn_diameter_mm, 0.41f);
 }
 
 TEST(StitchChart, GarterCoursesAlternate) {
@@ -223,4 +227,4 @@ TEST(StitchChart, AnUnreadableFileIsAnIoError) {
 }
 
 }  // namespace
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

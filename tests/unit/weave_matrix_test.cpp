@@ -2,14 +2,14 @@
 // promise, the first row is the first weft, the repeat tiles, and mistakes
 // are reported at their line.
 
-#include "psrig/preview/weave_matrix.h"
+#include "psrig/cloth/weave_matrix.h"
 
 #include <gtest/gtest.h>
 
 #include "pattern_error.h"
 #include "test_support.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 namespace {
 
 namespace fs = std::filesystem;
@@ -130,4 +130,4 @@ TEST(WeaveMatrix, LooksLikeWeaveByExtension) {
 }
 
 }  // namespace
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -24,7 +24,7 @@ TEST(YarnShading, TubeNormalFacesTheEyeInTheMiddleAndTheSidesAtTheEdges) {
 }
 
 TEST(YarnShading, FibresTwistByTheHelixAngle) {
-  YarnStyle style;
+  cloth::YarnStyle style;
   style.radius_mm = 0.5f;
   style.twist_pitch_mm = 2;
   const float angle = ply_helix_angle(style);
@@ -44,7 +44,7 @@ TEST(YarnShading, CrossingLightDarkensBetweenTheLayersOnly) {
 }
 
 TEST(YarnShading, DetailAveragesToItsMeanAndFadesToItBelowAPixel) {
-  const YarnStyle style;
+  const cloth::YarnStyle style;
   const FibreShading shading;
   double sum = 0;
   constexpr int kSamples = 20000;

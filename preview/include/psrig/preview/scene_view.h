@@ -9,7 +9,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
-#include "psrig/preview/bezier_patch.h"
+#include "psrig/cloth/bezier_patch.h"
 
 namespace psrig::preview {
 
@@ -42,7 +42,7 @@ struct SceneView {
 inline constexpr int kDrapedTiles = 2;
 
 struct FrameSetup {
-  PatchShape shape = PatchShape::flat;
+  cloth::PatchShape shape = cloth::PatchShape::flat;
   cv::Size2d patch_extent;  // the patch's size in the x-y plane
   Eigen::Matrix4f model, view, projection;
   // World space. eye: the camera position (w = 1) or, orthographic, the

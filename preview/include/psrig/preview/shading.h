@@ -9,6 +9,8 @@
 
 #include <opencv2/core.hpp>
 
+#include "psrig/cloth/srgb.h"
+
 namespace psrig::preview {
 
 struct ShadingParams {
@@ -35,8 +37,8 @@ struct SurfaceSample {
 [[nodiscard]] cv::Vec4f shade(const SurfaceSample& sample, cv::Vec3f to_light, cv::Vec3f to_eye,
                               float attenuation, const ShadingParams& params);
 
-// The exact sRGB transfer functions (IEC 61966-2-1), for values in [0, 1].
-[[nodiscard]] float srgb_encode(float linear);
-[[nodiscard]] float srgb_decode(float encoded);
+// The sRGB transfer functions live with the cloth's colours (psrig/cloth/srgb.h).
+using cloth::srgb_decode;
+using cloth::srgb_encode;
 
 }  // namespace psrig::preview

@@ -14,7 +14,7 @@
 
 #include "psrig/preview/egl_context.h"
 #include "psrig/preview/knit_view.h"
-#include "psrig/preview/yarn_curves.h"
+#include "psrig/cloth/yarn_curves.h"
 #include "psrig/preview/yarn_shading.h"
 
 namespace psrig::preview {
@@ -51,7 +51,7 @@ class YarnRenderer {
   // vertex per point, rewritten in place while the point count stays.
   // Missing normals are +z, missing lifts 1, missing colours the style's;
   // a curve of fewer than three points is not drawn (a strip needs three).
-  void update(const YarnSet& yarns);
+  void update(const cloth::YarnSet& yarns);
 
   // Clears and draws one frame into the bound framebuffer of `viewport`
   // (the shadow pass borrows its own framebuffer and gives the caller's back).
@@ -64,7 +64,7 @@ class YarnRenderer {
   // How often update() had to allocate GL storage (the point count changed).
   [[nodiscard]] int buffer_allocations() const { return allocations_; }
   [[nodiscard]] const Eigen::AlignedBox3f& bounds() const { return bounds_; }
-  [[nodiscard]] const YarnStyle& style() const { return style_; }
+  [[nodiscard]] const cloth::YarnStyle& style() const { return style_; }
   [[nodiscard]] const YarnRendererOptions& options() const { return options_; }
 
  private:
@@ -75,7 +75,7 @@ class YarnRenderer {
   std::unique_ptr<Gl> gl_;
   std::unique_ptr<Packed> packed_;
   YarnRendererOptions options_;
-  YarnStyle style_;
+  cloth::YarnStyle style_;
   Eigen::AlignedBox3f bounds_;
   float last_width_px_ = 0;
   float last_tube_weight_ = 1;

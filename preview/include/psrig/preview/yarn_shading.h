@@ -10,7 +10,7 @@
 
 #include <Eigen/Core>
 
-#include "psrig/preview/yarn_curves.h"
+#include "psrig/cloth/yarn_curves.h"
 
 namespace psrig::preview {
 
@@ -46,7 +46,7 @@ struct FibreShading {
 
 // The helix angle of the plies' centres (half the radius out): the angle
 // between the fibres and the yarn's axis.
-[[nodiscard]] float ply_helix_angle(const YarnStyle& style);
+[[nodiscard]] float ply_helix_angle(const cloth::YarnStyle& style);
 
 // The yarn's tangent turned about the tube's normal by `helix_angle`.
 [[nodiscard]] Eigen::Vector3f fibre_tangent(const Eigen::Vector3f& yarn_tangent,
@@ -59,7 +59,7 @@ struct FibreShading {
 // yarn (radians, from the cloth's normal toward cross(tangent, normal)) and
 // `arc_mm` along it. Both fade to their mean as they shrink below a pixel:
 // `fibres_per_pixel` is the striation's screen footprint.
-[[nodiscard]] float fibre_detail(float around, float arc_mm, const YarnStyle& style,
+[[nodiscard]] float fibre_detail(float around, float arc_mm, const cloth::YarnStyle& style,
                                  const FibreShading& shading, float fibres_per_pixel = 0);
 // What fibre_detail() averages to round the yarn.
 [[nodiscard]] float mean_fibre_detail(const FibreShading& shading);

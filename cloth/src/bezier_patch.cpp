@@ -1,8 +1,8 @@
-#include "psrig/preview/bezier_patch.h"
+#include "psrig/cloth/bezier_patch.h"
 
 #include <Eigen/Geometry>
 
-namespace psrig::preview {
+namespace psrig::cloth {
 namespace {
 
 // Cubic Bernstein polynomials and their derivatives at t.
@@ -97,4 +97,4 @@ PatchMesh tessellate(const BezierPatch& patch, int segments, cv::Size2d extent, 
   return mesh;
 }
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -1,11 +1,21 @@
-#include "psrig/preview/srgb_hex.h"
+#include "psrig/cloth/srgb.h"
 
+#include <algorithm>
 #include <cctype>
 #include <charconv>
+#include <cmath>
 
-#include "psrig/preview/shading.h"
+namespace psrig::cloth {
 
-namespace psrig::preview {
+float srgb_encode(float linear) {
+  linear = std::clamp(linear, 0.0f, 1.0f);
+  return linear <= 0.0031308f ? 12.92f * linear : 1.055f * std::pow(linear, 1.0f / 2.4f) - 0.055f;
+}
+
+float srgb_decode(float encoded) {
+  encoded = std::clamp(encoded, 0.0f, 1.0f);
+  return encoded <= 0.04045f ? encoded / 12.92f : std::pow((encoded + 0.055f) / 1.055f, 2.4f);
+}
 
 std::optional<Eigen::Vector3f> parse_srgb_hex(std::string_view text) {
   if (text.size() != 7 || text.front() != '#') return std::nullopt;
@@ -21,4 +31,4 @@ std::optional<Eigen::Vector3f> parse_srgb_hex(std::string_view text) {
   return linear;
 }
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

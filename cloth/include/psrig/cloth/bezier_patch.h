@@ -12,7 +12,7 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 enum class PatchShape { flat, draped };
 
@@ -55,4 +55,4 @@ struct PatchMesh {
 [[nodiscard]] PatchMesh tessellate(const BezierPatch& patch, int segments, cv::Size2d extent,
                                    cv::Size2d tile);
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

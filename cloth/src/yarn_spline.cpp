@@ -1,10 +1,10 @@
-#include "psrig/preview/yarn_spline.h"
+#include "psrig/cloth/yarn_spline.h"
 
 #include <algorithm>
 #include <cmath>
 #include <vector>
 
-namespace psrig::preview {
+namespace psrig::cloth {
 namespace {
 
 // Catmull-Rom's weights of p0..p3 at t; the same handful of t for every
@@ -69,4 +69,4 @@ void sample_yarn(std::span<const YarnControlPoint> control, int samples_per_span
   if (coloured) curve.colours[out] = last.colour;
 }
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -12,8 +12,9 @@
 #include <Eigen/Core>
 
 #include "psrig/base/error.h"
+#include "psrig/cloth/knit_gauge.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 // A stitch as seen from the fabric's front (right side): a knit loop shows
 // as a V, a purl as a bump.
@@ -28,6 +29,9 @@ struct StitchChart {
   std::vector<Stitch> cells;               // row-major, columns * rows
   std::vector<std::uint8_t> colour_index;  // per cell, into palette; all 0 without colour rows
   std::vector<Eigen::Vector3f> palette;    // linear RGB; empty when the chart names no colours
+  // The knit's size, where the chart gives it (`wales_per_cm:`,
+  // `courses_per_cm:`, `yarn_mm:`); 0 where not.
+  KnitGauge gauge;
 
   // The chart tiled over the plane: any column and row, negative included.
   [[nodiscard]] Stitch at(int column, int row) const;
@@ -42,4 +46,4 @@ struct StitchChart {
 // A .chart file; an io error when it cannot be read.
 [[nodiscard]] Result<StitchChart> load_stitch_chart(const std::filesystem::path& file);
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

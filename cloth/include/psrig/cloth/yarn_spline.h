@@ -8,9 +8,9 @@
 
 #include <Eigen/Core>
 
-#include "psrig/preview/yarn_curves.h"
+#include "psrig/cloth/yarn_curves.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 struct YarnControlPoint {
   Eigen::Vector3f position, normal;
@@ -24,4 +24,4 @@ struct YarnControlPoint {
 void sample_yarn(std::span<const YarnControlPoint> control, int samples_per_span, bool coloured,
                  YarnCurve& curve);
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -8,7 +8,7 @@
 
 #include <Eigen/Core>
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 enum class ClothShape { flat, draped };  // draped: over the swatch preview's Bezier patch
 
@@ -53,4 +53,4 @@ struct StitchMesh {
                                           float face_height_mm, ClothShape shape,
                                           ClothDeformation deformation = {});
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -4,6 +4,7 @@
 // optional `name:` line, and errors that point at a line and column.
 
 #include <filesystem>
+#include <initializer_list>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -11,7 +12,7 @@
 
 #include "psrig/base/error.h"
 
-namespace psrig::preview::pattern_text {
+namespace psrig::cloth::pattern_text {
 
 // One line of the file, without its line break. Views into the text.
 struct Line {
@@ -44,6 +45,22 @@ struct Line {
   return r < 0 ? r + count : r;
 }
 
+// A `key: value` line whose key is lower-case letters and underscores
+// (not `name`): the key and the value (trimmed), else nothing.
+struct KeyValue {
+  std::string_view key, value;
+};
+[[nodiscard]] std::optional<KeyValue> key_value(std::string_view code);
+
+// One of a pattern's physical sizes (`wales_per_cm: 7`, `yarn_mm: 0.42`): the
+// keys it may have and where each goes. Errors name the line and column.
+struct Measure {
+  std::string_view key;
+  float* value;
+};
+[[nodiscard]] Status read_measure(const std::filesystem::path& source, const Line& line,
+                                  const KeyValue& entry, std::initializer_list<Measure> measures);
+
 // A bad-input error at a place in `source` (column 0: the whole line).
 [[nodiscard]] Error error_at(const std::filesystem::path& source, int line, int column,
                              std::string message);
@@ -52,4 +69,4 @@ struct Line {
 // (or a directory), an io error when it cannot be read.
 [[nodiscard]] Result<std::string> read_text_file(const std::filesystem::path& file);
 
-}  // namespace psrig::preview::pattern_text
+}  // namespace psrig::cloth::pattern_text

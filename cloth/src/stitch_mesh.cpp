@@ -1,13 +1,13 @@
-#include "psrig/preview/stitch_mesh.h"
+#include "psrig/cloth/stitch_mesh.h"
 
 #include <algorithm>
 #include <limits>
 
 #include <Eigen/Geometry>
 
-#include "psrig/preview/bezier_patch.h"
+#include "psrig/cloth/bezier_patch.h"
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 Eigen::Vector3f StitchMesh::point(int column, int row, float u, float v) const {
   const Eigen::Vector3f& p00 = vertex(column, row);
@@ -80,4 +80,4 @@ StitchMesh make_stitch_mesh(int columns, int rows, float face_width_mm, float fa
   return mesh;
 }
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

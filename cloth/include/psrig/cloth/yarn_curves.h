@@ -8,11 +8,16 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
-namespace psrig::preview {
+namespace psrig::cloth {
 
 // How a yarn looks, the same for every yarn of a fabric.
 struct YarnStyle {
-  float radius_mm = 0.6f;                       // the yarn's radius (half its width as drawn)
+  // The cross-section is an ellipse: radius_mm across the yarn in the
+  // cloth's plane (half its width seen head-on), flatness * radius_mm along
+  // the cloth's normal (half its thickness). Yarn in cloth is pressed flat
+  // where it crosses other yarn: knits about 0.6, wovens 0.3-0.5; 1 is round.
+  float radius_mm = 0.6f;
+  float flatness = 1.0f;
   int plies = 2;                                // plies twisted together, at least 1
   float twist_pitch_mm = 2.5f;                  // yarn length per full turn of the plies
   Eigen::Vector3f colour{0.55f, 0.18f, 0.12f};  // linear RGB, when a curve has none
@@ -53,4 +58,4 @@ struct YarnSet {
   }
 };
 
-}  // namespace psrig::preview
+}  // namespace psrig::cloth

@@ -1,0 +1,126 @@
+#include "psrig/cloth/knit_fabric.h"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+
+#include "mesh_placement.h"
+#include "psrig/processing/parallel.h"
+
+namespace psrig::cloth {
+
+Result<KnitFabric> KnitFabric::build(const StitchChart& chart, int columns, int rows,
+                                     const KnitParameters& parameters,
+                                     std::vector<Eigen::Vector3f> colours) {
+  if (chart.columns <= 0 || chart.rows <= 0)
+    return std::unexpected(bad_input({}, {}, "the stitch chart " + chart.name + " is empty"));
+  if (columns <= 0 || rows <= 0)
+    return std::unexpected(bad_input({}, {}, "a knit needs at least one stitch and one course"));
+  if (!colours.empty() && colours.size() != static_cast<std::size_t>(columns * rows))
+    return std::unexpected(bad_input(
+        {}, "colours",
+        "one colour per stitch: " + std::to_string(columns * rows) + " for " +
+            std::to_string(columns) + " x " + std::to_string(rows) + ", got " +
+            std::to_string(colours.size())));
+  // The parameters' figures over the chart's.
+  const auto over = [](float given, float from_chart) { return given > 0 ? given : from_chart; };
+  const KnitGauge gauge{over(parameters.gauge.wales_per_cm, chart.gauge.wales_per_cm),
+                        over(parameters.gauge.courses_per_cm, chart.gauge.courses_per_cm),
+                        over(parameters.gauge.yarn_diameter_mm, chart.gauge.yarn_diameter_mm)};
+  auto dimensions = resolve_knit_gauge(gauge);
+  if (!dimensions) return std::unexpected(dimensions.error());
+
+  KnitFabric fabric;
+  fabric.chart_ = chart;
+  fabric.columns_ = columns;
+  fabric.rows_ = rows;
+  fabric.parameters_ = parameters;
+  fabric.dimensions_ = std::move(*dimensions);
+  const bool gauge_given = gauge.wales_per_cm > 0 || gauge.courses_per_cm > 0;
+  fabric.repeat_ = knit_repeat_layout(chart, fabric.dimensions_, gauge_given);
+  fabric.rest_ =
+      knit_rest_cell(chart, fabric.dimensions_, fabric.repeat_, parameters.samples_per_span);
+  if (colours.empty() && !chart.palette.empty()) {
+    colours.reserve(static_cast<std::size_t>(columns * rows));
+    for (int row = 0; row < rows; ++row)
+      for (int column = 0; column < columns; ++column)
+        colours.push_back(
+            chart.palette[static_cast<std::size_t>(chart.colour_at(column, row))]);
+  }
+  fabric.colours_ = std::move(colours);
+  fabric.repeats_ = std::make_shared<RelaxedRepeats>(fabric.rest_, parameters.relax);
+  return fabric;
+}
+
+YarnStyle KnitFabric::style() const {
+  const KnitYarnSection section = knit_yarn_section(dimensions_.yarn_diameter_mm);
+  YarnStyle style;
+  style.radius_mm = section.half_width_mm;
+  style.flatness = section.half_thickness_mm / section.half_width_mm;
+  style.plies = parameters_.plies;
+  style.twist_pitch_mm = parameters_.twist_pitch_mm;
+  style.colour = parameters_.colour;
+  return style;
+}
+
+StitchMesh KnitFabric::mesh(ClothDeformation deformation) const {
+  return make_stitch_mesh(columns_, rows_ + 1, repeat_.width_mm / static_cast<float>(chart_.columns),
+                          repeat_.height_mm / static_cast<float>(chart_.rows), parameters_.shape,
+                          deformation);
+}
+
+void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
+  const Eigen::Matrix2f deformation = placement::mean_deformation(mesh);
+  repeats_->shape(deformation, shaped_);
+  const YarnCell& cell = shaped_;
+  Eigen::Matrix2f shaped;  // as shape() took it: in the course's frame
+  shaped << cell.a1.x() / rest_.a1.x(), cell.a2.x() / rest_.a2.y(), 0, cell.a2.y() / rest_.a2.y();
+  const placement::MeshPlacement on_mesh(mesh, shaped.inverse());
+  const int repeat_columns = chart_.columns, repeat_rows = chart_.rows;
+  const float radius = 0.5f * dimensions_.yarn_diameter_mm;
+  const bool coloured = !colours_.empty();
+  yarns.style = style();
+  yarns.curves.resize(static_cast<std::size_t>(rows_));
+
+  processing::parallel_chunks(rows_, 4, [&](int begin, int end) {
+    for (int row = begin; row < end; ++row) {
+      const CellYarn& source = cell.yarns[static_cast<std::size_t>(row % repeat_rows)];
+      const Eigen::Vector2f up = static_cast<float>(row / repeat_rows) * cell.a2;
+      YarnCurve& curve = yarns.curves[static_cast<std::size_t>(row)];
+      curve.points.clear();
+      curve.normals.clear();
+      curve.lift.clear();
+      curve.colours.clear();
+      const auto emit = [&](const Eigen::Vector3f& p, const Eigen::Vector2f& shift, int column) {
+        Eigen::Vector3f position, normal;
+        on_mesh.place(p, shift, position, normal);
+        curve.points.push_back(position);
+        curve.normals.push_back(normal);
+        curve.lift.push_back(std::clamp(p.z() / radius, -1.5f, 1.5f));
+        if (coloured)
+          curve.colours.push_back(colours_[static_cast<std::size_t>(row * columns_ + column)]);
+      };
+      for (int tile = 0; tile * repeat_columns < columns_; ++tile) {
+        const Eigen::Vector2f shift = static_cast<float>(tile) * cell.a1 + up;
+        for (std::size_t k = 0; k < source.points.size(); ++k) {
+          const int column = tile * repeat_columns + source.stitch[k];
+          if (column >= columns_) break;
+          emit(source.points[k], shift, column);
+        }
+      }
+      // The sinker after the last loop closes the course.
+      const int next_tile = columns_ / repeat_columns;
+      const int next = columns_ % repeat_columns;
+      for (std::size_t k = 0; k < source.points.size(); ++k)
+        if (source.stitch[k] == next) {
+          emit(source.points[k], static_cast<float>(next_tile) * cell.a1 + up, columns_ - 1);
+          break;
+        }
+    }
+  });
+}
+
+}  // namespace psrig::cloth
