@@ -85,40 +85,36 @@ void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
   yarns.style = style();
   yarns.curves.resize(static_cast<std::size_t>(rows_));
 
+  // Each course: every tile of the repeat's course across the fabric,
+  // cut after the last stitch, then the next sinker to close it.
   processing::parallel_chunks(rows_, 4, [&](int begin, int end) {
     for (int row = begin; row < end; ++row) {
       const CellYarn& source = cell.yarns[static_cast<std::size_t>(row % repeat_rows)];
       const Eigen::Vector2f up = static_cast<float>(row / repeat_rows) * cell.a2;
+      const std::size_t per_stitch = source.points.size() / static_cast<std::size_t>(repeat_columns);
+      const std::size_t count = per_stitch * static_cast<std::size_t>(columns_) + 1;
       YarnCurve& curve = yarns.curves[static_cast<std::size_t>(row)];
-      curve.points.clear();
-      curve.normals.clear();
-      curve.lift.clear();
-      curve.colours.clear();
+      curve.points.resize(count);
+      curve.normals.resize(count);
+      curve.lift.resize(count);
+      curve.colours.resize(coloured ? count : 0);
+      std::size_t out = 0;
       const auto emit = [&](const Eigen::Vector3f& p, const Eigen::Vector2f& shift, int column) {
-        Eigen::Vector3f position, normal;
-        on_mesh.place(p, shift, position, normal);
-        curve.points.push_back(position);
-        curve.normals.push_back(normal);
-        curve.lift.push_back(std::clamp(p.z() / radius, -1.5f, 1.5f));
-        if (coloured)
-          curve.colours.push_back(colours_[static_cast<std::size_t>(row * columns_ + column)]);
+        on_mesh.place(p, shift, curve.points[out], curve.normals[out]);
+        curve.lift[out] = std::clamp(p.z() / radius, -1.5f, 1.5f);
+        if (coloured) curve.colours[out] = colours_[static_cast<std::size_t>(row * columns_ + column)];
+        ++out;
       };
-      for (int tile = 0; tile * repeat_columns < columns_; ++tile) {
-        const Eigen::Vector2f shift = static_cast<float>(tile) * cell.a1 + up;
-        for (std::size_t k = 0; k < source.points.size(); ++k) {
-          const int column = tile * repeat_columns + source.stitch[k];
-          if (column >= columns_) break;
+      for (int column = 0; column < columns_; ++column) {
+        const Eigen::Vector2f shift =
+            static_cast<float>(column / repeat_columns) * cell.a1 + up;
+        const std::size_t first = per_stitch * static_cast<std::size_t>(column % repeat_columns);
+        for (std::size_t k = first; k < first + per_stitch; ++k)
           emit(source.points[k], shift, column);
-        }
       }
       // The sinker after the last loop closes the course.
-      const int next_tile = columns_ / repeat_columns;
-      const int next = columns_ % repeat_columns;
-      for (std::size_t k = 0; k < source.points.size(); ++k)
-        if (source.stitch[k] == next) {
-          emit(source.points[k], static_cast<float>(next_tile) * cell.a1 + up, columns_ - 1);
-          break;
-        }
+      emit(source.points[per_stitch * static_cast<std::size_t>(columns_ % repeat_columns)],
+           static_cast<float>(columns_ / repeat_columns) * cell.a1 + up, columns_ - 1);
     }
   });
 }
