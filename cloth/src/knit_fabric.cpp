@@ -85,7 +85,6 @@ void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
     for (int column = 0; column < columns_; ++column) {
       const auto stitch = static_cast<std::size_t>(row * columns_ + column);
       gradients[stitch] = mesh.deformation_gradient(column, row);
-      to_rest[stitch] = gradients[stitch].inverse();
       uniform = uniform && (gradients[stitch] - corner).cwiseAbs().maxCoeff() < 1e-5f;
     }
   if (uniform) {
@@ -94,6 +93,11 @@ void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
     for (std::size_t stitch = 0; stitch < blends_.size(); ++stitch)
       blends_[stitch] = repeats_->blend(gradients[stitch]);
   }
+  // The relaxation's small offsets go back to the cloth at rest through the
+  // deformation the blend took (clamped to the table): a face crushed or
+  // folded flat has no inverse of its own worth using.
+  for (std::size_t stitch = 0; stitch < blends_.size(); ++stitch)
+    to_rest[stitch] = blends_[stitch].deformation.inverse();
 
   const placement::MeshPlacement on_mesh(mesh, Eigen::Matrix2f::Identity());
   const int repeat_columns = chart_.columns, repeat_rows = chart_.rows;

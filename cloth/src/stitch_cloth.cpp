@@ -160,8 +160,11 @@ void StitchCloth::step(float dt, int iterations) {
     for (std::size_t i = 0; i < count; ++i)
       x[i] = solved.row(static_cast<Eigen::Index>(i)).transpose().cast<float>();
   }
+  // Friction acts on the step's motion; the strain limit then pulls what
+  // friction held too far, and contact has the last word.
+  collide(true);
   limit_strain();
-  collide();
+  collide(false);
   const float keep = std::max(0.0f, 1.0f - material_.damping_per_s * dt);
   for (std::size_t i = 0; i < count; ++i)
     velocity_[i] = pinned_[i] ? Eigen::Vector3f::Zero() : Eigen::Vector3f(keep * (x[i] - previous_[i]) / dt);
@@ -205,7 +208,7 @@ void StitchCloth::limit_strain() {
       });
 }
 
-void StitchCloth::collide() {
+void StitchCloth::collide(bool friction) {
   const float half = 0.5f * material_.thickness_mm;
   std::vector<Eigen::Vector3f>& x = mesh_.vertices;
   processing::parallel_chunks(static_cast<int>(x.size()), 1024, [&](int begin, int end) {
@@ -214,15 +217,19 @@ void StitchCloth::collide() {
       if (pinned_[v]) continue;
       for (const Collider& collider : colliders) {
         // A fast mass could pass a thin collider within one frame: follow
-        // its path from where it was and stop it where it first touched.
-        const Eigen::Vector3f path = x[v] - previous_[v];
+        // its path from where it was (out of the collider, which may have
+        // moved onto it) and stop it where it first touched.
+        Eigen::Vector3f start = previous_[v];
+        const SurfacePoint was = nearest_surface(collider, start);
+        if (was.distance < half) start += (half - was.distance) * was.normal;
+        const Eigen::Vector3f path = x[v] - start;
         const float travel = path.norm();
-        const float clear = nearest_surface(collider, previous_[v]).distance - half;
-        if (clear >= 0 && clear < travel) {
+        const float clear = nearest_surface(collider, start).distance - half;
+        if (clear > -1e-4f && clear < travel) {
           const int samples = std::min(64, static_cast<int>(std::ceil(2 * travel / half)));
+          x[v] = start + path;
           for (int k = 1; k <= samples; ++k) {
-            const Eigen::Vector3f at =
-                previous_[v] + (static_cast<float>(k) / static_cast<float>(samples)) * path;
+            const Eigen::Vector3f at = start + (static_cast<float>(k) / static_cast<float>(samples)) * path;
             if (nearest_surface(collider, at).distance < half) {
               x[v] = at;
               break;
@@ -233,6 +240,7 @@ void StitchCloth::collide() {
         const float depth = half - surface.distance;
         if (depth <= 0) continue;
         x[v] += depth * surface.normal;
+        if (!friction) continue;
         // Friction on this frame's sliding along the surface: held while it
         // is below the static threshold, slowed by the dynamic one above.
         const Eigen::Vector3f moved = x[v] - previous_[v];

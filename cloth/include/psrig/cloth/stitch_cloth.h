@@ -102,7 +102,7 @@ class StitchCloth {
 
  private:
   struct Solver;
-  void collide();
+  void collide(bool friction);
 
   StitchMesh mesh_;
   KnitMaterial material_;
