@@ -4,9 +4,11 @@
 // knit gives more across its courses than along its wales, and the same
 // scene gives the same cloth on any number of threads.
 #include <cmath>
+#include <filesystem>
 
 #include <gtest/gtest.h>
 
+#include "psrig/cloth/drape_scene.h"
 #include "psrig/cloth/stitch_cloth.h"
 #include "psrig/processing/parallel.h"
 
@@ -149,6 +151,30 @@ TEST(StitchCloth, TheSameSceneOnAnyNumberOfThreads) {
     EXPECT_EQ(one[i], two[i]) << i;
     EXPECT_EQ(one[i], many[i]) << i;
   }
+}
+
+// The drape scenes' yarns, not only the cloth's masses, come out the same
+// whatever the thread count.
+TEST(DrapeScene, TheSameYarnsOnAnyNumberOfThreads) {
+  const auto chart = load_stitch_chart(std::filesystem::path(PSRIG_SOURCE_DIR) /
+                                       "config/patterns/stockinette.chart");
+  ASSERT_TRUE(chart);
+  const auto yarns_with = [&](int threads) {
+    processing::set_thread_count(threads);
+    auto fabric = KnitFabric::build(*chart, 16, 18, {});
+    EXPECT_TRUE(fabric);
+    DrapeAnimation scene(std::move(*fabric), DrapeScene::sphere);
+    for (int frame = 0; frame < 12; ++frame) scene.advance(kFrame);
+    YarnSet yarns;
+    scene.yarns(yarns);
+    return yarns;
+  };
+  const YarnSet one = yarns_with(1), two = yarns_with(2);
+  processing::set_thread_count(0);
+  ASSERT_EQ(one.curves.size(), two.curves.size());
+  for (std::size_t c = 0; c < one.curves.size(); ++c) EXPECT_EQ(one.curves[c].points, two.curves[c].points) << c;
+  // And the ball is under the cloth, which lies on it.
+  EXPECT_LT(one.bounds().max().y(), 5.0f);
 }
 
 }  // namespace
