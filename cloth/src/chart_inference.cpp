@@ -388,6 +388,9 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
   if (!out.per_pixel) {
     chart.gauge.wales_per_cm = static_cast<float>(out.wales_per_cm);
     chart.gauge.courses_per_cm = static_cast<float>(out.courses_per_cm);
+    // The yarn the knitted chart matched best with: an estimate, to the
+    // tightness factor's steps.
+    chart.gauge.yarn_diameter_mm = reading.synthesis.yarn_mm;
   }
   std::snprintf(text, sizeof text,
                 "stitches: %s to a measured repeat; chart %s (wales x courses), fit %.2f with "

@@ -6,12 +6,14 @@
 
 #include "psrig/cloth/chart_inference.h"
 
+#include <cstdio>
 #include <filesystem>
 #include <string>
 
 #include <gtest/gtest.h>
 
 #include "knitted_maps.h"
+#include "test_support.h"
 #include "psrig/cloth/colour_palette.h"
 #include "psrig/cloth/srgb.h"
 
@@ -19,7 +21,7 @@ namespace psrig::cloth {
 namespace {
 
 StitchChart shipped(const std::string& name) {
-  auto chart = load_stitch_chart(std::filesystem::path(PSRIG_SOURCE_DIR) / "config/patterns" / name);
+  auto chart = load_stitch_chart(test::shipped_pattern(name));
   EXPECT_TRUE(chart) << chart.error().describe();
   return *chart;
 }
@@ -37,6 +39,17 @@ std::string text_of(const StitchChart& chart) {
   return format_stitch_chart(chart);
 }
 
+// The figures, printed for the record (cloth/README.md quotes them).
+void print_figures(const std::string& name, const InferredKnit& knit, const StitchChart& truth,
+                   const test::KnittedMaps& maps) {
+  std::printf("chart inference: %s: chart %s, %.1f %% of %d stitches right, wales %+.2f %%, "
+              "courses %+.2f %%, fit %.3f\n",
+              name.c_str(), same_chart_up_to_shift(knit.chart, truth) ? "equal" : "DIFFERENT",
+              100 * agreement_with_chart(knit.stitches, knit.columns, knit.rows, truth),
+              knit.columns * knit.rows, 100 * (knit.wales_per_cm / maps.wales_per_cm - 1),
+              100 * (knit.courses_per_cm / maps.courses_per_cm - 1), knit.fit);
+}
+
 struct Case {
   const char* chart;
   cv::Size size;
@@ -52,6 +65,7 @@ TEST_P(ChartInference, FindsTheChartTheStitchesAndTheGauge) {
   const test::KnittedMaps maps = test::knit_maps(truth, c.size, c.pixel_size_mm, c.deformation);
   const auto inferred = infer_knit_chart(maps.height, maps.albedo, measured(maps));
   ASSERT_TRUE(inferred) << inferred.error().describe();
+  print_figures(c.chart, *inferred, truth, maps);
   EXPECT_TRUE(same_chart_up_to_shift(inferred->chart, truth))
       << "inferred:\n" << text_of(inferred->chart) << "truth:\n" << text_of(truth);
   EXPECT_GE(agreement_with_chart(inferred->stitches, inferred->columns, inferred->rows, truth), 0.95)
@@ -59,6 +73,10 @@ TEST_P(ChartInference, FindsTheChartTheStitchesAndTheGauge) {
   EXPECT_NEAR(inferred->wales_per_cm / maps.wales_per_cm, 1.0, 0.02);
   EXPECT_NEAR(inferred->courses_per_cm / maps.courses_per_cm, 1.0, 0.02);
   EXPECT_NEAR(inferred->chart.gauge.wales_per_cm, inferred->wales_per_cm, 1e-3);
+  // The yarn the knitted chart matched best with, where the chart says its
+  // own: right to the tightness factor's steps.
+  if (truth.gauge.yarn_diameter_mm > 0)
+    EXPECT_NEAR(inferred->chart.gauge.yarn_diameter_mm / truth.gauge.yarn_diameter_mm, 1.0, 0.15);
   EXPECT_GE(inferred->columns * inferred->rows, 30);  // most of the maps read
 }
 
@@ -88,6 +106,7 @@ TEST(ChartInference, Basketweave) {
   const test::KnittedMaps maps = test::knit_maps(truth, {560, 400}, 0.04);
   const auto inferred = infer_knit_chart(maps.height, maps.albedo, measured(maps));
   ASSERT_TRUE(inferred) << inferred.error().describe();
+  print_figures("basketweave.chart", *inferred, truth, maps);
   EXPECT_EQ(inferred->chart.columns, 8);
   EXPECT_EQ(inferred->chart.rows, 8);
   EXPECT_GE(agreement_with_chart(inferred->stitches, inferred->columns, inferred->rows, truth), 0.95)

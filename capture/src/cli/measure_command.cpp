@@ -112,11 +112,11 @@ Command add_measure_command(CLI::App& parent) {
             } else {
               std::printf("fabric: %s\n", processing::summary_line(*m).c_str());
               if (knit)
-                std::printf("chart: %s (%d x %d stitches, %zu colours; %d x %d stitches read, "
+                std::printf("chart: %s (%d x %d stitches, %zu colour%s; %d x %d stitches read, "
                             "%.1f %% agree)\n",
                             args->chart.c_str(), knit->chart.columns, knit->chart.rows,
-                            knit->chart.palette.size(), knit->columns, knit->rows,
-                            100 * knit->agreement);
+                            knit->chart.palette.size(), knit->chart.palette.size() == 1 ? "" : "s",
+                            knit->columns, knit->rows, 100 * knit->agreement);
               for (const auto& note : m->notes)
                 std::printf("  note: %s\n", note.c_str());
               if (knit)

@@ -55,7 +55,9 @@ struct StitchLattice {
 struct InferredKnit {
   // The repeat: knit and purl, a palette of the scan's colours (linear
   // RGB) and each cell's colour, the measured gauge (wales_per_cm,
-  // courses_per_cm; zero without a pixel size). Named "inferred".
+  // courses_per_cm) and the yarn the knitted chart matched best with
+  // (yarn_mm, to the tightness factor's steps); no gauge without a pixel
+  // size. Named "inferred".
   StitchChart chart;
   StitchLattice lattice;
   // Every stitch whose face lies inside the maps: columns x rows, row-major,
