@@ -43,11 +43,12 @@ std::string text_of(const StitchChart& chart) {
 void print_figures(const std::string& name, const InferredKnit& knit, const StitchChart& truth,
                    const test::KnittedMaps& maps) {
   std::printf("chart inference: %s: chart %s, %.1f %% of %d stitches right, wales %+.2f %%, "
-              "courses %+.2f %%, fit %.3f\n",
+              "courses %+.2f %%, yarn %.2f mm (chart's %.2f), fit %.3f\n",
               name.c_str(), same_chart_up_to_shift(knit.chart, truth) ? "equal" : "DIFFERENT",
               100 * agreement_with_chart(knit.stitches, knit.columns, knit.rows, truth),
               knit.columns * knit.rows, 100 * (knit.wales_per_cm / maps.wales_per_cm - 1),
-              100 * (knit.courses_per_cm / maps.courses_per_cm - 1), knit.fit);
+              100 * (knit.courses_per_cm / maps.courses_per_cm - 1),
+              knit.chart.gauge.yarn_diameter_mm, truth.gauge.yarn_diameter_mm, knit.fit);
 }
 
 struct Case {
@@ -75,8 +76,9 @@ TEST_P(ChartInference, FindsTheChartTheStitchesAndTheGauge) {
   EXPECT_NEAR(inferred->chart.gauge.wales_per_cm, inferred->wales_per_cm, 1e-3);
   // The yarn the knitted chart matched best with, where the chart says its
   // own: right to the tightness factor's steps.
-  if (truth.gauge.yarn_diameter_mm > 0)
+  if (truth.gauge.yarn_diameter_mm > 0) {
     EXPECT_NEAR(inferred->chart.gauge.yarn_diameter_mm / truth.gauge.yarn_diameter_mm, 1.0, 0.15);
+  }
   EXPECT_GE(inferred->columns * inferred->rows, 30);  // most of the maps read
 }
 
