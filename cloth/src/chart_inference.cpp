@@ -216,9 +216,10 @@ std::string describe(int columns, int rows) {
 }
 
 // Each stitch on its own: knit or purl as the repeat cell whose folded face
-// (its neighbours' effect included) it correlates with best.
-std::vector<Stitch> read_stitches(const std::vector<cv::Mat>& faces, const cv::Mat& folded,
-                                  const StitchChart& chart, int n) {
+// (its neighbours' effect included) it correlates with best; where its face
+// has holes, the chart's.
+std::vector<Stitch> read_stitches(const std::vector<cv::Mat>& faces, int columns,
+                                  const cv::Mat& folded, const StitchChart& chart, int n) {
   std::vector<std::pair<cv::Mat, Stitch>> cells;
   for (int row = 0; row < chart.rows; ++row)
     for (int column = 0; column < chart.columns; ++column) {
@@ -228,7 +229,8 @@ std::vector<Stitch> read_stitches(const std::vector<cv::Mat>& faces, const cv::M
   std::vector<Stitch> stitches;
   for (std::size_t i = 0; i < faces.size(); ++i) {
     double best = -2;
-    Stitch stitch = Stitch::knit;
+    const int index = static_cast<int>(i);
+    Stitch stitch = chart.at(index % columns, index / columns);
     for (const auto& [cell, kind] : cells)
       if (!faces[i].empty() && faces[i].dot(cell) > best) {
         best = faces[i].dot(cell);
@@ -361,7 +363,8 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
   const RepeatFrame repeat{block.lattice.origin_px, period.columns * block.lattice.next_wale_px,
                            period.rows * block.lattice.next_course_px};
   const cv::Mat folded = inference::fold(height, window, repeat, {period.columns, period.rows}, n);
-  out.stitches = read_stitches(inference::faces_of(height, block, n), folded, chart, n);
+  out.stitches =
+      read_stitches(inference::faces_of(height, block, n), block.columns, folded, chart, n);
   if (!albedo.empty()) {
     out.colours = inference::colours_of(albedo, block, n);
     ColourPalette palette = quantise_colours(out.colours);
