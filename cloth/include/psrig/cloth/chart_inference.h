@@ -2,25 +2,24 @@
 // A knitted scan's stitch chart, read off its maps: which stitches are knit
 // and which purl, where each stitch lies, its colour, and the gauge.
 //
-// The fabric measurement (processing/fabric_measure.h) gives the repeat's
-// lattice, u along the courses and v along the wales; a repeat holds some
-// number of wales along u and of courses along v, which it cannot count (a
-// seed-stitch repeat is two by two, a stockinette one is one by one). Here
-// each split of the repeat into k x k' stitches (up to 16 each way) is
-// tried: the height map is folded onto one repeat (the mean over every
-// repeat in the maps), cut into stitch faces at every phase (1/16 of a
-// stitch apart), and each face correlated (normalised cross-correlation,
-// Lewis 1995, "Fast normalized cross-correlation") with a knit and a purl
-// face the cloth model renders at that stitch size (stitch_templates.h).
-// The split and phase whose faces fit best are the stitches; each face is
-// knit or purl by the better fit. That phase is also where one stitch ends
-// and the next begins: the stitch lattice.
-//
-// Every stitch of the maps is then classified on its own, against the
-// scan's own knit and purl (the folded faces of each kind), and its mean
-// albedo taken; the colours are quantised to a palette (colour_palette.h).
-// The chart is the repeat with those colours (each repeat cell's most
-// common one), its gauge the stitch lattice's spacing.
+// The fabric measurement (processing/fabric_measure.h) gives a repeat
+// lattice, u along the courses and v along the wales, but cannot count the
+// stitches in it, and it may be smaller than the chart's repeat (knit and
+// purl faces look alike enough that a seed stitch's measures one stitch).
+// Here (method and figures: cloth/README.md "Fed by the scan"):
+// 1. the stitch lattice: the split of the measured repeat into k x k'
+//    stitches and its phase, from the maps folded onto the repeat and
+//    correlated (normalised cross-correlation, Lewis 1995) with a lone knit
+//    and purl face the cloth model renders (stitch_templates.h);
+// 2. the chart's repeat from the stitches' faces alone (a stitch-level
+//    autocorrelation) and their colours;
+// 3. knit or purl by analysis by synthesis: candidate charts knitted by the
+//    cloth model at the measured gauge and matched to the maps folded onto
+//    their repeat, for the few splits worth checking; the best match wins
+//    and places the lattice;
+// 4. every stitch read on its own against the folded repeat's cells, its
+//    colour quantised to a palette (colour_palette.h); the chart's gauge the
+//    lattice's, its yarn the one the best match was knitted with.
 //
 // Conventions: the chart's row 0 is the bottom course, as in .chart files,
 // and its stitch (0, 0) is the grid's bottom-left stitch. A chart is only
