@@ -51,8 +51,9 @@ uniform float u_shadow_density;
 uniform vec3 u_light_colour;
 uniform vec3 u_mean_surface;  // the slice's mean: ply offset, tilt's sine, light
 uniform vec2 u_far_px;        // yarn widths over which the near view's detail grows in
-uniform float u_prefilter_widths;  // FAR: the strip's widening either side, in yarn widths
+uniform float u_prefilter_px;      // FAR: the strip's widening either side
 uniform vec2 u_prefilter_fade_px;  // FAR: yarn widths over which it fades out
+uniform float u_soft_edges;        // FAR: 1 blended (prefiltered edges), 0 opaque (the samples' edges)
 #ifdef SHADOWS
 uniform highp sampler2DShadow u_shadow_map;
 uniform mat4 u_shadow_view_projection;
@@ -148,11 +149,18 @@ void main() {
   v_coverage = half_px / max(half_px, u_min_half_px);
 #if defined(FAR)
   // Widened by the prefilter's reach: yarn.frag's coverage is the yarn's
-  // width convolved with a tent that wide.
-  float prefilter = u_prefilter_widths * 2.0 * half_px *
+  // width convolved with a tent that wide. Wider still as the yarn thins
+  // further: a yarn a third of a pixel wide sits in a stitch under two
+  // pixels, whose structure no pixel resolves. The coverage is worked out
+  // at the pixel's centre, so the tent takes in the pixel's own width too
+  // (a box of a pixel has a tent's spread at half-width sqrt(1/2); spreads
+  // add): the samples see no edge, and as the prefilter fades out the
+  // strip is what 4x MSAA would make of the yarn alone.
+  float prefilter = u_prefilter_px * clamp(u_prefilter_fade_px.x / (2.5 * half_px), 1.0, 1.25) *
                     (1.0 - smoothstep(u_prefilter_fade_px.x, u_prefilter_fade_px.y, 2.0 * half_px));
-  vec3 position = a_point.xyz + across * ((half_px + prefilter) / px_per_mm) * side;
-  v_far_coverage = vec3(across * (half_px + prefilter), half_px, prefilter);
+  float spread = u_soft_edges * sqrt(prefilter * prefilter + 0.5);
+  vec3 position = a_point.xyz + across * ((half_px + spread) / px_per_mm) * side;
+  v_far_coverage = vec3(across * (half_px + spread), half_px, spread);
 #elif defined(HALO)
   // Inner edge on the core's, outer at the halo's reach; left, then right.
   float halo = u_halo * smoothstep(u_halo_fade_px.x, u_halo_fade_px.y, 2.0 * half_px);

@@ -18,7 +18,5 @@ extern const ShaderSource yarn_vert;
 extern const ShaderSource yarn_frag;
 extern const ShaderSource yarn_depth_frag;
 extern const ShaderSource yarn_fibres_glsl;  // inserted into both yarn shaders
-extern const ShaderSource backdrop_vert;
-extern const ShaderSource backdrop_frag;
 
 }  // namespace psrig::preview::shaders

@@ -13,7 +13,6 @@
 #include "gl_program.h"
 #include "psrig/cloth/srgb.h"
 #include "psrig/preview/clear_frame.h"
-#include "psrig/preview/shading.h"
 #include "psrig/preview/strip_points.h"
 
 namespace psrig::preview {
@@ -81,6 +80,7 @@ struct YarnRenderer::Packed {
 
 // Where each layer's strips lie in an element buffer.
 struct YarnRenderer::Strips {
+  GLenum mode = GL_TRIANGLE_STRIP;  // or GL_TRIANGLES, layered
   std::array<GLsizei, kLayers> count{};
   std::array<std::size_t, kLayers> offset{};  // bytes
 };
@@ -91,7 +91,6 @@ struct YarnRenderer::Gl {
   std::optional<GlProgram> shading[2][2];
   std::optional<GlProgram> halo[2];
   std::optional<GlProgram> far[2];
-  std::optional<GlProgram> backdrop;
   std::optional<GlProgram> depth;
   GLuint array = 0, buffer = 0;
   std::size_t buffer_bytes = 0;
@@ -145,9 +144,6 @@ Result<std::unique_ptr<YarnRenderer>> YarnRenderer::create(const YarnRendererOpt
                                 "#define DEPTH_PASS 1\n" + fibres);
   if (!depth) return std::unexpected(depth.error());
   gl.depth.emplace(std::move(*depth));
-  auto backdrop = GlProgram::build(shaders::backdrop_vert, shaders::backdrop_frag);
-  if (!backdrop) return std::unexpected(backdrop.error());
-  gl.backdrop.emplace(std::move(*backdrop));
 
   // One vertex array: the points read at three offsets (previous, this,
   // next) and the frame's element buffer of strips.
@@ -327,36 +323,43 @@ void point_attributes() {
 
 }  // namespace
 
-// The strips of every yarn through the points this scale draws, by layer
-// as seen from `eye` (position, w = 1; or direction, w = 0), into element
-// buffer `which` (indices one less than the packed points': the attribute
-// at location 1 starts a point in). `layered` false: all in one.
+// The strips of every yarn through the points this scale draws into
+// element buffer `which` (indices one less than the packed points': the
+// attribute at location 1 starts a point in); `layered`, as separate
+// triangles by layer as seen from `eye` (position, w = 1; or direction,
+// w = 0), back to front.
 YarnRenderer::Strips YarnRenderer::choose_points(float px_per_mm, const PieceLimits& limits,
                                                  const Eigen::Vector4f& eye, bool layered,
                                                  unsigned which) {
   Packed& packed = *packed_;
-  for (auto& layer : packed.layers) layer.clear();
-  const auto layer_of = [&](std::uint32_t index) {
-    if (!layered) return 1;
-    const PackedPoint& point = packed.points[index];
-    const Eigen::Vector3f to_eye =
-        eye.head<3>() - eye.w() * Eigen::Vector3f(point.position_arc[0], point.position_arc[1],
-                                                  point.position_arc[2]);
-    const float facing = to_eye.x() * point.normal_lift[0] + to_eye.y() * point.normal_lift[1] +
-                         to_eye.z() * point.normal_lift[2];
-    const float lift = static_cast<float>(point.normal_lift[3]) / 127.0f;
-    return cloth_layer(facing >= 0 ? lift : -lift);
-  };
-  for (const CurveRange& curve : packed.curves)
-    append_strips(packed.centreline, curve.first, curve.count, px_per_mm, limits, layer_of,
-                  packed.layers);
-  Strips strips;
   packed.indices.clear();
-  for (int layer = 0; layer < kLayers; ++layer) {
-    strips.offset[layer] = packed.indices.size() * sizeof(std::uint32_t);
-    strips.count[layer] = static_cast<GLsizei>(packed.layers[layer].size());
-    packed.indices.insert(packed.indices.end(), packed.layers[layer].begin(),
-                          packed.layers[layer].end());
+  for (const CurveRange& curve : packed.curves)
+    append_strip(packed.centreline, curve.first, curve.count, px_per_mm, limits, packed.indices);
+  Strips strips;
+  strips.mode = GL_TRIANGLE_STRIP;
+  if (layered) {
+    const auto layer_of = [&](std::uint32_t index) {
+      const PackedPoint& point = packed.points[index];
+      const Eigen::Vector3f to_eye =
+          eye.head<3>() - eye.w() * Eigen::Vector3f(point.position_arc[0], point.position_arc[1],
+                                                    point.position_arc[2]);
+      const float facing = to_eye.x() * point.normal_lift[0] + to_eye.y() * point.normal_lift[1] +
+                           to_eye.z() * point.normal_lift[2];
+      const float lift = static_cast<float>(point.normal_lift[3]) / 127.0f;
+      return cloth_layer(facing >= 0 ? lift : -lift);
+    };
+    for (auto& layer : packed.layers) layer.clear();
+    layer_triangles(packed.indices, layer_of, packed.layers);
+    packed.indices.clear();
+    for (int layer = 0; layer < kLayers; ++layer) {
+      strips.offset[layer] = packed.indices.size() * sizeof(std::uint32_t);
+      strips.count[layer] = static_cast<GLsizei>(packed.layers[layer].size());
+      packed.indices.insert(packed.indices.end(), packed.layers[layer].begin(),
+                            packed.layers[layer].end());
+    }
+    strips.mode = GL_TRIANGLES;
+  } else {
+    strips.count[0] = static_cast<GLsizei>(packed.indices.size());
   }
   for (std::uint32_t& index : packed.indices)
     if (index != kRestartIndex) --index;
@@ -375,16 +378,16 @@ YarnRenderer::Strips YarnRenderer::choose_points(float px_per_mm, const PieceLim
 
 namespace {
 
-// Each layer's strips in turn, back to front.
-void draw_strips(const std::array<GLsizei, kLayers>& count,
+// Each layer's strips (or triangles) in turn, in the order given.
+void draw_strips(GLenum mode, const std::array<GLsizei, kLayers>& count,
                  const std::array<std::size_t, kLayers>& offset, int instances = 1) {
   for (int layer = 0; layer < kLayers; ++layer) {
     if (count[layer] == 0) continue;
     const auto* at = reinterpret_cast<const void*>(offset[layer]);
     if (instances > 1)
-      glDrawElementsInstanced(GL_TRIANGLE_STRIP, count[layer], GL_UNSIGNED_INT, at, instances);
+      glDrawElementsInstanced(mode, count[layer], GL_UNSIGNED_INT, at, instances);
     else
-      glDrawElements(GL_TRIANGLE_STRIP, count[layer], GL_UNSIGNED_INT, at);
+      glDrawElements(mode, count[layer], GL_UNSIGNED_INT, at);
   }
 }
 
@@ -421,9 +424,9 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
   last_far_ = widest_px <= options.detail_from_px;
   // The far view's widening at its narrowest yarn (yarn.vert's `prefilter`).
   const float widest_prefilter_px =
-      options.prefilter_widths * narrowest_px *
+      options.prefilter_px *
       (1 - smoothstep(options.prefilter_from_px, options.prefilter_until_px, narrowest_px));
-  const bool blending = last_far_ ? widest_prefilter_px >= 0.25f : narrowest_px < options.min_strip_px;
+  const bool blending = last_far_ ? widest_prefilter_px > 0 : narrowest_px < options.min_strip_px;
 
   // The map need be no finer than the screen: as many texels across the
   // bounds as pixels would cover them at the centre's distance.
@@ -451,6 +454,8 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
   // long piece leaves each side a vertex every other piece).
   limits.min_px = std::clamp(options.min_piece_widths * last_width_px_, limits.min_px,
                              std::max(limits.min_px, options.min_piece_cap_px));
+  limits.tolerance_px =
+      std::min(limits.tolerance_px, options.tolerance_widths * last_width_px_);
   if (shadows) limits.max_px = std::min(limits.max_px, options.shadowed_piece_px);
   if (shadows) {
     const Strips map_strips =
@@ -469,25 +474,11 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
     glUniform4fv(depth.uniform("u_eye"), 1, toward_light.data());
     glUniform1f(depth.uniform("u_radius"), radius);
     glUniform1f(depth.uniform("u_flatness"), flatness);
-    draw_strips(map_strips.count, map_strips.offset);
+    draw_strips(map_strips.mode, map_strips.count, map_strips.offset);
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(target));
   }
 
-  // Far frames accumulate their yarns' coverage in the target's alpha, front
-  // to back, and put the background behind last; the target needs alpha.
-  GLint alpha_bits = 0;
-  glGetFramebufferAttachmentParameteriv(GL_DRAW_FRAMEBUFFER, target == 0 ? GL_BACK : GL_COLOR_ATTACHMENT0,
-                                        GL_FRAMEBUFFER_ATTACHMENT_ALPHA_SIZE, &alpha_bits);
-  // Only where some yarn is prefiltered: wider, its strips are opaque and
-  // the depth test orders them as well and for less.
-  const bool accumulate = last_far_ && drawing && alpha_bits > 0 && blending;
-  if (accumulate) {
-    glViewport(0, 0, viewport.width, viewport.height);
-    glClearColor(0, 0, 0, 0);
-    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
-  } else {
-    clear_frame(view.background, options.encode_srgb, viewport);
-  }
+  clear_frame(view.background, options.encode_srgb, viewport);
   if (!drawing) {
     glDisable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
     glBindVertexArray(0);
@@ -538,7 +529,7 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
                                                 : plain_surface(style_);
     glUniform3f(program.uniform("u_mean_surface"), mean.ply_offset, mean.tilt_sin, mean.light);
     glUniform2f(program.uniform("u_far_px"), options.detail_from_px, options.detail_full_px);
-    glUniform1f(program.uniform("u_prefilter_widths"), options.prefilter_widths);
+    glUniform1f(program.uniform("u_prefilter_px"), options.prefilter_px);
     glUniform2f(program.uniform("u_prefilter_fade_px"), options.prefilter_from_px,
                 options.prefilter_until_px);
     glActiveTexture(GL_TEXTURE0 + kShadowUnit);
@@ -561,36 +552,19 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
   last_strip_vertices_ = 0;
   for (const GLsizei count : strips.count) last_strip_vertices_ += count;
   if (last_far_) {
-    // The yarns are too thin for the samples to tell their depths apart:
-    // no depth test, the cloth's layers in order instead. Front to back,
-    // each fragment adding its colour for the coverage still free
-    // (min(alpha, 1 - coverage so far): GL_SRC_ALPHA_SATURATE, the red
-    // book's antialiased polygons), so that yarns side by side in a pixel
-    // add up and a yarn behind another only shows past it.
+    // Yarns thinner than their prefiltered strips: blended back to front
+    // through the cloth's layers, no depth test (the samples cannot tell
+    // such depths apart, and a strip's soft edge must not hide what lies
+    // behind it). "Over" makes a pixel's coverage 1 - prod(1 - alpha), the
+    // union of yarns that overlap at random; the nearer's colour on top.
     use(*gl.far[shadows]);
+    glUniform1f(gl.far[shadows]->uniform("u_soft_edges"), blending ? 1.0f : 0.0f);
     if (blending) {
       glDisable(GL_DEPTH_TEST);
       glEnable(GL_BLEND);
+      glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
     }
-    std::array<GLsizei, kLayers> count = strips.count;
-    std::array<std::size_t, kLayers> offset = strips.offset;
-    if (accumulate) {
-      std::reverse(count.begin(), count.end());
-      std::reverse(offset.begin(), offset.end());
-      glBlendFuncSeparate(GL_SRC_ALPHA_SATURATE, GL_ONE, GL_ONE, GL_ONE);
-    } else if (blending) {
-      glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);  // back to front instead
-    }
-    draw_strips(count, offset);
-    if (accumulate) {
-      const GlProgram& backdrop = *gl.backdrop;
-      backdrop.use();
-      const auto channel = [&](int c) {
-        return options.encode_srgb ? srgb_encode(view.background[c]) : view.background[c];
-      };
-      glUniform3f(backdrop.uniform("u_colour"), channel(0), channel(1), channel(2));
-      glDrawArrays(GL_TRIANGLES, 0, 3);
-    }
+    draw_strips(strips.mode, strips.count, strips.offset);
     glEnable(GL_DEPTH_TEST);
   } else {
     use(*gl.shading[view.fibre_detail][shadows]);
@@ -598,7 +572,7 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
       glEnable(GL_BLEND);
       glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
     }
-    draw_strips(strips.count, strips.offset);
+    draw_strips(strips.mode, strips.count, strips.offset);
   }
   if (last_halo_) {
     // Over the cores, hidden by nearer ones, writing no depth: the halo of
@@ -607,7 +581,7 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
     glEnable(GL_BLEND);
     glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
     glDepthMask(GL_FALSE);
-    draw_strips(strips.count, strips.offset, 2);
+    draw_strips(strips.mode, strips.count, strips.offset, 2);
     glDepthMask(GL_TRUE);
   }
   glDisable(GL_BLEND);

@@ -14,19 +14,19 @@
 // and no piece is shorter than `min_px` (sub-pixel bends are detail no one
 // sees; the slice's mipmaps average them).
 //
+// Indices go into one element buffer for all yarns, a strip per yarn ended
+// by the primitive-restart index, their parity alternating along each
+// strip: yarn.vert takes a vertex's side from gl_VertexID's parity (the
+// index, in an indexed draw), so where the next point to draw has the
+// parity of the last one, its neighbour is drawn instead.
+//
 // Layers: far away the renderer blends its yarns in order instead of
 // testing depth (chen2003-lumislice-knitwear.txt 5.2.3 sorts its slices
 // and blends them back to front). Cloth is a sheet a few yarns thick, so
-// the order that matters is through the sheet: each point goes to the
-// back, middle or front layer by its lift as the eye sees it, and a yarn's
-// strip is cut where its layer changes (the cut point shared, so no gap;
-// a run too short to draw joins the one before it).
-//
-// Indices go into one element buffer per layer, a strip per run ended by
-// the primitive-restart index, their parity alternating along each strip:
-// yarn.vert takes a vertex's side from gl_VertexID's parity (the index, in
-// an indexed draw), so where the next point to draw has the parity of the
-// last one, its neighbour is drawn instead.
+// the order that matters is through the sheet: each triangle of the strips
+// goes to one of kLayers layers, back to front, by its middle point's lift
+// as the eye sees it, as separate triangles (a yarn changes layer every
+// stitch, too often to cut its strip there).
 
 #include <array>
 #include <cstddef>
@@ -38,7 +38,7 @@ namespace psrig::preview {
 
 struct PieceLimits {
   float tolerance_px = 0.5f;
-  float min_px = 1.0f;
+  float min_px = 0.25f;
   float max_px = 16.0f;
   float lift_tolerance = 0.15f;  // in yarn radii (yarn_curves.h's lift)
 };
@@ -52,43 +52,29 @@ struct CentrelinePoint {
 };
 
 inline constexpr std::uint32_t kRestartIndex = 0xFFFFFFFFU;
-inline constexpr int kLayers = 3;  // back, middle, front
+inline constexpr int kLayers = 8;  // from the back of the cloth to its front
 
 // The layer of a point whose lift, turned to face the eye, is `lift`.
 [[nodiscard]] int cloth_layer(float lift_toward_eye);
 
-// Appends the strips of the yarn whose points are points[first, first +
-// count) (indices in the same numbering) to the element lists of their
-// layers (`layer_of(index)`), for `px_per_mm`. Nothing for a yarn of fewer
-// than three points.
+// Appends the strip of the yarn whose points are points[first, first +
+// count) (indices in the same numbering), then a restart, for `px_per_mm`.
+// Nothing for a yarn of fewer than three points.
+void append_strip(std::span<const CentrelinePoint> points, std::size_t first, std::size_t count,
+                  float px_per_mm, const PieceLimits& limits, std::vector<std::uint32_t>& indices);
+
+// The triangles of `strips` (as append_strip() makes them) as separate
+// triangles, into the list of their layer (`layer_of(index)` of each
+// triangle's middle vertex).
 template <class LayerOf>
-void append_strips(std::span<const CentrelinePoint> points, std::size_t first, std::size_t count,
-                   float px_per_mm, const PieceLimits& limits, LayerOf layer_of,
-                   std::array<std::vector<std::uint32_t>, kLayers>& indices);
-
-// The points a strip through points[first, first + count) keeps (first and
-// last always), in order, into `kept`.
-void choose_strip_points(std::span<const CentrelinePoint> points, std::size_t first,
-                         std::size_t count, float px_per_mm, const PieceLimits& limits,
-                         std::vector<std::uint32_t>& kept);
-
-// Cuts `kept` (of a yarn ending at point `last`) into runs by layer and
-// appends them as strips of alternating parity.
-void append_layered_strips(std::span<const std::uint32_t> kept, std::span<const std::uint8_t> layers,
-                           std::size_t last, std::array<std::vector<std::uint32_t>, kLayers>& indices);
-
-template <class LayerOf>
-void append_strips(std::span<const CentrelinePoint> points, std::size_t first, std::size_t count,
-                   float px_per_mm, const PieceLimits& limits, LayerOf layer_of,
-                   std::array<std::vector<std::uint32_t>, kLayers>& indices) {
-  if (count < 3) return;
-  thread_local std::vector<std::uint32_t> kept;
-  thread_local std::vector<std::uint8_t> layers;
-  choose_strip_points(points, first, count, px_per_mm, limits, kept);
-  layers.clear();
-  for (const std::uint32_t point : kept)
-    layers.push_back(static_cast<std::uint8_t>(layer_of(point)));
-  append_layered_strips(kept, layers, first + count - 1, indices);
+void layer_triangles(std::span<const std::uint32_t> strips, LayerOf layer_of,
+                     std::array<std::vector<std::uint32_t>, kLayers>& triangles) {
+  for (std::size_t k = 2; k < strips.size(); ++k) {
+    const std::uint32_t a = strips[k - 2], b = strips[k - 1], c = strips[k];
+    if (a == kRestartIndex || b == kRestartIndex || c == kRestartIndex) continue;
+    auto& list = triangles[static_cast<std::size_t>(layer_of(b))];
+    list.insert(list.end(), {a, b, c});
+  }
 }
 
 }  // namespace psrig::preview

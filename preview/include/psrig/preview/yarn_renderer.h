@@ -44,16 +44,16 @@ struct YarnRendererOptions {
   float detail_full_px = 5.0f;
   // Far frames whose yarns are thinner than `prefilter_until_px` blend
   // them in order (strip_points.h's layers) as strips widened either side
-  // by `prefilter_widths` yarn widths, their coverage prefiltered (the
-  // yarn's width convolved with a tent that wide): a yarn, and the gaps
-  // between yarns, under a pixel wide then show as their share of a soft
-  // band, not as samples hit or missed. The widening fades out as the yarn
-  // widens from `prefilter_from_px` to `prefilter_until_px`; once under a
-  // quarter pixel everywhere, far frames draw opaque strips and test depth
-  // as near ones do.
-  float prefilter_widths = 2.0f;
-  float prefilter_from_px = 1.0f;
-  float prefilter_until_px = 1.8f;
+  // by `prefilter_px`, their coverage prefiltered (the yarn's width
+  // convolved with a tent that wide, about a pixel: the antialiasing filter
+  // 4 samples cannot be for a yarn under a pixel wide, which then shows as
+  // its share of a soft band, not as samples hit or missed). The widening
+  // fades out as the yarn widens from `prefilter_from_px` to
+  // `prefilter_until_px`; once under a quarter pixel everywhere, far frames
+  // draw opaque strips and test depth as near ones do.
+  float prefilter_px = 1.0f;
+  float prefilter_from_px = 0.8f;
+  float prefilter_until_px = 1.5f;
   // A yarn narrower than this (pixels) is drawn this wide and as
   // transparent as it is narrower: thinner strips alias under 4x MSAA.
   float min_strip_px = 1.5f;
@@ -71,9 +71,12 @@ struct YarnRendererOptions {
   // at the vertices).
   PieceLimits pieces;
   float shadowed_piece_px = 6.0f;
-  // No piece shorter than this many yarn widths, up to `min_piece_cap_px`.
-  float min_piece_widths = 2.0f;
+  // No piece shorter than this many yarn widths, up to `min_piece_cap_px`;
+  // under a pixel, the chord keeps within `tolerance_widths` of the yarn's
+  // width of the curve (a loop's shape, and the gaps beside it, hold).
+  float min_piece_widths = 1.5f;
   float min_piece_cap_px = 3.0f;
+  float tolerance_widths = 0.25f;
 };
 
 class YarnRenderer {
