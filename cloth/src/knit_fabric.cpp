@@ -1,262 +1,148 @@
 #include "psrig/cloth/knit_fabric.h"
 
+#include <algorithm>
+#include <array>
 #include <cmath>
-#include <numbers>
-#include <random>
 
-#include "psrig/cloth/yarn_spline.h"
+#include <Eigen/Geometry>
+#include <Eigen/LU>
+
+#include "mesh_placement.h"
 #include "psrig/processing/parallel.h"
 
 namespace psrig::cloth {
-namespace {
 
-// Rest layout of one stitch in face coordinates (u across, v up; the
-// stitch's face is [0, 1]^2). The knots sit a quarter in from each side, a
-// little above the face's bottom edge; their half length spans the contacts.
-constexpr float kKnotU = 0.24f;
-// Both yarns cross a knot leaning toward the stitch's middle, so the legs
-// between the feet and the head open upward into the knit's V.
-constexpr float kKnotLean = 0.45f;  // radians
-constexpr float kKnotV = 0.18f;
-constexpr float kKnotHalfLength = 0.16f;  // in course heights
-constexpr float kSinkerV = 0.05f;
-constexpr float kHeadV = 0.45f;  // in the face above
+Result<KnitFabric> KnitFabric::build(const StitchChart& chart, int columns, int rows,
+                                     const KnitParameters& parameters,
+                                     std::vector<Eigen::Vector3f> colours) {
+  if (chart.columns <= 0 || chart.rows <= 0)
+    return std::unexpected(bad_input({}, {}, "the stitch chart " + chart.name + " is empty"));
+  if (columns <= 0 || rows <= 0)
+    return std::unexpected(bad_input({}, {}, "a knit needs at least one stitch and one course"));
+  if (!colours.empty() && colours.size() != static_cast<std::size_t>(columns * rows))
+    return std::unexpected(bad_input(
+        {}, "colours",
+        "one colour per stitch: " + std::to_string(columns * rows) + " for " +
+            std::to_string(columns) + " x " + std::to_string(rows) + ", got " +
+            std::to_string(colours.size())));
+  // The parameters' figures over the chart's.
+  const auto over = [](float given, float from_chart) { return given > 0 ? given : from_chart; };
+  const KnitGauge gauge{over(parameters.gauge.wales_per_cm, chart.gauge.wales_per_cm),
+                        over(parameters.gauge.courses_per_cm, chart.gauge.courses_per_cm),
+                        over(parameters.gauge.yarn_diameter_mm, chart.gauge.yarn_diameter_mm)};
+  auto dimensions = resolve_knit_gauge(gauge);
+  if (!dimensions) return std::unexpected(dimensions.error());
 
-float loop_sign(const KnitLayout& layout, int column, int row) {
-  return layout.is_purl(column, row) ? -1.0f : 1.0f;  // knit: +1
-}
-
-}  // namespace
-
-KnitLayout tile_chart(const StitchChart& chart, int columns, int rows) {
-  KnitLayout layout{columns, rows, {}, {}};
-  layout.purl.reserve(static_cast<std::size_t>(columns * rows));
-  for (int row = 0; row < rows; ++row)
-    for (int column = 0; column < columns; ++column) {
-      layout.purl.push_back(chart.at(column, row) == Stitch::purl ? 1 : 0);
-      if (!chart.palette.empty())
-        layout.colours.push_back(
-            chart.palette[static_cast<std::size_t>(chart.colour_at(column, row))]);
-    }
-  return layout;
-}
-
-KnitFabric KnitFabric::build(const KnitLayout& layout, const KnitParameters& parameters) {
   KnitFabric fabric;
-  fabric.layout_ = layout;
+  fabric.chart_ = chart;
+  fabric.columns_ = columns;
+  fabric.rows_ = rows;
   fabric.parameters_ = parameters;
-  const int columns = layout.columns, rows = layout.rows;
-  const float half_length = kKnotHalfLength * parameters.course_height_mm;
-  std::mt19937 random(parameters.seed);
-  std::uniform_real_distribution<float> jitter(-parameters.variation, parameters.variation);
-
-  fabric.knots_.resize(static_cast<std::size_t>(2 * columns * (rows + 1)));
-  for (int face_row = 0; face_row <= rows; ++face_row)
-    for (int column = 0; column < columns; ++column)
-      for (const bool right : {false, true}) {
-        RestKnot& knot = fabric.knots_[fabric.knot_index(column, face_row, right)];
-        knot.u = (right ? 1 - kKnotU : kKnotU) + jitter(random);
-        knot.v = kKnotV + jitter(random);
-        // Both yarns run up through a left knot and down through a right one.
-        knot.state = {(right ? -0.5f : 0.5f) * std::numbers::pi_v<float> +
-                          (right ? kKnotLean : -kKnotLean) + jitter(random),
-                      half_length * (1 + jitter(random))};
-        // The feet's loop decides which yarn lies in front at which contact;
-        // above the last course, the head's own loop does.
-        const float s = loop_sign(layout, column, std::min(face_row, rows - 1));
-        const float sigma = right ? -1.0f : 1.0f;
-        if (face_row < rows) {  // the feet of course face_row
-          KnotPass& feet = knot.passes[static_cast<std::size_t>(knot.pass_count)];
-          feet.side = 1;
-          feet.lift_enter = -sigma * s;
-          feet.lift_leave = sigma * s;
-          knot.pass_course[static_cast<std::size_t>(knot.pass_count++)] = face_row;
-        }
-        if (face_row > 0) {  // the head of course face_row - 1
-          KnotPass& head = knot.passes[static_cast<std::size_t>(knot.pass_count)];
-          head.side = -1;
-          head.lift_enter = sigma * s;
-          head.lift_leave = -sigma * s;
-          knot.pass_course[static_cast<std::size_t>(knot.pass_count++)] = face_row - 1;
-        }
-      }
-  for (int row = 0; row < rows; ++row) {
-    for (int column = 0; column <= columns; ++column) {
-      // Sinkers lie behind the loops below for knit, in front for purl; between a
-      // knit and a purl loop, halfway.
-      const float s = 0.5f * (loop_sign(layout, std::max(column - 1, 0), row) +
-                              loop_sign(layout, std::min(column, columns - 1), row));
-      fabric.sinkers_.push_back({std::min(column, columns - 1), row,
-                                 (column == columns ? 1.0f : 0.0f), kSinkerV + jitter(random), -s});
-    }
-    for (int column = 0; column < columns; ++column) {
-      // A head lies behind the legs of a knit loop above it, before a purl's.
-      const float s = loop_sign(layout, column, std::min(row + 1, rows - 1));
-      fabric.heads_.push_back(
-          {column, row + 1, 0.5f + jitter(random), kHeadV + jitter(random), -s});
-    }
+  fabric.dimensions_ = std::move(*dimensions);
+  const bool gauge_given = gauge.wales_per_cm > 0 || gauge.courses_per_cm > 0;
+  fabric.repeat_ = knit_repeat_layout(chart, fabric.dimensions_, gauge_given);
+  fabric.rest_ =
+      knit_rest_cell(chart, fabric.dimensions_, fabric.repeat_, parameters.samples_per_span);
+  if (colours.empty() && !chart.palette.empty()) {
+    colours.reserve(static_cast<std::size_t>(columns * rows));
+    for (int row = 0; row < rows; ++row)
+      for (int column = 0; column < columns; ++column)
+        colours.push_back(
+            chart.palette[static_cast<std::size_t>(chart.colour_at(column, row))]);
   }
-
-  // The rest shape: the template on the undeformed mesh.
-  const StitchMesh rest = fabric.mesh();
-  fabric.place(rest);
-  for (std::size_t k = 0; k < fabric.knots_.size(); ++k)
-    fabric.initial_[k] = fabric.knots_[k].state;
-  fabric.link_passes(rest);
-  for (std::size_t k = 0; k < fabric.knots_.size(); ++k) {
-    RestKnot& knot = fabric.knots_[k];
-    for (int p = 0; p < knot.pass_count; ++p) {
-      KnotPass& pass = knot.passes[static_cast<std::size_t>(p)];
-      record_rest_shape(pass, knot_points(fabric.placements_[k], knot.state, pass));
-    }
-  }
-  fabric.states_ = fabric.initial_;
+  fabric.colours_ = std::move(colours);
+  fabric.repeats_ = std::make_shared<RelaxedRepeats>(fabric.rest_, parameters.relax);
   return fabric;
 }
 
+YarnStyle KnitFabric::style() const {
+  const KnitYarnSection section = knit_yarn_section(dimensions_.yarn_diameter_mm);
+  YarnStyle style;
+  style.radius_mm = section.half_width_mm;
+  style.flatness = section.half_thickness_mm / section.half_width_mm;
+  style.plies = parameters_.plies;
+  style.twist_pitch_mm = parameters_.twist_pitch_mm;
+  style.colour = parameters_.colour;
+  return style;
+}
+
 StitchMesh KnitFabric::mesh(ClothDeformation deformation) const {
-  return make_stitch_mesh(layout_.columns, layout_.rows + 1, parameters_.stitch_width_mm,
-                          parameters_.course_height_mm, parameters_.shape, deformation);
+  return make_stitch_mesh(columns_, rows_ + 1, repeat_.width_mm / static_cast<float>(chart_.columns),
+                          repeat_.height_mm / static_cast<float>(chart_.rows), parameters_.shape,
+                          deformation);
 }
 
-std::span<const KnotPass> KnitFabric::passes(int knot) const {
-  const RestKnot& rest = knots_[static_cast<std::size_t>(knot)];
-  return {rest.passes.data(), static_cast<std::size_t>(rest.pass_count)};
-}
-
-Eigen::Vector3f KnitFabric::fixed_position(const StitchMesh& mesh, const FixedPoint& point) const {
-  // The face's frame as place() found it this update: both knots of a face share it.
-  const FaceFrame& frame = face_frame(point.column, point.face_row);
-  return mesh.point(point.column, point.face_row, point.u, point.v) +
-         point.lift * parameters_.style.radius_mm * frame.normal;
-}
-
-// Knot centres follow the mesh; the initial guess carries each knot's rest
-// direction and half length through its face's deformation gradient.
-void KnitFabric::place(const StitchMesh& mesh) {
-  placements_.resize(knots_.size());
-  initial_.resize(knots_.size());
-  const int columns = layout_.columns;
-  processing::parallel_chunks(layout_.rows + 1, 8, [&](int begin, int end) {
-    for (int face_row = begin; face_row < end; ++face_row)
-      for (int column = 0; column < columns; ++column) {
-        const FaceFrame frame = mesh.frame(column, face_row);
-        const Eigen::Matrix2f gradient = mesh.deformation_gradient(column, face_row, frame);
-        for (const bool right : {false, true}) {
-          const auto k = static_cast<std::size_t>(knot_index(column, face_row, right));
-          const RestKnot& rest = knots_[k];
-          placements_[k] = {mesh.point(column, face_row, rest.u, rest.v), frame,
-                            parameters_.style.radius_mm};
-          const Eigen::Vector2f direction =
-              gradient * Eigen::Vector2f(std::cos(rest.state.theta), std::sin(rest.state.theta));
-          initial_[k] = {std::atan2(direction.y(), direction.x()),
-                         rest.state.half_length * direction.norm()};
-        }
-      }
-  });
-}
-
-// Fills each pass's fixed neighbours: sinkers and head tops from the mesh,
-// the neighbouring knots' points at their initial guess (so that every knot
-// relaxes on its own, in parallel).
-void KnitFabric::link_passes(const StitchMesh& mesh) {
-  const int columns = layout_.columns, rows = layout_.rows;
-  const auto pass_of = [&](int column, int face_row, bool right, int course) -> KnotPass& {
-    RestKnot& knot = knots_[static_cast<std::size_t>(knot_index(column, face_row, right))];
-    return knot.passes[knot.pass_course[0] == course ? 0 : 1];
-  };
-  const auto points_of = [&](int column, int face_row, bool right, int course) {
-    const auto k = static_cast<std::size_t>(knot_index(column, face_row, right));
-    return knot_points(placements_[k], initial_[k], pass_of(column, face_row, right, course));
-  };
-  processing::parallel_chunks(rows, 8, [&](int begin, int end) {
-    for (int row = begin; row < end; ++row)
-      for (int column = 0; column < columns; ++column) {
-        const Eigen::Vector3f sinker =
-            fixed_position(mesh, sinkers_[static_cast<std::size_t>(row * (columns + 1) + column)]);
-        const Eigen::Vector3f next_sinker = fixed_position(
-            mesh, sinkers_[static_cast<std::size_t>(row * (columns + 1) + column + 1)]);
-        const Eigen::Vector3f head =
-            fixed_position(mesh, heads_[static_cast<std::size_t>(row * columns + column)]);
-        KnotPass& feet_left = pass_of(column, row, false, row);
-        KnotPass& head_left = pass_of(column, row + 1, false, row);
-        KnotPass& head_right = pass_of(column, row + 1, true, row);
-        KnotPass& feet_right = pass_of(column, row, true, row);
-        feet_left.before = sinker;
-        feet_left.after = points_of(column, row + 1, false, row).enter;
-        head_left.before = points_of(column, row, false, row).leave;
-        head_left.after = head;
-        head_right.before = head;
-        head_right.after = points_of(column, row, true, row).enter;
-        feet_right.before = points_of(column, row + 1, true, row).leave;
-        feet_right.after = next_sinker;
-      }
-  });
-}
-
-void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns, bool relax) {
-  place(mesh);
-  link_passes(mesh);
-  states_.resize(knots_.size());
-  const int count = static_cast<int>(knots_.size());
-  processing::parallel_chunks(count, 256, [&](int begin, int end) {
-    const auto chunk = static_cast<std::size_t>(end - begin);
-    if (!relax) {
-      std::copy_n(initial_.begin() + begin, chunk, states_.begin() + begin);
-      return;
+void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
+  // Each stitch's deformation is its own face's; the blends are found (and
+  // any new table node relaxed) here, one thread, before placing in parallel.
+  const int stitches = columns_ * rows_;
+  blends_.resize(static_cast<std::size_t>(stitches));
+  const Eigen::Matrix2f corner = mesh.deformation_gradient(0, 0);
+  bool uniform = true;
+  std::vector<Eigen::Matrix2f> gradients(static_cast<std::size_t>(stitches));
+  std::vector<Eigen::Matrix2f> to_rest(static_cast<std::size_t>(stitches));
+  for (int row = 0; row < rows_; ++row)
+    for (int column = 0; column < columns_; ++column) {
+      const auto stitch = static_cast<std::size_t>(row * columns_ + column);
+      gradients[stitch] = mesh.deformation_gradient(column, row);
+      uniform = uniform && (gradients[stitch] - corner).cwiseAbs().maxCoeff() < 1e-5f;
     }
-    std::vector<KnotProblem> problems;
-    problems.reserve(chunk);
-    for (int k = begin; k < end; ++k)
-      problems.push_back({&placements_[static_cast<std::size_t>(k)], passes(k),
-                          initial_[static_cast<std::size_t>(k)]});
-    relax_knots(problems, parameters_.iterations, parameters_.weights,
-                std::span(states_).subspan(static_cast<std::size_t>(begin), chunk));
-  });
-  sample(mesh, yarns);
-}
+  if (uniform) {
+    std::fill(blends_.begin(), blends_.end(), repeats_->blend(corner));
+  } else {
+    for (std::size_t stitch = 0; stitch < blends_.size(); ++stitch)
+      blends_[stitch] = repeats_->blend(gradients[stitch]);
+  }
+  // The relaxation's small offsets go back to the cloth at rest through the
+  // deformation the blend took (clamped to the table): a face crushed or
+  // folded flat has no inverse of its own worth using.
+  for (std::size_t stitch = 0; stitch < blends_.size(); ++stitch)
+    to_rest[stitch] = blends_[stitch].deformation.inverse();
 
-void KnitFabric::sample(const StitchMesh& mesh, YarnSet& yarns) const {
-  const int columns = layout_.columns, rows = layout_.rows;
-  yarns.style = parameters_.style;
-  yarns.curves.resize(static_cast<std::size_t>(rows));
-  const int per_span = std::max(parameters_.samples_per_span, 1);
-  processing::parallel_chunks(rows, 4, [&](int begin, int end) {
-    std::vector<YarnControlPoint> control;
+  const placement::MeshPlacement on_mesh(mesh, Eigen::Matrix2f::Identity());
+  const int repeat_columns = chart_.columns, repeat_rows = chart_.rows;
+  const float radius = 0.5f * dimensions_.yarn_diameter_mm;
+  const bool coloured = !colours_.empty();
+  yarns.style = style();
+  yarns.curves.resize(static_cast<std::size_t>(rows_));
+
+  // Each course: every stitch's loop from the repeat at rest, moved by its
+  // blend's relaxation (pulled back through its face's deformation, which
+  // the mesh puts back), then the next sinker to close it.
+  processing::parallel_chunks(rows_, 4, [&](int begin, int end) {
     for (int row = begin; row < end; ++row) {
-      control.clear();
-      const auto colour = [&](int column) -> Eigen::Vector3f {
-        return layout_.colours.empty()
-                   ? Eigen::Vector3f::Zero()
-                   : layout_.colours[static_cast<std::size_t>(row * columns + column)];
+      const auto course = static_cast<std::size_t>(row % repeat_rows);
+      const CellYarn& source = rest_.yarns[course];
+      const std::size_t first_point = repeats_->first_point(course);
+      const Eigen::Vector2f up = static_cast<float>(row / repeat_rows) * rest_.a2;
+      const std::size_t per_stitch = source.points.size() / static_cast<std::size_t>(repeat_columns);
+      const std::size_t count = per_stitch * static_cast<std::size_t>(columns_) + 1;
+      YarnCurve& curve = yarns.curves[static_cast<std::size_t>(row)];
+      curve.points.resize(count);
+      curve.normals.resize(count);
+      curve.lift.resize(count);
+      curve.colours.resize(coloured ? count : 0);
+      std::size_t out = 0;
+      const auto emit = [&](std::size_t k, const Eigen::Vector2f& shift, int column) {
+        const std::size_t stitch = static_cast<std::size_t>(row * columns_ + column);
+        const RelaxedRepeats::Blend& blend = blends_[stitch];
+        const Eigen::Vector3f offset = blend.offset(first_point + k);
+        Eigen::Vector3f p = source.points[k];
+        p.head<2>() += shift + to_rest[stitch] * offset.head<2>();
+        p.z() += offset.z();
+        on_mesh.place(p, Eigen::Vector2f::Zero(), curve.points[out], curve.normals[out]);
+        curve.lift[out] = std::clamp(p.z() / radius, -1.5f, 1.5f);
+        if (coloured) curve.colours[out] = colours_[stitch];
+        ++out;
       };
-      const auto fixed = [&](const FixedPoint& point, int column) {
-        control.push_back({fixed_position(mesh, point),
-                           face_frame(point.column, point.face_row).normal, point.lift,
-                           colour(column)});
-      };
-      const auto knot = [&](int column, int face_row, bool right) {
-        const auto k = static_cast<std::size_t>(knot_index(column, face_row, right));
-        const RestKnot& rest = knots_[k];
-        const KnotPass& pass = rest.passes[rest.pass_course[0] == row ? 0 : 1];
-        const KnotPoints points = knot_points(placements_[k], states_[k], pass);
-        const Eigen::Vector3f& normal = placements_[k].frame.normal;
-        control.push_back({points.enter, normal, pass.lift_enter, colour(column)});
-        control.push_back({points.beside, normal, 0.0f, colour(column)});
-        control.push_back({points.leave, normal, pass.lift_leave, colour(column)});
-      };
-      for (int column = 0; column < columns; ++column) {
-        fixed(sinkers_[static_cast<std::size_t>(row * (columns + 1) + column)], column);
-        knot(column, row, false);
-        knot(column, row + 1, false);
-        fixed(heads_[static_cast<std::size_t>(row * columns + column)], column);
-        knot(column, row + 1, true);
-        knot(column, row, true);
+      for (int column = 0; column < columns_; ++column) {
+        const Eigen::Vector2f shift = static_cast<float>(column / repeat_columns) * rest_.a1 + up;
+        const std::size_t first = per_stitch * static_cast<std::size_t>(column % repeat_columns);
+        for (std::size_t k = first; k < first + per_stitch; ++k) emit(k, shift, column);
       }
-      fixed(sinkers_[static_cast<std::size_t>(row * (columns + 1) + columns)], columns - 1);
-
-      sample_yarn(control, per_span, !layout_.colours.empty(),
-                  yarns.curves[static_cast<std::size_t>(row)]);
+      // The sinker after the last loop closes the course.
+      emit(per_stitch * static_cast<std::size_t>(columns_ % repeat_columns),
+           static_cast<float>(columns_ / repeat_columns) * rest_.a1 + up, columns_ - 1);
     }
   });
 }

@@ -1,6 +1,9 @@
 #include "pattern_text.h"
 
+#include <cctype>
 #include <cerrno>
+#include <cmath>
+#include <cstdlib>
 #include <cstring>
 #include <fstream>
 #include <sstream>
@@ -41,6 +44,40 @@ std::optional<std::string_view> name_value(std::string_view code) {
   constexpr std::string_view kKey = "name:";
   if (!code.starts_with(kKey)) return std::nullopt;
   return trim(code.substr(kKey.size()));
+}
+
+std::optional<KeyValue> key_value(std::string_view code) {
+  std::size_t end = 0;
+  while (end < code.size() && (std::islower(static_cast<unsigned char>(code[end])) || code[end] == '_'))
+    ++end;
+  if (end == 0 || end >= code.size() || code[end] != ':') return std::nullopt;
+  const std::string_view key = code.substr(0, end);
+  if (key == "name") return std::nullopt;
+  return KeyValue{key, trim(code.substr(end + 1))};
+}
+
+Status read_measure(const std::filesystem::path& source, const Line& line, const KeyValue& entry,
+                    std::initializer_list<Measure> measures) {
+  std::string known;
+  for (const Measure& measure : measures) {
+    known += (known.empty() ? "" : ", ") + std::string(measure.key);
+    if (measure.key != entry.key) continue;
+    const std::string text(entry.value);
+    char* end = nullptr;
+    const float value = std::strtof(text.c_str(), &end);
+    if (text.empty() || end != text.c_str() + text.size() || !(value > 0) || !std::isfinite(value))
+      return std::unexpected(error_at(source, line.number, line.column_of(entry.value),
+                                      std::string(entry.key) + " must be a positive number, not '" +
+                                          text + "'"));
+    if (*measure.value > 0)
+      return std::unexpected(error_at(source, line.number, line.column_of(entry.key),
+                                      "a second `" + std::string(entry.key) + ":` line"));
+    *measure.value = value;
+    return {};
+  }
+  return std::unexpected(error_at(source, line.number, line.column_of(entry.key),
+                                  "unknown key '" + std::string(entry.key) + "': this file takes " +
+                                      known + " and name"));
 }
 
 Error error_at(const std::filesystem::path& source, int line, int column, std::string message) {

@@ -4,6 +4,7 @@
 // optional `name:` line, and errors that point at a line and column.
 
 #include <filesystem>
+#include <initializer_list>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -43,6 +44,22 @@ struct Line {
   const int r = index % count;
   return r < 0 ? r + count : r;
 }
+
+// A `key: value` line whose key is lower-case letters and underscores
+// (not `name`): the key and the value (trimmed), else nothing.
+struct KeyValue {
+  std::string_view key, value;
+};
+[[nodiscard]] std::optional<KeyValue> key_value(std::string_view code);
+
+// One of a pattern's physical sizes (`wales_per_cm: 7`, `yarn_mm: 0.42`): the
+// keys it may have and where each goes. Errors name the line and column.
+struct Measure {
+  std::string_view key;
+  float* value;
+};
+[[nodiscard]] Status read_measure(const std::filesystem::path& source, const Line& line,
+                                  const KeyValue& entry, std::initializer_list<Measure> measures);
 
 // A bad-input error at a place in `source` (column 0: the whole line).
 [[nodiscard]] Error error_at(const std::filesystem::path& source, int line, int column,

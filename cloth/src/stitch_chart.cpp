@@ -14,8 +14,8 @@ using pattern_text::error_at;
 using pattern_text::Line;
 
 constexpr const char* kLineKinds =
-    "lines are stitch rows of K and P, `= colour letters`, `colour A #RRGGBB`, `name: ...` or "
-    "# comments";
+    "lines are stitch rows of K and P, `= colour letters`, `colour A #RRGGBB`, `name: ...`, "
+    "`wales_per_cm: N`, `courses_per_cm: N`, `yarn_mm: D` or # comments";
 
 struct Symbol {
   char letter = 0;
@@ -43,6 +43,7 @@ struct PaletteEntry {
 // palette line may come after the rows that use it).
 struct ChartLines {
   std::optional<std::string> name;
+  KnitGauge gauge;
   std::vector<StitchRow> rows;
   std::vector<PaletteEntry> palette;
 };
@@ -161,6 +162,11 @@ Status read_line(const fs::path& source, const Line& line, ChartLines& chart) {
     chart.name = std::string(*name);
     return {};
   }
+  if (const auto entry = pattern_text::key_value(code))
+    return pattern_text::read_measure(source, line, *entry,
+                                      {{"wales_per_cm", &chart.gauge.wales_per_cm},
+                                       {"courses_per_cm", &chart.gauge.courses_per_cm},
+                                       {"yarn_mm", &chart.gauge.yarn_diameter_mm}});
   if (code.front() == '=') return read_colour_row(source, line, code, chart);
   return read_stitch_row(source, line, code, chart);
 }
@@ -197,6 +203,7 @@ Result<StitchChart> parse_stitch_chart(std::string_view text, const fs::path& so
   chart.name = lines.name && !lines.name->empty() ? *lines.name : source.stem().string();
   chart.columns = static_cast<int>(lines.rows.front().stitches.size());
   chart.rows = static_cast<int>(lines.rows.size());
+  chart.gauge = lines.gauge;
   for (const PaletteEntry& entry : lines.palette)
     chart.palette.push_back(entry.linear);
   for (const StitchRow& row : lines.rows) {

@@ -5,6 +5,7 @@
 #include <optional>
 
 #include "pattern_text.h"
+#include "psrig/cloth/srgb.h"
 
 namespace psrig::cloth {
 
@@ -16,13 +17,72 @@ bool WeaveMatrix::warp_over(int warp, int weft) const {
                                         pattern_text::wrap(warp, warps))] != 0;
 }
 
+namespace {
+
+// `colour warp #RRGGBB` or `colour weft #RRGGBB`; the `#` of the value is
+// not a comment.
+Status read_thread_colour(const fs::path& source, const pattern_text::Line& line,
+                          std::string_view rest, WeaveMatrix& matrix) {
+  rest = pattern_text::trim(rest);
+  std::size_t end = 0;
+  while (end < rest.size() && !pattern_text::is_space(rest[end]))
+    ++end;
+  const std::string_view thread = rest.substr(0, end);
+  if (thread != "warp" && thread != "weft")
+    return std::unexpected(error_at(source, line.number, line.column_of(rest),
+                                    "a weave's colours are `colour warp #RRGGBB` and `colour weft "
+                                    "#RRGGBB`"));
+  std::optional<Eigen::Vector3f>& slot = thread == "warp" ? matrix.warp_colour : matrix.weft_colour;
+  if (slot)
+    return std::unexpected(error_at(source, line.number, line.column_of(rest),
+                                    "a second colour for the " + std::string(thread)));
+  std::string_view value = pattern_text::trim(rest.substr(end));
+  std::size_t value_end = 0;
+  while (value_end < value.size() && !pattern_text::is_space(value[value_end]))
+    ++value_end;
+  const std::string_view hex = value.substr(0, value_end);
+  const std::optional<Eigen::Vector3f> colour = parse_srgb_hex(hex);
+  if (!colour)
+    return std::unexpected(error_at(source, line.number,
+                                    line.column_of(hex.empty() ? rest : hex),
+                                    "malformed colour '" + std::string(hex) +
+                                        "': expected #RRGGBB (sRGB, hexadecimal)"));
+  const std::string_view after = pattern_text::trim(value.substr(value_end));
+  if (!after.empty() && after.front() != '#')
+    return std::unexpected(error_at(source, line.number, line.column_of(after),
+                                    "unexpected '" + std::string(after) +
+                                        "' after the colour (comments start with #)"));
+  slot = *colour;
+  return {};
+}
+
+}  // namespace
+
 Result<WeaveMatrix> parse_weave_matrix(std::string_view text, const fs::path& source) {
   WeaveMatrix matrix;
   std::optional<std::string> name;
   int first_row_line = 0;
   for (const pattern_text::Line& line : pattern_text::split_lines(text)) {
+    const std::string_view whole = pattern_text::trim(line.text);
+    bool colour_line = false;
+    for (const std::string_view keyword : {"colour", "color"})
+      if (whole.starts_with(keyword) && whole.size() > keyword.size() &&
+          pattern_text::is_space(whole[keyword.size()])) {
+        auto read = read_thread_colour(source, line, whole.substr(keyword.size()), matrix);
+        if (!read) return std::unexpected(read.error());
+        colour_line = true;
+      }
+    if (colour_line) continue;
     const std::string_view code = pattern_text::trim(pattern_text::strip_comment(line.text));
     if (code.empty()) continue;
+    if (const auto entry = pattern_text::key_value(code)) {
+      auto read = pattern_text::read_measure(source, line, *entry,
+                                             {{"ends_per_cm", &matrix.gauge.ends_per_cm},
+                                              {"picks_per_cm", &matrix.gauge.picks_per_cm},
+                                              {"yarn_mm", &matrix.gauge.yarn_diameter_mm}});
+      if (!read) return std::unexpected(read.error());
+      continue;
+    }
     if (const auto value = pattern_text::name_value(code)) {
       if (name)
         return std::unexpected(
@@ -38,8 +98,9 @@ Result<WeaveMatrix> parse_weave_matrix(std::string_view text, const fs::path& so
         return std::unexpected(error_at(
             source, line.number, line.column_of(code.substr(i)),
             std::string("unknown symbol '") + c +
-                "': lines are rows of 1 (warp over weft) and 0 (weft over warp), `name: ...` "
-                "or # comments"));
+                "': lines are rows of 1 (warp over weft) and 0 (weft over warp), `name: ...`, "
+                "`ends_per_cm: N`, `picks_per_cm: N`, `yarn_mm: D`, `colour warp #RRGGBB`, "
+                "`colour weft #RRGGBB` or # comments"));
       matrix.cells.push_back(c == '1' ? 1 : 0);
       ++width;
     }

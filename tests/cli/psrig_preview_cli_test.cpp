@@ -238,7 +238,7 @@ TEST(PsrigPreviewCli, KnitDrawsYarnsAndStretchOpensGaps) {
                                      "--size",        "320x240",
                                      "--stitches",    "8",
                                      "--rows",        "6",
-                                     "--distance",    "80",
+                                     "--distance",    "22",
                                      "--light-slant", light_slant};
     args.insert(args.end(), extra.begin(), extra.end());
     const auto run = run_program("psrig-preview", args);

@@ -46,7 +46,11 @@ TEST(StitchChart, StockinetteIsAllKnit) {
   const StitchChart chart = shipped("stockinette.chart");
   for (const Stitch stitch : chart.cells)
     EXPECT_EQ(stitch, Stitch::knit);
-  EXPECT_TRUE(chart.palette.empty());
+  EXPECT_EQ(chart.palette.size(), 1U);
+  // Its size in real units.
+  EXPECT_FLOAT_EQ(chart.gauge.wales_per_cm, 7.0f);
+  EXPECT_FLOAT_EQ(chart.gauge.courses_per_cm, 9.0f);
+  EXPECT_FLOAT_EQ(chart.gauge.yarn_diameter_mm, 0.41f);
 }
 
 TEST(StitchChart, GarterCoursesAlternate) {

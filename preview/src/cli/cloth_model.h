@@ -1,6 +1,7 @@
 #pragma once
 // The cloth `psrig-preview knit` draws: a stitch chart as knitted yarns or a
-// weave matrix as woven threads, either one deformed on demand.
+// weave matrix as woven threads, at the gauge the file or the command line
+// gives, either one deformed on demand.
 
 #include <filesystem>
 #include <optional>
@@ -12,27 +13,33 @@
 
 namespace psrig::preview::cli {
 
+// Sizes given on the command line, over the pattern file's; 0: not given.
+struct ClothSize {
+  float wales_per_cm = 0, courses_per_cm = 0;  // knits
+  float ends_per_cm = 0, picks_per_cm = 0;     // wovens
+  float yarn_mm = 0;
+};
+
 class ClothModel {
  public:
   // columns x rows stitches (or warps x wefts) on `shape`; `colour`, when
   // given, replaces the chart's palette and the style's colour.
   [[nodiscard]] static Result<ClothModel> load(const std::filesystem::path& pattern, int columns,
                                                int rows, std::optional<Eigen::Vector3f> colour,
-                                               cloth::ClothShape shape = cloth::ClothShape::flat);
+                                               cloth::ClothShape shape = cloth::ClothShape::flat,
+                                               const ClothSize& size = {});
 
   // This deformation's yarns into `yarns` (storage reused).
   void update(cloth::ClothDeformation deformation, cloth::YarnSet& yarns);
-  [[nodiscard]] bool woven() const { return std::holds_alternative<Woven>(cloth_); }
+  [[nodiscard]] bool woven() const { return std::holds_alternative<cloth::WovenFabric>(cloth_); }
+  // What it is, in a few words: gauge or density and yarn.
+  [[nodiscard]] std::string describe() const;
 
  private:
-  struct Woven {
-    cloth::WeaveMatrix weave;
-    cloth::WovenParameters parameters;
-    int warps = 0, wefts = 0;
-  };
-  std::variant<cloth::KnitFabric, Woven> cloth_;
+  std::variant<cloth::KnitFabric, cloth::WovenFabric> cloth_;
 
-  explicit ClothModel(std::variant<cloth::KnitFabric, Woven> cloth) : cloth_(std::move(cloth)) {}
+  explicit ClothModel(std::variant<cloth::KnitFabric, cloth::WovenFabric> cloth)
+      : cloth_(std::move(cloth)) {}
 };
 
 }  // namespace psrig::preview::cli

@@ -31,6 +31,7 @@ struct KnitArgs {
   int rows = 20;
   float stretch = 1;
   float shear = 0;
+  ClothSize cloth_size;
   std::string yarn_colour;
   std::string from_scan;
   std::string environment = "studio";
@@ -129,7 +130,8 @@ int render(const KnitArgs& args) {
   if (!size) return report_error("knit", size.error());
   auto colour = yarn_colour(args);
   if (!colour) return report_error("knit", colour.error());
-  auto cloth = ClothModel::load(args.pattern, args.stitches, args.rows, *colour, cloth_shape(args));
+  auto cloth = ClothModel::load(args.pattern, args.stitches, args.rows, *colour, cloth_shape(args),
+                                args.cloth_size);
   if (!cloth) return report_error("knit", cloth.error());
   cloth::YarnSet yarns;
   cloth->update({args.stretch, args.shear}, yarns);
@@ -143,7 +145,7 @@ int render(const KnitArgs& args) {
     return report_error("knit", ok.error());
   std::cout << "knit: " << args.out << " (" << size->width << "x" << size->height << ", "
             << args.stitches << "x" << args.rows << (cloth->woven() ? " threads" : " stitches")
-            << ", " << yarns.point_count() << " yarn points, stretch " << args.stretch << ", shear "
+            << " at " << cloth->describe() << ", " << yarns.point_count() << " yarn points, stretch " << args.stretch << ", shear "
             << args.shear << ")\n";
   return 0;
 }
@@ -163,7 +165,8 @@ int bench(const KnitArgs& args) {
   bool first = true;
   for (const int stitches : args.bench_stitches) {
     const int side = static_cast<int>(std::lround(std::sqrt(stitches)));
-    auto cloth = ClothModel::load(args.pattern, side, side, std::nullopt, cloth_shape(args));
+    auto cloth = ClothModel::load(args.pattern, side, side, std::nullopt, cloth_shape(args),
+                                  args.cloth_size);
     if (!cloth) return report_error("knit", cloth.error());
     cloth::YarnSet yarns;
     std::vector<double> update_ms, upload_ms, frame_ms, cpu_ms, render_cpu_ms;
@@ -225,12 +228,23 @@ Command add_knit_command(CLI::App& parent) {
   app->add_option("--rows", args->rows, "Courses (woven: weft threads)")
       ->check(CLI::Range(1, 1000))
       ->capture_default_str();
+  // The range in which yarns still find room without passing through each other.
   app->add_option("--stretch", args->stretch, "Width factor along the courses (1.2: 20 % wider)")
-      ->check(CLI::Range(0.3, 3.0))
+      ->check(CLI::Range(0.5, 2.0))
       ->capture_default_str();
   app->add_option("--shear", args->shear, "Sideways lean of the wales, mm per mm")
-      ->check(CLI::Range(-1.5, 1.5))
+      ->check(CLI::Range(-0.6, 0.6))
       ->capture_default_str();
+  const auto size_option = [&](const char* name, float& value, const char* what) {
+    app->add_option(name, value, what)->check(psrig::cli::positive_number());
+  };
+  size_option("--wales-per-cm", args->cloth_size.wales_per_cm,
+              "Knit gauge across (over the chart's wales_per_cm)");
+  size_option("--courses-per-cm", args->cloth_size.courses_per_cm,
+              "Knit gauge up (over the chart's courses_per_cm)");
+  size_option("--ends-per-cm", args->cloth_size.ends_per_cm, "Woven warp density (over the weave's)");
+  size_option("--picks-per-cm", args->cloth_size.picks_per_cm, "Woven weft density (over the weave's)");
+  size_option("--yarn-mm", args->cloth_size.yarn_mm, "Yarn diameter in mm (over the pattern's)");
   auto* colour = app->add_option("--yarn-color", args->yarn_colour, "Yarn colour #RRGGBB (sRGB)");
   app->add_option("--from-scan", args->from_scan,
                   "Yarn colour from a scan's maps directory (mean albedo)")

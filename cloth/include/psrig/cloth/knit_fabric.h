@@ -1,116 +1,93 @@
 #pragma once
-// Knitted cloth at yarn level: a stitch layout laid on a stitch mesh, each
-// loop's yarn built from control points around the knots where it
-// interlocks with the loop below (its feet) and the loop above (its head),
-// one continuous yarn per course (huang2025-realtime-knit-deformation-
-// rendering.txt section 3; the control points play the part of the key
-// points of chen2003-lumislice-knitwear.txt, interpolated by cardinal
-// splines; knit and purl differ by the sign of their offsets along the
-// normal, as durupinar2007-procedural-knit-woven.txt offsets its bonding
-// points).
+// Knitted cloth at yarn level: a stitch chart tiled over columns x rows
+// stitches at a real gauge, its yarns laid on a stitch mesh (Yuksel et al.
+// 2012, as huang2025-realtime-knit-deformation-rendering.txt uses it: one
+// quad per stitch), one continuous yarn per course.
 //
-// Course r, stitch c, in the order the yarn runs (L, R: the stitch's left and
-// right knots; face row r holds the feet of course r and the heads of
-// course r - 1, so the mesh has one face row more than the layout):
-//   sinker S(c, r) -> feet knot (c, r, L) -> head knot (c, r + 1, L)
-//   -> head top H(c, r) -> head knot (c, r + 1, R) -> feet knot (c, r, R)
-//   -> sinker S(c + 1, r)
-// Sinkers and head tops follow the mesh; the knots are relaxed.
+// The yarns are the chart's repeat (knit_cell.h) relaxed for the mesh's
+// in-plane deformation (yarn_cell.h), so that at rest and stretched or
+// sheared they touch and never pass through each other; each repeat is
+// then carried onto the mesh's surface, the yarn's depth along its normal.
+// Relaxed repeats are kept by deformation, so a frame that deforms the
+// cloth as an earlier one did only places yarn.
+//
+// Axes and units as yarn_curves.h: courses along +x, wales along +y,
+// millimetres; row 0 is the first course.
 
-#include <cstdint>
+#include <map>
+#include <memory>
+#include <optional>
+#include <utility>
 #include <vector>
 
 #include <Eigen/Core>
 
-#include "psrig/cloth/knot_relaxation.h"
+#include "psrig/base/error.h"
+#include "psrig/cloth/knit_cell.h"
+#include "psrig/cloth/knit_gauge.h"
 #include "psrig/cloth/stitch_chart.h"
 #include "psrig/cloth/stitch_mesh.h"
+#include "psrig/cloth/relaxed_repeats.h"
+#include "psrig/cloth/yarn_cell.h"
 #include "psrig/cloth/yarn_curves.h"
 
 namespace psrig::cloth {
 
-// The fabric's stitches (a chart tiled to size), as seen from the front.
-struct KnitLayout {
-  int columns = 0, rows = 0;
-  std::vector<std::uint8_t> purl;        // row-major, row 0 the first course; 1: purl
-  std::vector<Eigen::Vector3f> colours;  // per stitch, linear RGB; empty: the style's
-
-  [[nodiscard]] bool is_purl(int column, int row) const {
-    return purl[static_cast<std::size_t>(row * columns + column)] != 0;
-  }
-};
-
-// The chart's repeat tiled over columns x rows, its first row the first
-// course; colours from its palette when it has one.
-[[nodiscard]] KnitLayout tile_chart(const StitchChart& chart, int columns, int rows);
-
 struct KnitParameters {
-  YarnStyle style;
-  float stitch_width_mm = 5.0f;   // wale spacing at rest
-  float course_height_mm = 4.0f;  // course spacing at rest
-  float variation = 0.03f;        // random per-loop offsets, in stitch sizes
-  std::uint32_t seed = 1;
-  int samples_per_span = 4;  // yarn points per control point span
-  int iterations = 3;        // Gauss-Newton iterations per knot and frame
-  KnotWeights weights;
+  KnitGauge gauge;  // over the chart's; what is known of it (knit_gauge.h derives the rest)
+  // Plies, twist and colour of the yarn; its size comes from the gauge.
+  int plies = 2;
+  float twist_pitch_mm = 1.4f;  // about 7 turns per cm
+  Eigen::Vector3f colour{0.55f, 0.18f, 0.12f};  // linear RGB, where the chart has no palette
+  int samples_per_span = 4;  // yarn points between key points
   ClothShape shape = ClothShape::flat;
+  RelaxOptions relax;
 };
 
 class KnitFabric {
  public:
-  [[nodiscard]] static KnitFabric build(const KnitLayout& layout, const KnitParameters& parameters);
+  // `chart` tiled over columns x rows stitches from its first row and
+  // column; `colours`, when not empty, one linear RGB per stitch (row-major,
+  // row 0 first), over the chart's palette. Bad input: a gauge no knit has
+  // (knit_gauge.h), or colours that are not one per stitch.
+  [[nodiscard]] static Result<KnitFabric> build(const StitchChart& chart, int columns, int rows,
+                                                const KnitParameters& parameters,
+                                                std::vector<Eigen::Vector3f> colours = {});
 
-  // The mesh the yarns follow, deformed as asked (layout columns x rows + 1).
+  // The mesh the yarns lie on, deformed as asked: columns x (rows + 1) faces
+  // of the mean wale and course (the last row holds the top course's heads).
   [[nodiscard]] StitchMesh mesh(ClothDeformation deformation = {}) const;
 
-  // One frame: the knots follow `mesh`, are relaxed (or, with relax off,
-  // only carried along by each face's deformation gradient: the naive
-  // interpolation the knots improve on) and the yarns are sampled into
-  // `yarns`, reusing its storage.
-  void update(const StitchMesh& mesh, YarnSet& yarns, bool relax = true);
+  // One frame: each stitch's repeat relaxed for its own face's in-plane
+  // deformation (blended from the table, relaxed_repeats.h), its yarn placed
+  // on `mesh` into `yarns`, whose storage is reused. A cloth deformed alike
+  // everywhere (the command line's stretch and shear) blends once.
+  void update(const StitchMesh& mesh, YarnSet& yarns);
 
-  // Introspection for tests and benchmarks, valid after update().
-  [[nodiscard]] int knot_count() const { return static_cast<int>(knots_.size()); }
-  [[nodiscard]] const KnotPlacement& placement(int knot) const { return placements_[knot]; }
-  [[nodiscard]] KnotState state(int knot) const { return states_[knot]; }
-  [[nodiscard]] KnotState initial_state(int knot) const { return initial_[knot]; }
-  [[nodiscard]] std::span<const KnotPass> passes(int knot) const;
-  [[nodiscard]] int knot_index(int column, int face_row, bool right) const {
-    return (face_row * layout_.columns + column) * 2 + (right ? 1 : 0);
-  }
-  [[nodiscard]] const KnitLayout& layout() const { return layout_; }
-  [[nodiscard]] const KnitParameters& parameters() const { return parameters_; }
+  [[nodiscard]] const KnitDimensions& dimensions() const { return dimensions_; }
+  [[nodiscard]] const KnitRepeatLayout& repeat() const { return repeat_; }
+  [[nodiscard]] const StitchChart& chart() const { return chart_; }
+  [[nodiscard]] int columns() const { return columns_; }
+  [[nodiscard]] int rows() const { return rows_; }
+  [[nodiscard]] YarnStyle style() const;
+  // The cross-section contact keeps (yarn_clearance.h).
+  [[nodiscard]] const YarnSection& section() const { return rest_.section; }
+  // The relaxed repeat of the last update, and how its relaxation went.
+  // How the repeat's relaxations went: the worst clearance and strain of
+  // every deformation relaxed so far.
+  [[nodiscard]] RelaxReport relax_report() const { return repeats_->report(); }
 
  private:
-  struct RestKnot {
-    float u = 0, v = 0;  // in its face
-    KnotState state;     // in the rest face's frame
-    int pass_count = 0;  // passes[0]: course face_row (feet), then course face_row - 1 (head)
-    std::array<KnotPass, 2> passes;
-    std::array<int, 2> pass_course{};
-  };
-  struct FixedPoint {
-    int column = 0, face_row = 0;
-    float u = 0, v = 0, lift = 0;
-  };
-
-  void place(const StitchMesh& mesh);
-  void link_passes(const StitchMesh& mesh);
-  void sample(const StitchMesh& mesh, YarnSet& yarns) const;
-  [[nodiscard]] Eigen::Vector3f fixed_position(const StitchMesh& mesh,
-                                               const FixedPoint& point) const;
-  [[nodiscard]] const FaceFrame& face_frame(int column, int face_row) const {
-    return placements_[static_cast<std::size_t>(knot_index(column, face_row, false))].frame;
-  }
-
-  KnitLayout layout_;
+  StitchChart chart_;
+  int columns_ = 0, rows_ = 0;
   KnitParameters parameters_;
-  std::vector<RestKnot> knots_;      // knot_index order
-  std::vector<FixedPoint> sinkers_;  // (columns + 1) per course
-  std::vector<FixedPoint> heads_;    // columns per course
-  // This frame's.
-  std::vector<KnotPlacement> placements_;
-  std::vector<KnotState> initial_, states_;
+  KnitDimensions dimensions_;
+  KnitRepeatLayout repeat_;
+  YarnCell rest_;
+  std::vector<Eigen::Vector3f> colours_;  // per stitch; empty: the style's colour
+  // The repeat relaxed for deformations as they come (shared by copies).
+  std::shared_ptr<RelaxedRepeats> repeats_;
+  std::vector<RelaxedRepeats::Blend> blends_;  // per stitch, this frame's
 };
 
 }  // namespace psrig::cloth

@@ -12,6 +12,7 @@
 #include <Eigen/Core>
 
 #include "psrig/base/error.h"
+#include "psrig/cloth/knit_gauge.h"
 
 namespace psrig::cloth {
 
@@ -28,6 +29,9 @@ struct StitchChart {
   std::vector<Stitch> cells;               // row-major, columns * rows
   std::vector<std::uint8_t> colour_index;  // per cell, into palette; all 0 without colour rows
   std::vector<Eigen::Vector3f> palette;    // linear RGB; empty when the chart names no colours
+  // The knit's size, where the chart gives it (`wales_per_cm:`,
+  // `courses_per_cm:`, `yarn_mm:`); 0 where not.
+  KnitGauge gauge;
 
   // The chart tiled over the plane: any column and row, negative included.
   [[nodiscard]] Stitch at(int column, int row) const;

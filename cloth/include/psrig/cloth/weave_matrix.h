@@ -9,7 +9,12 @@
 #include <string_view>
 #include <vector>
 
+#include <optional>
+
+#include <Eigen/Core>
+
 #include "psrig/base/error.h"
+#include "psrig/cloth/woven_cell.h"
 
 namespace psrig::cloth {
 
@@ -18,6 +23,11 @@ struct WeaveMatrix {
   int warps = 0;                    // columns
   int wefts = 0;                    // rows; row 0 is the first weft woven
   std::vector<std::uint8_t> cells;  // row-major: 1 = warp over weft, 0 = weft over warp
+  // The cloth's size and yarn colours where the file gives them
+  // (`ends_per_cm:`, `picks_per_cm:`, `yarn_mm:`; `colour warp #RRGGBB`,
+  // `colour weft #RRGGBB`, linear RGB here).
+  WovenGauge gauge;
+  std::optional<Eigen::Vector3f> warp_colour, weft_colour;
 
   // The repeat tiled over the plane: any warp and weft, negative included.
   [[nodiscard]] bool warp_over(int warp, int weft) const;
