@@ -14,7 +14,7 @@
 in vec3 v_far_colour;
 in float v_coverage;
 #ifdef FAR
-in vec3 v_far_coverage;  // distance from the centreline, half width, prefilter (px)
+in vec4 v_far_coverage;  // distance from the centreline, half width, spread (px), softness
 #else
 in float v_across;
 in vec2 v_uv;
@@ -60,8 +60,9 @@ void main() {
   vec3 colour = v_far_colour;
   float distance = abs(v_far_coverage.x);
   float filter_px = max(v_far_coverage.z, 1e-3);
-  float alpha = tent_integral((distance + v_far_coverage.y) / filter_px) -
-                tent_integral((distance - v_far_coverage.y) / filter_px);
+  float alpha = mix(1.0, tent_integral((distance + v_far_coverage.y) / filter_px) -
+                             tent_integral((distance - v_far_coverage.y) / filter_px),
+                    v_far_coverage.w);
 #else
 #ifdef FIBRE_DETAIL
   // Premultiplied by the density (chen2003 eq. 11's averaging in the mipmaps).

@@ -78,7 +78,7 @@ out vec3 v_direct;
 out float v_coverage;
 out vec3 v_far_colour;
 out float v_detail;
-out vec3 v_far_coverage;  // FAR: distance from the centreline, half width, prefilter (px)
+out vec4 v_far_coverage;  // FAR: distance from the centreline, half width, spread (px), softness
 #endif
 
 const float kPi = 3.14159265359;
@@ -158,9 +158,12 @@ void main() {
   // strip is what 4x MSAA would make of the yarn alone.
   float prefilter = u_prefilter_px * clamp(u_prefilter_fade_px.x / (2.5 * half_px), 1.0, 1.25) *
                     (1.0 - smoothstep(u_prefilter_fade_px.x, u_prefilter_fade_px.y, 2.0 * half_px));
-  float spread = u_soft_edges * sqrt(prefilter * prefilter + 0.5);
+  // Soft edges grow in with the prefilter: without it the samples draw
+  // the yarn's own edges, as the opaque far frames do.
+  float soft = u_soft_edges * clamp(prefilter / 0.5, 0.0, 1.0);
+  float spread = soft * sqrt(prefilter * prefilter + 0.5);
   vec3 position = a_point.xyz + across * ((half_px + spread) / px_per_mm) * side;
-  v_far_coverage = vec3(across * (half_px + spread), half_px, spread);
+  v_far_coverage = vec4(across * (half_px + spread), half_px, spread, soft);
 #elif defined(HALO)
   // Inner edge on the core's, outer at the halo's reach; left, then right.
   float halo = u_halo * smoothstep(u_halo_fade_px.x, u_halo_fade_px.y, 2.0 * half_px);

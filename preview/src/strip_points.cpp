@@ -10,6 +10,21 @@ int cloth_layer(float lift_toward_eye) {
   return std::clamp(layer, 0, kLayers - 1);
 }
 
+namespace {
+
+// 1 +- dither, from the piece's first point.
+float piece_scale(std::size_t point, float dither) {
+  std::uint32_t x = static_cast<std::uint32_t>(point) * 0x9E3779B9U;  // Weyl, then lowbias32
+  x ^= x >> 16;
+  x *= 0x7feb352dU;
+  x ^= x >> 15;
+  x *= 0x846ca68bU;
+  x ^= x >> 16;
+  return 1 + dither * (2 * static_cast<float>(x >> 8) / 16777215.0f - 1);
+}
+
+}  // namespace
+
 void append_strip(std::span<const CentrelinePoint> points, std::size_t first, std::size_t count,
                   float px_per_mm, const PieceLimits& limits, std::vector<std::uint32_t>& indices) {
   if (count < 3) return;
@@ -31,6 +46,7 @@ void append_strip(std::span<const CentrelinePoint> points, std::size_t first, st
     previous = point;
   };
   float length = 0, turning = 0, lift_turning = 0;  // of the piece so far
+  float scale = piece_scale(previous, limits.dither);
   for (std::size_t i = first + 1; i < last; ++i) {
     length += points[i - 1].length_mm * px_per_mm;
     if (i <= previous) {  // a neighbour was drawn ahead of its turn
@@ -41,13 +57,15 @@ void append_strip(std::span<const CentrelinePoint> points, std::size_t first, st
     const float reach = length + points[i].length_mm * px_per_mm;
     const float bend = turning + points[i].turn;
     const float lift_bend = lift_turning + points[i].lift_turn;
-    const bool straight_enough = reach * bend / 8 <= limits.tolerance_px;
-    const bool level_enough = reach / px_per_mm * lift_bend / 4 <= limits.lift_tolerance;
+    const bool straight_enough =
+        (reach + limits.half_width_px * bend) * bend / 8 <= scale * limits.tolerance_px;
+    const bool level_enough = reach / px_per_mm * lift_bend / 4 <= scale * limits.lift_tolerance;
     const bool must = points[i].keep;
-    if ((must || reach > limits.max_px || !straight_enough || !level_enough) &&
-        (must || length >= limits.min_px)) {
+    if ((must || reach > scale * limits.max_px || !straight_enough || !level_enough) &&
+        (must || length >= scale * limits.min_px)) {
       draw(i);
       length = turning = lift_turning = 0;
+      scale = piece_scale(previous, limits.dither);
       continue;
     }
     turning = bend;

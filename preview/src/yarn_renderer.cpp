@@ -452,11 +452,24 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
   // A piece shorter than the yarn is wide shows nothing a longer one would
   // not; a few pixels are enough for any (a strip's sides take turns, so a
   // long piece leaves each side a vertex every other piece).
+  // Coarser while the yarn is a couple of pixels wide (its loops' shape is
+  // then more than the eye resolves), finer as it grows: both gradually,
+  // as a jump in the points drawn would show.
+  const float fine = smoothstep(2.0f, 6.0f, last_width_px_);
+  limits.lift_tolerance += (options.near_lift_tolerance - limits.lift_tolerance) * fine;
+  const float cap = options.min_piece_cap_px + (1.0f - options.min_piece_cap_px) * fine;
   limits.min_px = std::clamp(options.min_piece_widths * last_width_px_, limits.min_px,
-                             std::max(limits.min_px, options.min_piece_cap_px));
+                             std::max(limits.min_px, cap));
   limits.tolerance_px =
       std::min(limits.tolerance_px, options.tolerance_widths * last_width_px_);
-  if (shadows) limits.max_px = std::min(limits.max_px, options.shadowed_piece_px);
+  limits.half_width_px = last_width_px_ / 2;
+  // Where the points kept change the loops' look (under a pixel the
+  // prefilter hides it, and there dithering only adds noise).
+  limits.dither = options.piece_dither * smoothstep(1.5f, 3.0f, last_width_px_);
+  // As the map takes over, shorter pieces (continuously: a jump in the
+  // points drawn would show).
+  if (shadows)
+    limits.max_px += (std::min(limits.max_px, options.shadowed_piece_px) - limits.max_px) * map_strength;
   if (shadows) {
     const Strips map_strips =
         choose_points(texels_per_mm, limits, Eigen::Vector4f::Zero(), false, 1);
@@ -499,7 +512,8 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
     glUniform1f(program.uniform("u_radius"), radius);
     glUniform1f(program.uniform("u_flatness"), flatness);
     glUniform1f(program.uniform("u_focal_px"), frame.focal_px);
-    glUniform1f(program.uniform("u_min_half_px"), options.min_strip_px / 2);
+    // Widened only where it will be blended as transparent as it is thin.
+    glUniform1f(program.uniform("u_min_half_px"), blending ? options.min_strip_px / 2 : 0.0f);
     glUniform1f(program.uniform("u_halo"), slice_.halo);
     glUniform2f(program.uniform("u_halo_fade_px"), options.halo_from_px, options.halo_full_px);
     glUniform1f(program.uniform("u_period"), slice_.period_mm);

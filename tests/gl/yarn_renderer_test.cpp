@@ -19,6 +19,7 @@
 #include "psrig/preview/offscreen_target.h"
 #include "psrig/preview/shading.h"
 #include "psrig/preview/texture_levels.h"
+#include "test_support.h"
 #include "yarn_fixture.h"
 
 namespace psrig::preview {
@@ -394,24 +395,26 @@ cv::Rect cloth_interior(const Eigen::AlignedBox3f& bounds, const KnitView& view,
 // A stockinette panel of `columns` x `rows` stitches as the knit geometry
 // makes it.
 cloth::YarnSet knitted_panel(int columns, int rows) {
-  const cloth::KnitLayout layout{
-      columns, rows, std::vector<std::uint8_t>(static_cast<std::size_t>(columns * rows), 0), {}};
-  cloth::KnitFabric fabric = cloth::KnitFabric::build(layout, {});
   cloth::YarnSet yarns;
-  fabric.update(fabric.mesh(), yarns);
+  const auto chart = cloth::load_stitch_chart(test::shipped_pattern("stockinette.chart"));
+  EXPECT_TRUE(chart) << chart.error().describe();
+  if (!chart) return yarns;
+  auto fabric = cloth::KnitFabric::build(*chart, columns, rows, {});
+  EXPECT_TRUE(fabric) << fabric.error().describe();
+  if (fabric) fabric->update(fabric->mesh(), yarns);
   return yarns;
 }
 
 TEST_F(YarnRendererTest, FarViewHasNoAliasing) {
-  // A garment-sized stockinette panel (a chunky knit's front) filling a
-  // 320x240 frame, then the same from twice as far: stitches about three
-  // and a half and under two pixels wide, the yarn under a pixel, the
-  // loops' legs and the courses past the pixels' Nyquist limit. Against the
-  // same views drawn 8x as large and shrunk (64 times the samples): the far
-  // view's level of detail (the far colour, strips prefiltered and blended
-  // through the cloth's layers) must leave no beating, be no noisier than
-  // the same renderer supersampled 2x, and keep the cloth's brightness.
-  const cloth::YarnSet set = knitted_panel(50, 60);
+  // A stockinette panel as big as a garment's front looks from far enough
+  // that its yarn is 0.8 and then 0.4 pixels wide in a 320x240 frame:
+  // stitches under two pixels, the loops' legs and the courses past the
+  // pixels' Nyquist limit. Against the same views drawn 8x as large and
+  // shrunk (64 times the samples): the far view's level of detail (the far
+  // colour, strips prefiltered and blended through the cloth's layers) must
+  // leave no beating, be no noisier than the same renderer supersampled 2x,
+  // and keep the cloth's brightness.
+  const cloth::YarnSet set = knitted_panel(140, 160);
   KnitView view;
   view.light.tilt_deg = 30;
   view.light.slant_deg = 50;
@@ -425,20 +428,20 @@ TEST_F(YarnRendererTest, FarViewHasNoAliasing) {
   const YarnRendererOptions options;
   YarnRendererOptions unfiltered = options;  // strips at the yarns' own width
   unfiltered.prefilter_px = 0;
-  for (const double distance : {1.0, 2.0}) {
-    view.distance_mm = 0;
-    view.distance_mm = distance * knit_frame(set.bounds(), view, kFrame).distance;
+  const float focal_px = knit_frame(set.bounds(), view, kFrame).focal_px;
+  for (const double yarn_px : {0.8, 0.4}) {
+    view.distance_mm = 2 * set.style.radius_mm * focal_px / yarn_px;
     const cv::Rect region = cloth_interior(set.bounds(), view, kFrame);
     ASSERT_GT(region.area(), 2000);
     const cv::Mat reference = shrunk(render(options, kFrame * 8), 8);
     const AliasingMeasure far = measure_aliasing(linear(render(options, kFrame)), reference, region);
     const AliasingMeasure twice =
         measure_aliasing(shrunk(render(options, kFrame * 2), 2), reference, region);
-    EXPECT_LT(far.moire, 0.006) << "beating against the pixel grid, distance " << distance;
+    EXPECT_LT(far.moire, 0.006) << "beating against the pixel grid, yarn " << yarn_px << " px";
     EXPECT_LT(far.sparkle_ratio, 1.3 * twice.sparkle_ratio)
-        << "noisier than supersampled, distance " << distance;
-    EXPECT_LT(far.mean_difference, 0.03) << "the cloth's brightness, distance " << distance;
-    if (distance < 2) continue;
+        << "noisier than supersampled, yarn " << yarn_px << " px";
+    EXPECT_LT(far.mean_difference, 0.03) << "the cloth's brightness, yarn " << yarn_px << " px";
+    if (yarn_px > 0.5) continue;
     // The measures catch aliasing where there is some: the same yarns'
     // strips at their own width (a third of a pixel), samples hit or missed.
     const AliasingMeasure aliased =
@@ -456,7 +459,7 @@ TEST_F(YarnRendererTest, LevelsOfDetailBlendWithoutPopping) {
   // growing in, the halo and the shadow map taking over. Each step to the
   // next size changes the shrunk frame about as much as the last: no step
   // jumps.
-  const cloth::YarnSet set = knitted_panel(12, 14);
+  const cloth::YarnSet set = knitted_panel(40, 46);
   auto renderer = make_renderer();
   ASSERT_TRUE(renderer);
   renderer->update(set);
@@ -475,7 +478,7 @@ TEST_F(YarnRendererTest, LevelsOfDetailBlendWithoutPopping) {
     ASSERT_TRUE(target);
     cv::Mat frame;
     cv::resize(linear(draw(*renderer, *target, view)), frame, small, 0, 0, cv::INTER_AREA);
-    cv::GaussianBlur(frame, frame, cv::Size(), 1.0);
+    cv::GaussianBlur(frame, frame, cv::Size(), 2.0);
     const float yarn_px = renderer->last_yarn_width_px();
     prefiltered |= yarn_px < renderer->options().prefilter_from_px;
     far_only |= renderer->last_drew_far_only();

@@ -8,7 +8,8 @@
 // tightest bends: where it runs straight, or is small on screen, most of
 // its points add triangles, not shape. So a piece of the strip runs on
 // while its chord stays within `tolerance_px` of the curve (a circular
-// arc's sagitta: length x turning / 8), its lift stays within
+// arc's sagitta: length x turning / 8, and the strip's outer edge, half a
+// yarn out, as much again: half width x turning^2 / 8), its lift stays within
 // `lift_tolerance` of a straight line between its ends (length x the
 // lift's change of slope / 4) and its colour holds, up to `max_px` long,
 // and no piece is shorter than `min_px` (sub-pixel bends are detail no one
@@ -40,7 +41,13 @@ struct PieceLimits {
   float tolerance_px = 0.5f;
   float min_px = 0.25f;
   float max_px = 16.0f;
-  float lift_tolerance = 0.15f;  // in yarn radii (yarn_curves.h's lift)
+  float lift_tolerance = 0.5f;  // in yarn radii (yarn_curves.h's lift)
+  float half_width_px = 0;       // the strip's, for its outer edge
+  // Each piece's limits scaled by its own factor, 1 +- dither (from a hash
+  // of its first point): a cloth's loops are all alike, and with one limit
+  // they would all change their points at the same scale, a jump the eye
+  // sees as the cloth grows.
+  float dither = 0;
 };
 
 // What the choice needs of each point, made once per update.

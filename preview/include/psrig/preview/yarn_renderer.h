@@ -71,12 +71,16 @@ struct YarnRendererOptions {
   // at the vertices).
   PieceLimits pieces;
   float shadowed_piece_px = 6.0f;
-  // No piece shorter than this many yarn widths, up to `min_piece_cap_px`;
+  // No piece shorter than this many yarn widths, up to `min_piece_cap_px`
+  // (falling to a pixel, and the lift's tolerance to `near_lift_tolerance`,
+  // as the yarn widens from 2 to 6 px: the loops' shape shows there);
   // under a pixel, the chord keeps within `tolerance_widths` of the yarn's
   // width of the curve (a loop's shape, and the gaps beside it, hold).
   float min_piece_widths = 1.5f;
   float min_piece_cap_px = 3.0f;
-  float tolerance_widths = 0.25f;
+  float tolerance_widths = 0.0625f;
+  float near_lift_tolerance = 0.15f;
+  float piece_dither = 0.3f;  // PieceLimits::dither once the yarn is 3 px wide
 };
 
 class YarnRenderer {

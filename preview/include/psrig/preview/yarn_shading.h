@@ -56,11 +56,11 @@ struct FibreShading {
   // Where a yarn passes between the layers (lift 0) neighbours hide most of
   // the sky and the light: all light scales by 1 - crossing_occlusion there.
   float crossing_occlusion = 0.45f;
-  float ply_relief = 0.8f;  // how far the plies' roundness tilts the normal
+  float ply_relief = 0.6f;  // how far the plies' roundness tilts the normal
   // Yarn-level shadows where the yarns are too small for the shadow map: a
   // point at depth d (0 on top of the cloth, 1 under it, from its lift)
   // keeps exp(-shadow_density * d * tan(slant)) of the light.
-  float shadow_density = 0.9f;
+  float shadow_density = 0.15f;
   Eigen::Vector3f light_colour{1.0f, 1.0f, 1.0f};
 };
 

@@ -36,11 +36,11 @@ struct YarnSliceOptions {
   int turns = 2;     // the texture's length in twist pitches
   // Flyaway fibres reach this far beyond the core, in yarn radii.
   float halo = 0.45f;
-  float flyaways_per_mm = 3.0f;  // at the style's hairiness 1
+  float flyaways_per_mm = 4.0f;  // at the style's hairiness 1
   float fibre_diameter = 0.04f;  // in yarn radii
   // Light reaching into the grooves: exp(-groove_shadow * depth below the
   // lower of the ply crests either side, in ply half-thicknesses).
-  float groove_shadow = 2.2f;
+  float groove_shadow = 1.6f;
   float striation = 0.16f;  // fibre-to-fibre brightness, +-
   int fibres_per_ply = 18;  // striation stripes round one ply
   // How far the surface fibres untwist the plies' slant: 0 they follow
