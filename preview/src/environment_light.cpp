@@ -122,28 +122,25 @@ Result<EnvironmentLight> EnvironmentLight::load(const std::filesystem::path& fil
   return from_equirectangular(*image);
 }
 
-Eigen::Vector3f EnvironmentLight::radiance(const Eigen::Vector3f& w) const {
+Eigen::Vector3f EnvironmentLight::convolved(const Eigen::Vector3f& w,
+                                            const std::array<float, 3>& bands) const {
   const std::array<float, 9> basis = harmonics(w);
   Eigen::Vector3f sum = Eigen::Vector3f::Zero();
   for (int i = 0; i < 9; ++i)
-    sum += sh_[i] * basis[i];
+    sum += sh_[i] * (bands[band_of(i)] * basis[i]);
   return sum;
+}
+
+Eigen::Vector3f EnvironmentLight::radiance(const Eigen::Vector3f& w) const {
+  return convolved(w, {1, 1, 1});
 }
 
 Eigen::Vector3f EnvironmentLight::lambert(const Eigen::Vector3f& normal) const {
-  const std::array<float, 9> basis = harmonics(normal);
-  Eigen::Vector3f sum = Eigen::Vector3f::Zero();
-  for (int i = 0; i < 9; ++i)
-    sum += sh_[i] * (kLambertBands[band_of(i)] * basis[i]);
-  return sum;
+  return convolved(normal, kLambertBands);
 }
 
 Eigen::Vector3f EnvironmentLight::fibre(const Eigen::Vector3f& tangent) const {
-  const std::array<float, 9> basis = harmonics(tangent);
-  Eigen::Vector3f sum = Eigen::Vector3f::Zero();
-  for (int i = 0; i < 9; ++i)
-    sum += sh_[i] * (kFibreBands[band_of(i)] * basis[i]);
-  return sum;
+  return convolved(tangent, kFibreBands);
 }
 
 }  // namespace psrig::preview

@@ -14,6 +14,7 @@
 #include "psrig/cloth/srgb.h"
 #include "psrig/preview/clear_frame.h"
 #include "psrig/preview/strip_points.h"
+#include "psrig/processing/parallel.h"
 
 namespace psrig::preview {
 namespace {
@@ -41,9 +42,16 @@ std::int8_t snorm8(float value) {
   return static_cast<std::int8_t>(scaled + (scaled < 0 ? -0.5f : 0.5f));
 }
 
+float smoothstep(float edge0, float edge1, float x) {
+  const float t = std::clamp((x - edge0) / std::max(edge1 - edge0, 1e-6f), 0.0f, 1.0f);
+  return t * t * (3 - 2 * t);
+}
+
+}  // namespace
+
 // Linear colour to sRGB bytes, remembering the last one (a yarn's points
 // mostly share their colour, and pow is the costly part).
-class ColourBytes {
+class YarnRenderer::ColourBytes {
  public:
   const std::uint8_t* operator()(const Eigen::Vector3f& colour) {
     if (colour != last_) {
@@ -59,13 +67,6 @@ class ColourBytes {
   Eigen::Vector3f last_ = Eigen::Vector3f::Constant(-1);
   std::uint8_t bytes_[3] = {};
 };
-
-float smoothstep(float edge0, float edge1, float x) {
-  const float t = std::clamp((x - edge0) / std::max(edge1 - edge0, 1e-6f), 0.0f, 1.0f);
-  return t * t * (3 - 2 * t);
-}
-
-}  // namespace
 
 // The points of every yarn back to back, with padding at either end, and
 // what choosing a frame's points needs of them.
@@ -214,6 +215,57 @@ void YarnRenderer::upload_slice() {
   glActiveTexture(GL_TEXTURE0);
 }
 
+// One yarn's points into the packed buffer from `first`, and what choosing
+// its strip's points needs of them.
+void YarnRenderer::pack_yarn(const cloth::YarnCurve& curve, std::size_t index, std::size_t first,
+                             ColourBytes& colour_bytes, Eigen::Array3f& low,
+                             Eigen::Array3f& high) {
+  Packed& packed = *packed_;
+  const std::size_t count = curve.points.size();
+  // A phase of its own per yarn, so that the slice's pattern does not
+  // line up from yarn to yarn.
+  const auto seed = static_cast<std::uint8_t>((index * 2654435761U) >> 24);
+  const bool normals = curve.normals.size() >= count;
+  const bool lifts = curve.lift.size() >= count;
+  const bool colours = curve.colours.size() >= count;
+  const Eigen::Vector3f default_normal = Eigen::Vector3f::UnitZ();
+  float arc = 0;
+  Eigen::Vector3f before = Eigen::Vector3f::Zero();  // the piece into this point, unit
+  float slope_before = 0;                             // of the lift, per mm
+  std::size_t next = first;
+  for (std::size_t i = 0; i < count; ++i) {
+    const Eigen::Vector3f& point = curve.points[i];
+    CentrelinePoint& facts = packed.centreline[next];
+    const float lift = lifts ? curve.lift[i] : 1.0f;
+    if (i + 1 < count) {
+      const Eigen::Vector3f piece = curve.points[i + 1] - point;
+      facts.length_mm = piece.norm();
+      const Eigen::Vector3f after =
+          facts.length_mm > 0 ? Eigen::Vector3f(piece / facts.length_mm) : before;
+      const float slope_after =
+          lifts && facts.length_mm > 0 ? (curve.lift[i + 1] - lift) / facts.length_mm : 0.0f;
+      // 2 sin(angle / 2): the angle itself where it matters (small), no acos.
+      if (i > 0) {
+        facts.turn = (after - before).norm();
+        facts.lift_turn = std::abs(slope_after - slope_before);
+      }
+      before = after;
+      slope_before = slope_after;
+    }
+    if (i > 0) arc += packed.centreline[next - 1].length_mm;
+    low = low.min(point.array());
+    high = high.max(point.array());
+    const Eigen::Vector3f& normal = normals ? curve.normals[i] : default_normal;
+    const Eigen::Vector3f& colour = colours ? curve.colours[i] : style_.colour;
+    facts.keep = colours && i > 0 && colour != curve.colours[i - 1];
+    const std::uint8_t* bytes = colour_bytes(colour);
+    packed.points[next++] = {{point.x(), point.y(), point.z(), arc},
+                             {snorm8(normal.x()), snorm8(normal.y()), snorm8(normal.z()),
+                              snorm8(lift)},
+                             {bytes[0], bytes[1], bytes[2], seed}};
+  }
+}
+
 void YarnRenderer::update(const cloth::YarnSet& yarns) {
   if (!same_slice(yarns.style, slice_.style)) {
     slice_ = bake_yarn_slice(yarns.style, options_.slice);
@@ -222,9 +274,19 @@ void YarnRenderer::update(const cloth::YarnSet& yarns) {
   style_ = yarns.style;
   Packed& packed = *packed_;
   packed.curves.clear();
-  std::size_t total = 2 * kPadding;
-  for (const cloth::YarnCurve& curve : yarns.curves)
-    total += curve.points.size();
+  // Where each yarn goes in the buffer, then the yarns packed side by side
+  // on the thread pool, a few at a time.
+  const int yarn_count = static_cast<int>(yarns.curves.size());
+  std::vector<std::size_t> firsts(yarns.curves.size());
+  std::size_t total = kPadding;
+  for (std::size_t index = 0; index < yarns.curves.size(); ++index) {
+    firsts[index] = total;
+    total += yarns.curves[index].points.size();
+    if (yarns.curves[index].points.size() >= 3)
+      packed.curves.push_back({firsts[index], yarns.curves[index].points.size()});
+  }
+  const std::size_t next = total;
+  total += kPadding;
   packed.points.resize(total);
   packed.centreline.assign(total, CentrelinePoint{});
   // Arc length rises along each yarn: the front padding's never lies
@@ -232,56 +294,25 @@ void YarnRenderer::update(const cloth::YarnSet& yarns) {
   PackedPoint padding{};
   padding.position_arc[3] = std::numeric_limits<float>::max();
   std::fill_n(packed.points.begin(), kPadding, padding);
-  std::size_t next = kPadding;
+  constexpr int kChunk = 8;
+  const int chunks = processing::chunk_count(yarn_count, kChunk);
+  std::vector<Eigen::Array3f> lows(static_cast<std::size_t>(chunks),
+                                   Eigen::Array3f::Constant(std::numeric_limits<float>::max()));
+  std::vector<Eigen::Array3f> highs(static_cast<std::size_t>(chunks),
+                                    Eigen::Array3f::Constant(-std::numeric_limits<float>::max()));
+  processing::parallel_chunks(yarn_count, kChunk, [&](int begin, int end) {
+    ColourBytes colour_bytes;
+    Eigen::Array3f& low = lows[static_cast<std::size_t>(begin / kChunk)];
+    Eigen::Array3f& high = highs[static_cast<std::size_t>(begin / kChunk)];
+    for (int index = begin; index < end; ++index)
+      pack_yarn(yarns.curves[static_cast<std::size_t>(index)], static_cast<std::size_t>(index),
+                firsts[static_cast<std::size_t>(index)], colour_bytes, low, high);
+  });
   Eigen::Array3f low = Eigen::Array3f::Constant(std::numeric_limits<float>::max());
   Eigen::Array3f high = -low;
-  ColourBytes colour_bytes;
-  const Eigen::Vector3f default_normal = Eigen::Vector3f::UnitZ();
-  for (std::size_t index = 0; index < yarns.curves.size(); ++index) {
-    const cloth::YarnCurve& curve = yarns.curves[index];
-    const std::size_t first = next;
-    const std::size_t count = curve.points.size();
-    // A phase of its own per yarn, so that the slice's pattern does not
-    // line up from yarn to yarn.
-    const auto seed = static_cast<std::uint8_t>((index * 2654435761U) >> 24);
-    const bool normals = curve.normals.size() >= count;
-    const bool lifts = curve.lift.size() >= count;
-    const bool colours = curve.colours.size() >= count;
-    float arc = 0;
-    Eigen::Vector3f before = Eigen::Vector3f::Zero();  // the piece into this point, unit
-    float slope_before = 0;                             // of the lift, per mm
-    for (std::size_t i = 0; i < count; ++i) {
-      const Eigen::Vector3f& point = curve.points[i];
-      CentrelinePoint& facts = packed.centreline[next];
-      const float lift = lifts ? curve.lift[i] : 1.0f;
-      if (i + 1 < count) {
-        const Eigen::Vector3f piece = curve.points[i + 1] - point;
-        facts.length_mm = piece.norm();
-        const Eigen::Vector3f after =
-            facts.length_mm > 0 ? Eigen::Vector3f(piece / facts.length_mm) : before;
-        const float slope_after =
-            lifts && facts.length_mm > 0 ? (curve.lift[i + 1] - lift) / facts.length_mm : 0.0f;
-        // 2 sin(angle / 2): the angle itself where it matters (small), no acos.
-        if (i > 0) {
-          facts.turn = (after - before).norm();
-          facts.lift_turn = std::abs(slope_after - slope_before);
-        }
-        before = after;
-        slope_before = slope_after;
-      }
-      if (i > 0) arc += packed.centreline[next - 1].length_mm;
-      low = low.min(point.array());
-      high = high.max(point.array());
-      const Eigen::Vector3f& normal = normals ? curve.normals[i] : default_normal;
-      const Eigen::Vector3f& colour = colours ? curve.colours[i] : style_.colour;
-      facts.keep = colours && i > 0 && colour != curve.colours[i - 1];
-      const std::uint8_t* bytes = colour_bytes(colour);
-      packed.points[next++] = {{point.x(), point.y(), point.z(), arc},
-                               {snorm8(normal.x()), snorm8(normal.y()), snorm8(normal.z()),
-                                snorm8(lift)},
-                               {bytes[0], bytes[1], bytes[2], seed}};
-    }
-    if (count >= 3) packed.curves.push_back({first, count});
+  for (int chunk = 0; chunk < chunks; ++chunk) {
+    low = low.min(lows[static_cast<std::size_t>(chunk)]);
+    high = high.max(highs[static_cast<std::size_t>(chunk)]);
   }
   padding.position_arc[3] = -1;
   std::fill_n(packed.points.begin() + static_cast<std::ptrdiff_t>(next), kPadding, padding);

@@ -62,31 +62,40 @@ cloth::YarnSet stockinette(int stitches) {
   return yarns;
 }
 
-void frame(benchmark::State& state, bool full_look) {
-  Canvas* drawn = canvas();
-  if (drawn == nullptr) {
+// The stockinette of state.range(0) stitches and a renderer that has it;
+// null (the state told why) without a context.
+std::unique_ptr<preview::YarnRenderer> loaded_renderer(benchmark::State& state,
+                                                       cloth::YarnSet& yarns) {
+  if (canvas() == nullptr) {
     state.SkipWithError("no headless GLES context");
-    return;
+    return nullptr;
   }
-  const cloth::YarnSet yarns = stockinette(static_cast<int>(state.range(0)));
+  yarns = stockinette(static_cast<int>(state.range(0)));
   auto renderer = preview::YarnRenderer::create();
   if (!renderer) {
     state.SkipWithError(renderer.error().describe().c_str());
-    return;
+    return nullptr;
   }
   (*renderer)->update(yarns);
+  return std::move(*renderer);
+}
+
+void frame(benchmark::State& state, bool full_look) {
+  cloth::YarnSet yarns;
+  const auto renderer = loaded_renderer(state, yarns);
+  if (!renderer) return;
   preview::KnitView view;
   view.shadows = full_look;
   view.fibre_detail = full_look;
   for (auto _ : state) {
-    drawn->target->bind();
-    (*renderer)->render(view, kFrame);
+    canvas()->target->bind();
+    renderer->render(view, kFrame);
     glFinish();
   }
   state.counters["fps"] = benchmark::Counter(static_cast<double>(state.iterations()),
                                              benchmark::Counter::kIsRate);
-  state.counters["yarn_px"] = (*renderer)->last_yarn_width_px();
-  state.counters["vertices"] = (*renderer)->last_strip_vertices();
+  state.counters["yarn_px"] = renderer->last_yarn_width_px();
+  state.counters["vertices"] = renderer->last_strip_vertices();
 }
 
 void BM_KnitFrame(benchmark::State& state) {
@@ -97,18 +106,11 @@ void BM_KnitFramePlain(benchmark::State& state) {
 }
 
 void BM_KnitUpload(benchmark::State& state) {
-  if (canvas() == nullptr) {
-    state.SkipWithError("no headless GLES context");
-    return;
-  }
-  const cloth::YarnSet yarns = stockinette(static_cast<int>(state.range(0)));
-  auto renderer = preview::YarnRenderer::create();
-  if (!renderer) {
-    state.SkipWithError(renderer.error().describe().c_str());
-    return;
-  }
+  cloth::YarnSet yarns;
+  const auto renderer = loaded_renderer(state, yarns);
+  if (!renderer) return;
   for (auto _ : state) {
-    (*renderer)->update(yarns);
+    renderer->update(yarns);
     glFinish();
   }
   state.counters["points"] = static_cast<double>(yarns.point_count());

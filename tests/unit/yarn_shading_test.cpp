@@ -238,3 +238,27 @@ TEST(YarnShading, SliceTiltsTheNormalAcrossThePlies) {
 
 }  // namespace
 }  // namespace psrig::preview
+
+namespace psrig::preview {
+namespace {
+
+TEST(YarnShading, PrefilteredCoverageKeepsTheYarnsShareAndSoftensItsEdges) {
+  for (const float half : {0.2f, 0.5f, 2.0f})
+    for (const float filter : {0.3f, 1.0f, 1.5f}) {
+      double integral = 0;
+      constexpr double kStep = 0.001;
+      for (double d = -6; d <= 6; d += kStep)
+        integral += prefiltered_coverage(static_cast<float>(d), half, filter) * kStep;
+      EXPECT_NEAR(integral, 2 * half, 2e-3) << "half " << half << ", filter " << filter;
+      EXPECT_LE(prefiltered_coverage(0, half, filter), 1.0f);
+      EXPECT_FLOAT_EQ(prefiltered_coverage(half + filter, half, filter), 0.0f);
+    }
+  // No filter: the yarn's own edges.
+  EXPECT_FLOAT_EQ(prefiltered_coverage(0.49f, 0.5f, 0), 1.0f);
+  EXPECT_FLOAT_EQ(prefiltered_coverage(0.51f, 0.5f, 0), 0.0f);
+  // A thin yarn's share spread thin over its filter.
+  EXPECT_NEAR(prefiltered_coverage(0, 0.1f, 1), 0.2f * (1 - 0.05f), 1e-3f);
+}
+
+}  // namespace
+}  // namespace psrig::preview

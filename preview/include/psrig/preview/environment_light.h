@@ -65,6 +65,9 @@ class EnvironmentLight {
   [[nodiscard]] const std::array<Eigen::Vector3f, 9>& coefficients() const { return sh_; }
 
  private:
+  // The harmonics at `w`, band l scaled by bands[l] (a zonal kernel's).
+  [[nodiscard]] Eigen::Vector3f convolved(const Eigen::Vector3f& w,
+                                          const std::array<float, 3>& bands) const;
   std::array<Eigen::Vector3f, 9> sh_;
 };
 

@@ -123,6 +123,9 @@ class YarnRenderer {
   YarnRenderer() = default;
   void upload_slice();
   struct Strips;
+  class ColourBytes;
+  void pack_yarn(const cloth::YarnCurve& curve, std::size_t index, std::size_t first,
+                 ColourBytes& colour_bytes, Eigen::Array3f& low, Eigen::Array3f& high);
   Strips choose_points(float px_per_mm, const PieceLimits& limits, const Eigen::Vector4f& eye,
                        bool layered, unsigned which);
 
