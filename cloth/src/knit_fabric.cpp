@@ -73,52 +73,76 @@ StitchMesh KnitFabric::mesh(ClothDeformation deformation) const {
 }
 
 void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
-  const Eigen::Matrix2f deformation = placement::mean_deformation(mesh);
-  repeats_->shape(deformation, shaped_);
-  const YarnCell& cell = shaped_;
-  Eigen::Matrix2f shaped;  // as shape() took it: in the course's frame
-  shaped << cell.a1.x() / rest_.a1.x(), cell.a2.x() / rest_.a2.y(), 0, cell.a2.y() / rest_.a2.y();
-  const placement::MeshPlacement on_mesh(mesh, shaped.inverse());
+  // Each stitch's deformation is its own face's; the blends are found (and
+  // any new table node relaxed) here, one thread, before placing in parallel.
+  const int stitches = columns_ * rows_;
+  blends_.resize(static_cast<std::size_t>(stitches));
+  const Eigen::Matrix2f corner = mesh.deformation_gradient(0, 0);
+  bool uniform = true;
+  std::vector<Eigen::Matrix2f> gradients(static_cast<std::size_t>(stitches));
+  std::vector<Eigen::Matrix2f> to_rest(static_cast<std::size_t>(stitches));
+  for (int row = 0; row < rows_; ++row)
+    for (int column = 0; column < columns_; ++column) {
+      const auto stitch = static_cast<std::size_t>(row * columns_ + column);
+      gradients[stitch] = mesh.deformation_gradient(column, row);
+      uniform = uniform && (gradients[stitch] - corner).cwiseAbs().maxCoeff() < 1e-5f;
+    }
+  if (uniform) {
+    std::fill(blends_.begin(), blends_.end(), repeats_->blend(corner));
+  } else {
+    for (std::size_t stitch = 0; stitch < blends_.size(); ++stitch)
+      blends_[stitch] = repeats_->blend(gradients[stitch]);
+  }
+  // The relaxation's small offsets go back to the cloth at rest through the
+  // deformation the blend took (clamped to the table): a face crushed or
+  // folded flat has no inverse of its own worth using.
+  for (std::size_t stitch = 0; stitch < blends_.size(); ++stitch)
+    to_rest[stitch] = blends_[stitch].deformation.inverse();
+
+  const placement::MeshPlacement on_mesh(mesh, Eigen::Matrix2f::Identity());
   const int repeat_columns = chart_.columns, repeat_rows = chart_.rows;
   const float radius = 0.5f * dimensions_.yarn_diameter_mm;
   const bool coloured = !colours_.empty();
   yarns.style = style();
   yarns.curves.resize(static_cast<std::size_t>(rows_));
 
+  // Each course: every stitch's loop from the repeat at rest, moved by its
+  // blend's relaxation (pulled back through its face's deformation, which
+  // the mesh puts back), then the next sinker to close it.
   processing::parallel_chunks(rows_, 4, [&](int begin, int end) {
     for (int row = begin; row < end; ++row) {
-      const CellYarn& source = cell.yarns[static_cast<std::size_t>(row % repeat_rows)];
-      const Eigen::Vector2f up = static_cast<float>(row / repeat_rows) * cell.a2;
+      const auto course = static_cast<std::size_t>(row % repeat_rows);
+      const CellYarn& source = rest_.yarns[course];
+      const std::size_t first_point = repeats_->first_point(course);
+      const Eigen::Vector2f up = static_cast<float>(row / repeat_rows) * rest_.a2;
+      const std::size_t per_stitch = source.points.size() / static_cast<std::size_t>(repeat_columns);
+      const std::size_t count = per_stitch * static_cast<std::size_t>(columns_) + 1;
       YarnCurve& curve = yarns.curves[static_cast<std::size_t>(row)];
-      curve.points.clear();
-      curve.normals.clear();
-      curve.lift.clear();
-      curve.colours.clear();
-      const auto emit = [&](const Eigen::Vector3f& p, const Eigen::Vector2f& shift, int column) {
-        Eigen::Vector3f position, normal;
-        on_mesh.place(p, shift, position, normal);
-        curve.points.push_back(position);
-        curve.normals.push_back(normal);
-        curve.lift.push_back(std::clamp(p.z() / radius, -1.5f, 1.5f));
-        if (coloured)
-          curve.colours.push_back(colours_[static_cast<std::size_t>(row * columns_ + column)]);
+      curve.points.resize(count);
+      curve.normals.resize(count);
+      curve.lift.resize(count);
+      curve.colours.resize(coloured ? count : 0);
+      std::size_t out = 0;
+      const auto emit = [&](std::size_t k, const Eigen::Vector2f& shift, int column) {
+        const std::size_t stitch = static_cast<std::size_t>(row * columns_ + column);
+        const RelaxedRepeats::Blend& blend = blends_[stitch];
+        const Eigen::Vector3f offset = blend.offset(first_point + k);
+        Eigen::Vector3f p = source.points[k];
+        p.head<2>() += shift + to_rest[stitch] * offset.head<2>();
+        p.z() += offset.z();
+        on_mesh.place(p, Eigen::Vector2f::Zero(), curve.points[out], curve.normals[out]);
+        curve.lift[out] = std::clamp(p.z() / radius, -1.5f, 1.5f);
+        if (coloured) curve.colours[out] = colours_[stitch];
+        ++out;
       };
-      for (int tile = 0; tile * repeat_columns < columns_; ++tile) {
-        const Eigen::Vector2f shift = static_cast<float>(tile) * cell.a1 + up;
-        for (std::size_t k = 0; k < source.points.size(); ++k) {
-          const int column = tile * repeat_columns + source.stitch[k];
-          if (column >= columns_) break;
-          emit(source.points[k], shift, column);
-        }
+      for (int column = 0; column < columns_; ++column) {
+        const Eigen::Vector2f shift = static_cast<float>(column / repeat_columns) * rest_.a1 + up;
+        const std::size_t first = per_stitch * static_cast<std::size_t>(column % repeat_columns);
+        for (std::size_t k = first; k < first + per_stitch; ++k) emit(k, shift, column);
       }
       // The sinker after the last loop closes the course.
-      const int next_tile = columns_ / repeat_columns;
-      const int next = columns_ % repeat_columns;
-      for (std::size_t k = 0; k < source.points.size(); ++k)
-        if (source.stitch[k] == next) {
-          emit(source.points[k], static_cast<float>(next_tile) * cell.a1 + up, columns_ - 1);
-          break;
-        }
+      emit(per_stitch * static_cast<std::size_t>(columns_ % repeat_columns),
+           static_cast<float>(columns_ / repeat_columns) * rest_.a1 + up, columns_ - 1);
     }
   });
 }

@@ -10,8 +10,8 @@ MeshPlacement::MeshPlacement(const StitchMesh& mesh, const Eigen::Matrix2f& to_r
     : to_rest_(to_rest),
       columns_(mesh.columns),
       rows_(mesh.rows),
-      face_w_(mesh.face_width_mm),
-      face_h_(mesh.face_height_mm) {
+      inverse_w_(1 / mesh.face_width_mm),
+      inverse_h_(1 / mesh.face_height_mm) {
   const int columns = mesh.columns, rows = mesh.rows;
   std::vector<Eigen::Vector3f> vertex_normal(static_cast<std::size_t>((rows + 1) * (columns + 1)),
                                              Eigen::Vector3f::Zero());
@@ -38,21 +38,10 @@ MeshPlacement::MeshPlacement(const StitchMesh& mesh, const Eigen::Matrix2f& to_r
           p00, p10 - p00, p01 - p00, p11 - p10 - p01 + p00,
           normal(column, row), normal(column + 1, row), normal(column, row + 1),
           normal(column + 1, row + 1)};
+      FacePatch& patch = patches_[static_cast<std::size_t>(row * columns + column)];
+      patch.flat = patch.n00.isApprox(patch.n10, 1e-7f) && patch.n00.isApprox(patch.n01, 1e-7f) &&
+                   patch.n00.isApprox(patch.n11, 1e-7f);
     }
-}
-
-void MeshPlacement::place(const Eigen::Vector3f& point, const Eigen::Vector2f& shift,
-                          Eigen::Vector3f& position, Eigen::Vector3f& normal) const {
-  const Eigen::Vector2f rest = to_rest_ * (point.head<2>() + shift);
-  const float fx = rest.x() / face_w_, fy = rest.y() / face_h_;
-  // Beyond the mesh's edge the edge face extrapolates.
-  const int fc = std::clamp(static_cast<int>(std::floor(fx)), 0, columns_ - 1);
-  const int fr = std::clamp(static_cast<int>(std::floor(fy)), 0, rows_ - 1);
-  const float u = fx - static_cast<float>(fc), v = fy - static_cast<float>(fr);
-  const FacePatch& f = patches_[static_cast<std::size_t>(fr * columns_ + fc)];
-  normal = (1 - v) * ((1 - u) * f.n00 + u * f.n10) + v * ((1 - u) * f.n01 + u * f.n11);
-  normal.normalize();
-  position = f.origin + u * f.du + v * f.dv + (u * v) * f.duv + point.z() * normal;
 }
 
 Eigen::Matrix2f mean_deformation(const StitchMesh& mesh) {

@@ -2,12 +2,12 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace psrig::cloth {
 namespace {
 
-// The table covers what cloth survives: a third to three times its size,
-// leaning up to 45 degrees.
+// A third to three times its size, leaning up to 45 degrees.
 constexpr float kLeast = 0.34f, kMost = 3.0f, kLean = 1.0f;
 
 Eigen::Matrix2f node_deformation(const std::array<int, 3>& index, float step) {
@@ -20,23 +20,41 @@ Eigen::Matrix2f node_deformation(const std::array<int, 3>& index, float step) {
 }  // namespace
 
 RelaxedRepeats::RelaxedRepeats(YarnCell rest, RelaxOptions options, float step)
-    : rest_(std::move(rest)), options_(options), step_(step) {}
+    : rest_(std::move(rest)), options_(options), step_(step) {
+  std::size_t first = 0;
+  for (const CellYarn& yarn : rest_.yarns) {
+    first_.push_back(first);
+    first += yarn.points.size();
+  }
+  const int stretch_low = static_cast<int>(std::floor((kLeast - 1) / step)) - 1;
+  const int stretch_high = static_cast<int>(std::ceil((kMost - 1) / step)) + 1;
+  const int lean = static_cast<int>(std::ceil(kLean / step)) + 1;
+  low_ = {stretch_low, -lean, stretch_low};
+  size_ = {stretch_high - stretch_low + 1, 2 * lean + 1, stretch_high - stretch_low + 1};
+  nodes_.resize(static_cast<std::size_t>(size_[0] * size_[1] * size_[2]));
+}
+
+RelaxedRepeats::~RelaxedRepeats() = default;
 
 const RelaxedRepeats::Node& RelaxedRepeats::node(const std::array<int, 3>& index) {
-  auto it = nodes_.find(index);
-  if (it != nodes_.end()) return it->second;
+  const auto slot = static_cast<std::size_t>(
+      ((index[0] - low_[0]) * size_[1] + (index[1] - low_[1])) * size_[2] + (index[2] - low_[2]));
+  std::unique_ptr<Node>& found = nodes_[slot];
+  if (found) return *found;
   const Eigen::Matrix2f f = node_deformation(index, step_);
   const YarnCell affine = deform_cell(rest_, f);
   YarnCell relaxed = affine;
-  Node node;
-  node.report = relax_cell(relaxed, rest_, f, options_);
+  auto made = std::make_unique<Node>();
+  made->report = relax_cell(relaxed, rest_, f, options_);
   for (std::size_t y = 0; y < affine.yarns.size(); ++y)
     for (std::size_t k = 0; k < affine.yarns[y].points.size(); ++k)
-      node.offset.push_back(relaxed.yarns[y].points[k] - affine.yarns[y].points[k]);
-  return nodes_.emplace(index, std::move(node)).first->second;
+      made->offset.push_back(relaxed.yarns[y].points[k] - affine.yarns[y].points[k]);
+  found = std::move(made);
+  ++relaxed_;
+  return *found;
 }
 
-void RelaxedRepeats::shape(const Eigen::Matrix2f& deformation, YarnCell& out) {
+RelaxedRepeats::Blend RelaxedRepeats::blend(const Eigen::Matrix2f& deformation) {
   // In the course's frame the deformation is upper triangular; what little
   // of the lower corner a curved mesh gives is left to the placement.
   const float a = std::clamp(deformation(0, 0), kLeast, kMost);
@@ -45,41 +63,52 @@ void RelaxedRepeats::shape(const Eigen::Matrix2f& deformation, YarnCell& out) {
   const std::array<float, 3> at{(a - 1) / step_, b / step_, (c - 1) / step_};
   std::array<int, 3> base{};
   std::array<float, 3> fraction{};
-  for (int i = 0; i < 3; ++i) {
-    base[static_cast<std::size_t>(i)] = static_cast<int>(std::floor(at[static_cast<std::size_t>(i)]));
-    fraction[static_cast<std::size_t>(i)] =
-        at[static_cast<std::size_t>(i)] - static_cast<float>(base[static_cast<std::size_t>(i)]);
+  for (std::size_t i = 0; i < 3; ++i) {
+    base[i] = static_cast<int>(std::floor(at[i]));
+    fraction[i] = at[i] - static_cast<float>(base[i]);
     // On a node (to rounding), that node alone.
-    if (fraction[static_cast<std::size_t>(i)] > 1 - 1e-4f) {
-      ++base[static_cast<std::size_t>(i)];
-      fraction[static_cast<std::size_t>(i)] = 0;
-    } else if (fraction[static_cast<std::size_t>(i)] < 1e-4f) {
-      fraction[static_cast<std::size_t>(i)] = 0;
+    if (fraction[i] > 1 - 1e-4f) {
+      ++base[i];
+      fraction[i] = 0;
+    } else if (fraction[i] < 1e-4f) {
+      fraction[i] = 0;
     }
   }
-  Eigen::Matrix2f exact;
-  exact << a, b, 0, c;
-  out = deform_cell(rest_, exact);
-  last_report_ = {0, 1e9f, 0};
+  Blend blend;
+  blend.deformation << a, b, 0, c;
   for (int corner = 0; corner < 8; ++corner) {
     float weight = 1;
     std::array<int, 3> index = base;
-    for (int i = 0; i < 3; ++i) {
+    for (std::size_t i = 0; i < 3; ++i) {
       const bool up = (corner >> i) & 1;
-      const float f = fraction[static_cast<std::size_t>(i)];
-      weight *= up ? f : 1 - f;
-      if (up) ++index[static_cast<std::size_t>(i)];
+      weight *= up ? fraction[i] : 1 - fraction[i];
+      if (up) ++index[i];
     }
     if (weight <= 0) continue;
-    const Node& n = node(index);
-    last_report_.iterations += n.report.iterations;
-    last_report_.min_clearance = std::min(last_report_.min_clearance, n.report.min_clearance);
-    last_report_.max_strain = std::max(last_report_.max_strain, n.report.max_strain);
-    std::size_t i = 0;
-    for (CellYarn& yarn : out.yarns)
-      for (Eigen::Vector3f& p : yarn.points)
-        p += weight * n.offset[i++];
+    blend.nodes[static_cast<std::size_t>(blend.count)] = &node(index);
+    blend.weights[static_cast<std::size_t>(blend.count)] = weight;
+    ++blend.count;
   }
+  return blend;
+}
+
+void RelaxedRepeats::shape(const Eigen::Matrix2f& deformation, YarnCell& out) {
+  const Blend mix = blend(deformation);
+  out = deform_cell(rest_, mix.deformation);
+  std::size_t i = 0;
+  for (CellYarn& yarn : out.yarns)
+    for (Eigen::Vector3f& p : yarn.points) p += mix.offset(i++);
+}
+
+RelaxReport RelaxedRepeats::report() const {
+  RelaxReport worst{0, std::numeric_limits<float>::max(), 0};
+  for (const std::unique_ptr<Node>& n : nodes_) {
+    if (!n) continue;
+    worst.iterations += n->report.iterations;
+    worst.min_clearance = std::min(worst.min_clearance, n->report.min_clearance);
+    worst.max_strain = std::max(worst.max_strain, n->report.max_strain);
+  }
+  return worst;
 }
 
 }  // namespace psrig::cloth

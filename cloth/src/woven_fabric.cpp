@@ -52,9 +52,8 @@ StitchMesh WovenFabric::mesh(ClothDeformation deformation) const {
 }
 
 void WovenFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
-  const Eigen::Matrix2f deformation = placement::mean_deformation(mesh);
-  repeats_->shape(deformation, shaped_);
-  const YarnCell& cell = shaped_;
+  YarnCell cell;
+  repeats_->shape(placement::mean_deformation(mesh), cell);
   Eigen::Matrix2f shaped;  // as shape() took it: in the course's frame
   shaped << cell.a1.x() / rest_.a1.x(), cell.a2.x() / rest_.a2.y(), 0, cell.a2.y() / rest_.a2.y();
   const placement::MeshPlacement on_mesh(mesh, shaped.inverse());

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <arpa/inet.h>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <limits>
@@ -273,6 +274,18 @@ class Section {
   } while (false)
 
 constexpr double kNoMax = 1e308;
+
+// Why `name` cannot name a rig (it becomes a directory under the shared
+// storage root), or nothing.
+std::optional<std::string> rig_name_problem(const std::string& name) {
+  if (name.empty()) return "is empty";
+  if (name.size() > 64) return "is longer than 64 characters";
+  if (name.front() == '.') return "begins with '.'";
+  for (const char ch : name)
+    if (!std::isalnum(static_cast<unsigned char>(ch)) && ch != '.' && ch != '-' && ch != '_')
+      return std::string("holds '") + ch + "'";
+  return std::nullopt;
+}
 
 // A path the file gives: absolute as written, relative to the file's folder.
 fs::path relative_to_file(const fs::path& file, const std::string& text) {
@@ -610,7 +623,29 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
   PSRIG_TRY(daemon->get("modbus_allow", d.modbus_allow));
   std::string web_root;
   PSRIG_TRY(daemon->get("web_root", web_root));
+  PSRIG_TRY(daemon->get("rig_name", d.rig_name));
+  PSRIG_TRY(daemon->get("role", d.role, {"rig", "catalogue"}));
+  PSRIG_TRY(daemon->get("public_url", d.public_url));
   daemon->finish();
+  if (!daemon->find("rig_name")) d.rig_name = host_name();
+  if (auto problem = rig_name_problem(d.rig_name))
+    return std::unexpected(daemon->error_at(
+        daemon->find("rig_name"), "rig_name",
+        (daemon->find("rig_name") ? "\"" + d.rig_name + "\" " : "the hostname \"" + d.rig_name +
+                                                                     "\" ") +
+            *problem + "; set rig_name to letters, digits, '.', '-' or '_' (e.g. \"rig-1\")"));
+  if (d.public_url.empty()) {
+    const bool everywhere = d.listen_address == "0.0.0.0" || d.listen_address == "::";
+    std::string host = everywhere ? host_name() : d.listen_address;
+    if (host.find(':') != std::string::npos) host = "[" + host + "]";
+    d.public_url = "http://" + host + ":" + std::to_string(d.port);
+  } else if (!d.public_url.starts_with("http://") && !d.public_url.starts_with("https://")) {
+    return std::unexpected(daemon->error_at(
+        daemon->find("public_url"), "public_url",
+        "\"" + d.public_url +
+            "\" is not an http:// or https:// URL; give the address other psrigd reach this "
+            "one's API at, e.g. \"http://rig-1.lab:8470\""));
+  }
   if (!web_root.empty()) {
     d.web_root = relative_to_file(file, web_root);
     if (!std::filesystem::is_regular_file(d.web_root / "index.html"))
@@ -660,6 +695,28 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
                      " can trigger scans and turn the lights off (Modbus has no "
                      "authentication); list the PLC in daemon.modbus_allow (e.g. "
                      "modbus_allow = [\"192.0.2.10\"]) or listen on 127.0.0.1");
+
+  auto catalogue = sub(top, "catalogue");
+  if (!catalogue) return std::unexpected(catalogue.error());
+  PSRIG_TRY(catalogue->get("url", c.catalogue.url));
+  std::string journal;
+  PSRIG_TRY(catalogue->get("journal", journal));
+  catalogue->finish();
+  if (!c.catalogue.url.empty() && c.catalogue.url != "sqlite" && !is_shared_catalogue(c.catalogue))
+    return std::unexpected(catalogue->error_at(
+        catalogue->find("url"), "url",
+        "\"" + c.catalogue.url +
+            "\" is neither \"sqlite\" (the embedded catalogue, the default) nor a PostgreSQL "
+            "URL; give e.g. \"postgresql://psrig@db.lab/psrig\" or leave url out"));
+  // Each rig of a shared catalogue writes under its own prefix of the
+  // shared storage root; a catalogue-only psrigd writes no scans.
+  c.storage.shared_root = c.storage.root;
+  if (is_shared_catalogue(c.catalogue) && d.role == "rig")
+    c.storage.root = c.storage.shared_root / d.rig_name;
+  if (!journal.empty())
+    c.catalogue.journal = relative_to_file(file, journal);
+  else if (is_shared_catalogue(c.catalogue) && d.role == "rig")
+    c.catalogue.journal = c.storage.root / "catalogue-journal.json";
 
   top.finish();
   return c;

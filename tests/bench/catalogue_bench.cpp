@@ -3,9 +3,7 @@
 // with a report like a real one. Issue 17's goal: the first page of a
 // 10,000-scan catalogue in under 1 s; the 100-scan catalogue is the
 // baseline measured in the same run.
-#include <fstream>
 #include <httplib.h>
-#include <sstream>
 #include <string>
 
 #include <benchmark/benchmark.h>
@@ -15,33 +13,13 @@
 #include "psrig/daemon/catalogue.h"
 #include "psrig/daemon/http_api.h"
 #include "psrig/daemon/scan_service.h"
+#include "bench_config.h"
 #include "test_support.h"
 
 namespace psrig::test {
 namespace {
 
 namespace fs = std::filesystem;
-
-std::string read_text(const fs::path& file) {
-  std::ifstream in(file);
-  std::stringstream text;
-  text << in.rdbuf();
-  return text.str();
-}
-
-// config/sim.toml, scans in `root`, on a port the kernel picks.
-fs::path bench_config(const TempDir& temp) {
-  std::string text = read_text(fs::path(PSRIG_SOURCE_DIR) / "config/sim.toml");
-  const auto replace = [&](const std::string& from, const std::string& to) {
-    if (const auto at = text.find(from); at != std::string::npos) text.replace(at, from.size(), to);
-  };
-  replace("width = 640", "width = 160");
-  replace("height = 480", "height = 120");
-  replace("root = \"../out/scans\"", "root = \"scans\"");
-  const fs::path file = temp / "rig.toml";
-  std::ofstream(file) << text;
-  return file;
-}
 
 // N done rows, each with a three-kilobyte report, as a day's scans leave them.
 void fill(const fs::path& storage_root, int scans) {

@@ -1,5 +1,9 @@
-// The catalogue on its own: rows through their lives, search, delete, and
-// what start-up makes of an interrupted run.
+// The catalogue on its own, on both backends (the embedded SQLite file and
+// a PostgreSQL database, a throwaway server per test program): rows
+// through their lives, search, delete, and what start-up makes of an
+// interrupted run. What one backend alone does (SQLite's full disk, the
+// shared database's outages and rigs) is below and in
+// postgres_catalogue_test.cpp.
 
 #include "psrig/daemon/catalogue.h"
 
@@ -10,6 +14,7 @@
 
 #include <gtest/gtest.h>
 
+#include "catalogue_backends.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -21,12 +26,6 @@ using daemon::CatalogueQuery;
 using daemon::ScanErrorCode;
 using daemon::ScanStatus;
 using daemon::ScanSubmission;
-
-std::unique_ptr<Catalogue> open(const fs::path& root) {
-  auto catalogue = Catalogue::open(root);
-  EXPECT_TRUE(catalogue) << catalogue.error().describe();
-  return catalogue ? std::move(*catalogue) : nullptr;
-}
 
 std::int64_t add(Catalogue& catalogue, const std::string& sample,
                  std::vector<std::string> tags = {}) {
@@ -61,18 +60,9 @@ std::vector<std::int64_t> search(const Catalogue& catalogue, const CatalogueQuer
   return found ? ids(*found) : std::vector<std::int64_t>{};
 }
 
-// Sets a row's created time, for date searches.
-void set_created(const fs::path& root, std::int64_t id, const std::string& when) {
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open((root / Catalogue::kFileName).c_str(), &db), SQLITE_OK);
-  const std::string sql =
-      "UPDATE scans SET created = '" + when + "' WHERE id = " + std::to_string(id);
-  EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
-  sqlite3_close(db);
-}
+using CatalogueTest = CatalogueBackendTest;
 
-TEST(Catalogue, ARowThroughItsLife) {
-  TempDir temp;
+TEST_P(CatalogueTest, ARowThroughItsLife) {
   auto catalogue = open(temp / "scans");
   ASSERT_TRUE(catalogue);
   const auto id = add(*catalogue, "J-0042", {"knit", "cotton", "knit"});
@@ -80,11 +70,12 @@ TEST(Catalogue, ARowThroughItsLife) {
   ASSERT_TRUE(entry && *entry);
   EXPECT_EQ((*entry)->status, ScanStatus::queued);
   EXPECT_EQ((*entry)->sample_id, "J-0042");
+  EXPECT_EQ((*entry)->rig, kRig);
   EXPECT_EQ((*entry)->tags, (std::vector<std::string>{"knit", "cotton"}));  // duplicates once
   EXPECT_TRUE(daemon::normalise_timestamp((*entry)->created, false)) << (*entry)->created;
   EXPECT_TRUE((*entry)->started.empty());
 
-  const fs::path scan = catalogue->storage_root() / "20260504-091233-J-0042";
+  const fs::path scan = catalogue->rig_root() / "20260504-091233-J-0042";
   ASSERT_TRUE(catalogue->mark_running(id, scan));
   make_scan(scan);
   const nlohmann::json report = {{"residual", {{"mean", 0.002}}},
@@ -108,8 +99,7 @@ TEST(Catalogue, ARowThroughItsLife) {
   EXPECT_FALSE(*missing);
 }
 
-TEST(Catalogue, IdsAreNeverReusedAndTheRowsOutliveTheProcess) {
-  TempDir temp;
+TEST_P(CatalogueTest, IdsAreNeverReusedAndTheRowsOutliveTheProcess) {
   std::int64_t first = 0, second = 0;
   {
     auto catalogue = open(temp.path());
@@ -125,17 +115,16 @@ TEST(Catalogue, IdsAreNeverReusedAndTheRowsOutliveTheProcess) {
   EXPECT_EQ((*entry)->sample_id, "A");
 }
 
-TEST(Catalogue, SearchBySampleTagDateAndStatusNewestFirst) {
-  TempDir temp;
+TEST_P(CatalogueTest, SearchBySampleTagDateAndStatusNewestFirst) {
   auto catalogue = open(temp.path());
   const auto a = add(*catalogue, "J-1", {"knit", "wool"});
   const auto b = add(*catalogue, "J-2", {"knitted"});
   const auto c = add(*catalogue, "J-1", {"woven"});
   const auto d = add(*catalogue, "J-3", {"knit"});
-  set_created(temp.path(), a, "2026-05-01T08:00:00Z");
-  set_created(temp.path(), b, "2026-05-02T23:59:59Z");
-  set_created(temp.path(), c, "2026-05-03T00:00:00Z");
-  set_created(temp.path(), d, "2026-05-04T12:00:00Z");
+  set_created(a, "2026-05-01T08:00:00Z");
+  set_created(b, "2026-05-02T23:59:59Z");
+  set_created(c, "2026-05-03T00:00:00Z");
+  set_created(d, "2026-05-04T12:00:00Z");
   ASSERT_TRUE(
       catalogue->mark_failed(c, ScanStatus::failed, ScanErrorCode::camera, "timeout", false));
 
@@ -178,6 +167,18 @@ TEST(Catalogue, SearchBySampleTagDateAndStatusNewestFirst) {
   // Text that looks like SQL is only ever a value.
   EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.sample_id = "J-1' OR '1'='1"; })),
             Ids{});
+  // Any case, in the sample id, the description or a tag.
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.text = "KNIT"; })),
+            (Ids{d, b, a}));
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.text = "100%"; })), Ids{});
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.rig = kRig; })), (Ids{d, c, b, a}));
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.rig = "rig-b"; })), Ids{});
+  auto total = catalogue->count(query([](CatalogueQuery& q) {
+    q.status = ScanStatus::queued;
+    q.limit = 1;
+  }));
+  ASSERT_TRUE(total);
+  EXPECT_EQ(*total, 3);
 }
 
 TEST(Catalogue, TimestampsAreCheckedAndNormalised) {
@@ -206,11 +207,10 @@ TEST(Catalogue, TimestampsAreRealDatesAndTimes) {
     EXPECT_FALSE(normalise_timestamp(unreal, false)) << unreal;
 }
 
-TEST(Catalogue, DeleteRemovesTheFilesThenTheRow) {
-  TempDir temp;
+TEST_P(CatalogueTest, DeleteRemovesTheFilesThenTheRow) {
   auto catalogue = open(temp / "scans");
   const auto id = add(*catalogue, "J-7");
-  const fs::path scan = catalogue->storage_root() / "20260504-000000-J-7";
+  const fs::path scan = catalogue->rig_root() / "20260504-000000-J-7";
   ASSERT_TRUE(catalogue->mark_running(id, scan));
   make_scan(scan);
   ASSERT_TRUE(catalogue->mark_done(id, scan / "maps", nullptr));
@@ -224,17 +224,17 @@ TEST(Catalogue, DeleteRemovesTheFilesThenTheRow) {
   const auto again = catalogue->remove(id);
   ASSERT_TRUE(again);
   EXPECT_FALSE(*again);
-  for (const auto& name : list_directory(catalogue->storage_root()))
-    EXPECT_TRUE(name.starts_with(Catalogue::kFileName)) << name;
+  for (const auto& name : list_directory(catalogue->rig_root()))
+    EXPECT_TRUE(name.starts_with("catalogue.sqlite")) << name;
 }
 
-TEST(Catalogue, RecoveryCleansAnInterruptedScanAndNothingElse) {
-  TempDir temp;
+TEST_P(CatalogueTest, RecoveryCleansAnInterruptedScanAndNothingElse) {
   const fs::path root = temp / "scans";
-  const fs::path done_scan = root / "20260504-000000-done";
-  const fs::path running_scan = root / "20260504-000001-running";
-  const fs::path half_scan = root / "20260504-000003-half";   // never renamed into place whole
-  const fs::path by_hand = root / "20260504-000002-by-hand";  // `psrig scan` put it there
+  const fs::path rig = rig_dir(root);
+  const fs::path done_scan = rig / "20260504-000000-done";
+  const fs::path running_scan = rig / "20260504-000001-running";
+  const fs::path half_scan = rig / "20260504-000003-half";   // never renamed into place whole
+  const fs::path by_hand = rig / "20260504-000002-by-hand";  // `psrig scan` put it there
   const fs::path outside = temp / "outside";
   std::int64_t done = 0, running = 0, half = 0, queued = 0, escaped = 0;
   {
@@ -256,21 +256,13 @@ TEST(Catalogue, RecoveryCleansAnInterruptedScanAndNothingElse) {
   make_scan(running_scan);
   fs::create_directories(running_scan / ".maps.partial-999999-1");
   fs::create_directories(half_scan / "maps");
-  fs::create_directories(root / ".20260504-000001-running.partial-1-2");  // PID 1 is alive
-  fs::create_directories(root / ".other.partial-999999-3");               // a dead writer's
+  fs::create_directories(rig / ".20260504-000001-running.partial-1-2");  // PID 1 is alive
+  fs::create_directories(rig / ".other.partial-999999-3");               // a dead writer's
   make_scan(by_hand);
   make_scan(outside);
-  {
-    // A row pointing outside the storage root (edited by hand, say).
-    sqlite3* db = nullptr;
-    ASSERT_EQ(sqlite3_open((root / Catalogue::kFileName).c_str(), &db), SQLITE_OK);
-    const std::string sql =
-        "UPDATE scans SET status = 'running', scan_path = '../outside' "
-        "WHERE id = " +
-        std::to_string(escaped);
-    EXPECT_EQ(sqlite3_exec(db, sql.c_str(), nullptr, nullptr, nullptr), SQLITE_OK);
-    sqlite3_close(db);
-  }
+  // A row pointing outside the storage root (edited by hand, say).
+  sql("UPDATE scans SET status = 'running', scan_path = '../outside' WHERE id = " +
+      std::to_string(escaped));
 
   auto catalogue = open(root);
   auto recovery = catalogue->recover();
@@ -291,15 +283,15 @@ TEST(Catalogue, RecoveryCleansAnInterruptedScanAndNothingElse) {
     EXPECT_EQ((*entry)->status, ScanStatus::failed);
     EXPECT_EQ((*entry)->error_message,
               "interrupted during processing; raw frames kept, reprocess with psrig process");
-    EXPECT_EQ((*entry)->scan_directory, catalogue->storage_root() / running_scan.filename());
+    EXPECT_EQ((*entry)->scan_directory, catalogue->rig_root() / running_scan.filename());
     EXPECT_TRUE((*entry)->maps_directory.empty());
   }
   EXPECT_TRUE(fs::exists(running_scan / "scan.json"));
   EXPECT_FALSE(fs::exists(running_scan / "maps"));
   EXPECT_FALSE(fs::exists(running_scan / ".maps.partial-999999-1"));
   EXPECT_FALSE(fs::exists(half_scan));
-  EXPECT_FALSE(fs::exists(root / ".20260504-000001-running.partial-1-2"));
-  EXPECT_FALSE(fs::exists(root / ".other.partial-999999-3"));
+  EXPECT_FALSE(fs::exists(rig / ".20260504-000001-running.partial-1-2"));
+  EXPECT_FALSE(fs::exists(rig / ".other.partial-999999-3"));
   EXPECT_TRUE(fs::exists(done_scan / "maps" / "report.json"));
   EXPECT_TRUE(fs::exists(by_hand / "scan.json"));
   EXPECT_TRUE(fs::exists(outside / "scan.json"));
@@ -314,6 +306,87 @@ TEST(Catalogue, RecoveryCleansAnInterruptedScanAndNothingElse) {
   EXPECT_TRUE(again->removed_leftovers.empty());
 }
 
+// "wales between 6 and 8 per cm": the report's fabric figures as columns.
+TEST_P(CatalogueTest, SearchByMeasuredFabricDensity) {
+  auto catalogue = open(temp.path());
+  ASSERT_TRUE(catalogue);
+  const auto done_with = [&](const std::string& sample, const nlohmann::json& fabric) {
+    const auto id = add(*catalogue, sample);
+    const fs::path scan = catalogue->rig_root() / ("scan-" + sample);
+    EXPECT_TRUE(catalogue->mark_running(id, scan));
+    make_scan(scan);
+    EXPECT_TRUE(catalogue->mark_done(id, scan / "maps", {{"fabric", fabric}}));
+    return id;
+  };
+  const auto jersey = done_with("jersey", {{"wales_per_cm", 6.99}, {"courses_per_cm", 9.0}});
+  const auto rib = done_with("rib", {{"wales_per_cm", 11.1}, {"courses_per_cm", 9.0}});
+  const auto plain = done_with("plain", {{"ends_per_cm", 24.0}, {"picks_per_cm", 22.0}});
+  done_with("odd", {{"wales_per_cm", "n/a"}});  // not a number: matches no range
+  using Range = CatalogueQuery::FabricRange;
+  using Ids = std::vector<std::int64_t>;
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.fabric = {Range{"wales_per_cm", 6.0, 8.0}};
+            })),
+            Ids{jersey});
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.fabric = {Range{"wales_per_cm", 6.0, std::nullopt}};
+            })),
+            (Ids{rib, jersey}));
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.fabric = {Range{"courses_per_cm", 8.5, 9.5}, Range{"wales_per_cm", 10, 12}};
+            })),
+            Ids{rib});
+  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+              q.fabric = {Range{"picks_per_cm", std::nullopt, 23.0}};
+            })),
+            Ids{plain});
+}
+
+TEST_P(CatalogueTest, ANewerSchemaIsRefused) {
+  { ASSERT_TRUE(open(temp.path())); }
+  set_schema_version(99);
+  auto catalogue = try_open(temp.path());
+  ASSERT_FALSE(catalogue);
+  EXPECT_NE(catalogue.error().message.find("newer"), std::string::npos)
+      << catalogue.error().describe();
+}
+
+// The rigs list: each rig's latest word of itself, with when it came.
+TEST_P(CatalogueTest, ARigAnnouncesItselfAndIsListed) {
+  auto catalogue = open(temp.path());
+  ASSERT_TRUE(catalogue);
+  daemon::RigRecord self;
+  self.name = kRig;
+  self.api_url = "http://rig-a.lab:8470";
+  self.token = "secret-token-0123456789";
+  self.status = {{"state", "idle"}, {"queue_length", 0}};
+  ASSERT_TRUE(catalogue->announce(self));
+  self.status["state"] = "scanning";
+  ASSERT_TRUE(catalogue->announce(self));
+  auto rigs = catalogue->rigs();
+  ASSERT_TRUE(rigs) << rigs.error().describe();
+  ASSERT_EQ(rigs->size(), 1U);
+  EXPECT_EQ(rigs->front().name, kRig);
+  EXPECT_EQ(rigs->front().api_url, "http://rig-a.lab:8470");
+  EXPECT_EQ(rigs->front().token, "secret-token-0123456789");
+  EXPECT_EQ(rigs->front().status.value("state", ""), "scanning");
+  EXPECT_TRUE(daemon::normalise_timestamp(rigs->front().last_seen, false))
+      << rigs->front().last_seen;
+  EXPECT_GE(rigs->front().seen_seconds_ago, -1.0);
+  EXPECT_LT(rigs->front().seen_seconds_ago, 10.0);
+}
+
+INSTANTIATE_TEST_SUITE_P(Backends, CatalogueTest, kBothBackends, backend_name);
+
+// What the embedded catalogue alone does: a full disk, and its own
+// migrations.
+
+std::unique_ptr<Catalogue> open_sqlite(const fs::path& root) {
+  auto catalogue = Catalogue::open(root);
+  EXPECT_TRUE(catalogue) << catalogue.error().describe();
+  return catalogue ? std::move(*catalogue) : nullptr;
+}
+
 // The disk as SQLite sees it when full.
 Error disk_full() {
   return io_error("catalogue.sqlite", "database or disk is full").with(ErrorCode::disk_full);
@@ -322,7 +395,7 @@ Error disk_full() {
 // What the database file says, read by a second connection: what the
 // process would leave behind if it died now.
 std::optional<daemon::CatalogueEntry> on_disk(const fs::path& root, std::int64_t id) {
-  auto reader = open(root);
+  auto reader = open_sqlite(root);
   if (!reader) return std::nullopt;
   auto entry = reader->get(id);
   EXPECT_TRUE(entry) << entry.error().describe();
@@ -331,9 +404,9 @@ std::optional<daemon::CatalogueEntry> on_disk(const fs::path& root, std::int64_t
 
 // A scan's end the disk refuses is kept and shown at once, then written at
 // the next write (or flush) once the disk has room: no row stays `queued`.
-TEST(Catalogue, AnEndTheDiskRefusesIsKeptThenWrittenWhenItCan) {
+TEST(SqliteCatalogue, AnEndTheDiskRefusesIsKeptThenWrittenWhenItCan) {
   TempDir temp;
-  auto catalogue = open(temp.path());
+  auto catalogue = open_sqlite(temp.path());
   ASSERT_TRUE(catalogue);
   const auto first = add(*catalogue, "FULL-1");
   const auto second = add(*catalogue, "FULL-2");
@@ -380,11 +453,11 @@ TEST(Catalogue, AnEndTheDiskRefusesIsKeptThenWrittenWhenItCan) {
 // The process ends before the disk has room: its pending ends die with it,
 // and the next start marks those rows failed, saying why. A disk still full
 // at that start does not keep the daemon from starting.
-TEST(Catalogue, RowsLeftQueuedOrRunningByADeadRunFailAtTheNextStart) {
+TEST(SqliteCatalogue, RowsLeftQueuedOrRunningByADeadRunFailAtTheNextStart) {
   TempDir temp;
   std::int64_t queued = 0, running = 0;
   {
-    auto catalogue = open(temp.path());
+    auto catalogue = open_sqlite(temp.path());
     ASSERT_TRUE(catalogue);
     queued = add(*catalogue, "Q");
     running = add(*catalogue, "R");
@@ -396,7 +469,7 @@ TEST(Catalogue, RowsLeftQueuedOrRunningByADeadRunFailAtTheNextStart) {
   EXPECT_EQ(on_disk(temp.path(), queued)->status, ScanStatus::queued);
   EXPECT_EQ(on_disk(temp.path(), running)->status, ScanStatus::running);
 
-  auto catalogue = open(temp.path());
+  auto catalogue = open_sqlite(temp.path());
   ASSERT_TRUE(catalogue);
   catalogue->inject_write_failure(disk_full());
   auto recovery = catalogue->recover();
@@ -415,70 +488,46 @@ TEST(Catalogue, RowsLeftQueuedOrRunningByADeadRunFailAtTheNextStart) {
   EXPECT_TRUE(search(*catalogue, query([](auto& q) { q.status = ScanStatus::running; })).empty());
 }
 
-// "wales between 6 and 8 per cm": the report's fabric figures as columns,
-// also on rows a version-1 catalogue stored before it had them.
-TEST(Catalogue, SearchByMeasuredFabricDensity) {
+
+// A version-1 catalogue's rows get the fabric columns (schema 2, computed
+// from the stored report) and their rig (schema 3: the rig that opens it).
+TEST(SqliteCatalogue, AnOlderCatalogueIsBroughtUpToDate) {
   TempDir temp;
-  const auto done_with = [&](Catalogue& catalogue, const std::string& sample,
-                             const nlohmann::json& fabric) {
-    const auto id = add(catalogue, sample);
-    const fs::path scan = catalogue.storage_root() / ("scan-" + sample);
-    EXPECT_TRUE(catalogue.mark_running(id, scan));
-    make_scan(scan);
-    EXPECT_TRUE(catalogue.mark_done(id, scan / "maps", {{"fabric", fabric}}));
-    return id;
-  };
-  std::int64_t jersey = 0, rib = 0, plain = 0;
+  std::int64_t jersey = 0;
   {
-    auto catalogue = open(temp.path());
-    jersey = done_with(*catalogue, "jersey", {{"wales_per_cm", 6.99}, {"courses_per_cm", 9.0}});
-    rib = done_with(*catalogue, "rib", {{"wales_per_cm", 11.1}, {"courses_per_cm", 9.0}});
+    auto catalogue = open_sqlite(temp.path());
+    ASSERT_TRUE(catalogue);
+    jersey = add(*catalogue, "jersey");
+    const fs::path scan = catalogue->rig_root() / "scan-jersey";
+    ASSERT_TRUE(catalogue->mark_running(jersey, scan));
+    make_scan(scan);
+    ASSERT_TRUE(catalogue->mark_done(jersey, scan / "maps",
+                                     {{"fabric", {{"wales_per_cm", 6.99}, {"courses_per_cm", 9.0}}}}));
   }
-  // Back to version 1 with a row it wrote: the migration must add the columns.
+  // Back to version 1 with the row it wrote: the migrations must add the columns.
   sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open((temp / Catalogue::kFileName).c_str(), &db), SQLITE_OK);
-  for (const char* column :
-       {"wales_per_cm", "courses_per_cm", "ends_per_cm", "picks_per_cm", "construction"})
-    EXPECT_EQ(sqlite3_exec(db, ("ALTER TABLE scans DROP COLUMN " + std::string(column)).c_str(),
-                           nullptr, nullptr, nullptr),
-              SQLITE_OK)
-        << sqlite3_errmsg(db);
-  EXPECT_EQ(sqlite3_exec(db, "PRAGMA user_version = 1", nullptr, nullptr, nullptr), SQLITE_OK);
+  ASSERT_EQ(sqlite3_open((temp / "catalogue.sqlite").c_str(), &db), SQLITE_OK);
+  for (const char* sql :
+       {"DROP INDEX scans_rig", "ALTER TABLE scans DROP COLUMN rig",
+        "ALTER TABLE scans DROP COLUMN wales_per_cm", "ALTER TABLE scans DROP COLUMN courses_per_cm",
+        "ALTER TABLE scans DROP COLUMN ends_per_cm", "ALTER TABLE scans DROP COLUMN picks_per_cm",
+        "ALTER TABLE scans DROP COLUMN construction", "PRAGMA user_version = 1"})
+    EXPECT_EQ(sqlite3_exec(db, sql, nullptr, nullptr, nullptr), SQLITE_OK)
+        << sql << ": " << sqlite3_errmsg(db);
   sqlite3_close(db);
-  auto catalogue = open(temp.path());
-  ASSERT_TRUE(catalogue);
-  plain = done_with(*catalogue, "plain", {{"ends_per_cm", 24.0}, {"picks_per_cm", 22.0}});
+  daemon::CatalogueOptions options;
+  options.storage_root = temp.path();
+  options.rig_name = "bench-3";
+  auto catalogue = daemon::open_catalogue(options);
+  ASSERT_TRUE(catalogue) << catalogue.error().describe();
   using Range = CatalogueQuery::FabricRange;
-  using Ids = std::vector<std::int64_t>;
-  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
+  EXPECT_EQ(search(**catalogue, query([](CatalogueQuery& q) {
               q.fabric = {Range{"wales_per_cm", 6.0, 8.0}};
             })),
-            Ids{jersey});
-  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
-              q.fabric = {Range{"wales_per_cm", 6.0, std::nullopt}};
-            })),
-            (Ids{rib, jersey}));
-  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
-              q.fabric = {Range{"courses_per_cm", 8.5, 9.5}, Range{"wales_per_cm", 10, 12}};
-            })),
-            Ids{rib});
-  EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
-              q.fabric = {Range{"picks_per_cm", std::nullopt, 23.0}};
-            })),
-            Ids{plain});
-}
-
-TEST(Catalogue, ANewerSchemaIsRefused) {
-  TempDir temp;
-  { ASSERT_TRUE(open(temp.path())); }
-  sqlite3* db = nullptr;
-  ASSERT_EQ(sqlite3_open((temp / Catalogue::kFileName).c_str(), &db), SQLITE_OK);
-  EXPECT_EQ(sqlite3_exec(db, "PRAGMA user_version = 99", nullptr, nullptr, nullptr), SQLITE_OK);
-  sqlite3_close(db);
-  auto catalogue = Catalogue::open(temp.path());
-  ASSERT_FALSE(catalogue);
-  EXPECT_NE(catalogue.error().message.find("newer"), std::string::npos)
-      << catalogue.error().describe();
+            std::vector<std::int64_t>{jersey});
+  auto entry = (*catalogue)->get(jersey);
+  ASSERT_TRUE(entry && *entry);
+  EXPECT_EQ((*entry)->rig, "bench-3");
 }
 
 }  // namespace

@@ -15,6 +15,7 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
+#include "psrig/config/config_loader.h"
 #include "psrig/config/rig_config.h"
 
 namespace psrig {
@@ -141,24 +142,46 @@ TEST(UnitFilesTest, ServiceIsANotifyServiceWithWatchdogUserAndSandbox) {
     EXPECT_THAT(devices, Contains(device));
 }
 
-TEST(UnitFilesTest, SystemdAnalyzeVerifiesTheUnit) {
+// A catalogue server: psrigd with no rig, so no devices, no lights to
+// switch off after it, no privileged port.
+TEST(UnitFilesTest, CatalogueServiceRunsPsrigdWithoutTheRigsDevices) {
+  const auto unit = unit_settings(read_file(kConfig / "systemd/psrig-catalogue.service"));
+  EXPECT_EQ(setting(unit, "Type"), "notify");
+  EXPECT_EQ(setting(unit, "ExecStart"), "/usr/bin/psrigd --config /etc/psrig/catalogue.toml");
+  EXPECT_EQ(setting(unit, "Restart"), "on-failure");
+  EXPECT_FALSE(setting(unit, "WatchdogSec").empty());
+  EXPECT_EQ(setting(unit, "User"), "psrig");
+  EXPECT_EQ(setting(unit, "PrivateDevices"), "yes");
+  EXPECT_TRUE(values(unit, "DeviceAllow").empty());
+  EXPECT_TRUE(setting(unit, "ExecStopPost").empty());
+  EXPECT_TRUE(setting(unit, "AmbientCapabilities").empty());
+  EXPECT_THAT(words(setting(unit, "After")), Contains("network-online.target"));
+  // The configuration it names is a catalogue server's.
+  auto config = config::load_config(kConfig / "catalogue.example.toml");
+  ASSERT_TRUE(config) << config.error().describe();
+  EXPECT_EQ(config->daemon.role, "catalogue");
+  EXPECT_TRUE(config::is_shared_catalogue(config->catalogue));
+}
+
+TEST(UnitFilesTest, SystemdAnalyzeVerifiesTheUnits) {
   const auto tool = find_tool("systemd-analyze");
   if (tool.empty()) GTEST_SKIP() << "systemd-analyze is not installed (Debian package systemd)";
-  // psrigd and psrig are not installed on a build machine, and verify
-  // checks that the programs the unit runs exist: the same unit, running
-  // something that does.
-  TempRoot dir;
-  ASSERT_FALSE(dir.path().empty());
-  std::string unit = read_file(kConfig / "systemd/psrigd.service");
-  for (const std::string program : {"/usr/bin/psrigd ", "/usr/bin/psrig "}) {
-    const auto at = unit.find(program);
-    ASSERT_NE(at, std::string::npos) << program;
-    unit.replace(at, program.size(), "/bin/true ");
+  for (const std::string name : {"psrigd.service", "psrig-catalogue.service"}) {
+    // psrigd and psrig are not installed on a build machine, and verify
+    // checks that the programs the unit runs exist: the same unit, running
+    // something that does.
+    TempRoot dir;
+    ASSERT_FALSE(dir.path().empty());
+    std::string unit = read_file(kConfig / "systemd" / name);
+    ASSERT_NE(unit.find("/usr/bin/psrigd "), std::string::npos) << name;
+    for (const std::string program : {"/usr/bin/psrigd ", "/usr/bin/psrig "})
+      if (const auto at = unit.find(program); at != std::string::npos)
+        unit.replace(at, program.size(), "/bin/true ");
+    std::ofstream(dir.path() / name) << unit;
+    const auto run = run_tool(tool + " verify --man=no " + (dir.path() / name).string());
+    EXPECT_EQ(run.exit_code, 0) << name << ": " << run.output;
+    EXPECT_EQ(run.output, "") << name;  // unknown keys are only warned about
   }
-  std::ofstream(dir.path() / "psrigd.service") << unit;
-  const auto run = run_tool(tool + " verify --man=no " + (dir.path() / "psrigd.service").string());
-  EXPECT_EQ(run.exit_code, 0) << run.output;
-  EXPECT_EQ(run.output, "");  // unknown keys are only warned about
 }
 
 TEST(UnitFilesTest, UdevRulesCoverTheDevicesForTheUnitsGroups) {

@@ -29,7 +29,7 @@ Error expect_error(const std::string& text, const std::string& key, int line) {
 }
 
 TEST(Config, ShippedFilesLoadWithoutWarnings) {
-  for (const char* name : {"sim.toml", "rig.example.toml"}) {
+  for (const char* name : {"sim.toml", "rig.example.toml", "catalogue.example.toml"}) {
     std::vector<std::string> warnings;
     auto config = load_config(config_dir() / name, &warnings);
     ASSERT_TRUE(config) << name << ": " << config.error().describe();

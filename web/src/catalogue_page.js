@@ -4,6 +4,7 @@
 import { getJson, objectUrl } from './api.js';
 import { clear, formatTime, h, notice } from './dom.js';
 import { fabricFigures } from './fabric.js';
+import { listRigs } from './rigs.js';
 
 const PAGE_SIZE = 48;
 
@@ -13,7 +14,7 @@ const RANGE_FILTERS = [
   ['ends', 'Ends per cm'],
   ['picks', 'Picks per cm'],
 ];
-const TEXT_FILTERS = ['q', 'tag', 'status', 'from', 'to'];
+const TEXT_FILTERS = ['q', 'tag', 'rig', 'status', 'from', 'to'];
 
 function filterNames() {
   return [...TEXT_FILTERS, ...RANGE_FILTERS.flatMap(([name]) => [`${name}_min`, `${name}_max`])];
@@ -34,6 +35,20 @@ function searchForm(params) {
       h('option', { value, selected: params.get('status') === value }, value || 'any'),
     ),
   );
+  // The rigs come from the catalogue (GET /v1/rigs); the one searched for
+  // is an option before they arrive.
+  const rig = h(
+    'select',
+    { id: 'f-rig', name: 'rig' },
+    h('option', { value: '' }, 'any'),
+    params.get('rig') ? h('option', { value: params.get('rig'), selected: true }, params.get('rig')) : null,
+  );
+  listRigs()
+    .then(({ rigs }) => {
+      for (const { name } of rigs)
+        if (name !== params.get('rig')) rig.append(h('option', { value: name }, name));
+    })
+    .catch(() => {});
   const bound = (name, label, side, placeholder) =>
     h('input', {
       name: `${name}_${side}`,
@@ -59,6 +74,7 @@ function searchForm(params) {
     { class: 'search', role: 'search', 'aria-label': 'Search scans' },
     field('q', 'Text', { type: 'search', placeholder: 'sample id or description' }),
     field('tag', 'Tag'),
+    h('div', { class: 'field' }, h('label', { for: 'f-rig' }, 'Rig'), rig),
     h('div', { class: 'field' }, h('label', { for: 'f-status' }, 'Status'), status),
     field('from', 'From', { type: 'date' }),
     field('to', 'To', { type: 'date' }),
@@ -150,6 +166,7 @@ function card(scan, urls) {
       { class: 'meta' },
       statusBadge(scan.status),
       h('time', { datetime: scan.created }, formatTime(scan.created)),
+      scan.rig ? h('span', { class: 'rig' }, scan.rig) : null,
     ),
     scan.tags?.length ? h('ul', { class: 'tags' }, scan.tags.map((t) => h('li', {}, t))) : null,
     figures.length ? h('p', { class: 'figures' }, figures.join(' · ')) : null,

@@ -6,7 +6,7 @@ import { clear, notice } from './dom.js';
 import { renderCatalogue } from './catalogue_page.js';
 import { renderScan } from './scan_page.js';
 import { renderRig } from './rig_page.js';
-import { startStatusWatch } from './rig_status.js';
+import { onStatus, startStatusWatch } from './rig_status.js';
 
 const main = document.getElementById('main');
 let leavePage = () => {};
@@ -56,4 +56,8 @@ document.getElementById('lights-off').addEventListener('click', async () => {
 
 window.addEventListener('hashchange', route);
 startStatusWatch(document.getElementById('rig-summary'));
+// A catalogue-only psrigd has no lights of its own to switch off.
+onStatus((status) => {
+  document.getElementById('lights-off').hidden = status.role === 'catalogue';
+});
 route();

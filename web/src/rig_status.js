@@ -29,7 +29,7 @@ export async function refreshStatus() {
 // "calibrated 3 days ago", "calibration 40 days old", "no calibration".
 export function calibrationText(status) {
   const calibration = status?.calibration;
-  if (!calibration) return null;
+  if (!calibration || status.role === 'catalogue') return null;
   if (calibration.missing) return { text: 'no calibration', warn: true };
   const days = Math.floor(calibration.age_days ?? 0);
   const age = days === 0 ? 'today' : days === 1 ? '1 day ago' : `${days} days ago`;
@@ -41,6 +41,7 @@ export function calibrationText(status) {
 export function stateText(status) {
   if (!status) return '…';
   if (status.state === 'unreachable') return 'psrigd unreachable';
+  if (status.role === 'catalogue') return 'catalogue only';
   if (status.step) return `${status.state}: ${status.step} (${status.progress_percent ?? 0} %)`;
   return status.state;
 }

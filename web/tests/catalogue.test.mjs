@@ -14,6 +14,7 @@ import { fileURLToPath } from 'node:url';
 import { after, before, describe, test } from 'node:test';
 import puppeteer from 'puppeteer-core';
 import { startPsrigd } from './psrigd.mjs';
+import { postgresBinDir, startPostgres } from './postgres.mjs';
 
 const require = createRequire(import.meta.url);
 const chromiumPath = process.env.CHROMIUM ?? '/usr/bin/chromium';
@@ -107,7 +108,7 @@ describe('web catalogue', { skip }, () => {
   let daemon;
   let browser;
   before(async () => {
-    daemon = await startPsrigd({ psrigd, sourceDir, webRoot });
+    daemon = await startPsrigd({ psrigd, sourceDir, webRoot, rigName: 'bench-1' });
     browser = await launch();
   });
   after(async () => {
@@ -207,6 +208,33 @@ describe('web catalogue', { skip }, () => {
     await page.close();
   });
 
+  test('a rig filter, and each rig with its status', async () => {
+    await scanUntilDone(daemon, { sample_id: 'RIG-FILTER' });
+    const page = await browser.newPage();
+    const problems = watch(page);
+    await page.goto(`${daemon.url}/#/`);
+    await page.waitForSelector('#f-rig option[value="bench-1"]');
+    const { total } = await (await daemon.api('/v1/scans?limit=1')).json();
+    await page.select('#f-rig', 'bench-1');
+    await page.click('form.search button[type=submit]');
+    await page.waitForFunction(
+      (n) => location.hash.includes('rig=bench-1') &&
+        document.querySelector('section.results')?.getAttribute('aria-busy') === 'false' &&
+        document.querySelectorAll('li.card').length === n,
+      {}, Math.min(total, 48));
+    const rigs = await page.$$eval('li.card .meta .rig', (spans) => spans.map((span) => span.textContent));
+    assert.ok(rigs.length > 0 && rigs.every((rig) => rig === 'bench-1'), rigs.join());
+    await page.goto(`${daemon.url}/#/?rig=no-such-rig`);
+    await page.waitForFunction(() => /No scans match/.test(document.querySelector('.pager .count')?.textContent ?? ''));
+    await page.goto(`${daemon.url}/#/rig`);
+    await page.waitForSelector('table.rigs tr[data-rig="bench-1"][data-online="true"]');
+    const state = await page.$eval('table.rigs tr[data-rig="bench-1"] .rig-state', (td) => td.textContent);
+    assert.match(state, /idle|scanning|processing/);
+    assert.equal(await page.$eval('#scan-rig', (select) => select.value), 'bench-1');
+    assert.deepEqual(problems, []);
+    await page.close();
+  });
+
   test('Cancel stops a queued scan; All lights off stops everything', async () => {
     const page = await browser.newPage();
     await page.goto(`${daemon.url}/#/rig`);
@@ -280,6 +308,65 @@ describe('web catalogue with a token', { skip }, () => {
     assert.equal(await page.$('#token-dialog[open]'), null);
     await shot(page, 'rig-with-token');
     assert.ok(urls.every((url) => !url.includes(TOKEN)), 'the token appeared in a URL');
+    await page.close();
+  });
+});
+
+// Several rigs on one shared PostgreSQL catalogue, seen through a
+// catalogue-only psrigd: each rig's status, a scan started on the rig
+// chosen, the catalogue filtered by rig.
+const labSkip = skip || (postgresBinDir() ? false : 'no PostgreSQL server programs (apt-get install postgresql-15; scripts/install-deps does)');
+
+describe("web catalogue over a lab's rigs", { skip: labSkip }, () => {
+  let postgres;
+  let shared;
+  let rigA;
+  let rigB;
+  let front;
+  let browser;
+  before(async () => {
+    postgres = startPostgres();
+    const catalogueUrl = postgres.createDatabase();
+    shared = mkdtempSync(join(tmpdir(), 'psrig-web-shared-'));
+    const common = { psrigd, sourceDir, webRoot, catalogueUrl, storageRoot: shared };
+    rigA = await startPsrigd({ ...common, rigName: 'rig-a' });
+    rigB = await startPsrigd({ ...common, rigName: 'rig-b' });
+    front = await startPsrigd({ ...common, rigName: 'front', role: 'catalogue' });
+    browser = await launch();
+  });
+  after(async () => {
+    await browser?.close();
+    for (const daemon of [front, rigB, rigA]) await daemon?.stop();
+    postgres?.stop();
+    if (shared) rmSync(shared, { recursive: true, force: true });
+  });
+
+  test("each rig's status; a scan on the rig chosen; the catalogue by rig", async () => {
+    const page = await browser.newPage();
+    const problems = watch(page);
+    await page.goto(`${front.url}/#/rig`);
+    for (const name of ['rig-a', 'rig-b'])
+      await page.waitForSelector(`table.rigs tr[data-rig="${name}"][data-online="true"]`);
+    assert.equal(await page.$eval('#lights-off', (button) => getComputedStyle(button).display), 'none',
+      'no lights here to switch off');
+    await page.select('#scan-rig', 'rig-b');
+    await page.type('#scan-sample', 'LAB-B-1');
+    await page.click('form.start-scan button[type=submit]');
+    await page.waitForSelector('li.followed[data-state=done]', { timeout: 60_000 });
+    await shot(page, 'rigs');
+    // Scanned by rig B's own psrigd.
+    const onB = await (await rigB.api('/v1/scans?q=LAB-B-1')).json();
+    assert.equal(onB.total, 1);
+    assert.equal(onB.scans[0].rig, 'rig-b');
+
+    await page.goto(`${front.url}/#/?rig=rig-b`);
+    await page.waitForFunction(() => document.querySelectorAll('li.card').length === 1);
+    await page.waitForFunction(() => document.querySelector('li.card img')?.naturalWidth > 0);
+    assert.match(await page.$eval('li.card', (card) => card.textContent), /LAB-B-1[\s\S]*rig-b/);
+    await shot(page, 'catalogue-by-rig');
+    await page.goto(`${front.url}/#/?rig=rig-a`);
+    await page.waitForFunction(() => /No scans match/.test(document.querySelector('.pager .count')?.textContent ?? ''));
+    assert.deepEqual(problems, []);
     await page.close();
   });
 });

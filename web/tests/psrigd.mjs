@@ -1,6 +1,7 @@
 // A real psrigd on the simulated rig for the browser tests: config/sim.toml
 // at 160x120 with storage in a temp directory, on a free port, optionally
-// with a token.
+// with a token, a rig name, a shared catalogue (its URL and storage root)
+// and the catalogue-only role.
 import { spawn } from 'node:child_process';
 import { mkdtempSync, readFileSync, rmSync, writeFileSync } from 'node:fs';
 import { createServer } from 'node:net';
@@ -18,7 +19,9 @@ export function freePort() {
   });
 }
 
-export async function startPsrigd({ psrigd, sourceDir, webRoot, token = null }) {
+export async function startPsrigd({
+  psrigd, sourceDir, webRoot, token = null, rigName = null, catalogueUrl = null, storageRoot = null, role = 'rig',
+}) {
   const dir = mkdtempSync(join(tmpdir(), 'psrig-web-'));
   const port = await freePort();
   let text = readFileSync(join(sourceDir, 'config/sim.toml'), 'utf8');
@@ -28,8 +31,10 @@ export async function startPsrigd({ psrigd, sourceDir, webRoot, token = null }) 
   };
   replace('width = 640', 'width = 160');
   replace('height = 480', 'height = 120');
-  replace('root = "../out/scans"', 'root = "scans"');
-  replace('port = 8470', `port = ${port}\nweb_root = "${webRoot}"${token ? `\ntoken = "${token}"` : ''}`);
+  replace('root = "../out/scans"', `root = "${storageRoot ?? 'scans'}"`);
+  replace('port = 8470', `port = ${port}\nweb_root = "${webRoot}"${token ? `\ntoken = "${token}"` : ''}` +
+    `${rigName ? `\nrig_name = "${rigName}"` : ''}\nrole = "${role}"`);
+  if (catalogueUrl) text += `\n[catalogue]\nurl = "${catalogueUrl}"\n`;
   const config = join(dir, 'rig.toml');
   writeFileSync(config, text);
   const child = spawn(psrigd, ['--config', config], { stdio: ['ignore', 'ignore', 'pipe'] });

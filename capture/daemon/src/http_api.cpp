@@ -21,7 +21,9 @@
 #include "psrig/capture/rig_calibration.h"
 #include "psrig/processing/scan_layout.h"
 #include "scan_exports.h"
+#include "rig_forwarding.h"
 #include "scan_previews.h"
+#include "status_json.h"
 #include "web_catalogue.h"
 
 namespace psrig::daemon {
@@ -88,6 +90,7 @@ json entry_json(const CatalogueEntry& e) {
   };
   return {
       {"id", e.id},
+      {"rig", e.rig},
       {"sample_id", e.sample_id},
       {"description", e.description},
       {"tags", e.tags},
@@ -243,7 +246,27 @@ struct HttpApi::Impl {
   void calibrate(const std::string& text, httplib::Response& res);
   void calibrations(httplib::Response& res);
   void current_calibration(httplib::Response& res);
+  void rigs(httplib::Response& res);
+  // A row of another rig of the shared catalogue: that rig's own psrigd
+  // answers for it (rig_forwarding.h). False when it is this rig's.
+  bool belongs_elsewhere(const CatalogueEntry& entry);
+  void forward(const std::string& rig, const std::string& method, const std::string& path,
+               const std::string& body, httplib::Response& res);
 };
+
+namespace {
+
+// A catalogue that could not answer: the database away is the service's
+// state for now (503, try again), anything else the daemon's trouble.
+void catalogue_failure(httplib::Response& res, const Error& error) {
+  if (error.code == ErrorCode::unavailable) {
+    res.set_header("Retry-After", "5");
+    return refuse(res, 503, error.describe());
+  }
+  refuse(res, 500, error.describe());
+}
+
+}  // namespace
 
 void HttpApi::Impl::routes() {
   auto log = logger("http");
@@ -383,10 +406,48 @@ void HttpApi::Impl::routes() {
              [this](const httplib::Request&, httplib::Response& res) { calibrations(res); });
   server.Get("/v1/calibrations/current",
              [this](const httplib::Request&, httplib::Response& res) { current_calibration(res); });
+  server.Get("/v1/rigs", [this](const httplib::Request&, httplib::Response& res) { rigs(res); });
+}
+
+// GET /v1/rigs: every rig the catalogue knows, its status and whether it
+// is online.
+void HttpApi::Impl::rigs(httplib::Response& res) {
+  auto rigs = service.catalogue().rigs();
+  if (!rigs) return catalogue_failure(res, rigs.error());
+  json answer = rigs_json(*rigs, service.has_rig() ? service.catalogue().rig_name() : "");
+  answer["role"] = service.config().daemon.role;
+  reply(res, 200, answer);
+}
+
+bool HttpApi::Impl::belongs_elsewhere(const CatalogueEntry& entry) {
+  return config::is_shared_catalogue(service.config().catalogue) &&
+         (!service.has_rig() || entry.rig != service.catalogue().rig_name());
+}
+
+void HttpApi::Impl::forward(const std::string& rig_name, const std::string& method,
+                            const std::string& path, const std::string& body,
+                            httplib::Response& res) {
+  auto rig = find_rig(service.catalogue(), rig_name);
+  if (!rig)
+    return rig.error().kind == ErrorKind::bad_input ? refuse(res, 404, rig.error().message)
+                                                    : catalogue_failure(res, rig.error());
+  auto answer = forward_to_rig(*rig, method, path, body);
+  if (!answer)
+    return refuse(res, answer.error().code == ErrorCode::unavailable ? 502 : 400,
+                  answer.error().describe());
+  json reply_body = json::parse(answer->body, nullptr, false);
+  if (!reply_body.is_object())
+    return refuse(res, 502, "rig " + rig_name + " answered HTTP " +
+                                std::to_string(answer->status) + " without JSON");
+  reply_body["rig"] = rig_name;
+  if (answer->status == 202 && reply_body.contains("id") && reply_body["id"].is_number_integer())
+    res.set_header("Location", "/v1/scans/" + std::to_string(reply_body["id"].get<std::int64_t>()));
+  reply(res, answer->status, reply_body);
 }
 
 // POST /v1/calibrations {"kind", …options}: queued with the scans.
 void HttpApi::Impl::calibrate(const std::string& text, httplib::Response& res) {
+  if (!service.has_rig()) return refuse(res, 409, service.no_rig_error().message);
   const json body = json::parse(text, nullptr, false);
   if (body.is_discarded()) return refuse(res, 400, "malformed JSON in the request body");
   if (!body.is_object()) return refuse(res, 400, "expected a JSON object");
@@ -502,32 +563,7 @@ void HttpApi::Impl::current_calibration(httplib::Response& res) {
 }
 
 void HttpApi::Impl::status(httplib::Response& res) {
-  const DaemonStatus s = service.status();
-  const DeviceStatus d = service.devices();
-  const auto optional_id = [](const std::optional<std::int64_t>& id) {
-    return id ? json(*id) : json(nullptr);
-  };
-  reply(res, 200,
-        {{"state", to_string(s.state)},
-         {"step", s.step},
-         {"progress_percent", s.progress_percent},
-         {"current_scan", optional_id(s.current_scan)},
-         {"last_scan", optional_id(s.last_scan)},
-         {"last_error",
-          {{"code", static_cast<int>(s.last_error_code)},
-           {"code_name", to_string(s.last_error_code)},
-           {"message", s.last_error}}},
-         {"scans_completed", s.scans_completed},
-         {"scans_failed", s.scans_failed},
-         {"queue_length", s.queue_length},
-         {"queue_limit", service.config().daemon.queue_limit},
-         {"uptime_s", std::chrono::duration<double>(s.uptime).count()},
-         {"devices",
-          {{"open", d.open}, {"lights", d.lights}, {"camera", d.camera}, {"error", d.open_error}}},
-         {"storage_root", service.catalogue().storage_root().string()},
-         {"calibration", calibration::to_json(calibration::calibration_status(
-                             calibration::CalibrationStore(service.config().storage.root),
-                             service.config().calibration.max_age_days))}});
+  reply(res, 200, status_json(service));
 }
 
 void HttpApi::Impl::submit(const std::string& text, httplib::Response& res) {
@@ -536,8 +572,8 @@ void HttpApi::Impl::submit(const std::string& text, httplib::Response& res) {
   if (body.is_discarded()) return refuse(res, 400, "malformed JSON in the request body");
   if (!body.is_object()) return refuse(res, 400, "expected a JSON object");
   for (const auto& [key, value] : body.items())
-    if (key != "sample_id" && key != "description" && key != "tags")
-      return refuse(res, 400, key + ": unknown field (expected sample_id, description, tags)");
+    if (key != "sample_id" && key != "description" && key != "tags" && key != "rig")
+      return refuse(res, 400, key + ": unknown field (expected sample_id, description, tags, rig)");
   ScanSubmission submission;
   submission.source = "http";
   if (auto problem = string_field(body, "sample_id", kMaxSampleId, submission.sample_id))
@@ -557,6 +593,18 @@ void HttpApi::Impl::submit(const std::string& text, httplib::Response& res) {
       submission.tags.push_back(tag.get<std::string>());
     }
   }
+  // Another rig of the shared catalogue: its own psrigd takes the scan.
+  std::string rig;
+  if (auto problem = string_field(body, "rig", kMaxSampleId, rig)) return refuse(res, 400, *problem);
+  if (body.contains("rig") && (!service.has_rig() || rig != service.catalogue().rig_name())) {
+    if (!config::is_shared_catalogue(service.config().catalogue))
+      return refuse(res, 404,
+                    "rig: this psrigd's catalogue is its own (SQLite); it knows only rig \"" +
+                        service.catalogue().rig_name() + "\"");
+    json forwarded = body;
+    forwarded.erase("rig");
+    return forward(rig, "POST", kScansRoute, forwarded.dump(), res);
+  }
   auto id = service.submit(std::move(submission));
   if (!id) {
     // A full queue is the service's state, not the request's fault.
@@ -565,11 +613,12 @@ void HttpApi::Impl::submit(const std::string& text, httplib::Response& res) {
       return refuse(res, 503, id.error().message);
     }
     if (id.error().kind == ErrorKind::bad_input) return refuse(res, 400, id.error().message);
-    // The daemon's trouble (a full disk): which file, for the technician.
+    // The daemon's trouble (a full disk, the database away): which, for the technician.
+    res.set_header("Retry-After", "5");
     return refuse(res, 503, id.error().describe());
   }
   res.set_header("Location", "/v1/scans/" + std::to_string(*id));
-  reply(res, 202, {{"id", *id}, {"status", "queued"}});
+  reply(res, 202, {{"id", *id}, {"status", "queued"}, {"rig", service.catalogue().rig_name()}});
 }
 
 namespace {
@@ -596,6 +645,8 @@ void HttpApi::Impl::search(const httplib::Request& req, httplib::Response& res) 
       query.sample_id = value;
     } else if (key == "tag") {
       query.tag = value;
+    } else if (key == "rig") {
+      query.rig = value;
     } else if (key == "from" || key == "to") {
       auto normal = normalise_timestamp(value, key == "to");
       if (!normal)
@@ -632,15 +683,15 @@ void HttpApi::Impl::search(const httplib::Request& req, httplib::Response& res) 
     } else {
       return refuse(res, 400,
                     key +
-                        ": unknown parameter (expected q, sample_id, tag, from, to, status, limit, "
+                        ": unknown parameter (expected q, sample_id, tag, rig, from, to, status, limit, "
                         "offset, wales_min, wales_max, courses_min, courses_max, ends_min, "
                         "ends_max, picks_min, picks_max)");
     }
   }
   auto found = service.catalogue().search(query);
-  if (!found) return refuse(res, 500, found.error().describe());
+  if (!found) return catalogue_failure(res, found.error());
   auto total = service.catalogue().count(query);
-  if (!total) return refuse(res, 500, total.error().describe());
+  if (!total) return catalogue_failure(res, total.error());
   json scans = json::array();
   for (const auto& entry : *found)
     scans.push_back(entry_json(entry));
@@ -652,7 +703,7 @@ void HttpApi::Impl::get(const httplib::Request& req, httplib::Response& res) {
   const auto id = parse_id(req.matches[1]);
   if (!id) return refuse(res, 404, "no such scan");
   auto entry = service.catalogue().get(*id);
-  if (!entry) return refuse(res, 500, entry.error().describe());
+  if (!entry) return catalogue_failure(res, entry.error());
   if (!*entry) return refuse(res, 404, "no scan " + std::to_string(*id));
   reply(res, 200, entry_json(**entry));
 }
@@ -668,7 +719,7 @@ void HttpApi::Impl::file(const httplib::Request& req, httplib::Response& res) {
                   "no file named that; ask for scan.json, dark.png, led<k>.png, a map "
                   "(albedo.png, normal.png, height.png, ...) or report.json");
   auto entry = service.catalogue().get(*id);
-  if (!entry) return refuse(res, 500, entry.error().describe());
+  if (!entry) return catalogue_failure(res, entry.error());
   if (!*entry) return refuse(res, 404, "no scan " + std::to_string(*id));
   const fs::path& directory =
       *home == ScanFileHome::scan ? (*entry)->scan_directory : (*entry)->maps_directory;
@@ -682,7 +733,7 @@ void HttpApi::Impl::preview(const httplib::Request& req, httplib::Response& res)
   if (!id) return refuse(res, 404, "no such scan");
   const auto kind = req.matches[2] == "relit" ? ScanPreview::relit : ScanPreview::thumbnail;
   auto entry = service.catalogue().get(*id);
-  if (!entry) return refuse(res, 500, entry.error().describe());
+  if (!entry) return catalogue_failure(res, entry.error());
   if (!*entry) return refuse(res, 404, "no scan " + std::to_string(*id));
   if ((*entry)->maps_directory.empty())
     return refuse(res, 404, "scan " + std::to_string(*id) + " has no maps yet");
@@ -697,8 +748,10 @@ void HttpApi::Impl::preview(const httplib::Request& req, httplib::Response& res)
 void HttpApi::Impl::remove(const httplib::Request& req, httplib::Response& res) {
   const auto id = parse_id(req.matches[1]);
   if (!id) return refuse(res, 404, "no such scan");
+  if (auto entry = service.catalogue().get(*id); entry && *entry && belongs_elsewhere(**entry))
+    return forward((*entry)->rig, "DELETE", req.path, "", res);
   auto removed = service.remove(*id);
-  if (!removed) return refuse(res, 500, removed.error().describe());
+  if (!removed) return catalogue_failure(res, removed.error());
   switch (*removed) {
     case ScanRemoval::not_found:
       return refuse(res, 404, "no scan " + std::to_string(*id));
@@ -717,8 +770,10 @@ void HttpApi::Impl::remove(const httplib::Request& req, httplib::Response& res) 
 void HttpApi::Impl::cancel(const httplib::Request& req, httplib::Response& res) {
   const auto id = parse_id(req.matches[1]);
   if (!id) return refuse(res, 404, "no such scan");
+  if (auto entry = service.catalogue().get(*id); entry && *entry && belongs_elsewhere(**entry))
+    return forward((*entry)->rig, "POST", req.path, "", res);
   auto cancelled = service.cancel(*id);
-  if (!cancelled) return refuse(res, 500, cancelled.error().describe());
+  if (!cancelled) return catalogue_failure(res, cancelled.error());
   switch (*cancelled) {
     case ScanCancel::not_found:
       return refuse(res, 404, "no scan " + std::to_string(*id));
@@ -791,6 +846,7 @@ void HttpApi::Impl::events(const httplib::Request& req, httplib::Response& res) 
 }
 
 void HttpApi::Impl::lights_off(httplib::Response& res) {
+  if (!service.has_rig()) return refuse(res, 409, service.no_rig_error().message);
   if (auto ok = service.lights_off(); !ok)
     return refuse(res, 500, "turning the LEDs off failed: " + ok.error().describe());
   reply(res, 200, {{"lights", "off"}});

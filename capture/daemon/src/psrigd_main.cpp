@@ -23,9 +23,11 @@
 #include "psrig/config/config_loader.h"
 #include "psrig/daemon/http_api.h"
 #include "psrig/daemon/modbus_server.h"
+#include "psrig/daemon/rig_presence.h"
 #include "psrig/daemon/scan_service.h"
 #include "psrig/daemon/systemd_notify.h"
 #include "psrig/firmware_host/emergency_stop.h"
+#include "status_json.h"
 
 namespace {
 
@@ -110,7 +112,21 @@ int run(const std::string& config_file) {
     return worker_alive &&
            Clock::now() - Clock::time_point(Clock::duration(last_tick.load())) < kHealthyLoop;
   });
-  log->info("ready; storage {}", (*service)->catalogue().storage_root().string());
+  // In the catalogue's rigs list from now on: the lab's other psrigd show
+  // this rig's state and can forward scans to it.
+  std::unique_ptr<daemon::RigPresence> presence;
+  if ((*service)->has_rig()) {
+    daemon::RigRecord self;
+    self.name = config->daemon.rig_name;
+    self.api_url = config->daemon.public_url;
+    self.token = config->daemon.token;
+    presence = std::make_unique<daemon::RigPresence>(
+        (*service)->catalogue(), std::move(self),
+        [&service] { return daemon::status_json(**service); });
+  }
+  log->info("ready: rig {} ({}), {} catalogue, scans in {}", config->daemon.rig_name,
+            config->daemon.role, (*service)->catalogue().backend(),
+            (*service)->catalogue().rig_root().string());
   (void)systemd.ready();
   std::string last_status;
 
@@ -148,6 +164,7 @@ int run(const std::string& config_file) {
   (void)systemd.stopping();
   petter.stop();
   log->info("stopping: the running scan is aborted, every LED is off");
+  if (presence) presence->stop();
   if (modbus) modbus->stop();
   (*http)->stop();
   (*service)->stop();

@@ -48,20 +48,43 @@ std::size_t queue_limit(const config::RigConfig& config) {
 ScanService::ScanService(config::RigConfig config, std::unique_ptr<Catalogue> catalogue)
     : recorder_(std::move(catalogue)),
       queue_(queue_limit(config), config.source),
-      storage_(recorder_.catalogue().storage_root()),
+      storage_(recorder_.catalogue().rig_root()),
       config_(std::move(config)) {}
 
 Result<std::unique_ptr<ScanService>> ScanService::start(config::RigConfig config) {
-  auto catalogue = Catalogue::open(config.storage.root);
+  auto catalogue = open_catalogue(catalogue_options(config));
   if (!catalogue) return std::unexpected(catalogue.error());
-  // Scan directories are made from the root the catalogue resolved (a
-  // root reached through a symlink, say), or none would lie inside it.
-  config.storage.root = (*catalogue)->storage_root();
-  auto recovered = (*catalogue)->recover();
-  if (!recovered) return std::unexpected(recovered.error());
-  std::unique_ptr<ScanService> service(new ScanService(std::move(config), std::move(*catalogue)));
-  service->worker_ = std::thread([raw = service.get()] { raw->work(); });
+  return start(std::move(config), std::move(*catalogue));
+}
+
+Result<std::unique_ptr<ScanService>> ScanService::start(config::RigConfig config,
+                                                        std::unique_ptr<Catalogue> catalogue) {
+  // Scan directories are made from the roots the catalogue resolved (a
+  // root reached through a symlink, say), or none would lie inside them.
+  config.storage.root = catalogue->rig_root();
+  config.storage.shared_root = catalogue->storage_root();
+  const bool has_rig = config.daemon.role == "rig";
+  if (has_rig) {
+    auto recovered = catalogue->recover();
+    if (!recovered) return std::unexpected(recovered.error());
+  }
+  std::unique_ptr<ScanService> service(new ScanService(std::move(config), std::move(catalogue)));
+  if (has_rig)
+    service->worker_ = std::thread([raw = service.get()] { raw->work(); });
+  else
+    service->recorder_.ready();  // the catalogue's server: nothing to start
   return service;
+}
+
+bool ScanService::has_rig() const {
+  return config().daemon.role == "rig";
+}
+
+Error ScanService::no_rig_error() const {
+  return bad_input(config().source, "daemon.role",
+                   "this psrigd serves the catalogue only (daemon.role = \"catalogue\") and has "
+                   "no rig; name one: POST /v1/scans {\"rig\": \"NAME\"} (GET /v1/rigs lists "
+                   "them)");
 }
 
 ScanService::~ScanService() {
@@ -84,6 +107,7 @@ void ScanService::beat() {
 }
 
 bool ScanService::healthy(std::chrono::steady_clock::duration limit) const {
+  if (!has_rig()) return true;  // no worker to stall
   const std::chrono::steady_clock::time_point last{
       std::chrono::steady_clock::duration(heartbeat_.load())};
   return std::chrono::steady_clock::now() - last <= limit;
@@ -103,6 +127,7 @@ config::RigConfig ScanService::config() const {
 }
 
 Result<std::int64_t> ScanService::submit(ScanSubmission submission) {
+  if (!has_rig()) return std::unexpected(no_rig_error());
   auto id = queue_.push(std::move(submission),
                         [&](const ScanSubmission& queued) { return recorder_.add(queued); });
   if (!id) {
@@ -117,6 +142,7 @@ Result<std::int64_t> ScanService::submit(ScanSubmission submission) {
 }
 
 Status ScanService::lights_off() {
+  if (!has_rig()) return std::unexpected(no_rig_error());
   // The queue stops too: lights-off means stop, not "the next one".
   const auto dropped = queue_.abort_all();
   auto log = logger("daemon");
@@ -139,6 +165,7 @@ void ScanService::drop(const ScanJob& job, const std::string& message, bool stop
 
 Result<std::int64_t> ScanService::submit_calibration(nlohmann::json options,
                                                      capture::CalibrationRequest request) {
+  if (!has_rig()) return std::unexpected(no_rig_error());
   const CalibrationJob job = calibrations_.add(options, std::move(request));
   ScanSubmission submission;
   submission.source = "http";
@@ -265,15 +292,16 @@ void ScanService::reload(config::RigConfig config) {
     std::lock_guard lock(config_mutex_);
     auto log = logger("daemon");
     std::error_code ec;
-    if (fs::weakly_canonical(config.storage.root, ec) != config_.storage.root)
-      log->warn("storage.root changed to {}; it takes effect at the next start",
-                config.storage.root.string());
+    if (fs::weakly_canonical(config.storage.root, ec) != config_.storage.root ||
+        config.catalogue != config_.catalogue)
+      log->warn("storage.root or [catalogue] changed; it takes effect at the next start");
     const auto& now = config_.daemon;
     const auto& next = config.daemon;
     if (next.listen_address != now.listen_address || next.port != now.port ||
         next.token != now.token || next.modbus_address != now.modbus_address ||
-        next.modbus_port != now.modbus_port || next.modbus_allow != now.modbus_allow)
-      log->warn("daemon addresses and token take effect at the next start");
+        next.modbus_port != now.modbus_port || next.modbus_allow != now.modbus_allow ||
+        next.rig_name != now.rig_name || next.role != now.role || next.public_url != now.public_url)
+      log->warn("daemon addresses, token, rig name and role take effect at the next start");
     pending_config_ = std::move(config);
   }
   queue_.poke();
@@ -287,6 +315,8 @@ void ScanService::apply_pending_config() {
     pending_config_.reset();
     // What stays open keeps what it was opened with.
     next.storage.root = config_.storage.root;
+    next.storage.shared_root = config_.storage.shared_root;
+    next.catalogue = config_.catalogue;
     const int limit = next.daemon.queue_limit;
     next.daemon = config_.daemon;
     next.daemon.queue_limit = limit;

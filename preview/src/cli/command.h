@@ -23,6 +23,7 @@ Command add_render_command(CLI::App& parent);
 Command add_kiosk_command(CLI::App& parent);
 Command add_bench_command(CLI::App& parent);
 Command add_knit_command(CLI::App& parent);
+Command add_drape_command(CLI::App& parent);
 
 // The options that place the light and the view (render, bench).
 struct ViewArgs {

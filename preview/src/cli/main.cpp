@@ -14,5 +14,5 @@ int main(int argc, char** argv) {
   CLI::App& app = program.app();
   return program.run(argc, argv,
                      {add_render_command(app), add_kiosk_command(app), add_bench_command(app),
-                      add_knit_command(app)});
+                      add_knit_command(app), add_drape_command(app)});
 }

@@ -23,6 +23,7 @@ enum class ErrorCode {
   camera,      // the camera failed, timed out, or its frames never fit the lighting
   disk_full,   // the storage has no room left
   queue_full,  // a service refused more work for now; try again later
+  unavailable,  // a service this one needs (the shared catalogue's database) is away; try again later
 };
 
 struct Error {

@@ -58,9 +58,10 @@ class KnitFabric {
   // of the mean wale and course (the last row holds the top course's heads).
   [[nodiscard]] StitchMesh mesh(ClothDeformation deformation = {}) const;
 
-  // One frame: the repeat relaxed for `mesh`'s mean in-plane deformation
-  // (once per deformation), its yarns placed on `mesh` into `yarns`, whose
-  // storage is reused.
+  // One frame: each stitch's repeat relaxed for its own face's in-plane
+  // deformation (blended from the table, relaxed_repeats.h), its yarn placed
+  // on `mesh` into `yarns`, whose storage is reused. A cloth deformed alike
+  // everywhere (the command line's stretch and shear) blends once.
   void update(const StitchMesh& mesh, YarnSet& yarns);
 
   [[nodiscard]] const KnitDimensions& dimensions() const { return dimensions_; }
@@ -72,9 +73,9 @@ class KnitFabric {
   // The cross-section contact keeps (yarn_clearance.h).
   [[nodiscard]] const YarnSection& section() const { return rest_.section; }
   // The relaxed repeat of the last update, and how its relaxation went.
-  // The repeat as the last update shaped it, and how its relaxation went.
-  [[nodiscard]] const YarnCell& relaxed() const { return shaped_; }
-  [[nodiscard]] const RelaxReport& relax_report() const { return repeats_->last_report(); }
+  // How the repeat's relaxations went: the worst clearance and strain of
+  // every deformation relaxed so far.
+  [[nodiscard]] RelaxReport relax_report() const { return repeats_->report(); }
 
  private:
   StitchChart chart_;
@@ -86,7 +87,7 @@ class KnitFabric {
   std::vector<Eigen::Vector3f> colours_;  // per stitch; empty: the style's colour
   // The repeat relaxed for deformations as they come (shared by copies).
   std::shared_ptr<RelaxedRepeats> repeats_;
-  YarnCell shaped_;
+  std::vector<RelaxedRepeats::Blend> blends_;  // per stitch, this frame's
 };
 
 }  // namespace psrig::cloth

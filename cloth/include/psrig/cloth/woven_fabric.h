@@ -55,9 +55,9 @@ class WovenFabric {
   [[nodiscard]] YarnStyle style() const;
   // The cross-section contact keeps (yarn_clearance.h).
   [[nodiscard]] const YarnSection& section() const { return rest_.section; }
-  // The repeat as the last update shaped it, and how its relaxation went.
-  [[nodiscard]] const YarnCell& relaxed() const { return shaped_; }
-  [[nodiscard]] const RelaxReport& relax_report() const { return repeats_->last_report(); }
+  // How the repeat's relaxations went: the worst clearance and strain of
+  // every deformation relaxed so far.
+  [[nodiscard]] RelaxReport relax_report() const { return repeats_->report(); }
 
  private:
   WeaveMatrix weave_;
@@ -68,7 +68,6 @@ class WovenFabric {
   Eigen::Vector3f warp_colour_, weft_colour_;
   // The repeat relaxed for deformations as they come (shared by copies).
   std::shared_ptr<RelaxedRepeats> repeats_;
-  YarnCell shaped_;
 };
 
 }  // namespace psrig::cloth

@@ -142,7 +142,13 @@ struct CalibrationConfig {
 };
 
 struct StorageConfig {
+  // This rig's storage: its scans and its calibration store. With a shared
+  // catalogue (CatalogueConfig) it is shared_root/<daemon.rig_name>, each
+  // rig under its own prefix of the lab's shared storage; else shared_root.
   std::filesystem::path root = "/var/lib/psrig/scans";
+  // storage.root as rig.toml gives it: what every catalogue row's paths are
+  // relative to, the same directory on every rig (an NFS or SMB mount).
+  std::filesystem::path shared_root = "/var/lib/psrig/scans";
   // Lossless compression of what a scan writes: the EXR maps ("auto",
   // "zip", "piz" or "none"; processing's storage_options.h says what auto
   // does) and the PNG frames and maps (deflate 0 stored … 9).
@@ -209,6 +215,24 @@ struct SimConfig {
   bool operator==(const SimConfig&) const = default;
 };
 
+// [catalogue]: where psrigd records its scans.
+struct CatalogueConfig {
+  // Empty or "sqlite": the embedded SQLite file in storage.root, this rig's
+  // alone (the default). "postgresql://…" (or "postgres://…", libpq's URI):
+  // one PostgreSQL database that every rig of a lab writes to and every
+  // psrigd reads.
+  std::string url;
+  // PostgreSQL only: the file on this machine that keeps the row writes
+  // the database could not take (an outage) until it is back; empty:
+  // storage.root/catalogue-journal.json.
+  std::filesystem::path journal;
+
+  bool operator==(const CatalogueConfig&) const = default;
+};
+
+// Whether the catalogue is the lab's shared PostgreSQL database.
+[[nodiscard]] bool is_shared_catalogue(const CatalogueConfig& catalogue);
+
 // psrigd, the rig's daemon: where its HTTP API listens, who may use it, how
 // many scans may wait, and its Modbus TCP server for a PLC. The systemd
 // watchdog interval comes from the unit (WatchdogSec=), not from here.
@@ -227,7 +251,20 @@ struct DaemonConfig {
   // The web catalogue's built files (web/ → build/web); empty: found beside
   // psrigd (../web in the build tree, ../share/psrig/web when installed).
   std::filesystem::path web_root;
+  // This rig's name in every catalogue row it writes, in the rigs list and
+  // (with a shared catalogue) its storage prefix; default: the hostname.
+  std::string rig_name;
+  // "rig": runs the rig's scans; "catalogue": no rig, serves the catalogue
+  // and the API over every rig's scans and forwards scans to the rigs.
+  std::string role = "rig";
+  // Where other psrigd reach this one's API (written to the shared
+  // catalogue's rigs list); default: http://<listen address or hostname>:<port>.
+  std::string public_url;
 };
+
+// This machine's name (gethostname), empty when it has none: the default
+// daemon.rig_name.
+[[nodiscard]] std::string host_name();
 
 // A loopback address (127.0.0.0/8, ::1, "localhost"): only this machine can connect.
 [[nodiscard]] bool is_loopback_address(const std::string& address);
@@ -243,6 +280,7 @@ struct RigConfig {
   CalibrationConfig calibration;
   SimConfig sim;
   DaemonConfig daemon;
+  CatalogueConfig catalogue;
 };
 
 }  // namespace psrig::config

@@ -45,10 +45,15 @@ enum class ScanCancel {
 
 class ScanService final : public ScanControl {
  public:
-  // Opens the catalogue in config.storage.root (cleaning what an
-  // interrupted run left), tries the rig (a rig that cannot open now is
-  // tried again at the next scan) and starts the worker.
+  // Opens the catalogue config names (cleaning what this rig's interrupted
+  // run left), tries the rig (a rig that cannot open now is tried again at
+  // the next scan) and starts the worker. With daemon.role "catalogue"
+  // there is no rig and no worker: the service serves the catalogue, and
+  // refuses scans, calibrations and lights-off (no_rig_error()).
   [[nodiscard]] static Result<std::unique_ptr<ScanService>> start(config::RigConfig config);
+  // The same over a catalogue already open (a benchmark's, measuring it).
+  [[nodiscard]] static Result<std::unique_ptr<ScanService>> start(
+      config::RigConfig config, std::unique_ptr<Catalogue> catalogue);
   ~ScanService() override;
   ScanService(const ScanService&) = delete;
   ScanService& operator=(const ScanService&) = delete;
@@ -92,6 +97,10 @@ class ScanService final : public ScanControl {
       const config::RigConfig& config);
 
   [[nodiscard]] Catalogue& catalogue() { return recorder_.catalogue(); }
+  // Whether this psrigd runs a rig (daemon.role "rig"), and what it says
+  // when asked to scan without one.
+  [[nodiscard]] bool has_rig() const;
+  [[nodiscard]] Error no_rig_error() const;
   [[nodiscard]] const ScanEvents& events() const { return recorder_.events(); }
   [[nodiscard]] DeviceStatus devices() const { return rig_.devices(); }
   // The configuration the next scan uses.
@@ -126,8 +135,10 @@ class ScanService final : public ScanControl {
   // queue), and by status() and cancel(): whoever sees a scan finished
   // anywhere finds it finished everywhere. Taken before the queue's and
   // the recorder's locks, never after. The row's write is a few ms; only
-  // another process holding the catalogue's lock stretches it, up to the
-  // busy timeout (5 s), well inside the watchdog's 30 s.
+  // another process holding the SQLite catalogue's lock stretches it, up
+  // to the busy timeout (5 s), or a shared catalogue's database gone
+  // silent, up to 6 s (postgres_link.cpp; one that refuses costs nothing),
+  // well inside the watchdog's 30 s.
   mutable std::mutex outcome_mutex_;
   mutable std::mutex config_mutex_;
   config::RigConfig config_;
