@@ -33,8 +33,9 @@ constexpr double kReliefOfThickness = 0.04;  // of the half-thickness
 constexpr double kSmoothingOfDiameter = 0.05;
 // A fabric's margin round what the camera sees, in stitches or threads.
 constexpr int kMarginThreads = 3;
-// Centreline points at most this many pixels apart (Catmull-Rom between).
-constexpr double kPixelsPerPoint = 1.5;
+// Centreline points about this many pixels apart on average (a Catmull-Rom
+// spline through the cloth's points, up to 4 of ours to one of its).
+constexpr double kPointSpacingPx = 1.5;
 
 // The fabric built and laid, before it is turned.
 struct LaidCloth {
@@ -51,39 +52,43 @@ int repeats_over(double extent, double pitch, double repeat) {
   return static_cast<int>(std::ceil((extent + 2 * kMarginThreads * pitch + repeat) / repeat));
 }
 
-Result<LaidCloth> lay_knit(const SwatchPattern& pattern, cv::Size2d extent) {
-  const auto& chart = std::get<cloth::StitchChart>(pattern.cloth);
-  LaidCloth laid;
-  laid.pitch = {10.0 / pattern.gauge.across_per_cm, 10.0 / pattern.gauge.along_per_cm};
-  laid.repeat = {laid.pitch.x * chart.columns, laid.pitch.y * chart.rows};
-  const int columns = chart.columns * repeats_over(extent.width, laid.pitch.x, laid.repeat.x);
-  const int rows = chart.rows * repeats_over(extent.height, laid.pitch.y, laid.repeat.y);
-  auto fabric = cloth::KnitFabric::build(chart, columns, rows, {});
-  if (!fabric) return std::unexpected(fabric.error());
-  const cloth::StitchMesh mesh = fabric->mesh();
-  fabric->update(mesh, laid.yarns);
-  // The mesh is centred on the origin; it has a row of faces more than
-  // courses, for the top course's heads.
-  laid.corner = {-0.5 * mesh.columns * mesh.face_width_mm, -0.5 * mesh.rows * mesh.face_height_mm};
-  laid.yarn_diameter_mm = fabric->dimensions().yarn_diameter_mm;
-  return laid;
+// A pattern's repeat in stitches (columns, rows) or threads (warps, wefts),
+// and its cloth of so many.
+cv::Size repeat_of(const cloth::StitchChart& chart) {
+  return {chart.columns, chart.rows};
+}
+cv::Size repeat_of(const cloth::WeaveMatrix& weave) {
+  return {weave.warps, weave.wefts};
+}
+Result<cloth::KnitFabric> fabric_of(const cloth::StitchChart& chart, int columns, int rows) {
+  return cloth::KnitFabric::build(chart, columns, rows, {});
+}
+Result<cloth::WovenFabric> fabric_of(const cloth::WeaveMatrix& weave, int warps, int wefts) {
+  return cloth::WovenFabric::build(weave, warps, wefts, {});
 }
 
-Result<LaidCloth> lay_woven(const SwatchPattern& pattern, cv::Size2d extent) {
-  const auto& weave = std::get<cloth::WeaveMatrix>(pattern.cloth);
-  LaidCloth laid;
-  laid.pitch = {10.0 / pattern.gauge.across_per_cm, 10.0 / pattern.gauge.along_per_cm};
-  laid.repeat = {laid.pitch.x * weave.warps, laid.pitch.y * weave.wefts};
-  const int warps = weave.warps * repeats_over(extent.width, laid.pitch.x, laid.repeat.x);
-  const int wefts = weave.wefts * repeats_over(extent.height, laid.pitch.y, laid.repeat.y);
-  auto fabric = cloth::WovenFabric::build(weave, warps, wefts, {});
-  if (!fabric) return std::unexpected(fabric.error());
-  const cloth::StitchMesh mesh = fabric->mesh();
-  fabric->update(mesh, laid.yarns);
-  laid.warps = warps;
-  laid.corner = {-0.5 * mesh.columns * mesh.face_width_mm, -0.5 * mesh.rows * mesh.face_height_mm};
-  laid.yarn_diameter_mm = fabric->dimensions().yarn_diameter_mm;
-  return laid;
+Result<LaidCloth> lay(const SwatchPattern& pattern, cv::Size2d extent) {
+  return std::visit(
+      [&](const auto& cells) -> Result<LaidCloth> {
+        const cv::Size repeat = repeat_of(cells);
+        LaidCloth laid;
+        laid.pitch = {10.0 / pattern.gauge.across_per_cm, 10.0 / pattern.gauge.along_per_cm};
+        laid.repeat = {laid.pitch.x * repeat.width, laid.pitch.y * repeat.height};
+        const int columns = repeat.width * repeats_over(extent.width, laid.pitch.x, laid.repeat.x);
+        const int rows = repeat.height * repeats_over(extent.height, laid.pitch.y, laid.repeat.y);
+        auto fabric = fabric_of(cells, columns, rows);
+        if (!fabric) return std::unexpected(fabric.error());
+        const cloth::StitchMesh mesh = fabric->mesh();
+        fabric->update(mesh, laid.yarns);
+        laid.warps = pattern.knitted() ? 0 : columns;
+        // The mesh is centred on the origin (a knit's has a row of faces
+        // more than courses, for the top course's heads).
+        laid.corner = {-0.5 * mesh.columns * mesh.face_width_mm,
+                       -0.5 * mesh.rows * mesh.face_height_mm};
+        laid.yarn_diameter_mm = fabric->dimensions().yarn_diameter_mm;
+        return laid;
+      },
+      pattern.cloth);
 }
 
 // Each loop (knits: along each course) or thread (wovens) nudged about its
@@ -131,7 +136,7 @@ void refine(cloth::YarnSet& yarns, double px) {
       length += (curve.points[k] - curve.points[k - 1]).head<2>().norm();
   if (segments == 0) return;
   const int per_span = std::clamp(
-      static_cast<int>(std::ceil(length / static_cast<double>(segments) / (kPixelsPerPoint * px))),
+      static_cast<int>(std::ceil(length / static_cast<double>(segments) / (kPointSpacingPx * px))),
       1, 4);
   if (per_span == 1) return;
   std::vector<cloth::YarnControlPoint> control;
@@ -194,7 +199,11 @@ Result<SwatchYarns> swatch_yarns(const SwatchPattern& pattern, cv::Size size, do
   // What the camera sees, in the fabric's own (unturned) frame.
   const cv::Size2d extent{width * std::abs(cosine) + height * std::abs(sine),
                           width * std::abs(sine) + height * std::abs(cosine)};
-  auto laid = pattern.knitted() ? lay_knit(pattern, extent) : lay_woven(pattern, extent);
+  if (!(pattern.gauge.across_per_cm > 0 && pattern.gauge.along_per_cm > 0))
+    return std::unexpected(bad_input(pattern.file, "pattern",
+                                     "the swatch has no pattern: load a chart or weave "
+                                     "(sim::load_swatch_pattern)"));
+  auto laid = lay(pattern, extent);
   if (!laid) {
     Error error = std::move(laid.error());
     if (error.file.empty()) error.file = pattern.file;

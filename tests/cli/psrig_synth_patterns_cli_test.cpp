@@ -51,15 +51,9 @@ TEST_P(ShippedPattern, SynthesisedAndProcessedToUnderADegree) {
   EXPECT_GT(doc["ground_truth"]["fabric"][knit ? "wales_per_cm" : "ends_per_cm"].get<double>(), 3);
 }
 
-INSTANTIATE_TEST_SUITE_P(Patterns, ShippedPattern,
-                         ::testing::Values("stockinette", "garter", "rib-1x1", "rib-2x2", "seed",
-                                           "basketweave", "stripes", "plain", "twill-2x2",
-                                           "satin-5"),
+INSTANTIATE_TEST_SUITE_P(Patterns, ShippedPattern, ::testing::ValuesIn(shipped_pattern_names()),
                          [](const ::testing::TestParamInfo<const char*>& param_info) {
-                           std::string name = param_info.param;
-                           for (char& c : name)
-                             if (c == '-') c = '_';
-                           return name;
+                           return test_name(param_info.param);
                          });
 
 // A chart of one's own, by path: its stitches, gauge and colours.

@@ -4,7 +4,6 @@
 
 #include "psrig/processing/fabric_measure.h"
 
-#include <algorithm>
 #include <cmath>
 #include <string>
 #include <tuple>
@@ -14,6 +13,7 @@
 
 #include "psrig/sim/swatch_model.h"
 #include "shipped_swatch.h"
+#include "test_support.h"
 
 namespace psrig::processing {
 namespace {
@@ -72,9 +72,10 @@ INSTANTIATE_TEST_SUITE_P(Patterns, FabricGauge,
                                            Case{"basketweave", 3, {1100, 800}}),
                          [](const ::testing::TestParamInfo<Case>& param_info) {
                            const double r = param_info.param.rotation_deg;
-                           std::string name = param_info.param.pattern;
-                           std::ranges::replace(name, '-', '_');
-                           return name + (r == 0 ? "" : r > 0 ? "_turned_ccw" : "_turned_cw");
+                           return test::test_name(param_info.param.pattern) + (r == 0 ? ""
+                                                                               : r > 0
+                                                                                   ? "_turned_ccw"
+                                                                                   : "_turned_cw");
                          });
 
 // A scan larger than the measured centre (1280 pixels a side): the finest

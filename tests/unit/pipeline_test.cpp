@@ -174,13 +174,9 @@ TEST_P(SyntheticSwatch, NoisyNormalsMatchTheDerivedBound) {
 
 // Every shipped pattern (config/patterns).
 INSTANTIATE_TEST_SUITE_P(Patterns, SyntheticSwatch,
-                         ::testing::Values("stockinette", "garter", "rib-1x1", "rib-2x2", "seed",
-                                           "basketweave", "stripes", "plain", "twill-2x2",
-                                           "satin-5"),
+                         ::testing::ValuesIn(test::shipped_pattern_names()),
                          [](const ::testing::TestParamInfo<const char*>& param_info) {
-                           std::string name = param_info.param;
-                           std::ranges::replace(name, '-', '_');
-                           return name;
+                           return test::test_name(param_info.param);
                          });
 
 TEST(Pipeline, AMaskedScanIsIntegratedOverItsMaskAndTheReportSaysHow) {
