@@ -17,7 +17,9 @@ Result<Rig> open_rig(const config::RigConfig& config, bool with_camera,
   Rig rig;
   if (with_camera && config.camera.backend == "sim") {
     auto world = sim::World::attach(config);
-    if (!world) return std::unexpected(std::move(world.error()));
+    // The simulated camera's world is its device: a pattern it cannot make
+    // fails the camera, as open_rig's errors say which device.
+    if (!world) return std::unexpected(std::move(world.error()).with(ErrorCode::camera));
     rig.world = std::move(*world);
   }
   auto backend = firmware_host::open_lights(config);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <system_error>
+#include <type_traits>
 #include <utility>
 
 #include "psrig/cloth/knit_fabric.h"

@@ -1,9 +1,12 @@
-// `psrig synth --pattern`: every shipped chart and weave, a file of one's
-// own and the older names, as a user runs them; each synthesised scan
-// processes to its ground truth, and scan.json says what it is made of.
+// `psrig synth --pattern` and rig.toml's `[sim] pattern`: every shipped
+// chart and weave, a file of one's own and the older names, as a user runs
+// them; each synthesised scan processes to its ground truth, and scan.json
+// says what it is made of.
 
 #include <fstream>
+#include <iterator>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include <gtest/gtest.h>
@@ -100,6 +103,36 @@ TEST(PsrigSynthPatterns, WhatIsNoPatternIsBadInputNamingTheOptionAndTheFix) {
   EXPECT_EQ(typo.exit_code, 2);
   EXPECT_TRUE(contains(typo.err, (temp / "typo.chart").string() + ":2:")) << typo.err;
   EXPECT_FALSE(fs::exists(temp / "b"));
+}
+
+// The simulated rig's swatch from a chart beside its rig.toml, and a
+// chart with a mistake: bad input (exit 2) at the chart's line, no scan.
+TEST(PsrigSynthPatterns, TheSimulatedRigScansTheChartItsRigTomlNames) {
+  TempDir temp;
+  std::ifstream in(fs::path(PSRIG_SOURCE_DIR) / "config/sim.toml");
+  std::string text((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  for (const auto& [from, to] :
+       {std::pair<std::string, std::string>{"pattern = \"jersey\"", "pattern = \"moss.chart\""},
+        {"root = \"../out/scans\"", "root = \"scans\""}}) {
+    const auto at = text.find(from);
+    ASSERT_NE(at, std::string::npos) << from;
+    text.replace(at, from.size(), to);
+  }
+  std::ofstream(temp / "rig.toml") << text;
+  std::ofstream(temp / "moss.chart") << "name: moss\nK P\nP K\n";
+  auto run = run_program("psrig", {"scan", "--config", (temp / "rig.toml").string(), "--out",
+                                   (temp / "scan").string(), "--no-process"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  const nlohmann::json truth = read_json(temp / "scan" / "scan.json")["ground_truth"]["fabric"];
+  EXPECT_EQ(truth["structure"], "moss");
+  EXPECT_EQ(truth["stitches_per_repeat"], nlohmann::json({2, 2}));
+
+  std::ofstream(temp / "moss.chart") << "K P\nP Q\n";
+  auto broken = run_program("psrig", {"scan", "--config", (temp / "rig.toml").string(), "--out",
+                                      (temp / "again").string()});
+  EXPECT_EQ(broken.exit_code, 2) << broken.err;
+  EXPECT_TRUE(contains(broken.err, (temp / "moss.chart").string() + ":2:")) << broken.err;
+  EXPECT_FALSE(fs::exists(temp / "again"));
 }
 
 }  // namespace
