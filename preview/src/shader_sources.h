@@ -17,5 +17,6 @@ extern const ShaderSource light_marker_frag;
 extern const ShaderSource yarn_vert;
 extern const ShaderSource yarn_frag;
 extern const ShaderSource yarn_depth_frag;
+extern const ShaderSource yarn_fibres_glsl;  // inserted into both yarn shaders
 
 }  // namespace psrig::preview::shaders

@@ -2,6 +2,7 @@
 
 #include <GLES3/gl3.h>
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -10,61 +11,104 @@
 #include <vector>
 
 #include "gl_program.h"
+#include "psrig/cloth/srgb.h"
 #include "psrig/preview/clear_frame.h"
+#include "psrig/preview/strip_points.h"
+#include "psrig/processing/parallel.h"
 
 namespace psrig::preview {
 namespace {
 
-// One centreline point as yarn.vert reads it: 32 bytes.
+// One centreline point as yarn.vert reads it: 24 bytes.
 struct PackedPoint {
   float position_arc[4];        // mm; arc length from the yarn's start
-  std::int16_t normal_lift[4];  // signed normalised: the cloth's normal, lift (clamped to +-1)
-  std::uint16_t colour[4];      // unsigned normalised linear RGB, unused
+  std::int8_t normal_lift[4];   // signed normalised: the cloth's normal, lift (clamped to +-1)
+  std::uint8_t colour_seed[4];  // sRGB colour (exact for #RRGGBB), the yarn's phase
 };
-static_assert(sizeof(PackedPoint) == 32);
+static_assert(sizeof(PackedPoint) == 24);
 
 struct CurveRange {
   std::size_t first = 0;  // index in the packed buffer
-  GLsizei count = 0;
+  std::size_t count = 0;
 };
 
-// Far away a yarn is drawn through every step-th point only (its pieces
-// under a few pixels long add vertices, not shape): the buffer's padding
-// lets a step that large read past either end.
-constexpr int kMaxStep = 32;
-constexpr std::size_t kPadding = kMaxStep;
+// One point of padding either end: every point has a previous and a next
+// to read (yarn.vert tells another yarn's by its arc length).
+constexpr std::size_t kPadding = 1;
+constexpr GLuint kShadowUnit = 0, kSliceUnit = 1;
 
-std::int16_t snorm16(float value) {
-  return static_cast<std::int16_t>(std::lround(std::clamp(value, -1.0f, 1.0f) * 32767.0f));
+std::int8_t snorm8(float value) {
+  const float scaled = std::clamp(value, -1.0f, 1.0f) * 127.0f;
+  return static_cast<std::int8_t>(scaled + (scaled < 0 ? -0.5f : 0.5f));
 }
 
-std::uint16_t unorm16(float value) {
-  return static_cast<std::uint16_t>(std::lround(std::clamp(value, 0.0f, 1.0f) * 65535.0f));
+float smoothstep(float edge0, float edge1, float x) {
+  const float t = std::clamp((x - edge0) / std::max(edge1 - edge0, 1e-6f), 0.0f, 1.0f);
+  return t * t * (3 - 2 * t);
 }
 
 }  // namespace
 
-// The points of every yarn back to back, with padding at either end so
-// that the previous and next points can always be read.
+// Linear colour to sRGB bytes, remembering the last one (a yarn's points
+// mostly share their colour, and pow is the costly part).
+class YarnRenderer::ColourBytes {
+ public:
+  const std::uint8_t* operator()(const Eigen::Vector3f& colour) {
+    if (colour != last_) {
+      last_ = colour;
+      for (int c = 0; c < 3; ++c)
+        bytes_[c] = static_cast<std::uint8_t>(
+            std::lround(cloth::srgb_encode(std::clamp(colour[c], 0.0f, 1.0f)) * 255.0f));
+    }
+    return bytes_;
+  }
+
+ private:
+  Eigen::Vector3f last_ = Eigen::Vector3f::Constant(-1);
+  std::uint8_t bytes_[3] = {};
+};
+
+// The points of every yarn back to back, with padding at either end, and
+// what choosing a frame's points needs of them.
 struct YarnRenderer::Packed {
   std::vector<PackedPoint> points;
+  std::vector<CentrelinePoint> centreline;  // one per packed point
   std::vector<CurveRange> curves;
-  float mean_spacing_mm = 0;  // between neighbouring points
+  // This frame's strips by layer, and all of them back to back for upload.
+  std::array<std::vector<std::uint32_t>, kLayers> layers;
+  std::vector<std::uint32_t> indices;
+};
+
+// Where each layer's strips lie in an element buffer.
+struct YarnRenderer::Strips {
+  GLenum mode = GL_TRIANGLE_STRIP;  // or GL_TRIANGLES, layered
+  std::array<GLsizei, kLayers> count{};
+  std::array<std::size_t, kLayers> offset{};  // bytes
 };
 
 struct YarnRenderer::Gl {
-  // Shading programs by [lines][shadows][fibre detail], and the depth pass.
-  std::optional<GlProgram> shading[2][2][2];
+  // Shading programs by [fibre detail][shadow map], the halo's and the
+  // far view's by [shadow map], and the depth pass.
+  std::optional<GlProgram> shading[2][2];
+  std::optional<GlProgram> halo[2];
+  std::optional<GlProgram> far[2];
   std::optional<GlProgram> depth;
   GLuint array = 0, buffer = 0;
   std::size_t buffer_bytes = 0;
+  // The frame's strips for the eye and for the shadow map, apart so that
+  // writing one never waits for a draw from the other.
+  GLuint elements[2] = {};
+  std::size_t element_bytes[2] = {};
   GLuint shadow_map = 0, shadow_framebuffer = 0;
   int shadow_size = 0;
+  GLuint slice = 0;
   ~Gl() {
     glDeleteBuffers(1, &buffer);
+    glDeleteBuffers(2, elements);
     glDeleteVertexArrays(1, &array);
     glDeleteFramebuffers(1, &shadow_framebuffer);
     glDeleteTextures(1, &shadow_map);
+    glDeleteTextures(1, &slice);
   }
 };
 
@@ -74,26 +118,40 @@ Result<std::unique_ptr<YarnRenderer>> YarnRenderer::create(const YarnRendererOpt
   renderer->packed_ = std::make_unique<Packed>();
   renderer->gl_ = std::make_unique<Gl>();
   Gl& gl = *renderer->gl_;
-  for (const int lines : {0, 1})
-    for (const int shadows : {0, 1})
-      for (const int detail : {0, 1}) {
-        std::string defines;
-        if (lines) defines += "#define LINES 1\n";
-        if (shadows) defines += "#define SHADOWS 1\n";
-        if (detail) defines += "#define FIBRE_DETAIL 1\n";
-        if (options.encode_srgb) defines += "#define ENCODE_SRGB 1\n";
-        auto program = GlProgram::build(shaders::yarn_vert, shaders::yarn_frag, defines);
-        if (!program) return std::unexpected(program.error());
-        gl.shading[lines][shadows][detail].emplace(std::move(*program));
+  const std::string srgb = options.encode_srgb ? "#define ENCODE_SRGB 1\n" : "";
+  const std::string fibres(shaders::yarn_fibres_glsl.text);
+  const auto build = [&](const std::string& defines) {
+    return GlProgram::build(shaders::yarn_vert, shaders::yarn_frag, defines + srgb + fibres);
+  };
+  for (const int detail : {0, 1})
+    for (const int shadows : {0, 1}) {
+      std::string defines;
+      if (detail) defines += "#define FIBRE_DETAIL 1\n";
+      if (shadows) defines += "#define SHADOWS 1\n";
+      auto program = build(defines);
+      if (!program) return std::unexpected(program.error());
+      gl.shading[detail][shadows].emplace(std::move(*program));
+      if (!detail) {
+        auto far = build(defines + "#define FAR 1\n");
+        if (!far) return std::unexpected(far.error());
+        gl.far[shadows].emplace(std::move(*far));
+        continue;
       }
-  auto depth = GlProgram::build(shaders::yarn_vert, shaders::yarn_depth_frag);
+      auto halo = build(defines + "#define HALO 1\n");
+      if (!halo) return std::unexpected(halo.error());
+      gl.halo[shadows].emplace(std::move(*halo));
+    }
+  auto depth = GlProgram::build(shaders::yarn_vert, shaders::yarn_depth_frag,
+                                "#define DEPTH_PASS 1\n" + fibres);
   if (!depth) return std::unexpected(depth.error());
   gl.depth.emplace(std::move(*depth));
 
+  // One vertex array: the points read at three offsets (previous, this,
+  // next) and the frame's element buffer of strips.
   glGenVertexArrays(1, &gl.array);
   glBindVertexArray(gl.array);
   glGenBuffers(1, &gl.buffer);
-  glBindBuffer(GL_ARRAY_BUFFER, gl.buffer);
+  glGenBuffers(2, gl.elements);
   for (GLuint location = 0; location < 5; ++location)
     glEnableVertexAttribArray(location);
   glBindVertexArray(0);
@@ -121,6 +179,9 @@ Result<std::unique_ptr<YarnRenderer>> YarnRenderer::create(const YarnRendererOpt
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(previous_framebuffer));
   if (!complete)
     return std::unexpected(internal_error("the yarn shadow map's framebuffer is incomplete"));
+
+  renderer->slice_ = bake_yarn_slice(renderer->style_, options.slice);
+  renderer->upload_slice();
   if (const GLenum error = glGetError(); error != GL_NO_ERROR)
     return std::unexpected(internal_error("GL error " + std::to_string(error) +
                                           " while setting up the yarn renderer"));
@@ -129,45 +190,136 @@ Result<std::unique_ptr<YarnRenderer>> YarnRenderer::create(const YarnRendererOpt
 
 YarnRenderer::~YarnRenderer() = default;
 
+// The slice and its mipmaps, made on the CPU (chen2003 eq. 11), as a
+// texture that repeats along the yarn and stops at the halo's edge.
+void YarnRenderer::upload_slice() {
+  ++bakes_;
+  GLuint& texture = gl_->slice;
+  glDeleteTextures(1, &texture);  // immutable storage: a new size needs a new texture
+  glGenTextures(1, &texture);
+  glActiveTexture(GL_TEXTURE0 + kSliceUnit);
+  glBindTexture(GL_TEXTURE_2D, texture);
+  const auto levels = static_cast<GLsizei>(slice_.levels.size());
+  glTexStorage2D(GL_TEXTURE_2D, levels, GL_RGBA8, slice_.levels[0].width, slice_.levels[0].height);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+  for (GLsizei level = 0; level < levels; ++level) {
+    const YarnSliceLevel& data = slice_.levels[static_cast<std::size_t>(level)];
+    glTexSubImage2D(GL_TEXTURE_2D, level, 0, 0, data.width, data.height, GL_RGBA,
+                    GL_UNSIGNED_BYTE, data.texels.data());
+  }
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
+  glActiveTexture(GL_TEXTURE0);
+}
+
+// One yarn's points into the packed buffer from `first`, and what choosing
+// its strip's points needs of them.
+void YarnRenderer::pack_yarn(const cloth::YarnCurve& curve, std::size_t index, std::size_t first,
+                             ColourBytes& colour_bytes, Eigen::Array3f& low,
+                             Eigen::Array3f& high) {
+  Packed& packed = *packed_;
+  const std::size_t count = curve.points.size();
+  // A phase of its own per yarn, so that the slice's pattern does not
+  // line up from yarn to yarn.
+  const auto seed = static_cast<std::uint8_t>((index * 2654435761U) >> 24);
+  const bool normals = curve.normals.size() >= count;
+  const bool lifts = curve.lift.size() >= count;
+  const bool colours = curve.colours.size() >= count;
+  const Eigen::Vector3f default_normal = Eigen::Vector3f::UnitZ();
+  float arc = 0;
+  Eigen::Vector3f before = Eigen::Vector3f::Zero();  // the piece into this point, unit
+  float slope_before = 0;                             // of the lift, per mm
+  std::size_t next = first;
+  for (std::size_t i = 0; i < count; ++i) {
+    const Eigen::Vector3f& point = curve.points[i];
+    CentrelinePoint& facts = packed.centreline[next];
+    const float lift = lifts ? curve.lift[i] : 1.0f;
+    if (i + 1 < count) {
+      const Eigen::Vector3f piece = curve.points[i + 1] - point;
+      facts.length_mm = piece.norm();
+      const Eigen::Vector3f after =
+          facts.length_mm > 0 ? Eigen::Vector3f(piece / facts.length_mm) : before;
+      const float slope_after =
+          lifts && facts.length_mm > 0 ? (curve.lift[i + 1] - lift) / facts.length_mm : 0.0f;
+      // 2 sin(angle / 2): the angle itself where it matters (small), no acos.
+      if (i > 0) {
+        facts.turn = (after - before).norm();
+        facts.lift_turn = std::abs(slope_after - slope_before);
+      }
+      before = after;
+      slope_before = slope_after;
+    }
+    if (i > 0) arc += packed.centreline[next - 1].length_mm;
+    low = low.min(point.array());
+    high = high.max(point.array());
+    const Eigen::Vector3f& normal = normals ? curve.normals[i] : default_normal;
+    const Eigen::Vector3f& colour = colours ? curve.colours[i] : style_.colour;
+    facts.keep = colours && i > 0 && colour != curve.colours[i - 1];
+    const std::uint8_t* bytes = colour_bytes(colour);
+    packed.points[next++] = {{point.x(), point.y(), point.z(), arc},
+                             {snorm8(normal.x()), snorm8(normal.y()), snorm8(normal.z()),
+                              snorm8(lift)},
+                             {bytes[0], bytes[1], bytes[2], seed}};
+  }
+}
+
 void YarnRenderer::update(const cloth::YarnSet& yarns) {
+  if (!same_slice(yarns.style, slice_.style)) {
+    slice_ = bake_yarn_slice(yarns.style, options_.slice);
+    upload_slice();
+  }
   style_ = yarns.style;
   Packed& packed = *packed_;
-  packed.points.clear();
   packed.curves.clear();
+  // Where each yarn goes in the buffer, then the yarns packed side by side
+  // on the thread pool, a few at a time.
+  const int yarn_count = static_cast<int>(yarns.curves.size());
+  std::vector<std::size_t> firsts(yarns.curves.size());
+  std::size_t total = kPadding;
+  for (std::size_t index = 0; index < yarns.curves.size(); ++index) {
+    firsts[index] = total;
+    total += yarns.curves[index].points.size();
+    if (yarns.curves[index].points.size() >= 3)
+      packed.curves.push_back({firsts[index], yarns.curves[index].points.size()});
+  }
+  const std::size_t next = total;
+  total += kPadding;
+  packed.points.resize(total);
+  packed.centreline.assign(total, CentrelinePoint{});
   // Arc length rises along each yarn: the front padding's never lies
   // behind a first point, the back padding's never ahead of a last one.
   PackedPoint padding{};
   padding.position_arc[3] = std::numeric_limits<float>::max();
-  packed.points.assign(kPadding, padding);
-  double total_arc = 0;
-  std::size_t pieces = 0;
-  bounds_.setEmpty();
-  const Eigen::Vector3f default_normal = Eigen::Vector3f::UnitZ();
-  for (const cloth::YarnCurve& curve : yarns.curves) {
-    const std::size_t first = packed.points.size();
-    float arc = 0;
-    for (std::size_t i = 0; i < curve.points.size(); ++i) {
-      const Eigen::Vector3f& point = curve.points[i];
-      if (i > 0) arc += (point - curve.points[i - 1]).norm();
-      bounds_.extend(point);
-      const Eigen::Vector3f& normal = i < curve.normals.size() ? curve.normals[i] : default_normal;
-      const float lift = i < curve.lift.size() ? curve.lift[i] : 1.0f;
-      const Eigen::Vector3f& colour = i < curve.colours.size() ? curve.colours[i] : style_.colour;
-      packed.points.push_back(
-          {{point.x(), point.y(), point.z(), arc},
-           {snorm16(normal.x()), snorm16(normal.y()), snorm16(normal.z()), snorm16(lift)},
-           {unorm16(colour.x()), unorm16(colour.y()), unorm16(colour.z()), 0}});
-    }
-    if (curve.points.size() >= 2) {
-      packed.curves.push_back({first, static_cast<GLsizei>(curve.points.size())});
-      total_arc += arc;
-      pieces += curve.points.size() - 1;
-    }
+  std::fill_n(packed.points.begin(), kPadding, padding);
+  constexpr int kChunk = 8;
+  const int chunks = processing::chunk_count(yarn_count, kChunk);
+  std::vector<Eigen::Array3f> lows(static_cast<std::size_t>(chunks),
+                                   Eigen::Array3f::Constant(std::numeric_limits<float>::max()));
+  std::vector<Eigen::Array3f> highs(static_cast<std::size_t>(chunks),
+                                    Eigen::Array3f::Constant(-std::numeric_limits<float>::max()));
+  processing::parallel_chunks(yarn_count, kChunk, [&](int begin, int end) {
+    ColourBytes colour_bytes;
+    Eigen::Array3f& low = lows[static_cast<std::size_t>(begin / kChunk)];
+    Eigen::Array3f& high = highs[static_cast<std::size_t>(begin / kChunk)];
+    for (int index = begin; index < end; ++index)
+      pack_yarn(yarns.curves[static_cast<std::size_t>(index)], static_cast<std::size_t>(index),
+                firsts[static_cast<std::size_t>(index)], colour_bytes, low, high);
+  });
+  Eigen::Array3f low = Eigen::Array3f::Constant(std::numeric_limits<float>::max());
+  Eigen::Array3f high = -low;
+  for (int chunk = 0; chunk < chunks; ++chunk) {
+    low = low.min(lows[static_cast<std::size_t>(chunk)]);
+    high = high.max(highs[static_cast<std::size_t>(chunk)]);
   }
   padding.position_arc[3] = -1;
-  packed.points.insert(packed.points.end(), kPadding, padding);
-  packed.mean_spacing_mm = pieces > 0 ? static_cast<float>(total_arc / pieces) : 0;
-  if (!bounds_.isEmpty()) {
+  std::fill_n(packed.points.begin() + static_cast<std::ptrdiff_t>(next), kPadding, padding);
+  bounds_.setEmpty();
+  if (next > kPadding) {
+    bounds_.extend(Eigen::Vector3f(low.matrix()));
+    bounds_.extend(Eigen::Vector3f(high.matrix()));
     bounds_.min().array() -= style_.radius_mm;
     bounds_.max().array() += style_.radius_mm;
   }
@@ -187,34 +339,87 @@ void YarnRenderer::update(const cloth::YarnSet& yarns) {
 
 namespace {
 
-// Each curve as one strip through every step-th point: the attributes
-// point at the curve's first point, one step apart. A strip needs three
-// vertices, so a short curve takes a smaller step (and one of two points
-// is not drawn at all).
-void draw_curves(const std::vector<CurveRange>& curves, int step) {
+void point_attributes() {
   constexpr std::size_t size = sizeof(PackedPoint);
   const auto at = [](std::size_t offset) { return reinterpret_cast<const void*>(offset); };
-  for (const CurveRange& curve : curves) {
-    const int own_step = std::max(1, std::min(step, (curve.count - 1) / 2));
-    const auto stride = static_cast<GLsizei>(own_step * size);
-    const std::size_t base = curve.first * size;
-    glVertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, stride, at(base - own_step * size));
-    glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, stride, at(base));
-    glVertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, stride, at(base + own_step * size));
-    glVertexAttribPointer(3, 4, GL_SHORT, GL_TRUE, stride,
-                          at(base + offsetof(PackedPoint, normal_lift)));
-    glVertexAttribPointer(4, 3, GL_UNSIGNED_SHORT, GL_TRUE, stride,
-                          at(base + offsetof(PackedPoint, colour)));
-    glDrawArrays(GL_TRIANGLE_STRIP, 0, (curve.count - 1) / own_step + 1);
-  }
+  constexpr auto stride = static_cast<GLsizei>(size);
+  // Index i reads point i at location 1, its neighbours at 0 and 2.
+  glVertexAttribPointer(0, 4, GL_FLOAT, GL_FALSE, stride, at(0));
+  glVertexAttribPointer(1, 4, GL_FLOAT, GL_FALSE, stride, at(size));
+  glVertexAttribPointer(2, 4, GL_FLOAT, GL_FALSE, stride, at(2 * size));
+  glVertexAttribPointer(3, 4, GL_BYTE, GL_TRUE, stride, at(size + offsetof(PackedPoint, normal_lift)));
+  glVertexAttribPointer(4, 4, GL_UNSIGNED_BYTE, GL_TRUE, stride,
+                        at(size + offsetof(PackedPoint, colour_seed)));
 }
 
-// The step that keeps a yarn's pieces at least `min_length` units long,
-// given how many units a millimetre is.
-int point_step(float spacing_mm, float units_per_mm, float min_length) {
-  const float piece = spacing_mm * units_per_mm;
-  if (piece <= 0) return 1;
-  return std::clamp(static_cast<int>(min_length / piece), 1, kMaxStep);
+}  // namespace
+
+// The strips of every yarn through the points this scale draws into
+// element buffer `which` (indices one less than the packed points': the
+// attribute at location 1 starts a point in); `layered`, as separate
+// triangles by layer as seen from `eye` (position, w = 1; or direction,
+// w = 0), back to front.
+YarnRenderer::Strips YarnRenderer::choose_points(float px_per_mm, const PieceLimits& limits,
+                                                 const Eigen::Vector4f& eye, bool layered,
+                                                 unsigned which) {
+  Packed& packed = *packed_;
+  packed.indices.clear();
+  for (const CurveRange& curve : packed.curves)
+    append_strip(packed.centreline, curve.first, curve.count, px_per_mm, limits, packed.indices);
+  Strips strips;
+  strips.mode = GL_TRIANGLE_STRIP;
+  if (layered) {
+    const auto layer_of = [&](std::uint32_t index) {
+      const PackedPoint& point = packed.points[index];
+      const Eigen::Vector3f to_eye =
+          eye.head<3>() - eye.w() * Eigen::Vector3f(point.position_arc[0], point.position_arc[1],
+                                                    point.position_arc[2]);
+      const float facing = to_eye.x() * point.normal_lift[0] + to_eye.y() * point.normal_lift[1] +
+                           to_eye.z() * point.normal_lift[2];
+      const float lift = static_cast<float>(point.normal_lift[3]) / 127.0f;
+      return cloth_layer(facing >= 0 ? lift : -lift);
+    };
+    for (auto& layer : packed.layers) layer.clear();
+    layer_triangles(packed.indices, layer_of, packed.layers);
+    packed.indices.clear();
+    for (int layer = 0; layer < kLayers; ++layer) {
+      strips.offset[layer] = packed.indices.size() * sizeof(std::uint32_t);
+      strips.count[layer] = static_cast<GLsizei>(packed.layers[layer].size());
+      packed.indices.insert(packed.indices.end(), packed.layers[layer].begin(),
+                            packed.layers[layer].end());
+    }
+    strips.mode = GL_TRIANGLES;
+  } else {
+    strips.count[0] = static_cast<GLsizei>(packed.indices.size());
+  }
+  for (std::uint32_t& index : packed.indices)
+    if (index != kRestartIndex) --index;
+  const std::size_t bytes = packed.indices.size() * sizeof(std::uint32_t);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, gl_->elements[which]);
+  if (bytes > gl_->element_bytes[which]) {
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, static_cast<GLsizeiptr>(bytes), packed.indices.data(),
+                 GL_STREAM_DRAW);
+    gl_->element_bytes[which] = bytes;
+  } else {
+    glBufferSubData(GL_ELEMENT_ARRAY_BUFFER, 0, static_cast<GLsizeiptr>(bytes),
+                    packed.indices.data());
+  }
+  return strips;
+}
+
+namespace {
+
+// Each layer's strips (or triangles) in turn, in the order given.
+void draw_strips(GLenum mode, const std::array<GLsizei, kLayers>& count,
+                 const std::array<std::size_t, kLayers>& offset, int instances = 1) {
+  for (int layer = 0; layer < kLayers; ++layer) {
+    if (count[layer] == 0) continue;
+    const auto* at = reinterpret_cast<const void*>(offset[layer]);
+    if (instances > 1)
+      glDrawElementsInstanced(mode, count[layer], GL_UNSIGNED_INT, at, instances);
+    else
+      glDrawElements(mode, count[layer], GL_UNSIGNED_INT, at);
+  }
 }
 
 }  // namespace
@@ -225,27 +430,80 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
   const Gl& gl = *gl_;
   const KnitFrame frame = knit_frame(bounds_, view, viewport);
   const float radius = style_.radius_mm;
-  last_width_px_ = 2 * radius * frame.focal_px / frame.distance;
-  const float band = std::max(options_.tubes_from_px - options_.lines_up_to_px, 1e-3f);
-  last_tube_weight_ = std::clamp((last_width_px_ - options_.lines_up_to_px) / band, 0.0f, 1.0f);
+  const float flatness = std::clamp(style_.flatness, 0.05f, 1.0f);
+  const float pixels_per_mm = frame.focal_px / frame.distance;
+  last_width_px_ = 2 * radius * pixels_per_mm;
   const bool drawing = !packed_->curves.empty();
+  const YarnRendererOptions& options = options_;
+
+  // The widest a yarn can look (at the bounds' nearest depth) decides the
+  // halo pass, the narrowest (head on, at the farthest) the blending.
+  float nearest = std::numeric_limits<float>::max(), farthest = 0;
+  if (!bounds_.isEmpty())
+    for (int corner = 0; corner < 8; ++corner) {
+      const float depth = (frame.view * bounds_.corner(static_cast<Eigen::AlignedBox3f::CornerType>(corner))
+                                            .homogeneous())
+                              .z();
+      nearest = std::min(nearest, -depth);
+      farthest = std::max(farthest, -depth);
+    }
+  nearest = std::max(nearest, 0.01f * frame.distance);
+  farthest = std::max(farthest, nearest);
+  const float widest_px = 2 * radius * frame.focal_px / nearest;
+  const float narrowest_px = 2 * radius * frame.focal_px / farthest;
+  last_halo_ = drawing && view.fibre_detail && widest_px > options.halo_from_px;
+  last_far_ = widest_px <= options.detail_from_px;
+  // The far view's widening at its narrowest yarn (yarn.vert's `prefilter`).
+  const float widest_prefilter_px =
+      options.prefilter_px *
+      (1 - smoothstep(options.prefilter_from_px, options.prefilter_until_px, narrowest_px));
+  const bool blending = last_far_ ? widest_prefilter_px > 0 : narrowest_px < options.min_strip_px;
+
+  // The map need be no finer than the screen: as many texels across the
+  // bounds as pixels would cover them at the centre's distance.
+  const int shadow_extent = std::clamp(
+      static_cast<int>(std::ceil(frame.shadow_depth_range * pixels_per_mm)), 256, gl.shadow_size);
+  const float texels_per_mm = static_cast<float>(shadow_extent) / frame.shadow_depth_range;
+  const float map_strength =
+      smoothstep(options.map_from_texels, options.map_full_texels, 2 * radius * texels_per_mm);
+  const bool shadows = view.shadows && drawing && map_strength > 0;
+  last_shadow_map_ = shadows;
 
   glDisable(GL_CULL_FACE);  // strips face the eye either way round
   glDisable(GL_BLEND);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LEQUAL);
   glDepthMask(GL_TRUE);
+  glEnable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
   glBindVertexArray(gl.array);
   glBindBuffer(GL_ARRAY_BUFFER, gl.buffer);
-  // Yarn-level shadows fade out with the tubes: under a pixel wide they
-  // would be detail no one sees, at the cost of a whole pass.
-  const bool shadows = view.shadows && drawing && last_tube_weight_ > 0;
-  // The map need be no finer than the screen: as many texels across the
-  // bounds as pixels would cover them at the centre's distance.
-  const float pixels_per_mm = frame.focal_px / frame.distance;
-  const int shadow_extent = std::clamp(
-      static_cast<int>(std::ceil(frame.shadow_depth_range * pixels_per_mm)), 256, gl.shadow_size);
+  point_attributes();
+  // Shadows need vertices close enough to show where a crossing's falls.
+  PieceLimits limits = options.pieces;
+  // A piece shorter than the yarn is wide shows nothing a longer one would
+  // not; a few pixels are enough for any (a strip's sides take turns, so a
+  // long piece leaves each side a vertex every other piece).
+  // Coarser while the yarn is a couple of pixels wide (its loops' shape is
+  // then more than the eye resolves), finer as it grows: both gradually,
+  // as a jump in the points drawn would show.
+  const float fine = smoothstep(2.0f, 6.0f, last_width_px_);
+  limits.lift_tolerance += (options.near_lift_tolerance - limits.lift_tolerance) * fine;
+  const float cap = options.min_piece_cap_px + (1.0f - options.min_piece_cap_px) * fine;
+  limits.min_px = std::clamp(options.min_piece_widths * last_width_px_, limits.min_px,
+                             std::max(limits.min_px, cap));
+  limits.tolerance_px =
+      std::min(limits.tolerance_px, options.tolerance_widths * last_width_px_);
+  limits.half_width_px = last_width_px_ / 2;
+  // Where the points kept change the loops' look (under a pixel the
+  // prefilter hides it, and there dithering only adds noise).
+  limits.dither = options.piece_dither * smoothstep(1.5f, 3.0f, last_width_px_);
+  // As the map takes over, shorter pieces (continuously: a jump in the
+  // points drawn would show).
+  if (shadows)
+    limits.max_px += (std::min(limits.max_px, options.shadowed_piece_px) - limits.max_px) * map_strength;
   if (shadows) {
+    const Strips map_strips =
+        choose_points(texels_per_mm, limits, Eigen::Vector4f::Zero(), false, 1);
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, gl.shadow_framebuffer);
     glViewport(0, 0, shadow_extent, shadow_extent);
     glEnable(GL_SCISSOR_TEST);
@@ -259,13 +517,14 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
                                        frame.toward_shadow_light.z(), 0);
     glUniform4fv(depth.uniform("u_eye"), 1, toward_light.data());
     glUniform1f(depth.uniform("u_radius"), radius);
-    const float texels_per_mm = static_cast<float>(shadow_extent) / frame.shadow_depth_range;
-    draw_curves(packed_->curves, point_step(packed_->mean_spacing_mm, texels_per_mm, 3));
+    glUniform1f(depth.uniform("u_flatness"), flatness);
+    draw_strips(map_strips.mode, map_strips.count, map_strips.offset);
     glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(target));
   }
 
-  clear_frame(view.background, options_.encode_srgb, viewport);
+  clear_frame(view.background, options.encode_srgb, viewport);
   if (!drawing) {
+    glDisable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
     glBindVertexArray(0);
     glBindBuffer(GL_ARRAY_BUFFER, 0);
     return;
@@ -273,68 +532,105 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
 
   const Eigen::Matrix4f view_projection = frame.projection * frame.view;
   const Eigen::Vector4f eye(frame.eye.x(), frame.eye.y(), frame.eye.z(), 1);
-  const FibreShading& shading = options_.shading;
-  const auto set_uniforms = [&](bool lines, float alpha) -> const GlProgram& {
-    const GlProgram& program = *gl.shading[lines][shadows][view.fibre_detail];
+  const FibreShading& shading = options.shading;
+  const auto& environment = options.environment.coefficients();
+  const float turn_scale =
+      style_.twist_pitch_mm > 0 ? style_.twist_pitch_mm / slice_.period_mm : 0.0f;
+  const auto use = [&](const GlProgram& program) {
     program.use();
     set_matrix(program.uniform("u_view_projection"), view_projection);
     glUniform4fv(program.uniform("u_eye"), 1, eye.data());
+    glUniform1f(program.uniform("u_radius"), radius);
+    glUniform1f(program.uniform("u_flatness"), flatness);
+    glUniform1f(program.uniform("u_focal_px"), frame.focal_px);
+    // Widened only where it will be blended as transparent as it is thin.
+    glUniform1f(program.uniform("u_min_half_px"), blending ? options.min_strip_px / 2 : 0.0f);
+    glUniform1f(program.uniform("u_halo"), slice_.halo);
+    glUniform2f(program.uniform("u_halo_fade_px"), options.halo_from_px, options.halo_full_px);
+    glUniform1f(program.uniform("u_period"), slice_.period_mm);
+    glUniform1f(program.uniform("u_turn_scale"), turn_scale);
+    glUniform1f(program.uniform("u_ply_slant_sin"), slice_.ply_slant_sin);
     glUniform4fv(program.uniform("u_light"), 1, frame.light.data());
     glUniform1f(program.uniform("u_reference_distance"), frame.light_reference_distance);
-    glUniform1f(program.uniform("u_radius"), radius);
-    glUniform1f(program.uniform("u_helix_angle"), ply_helix_angle(style_));
-    glUniform1i(program.uniform("u_plies"), style_.plies);
-    glUniform1f(program.uniform("u_twist_pitch"), style_.twist_pitch_mm);
-    glUniform1f(program.uniform("u_ambient"), shading.ambient);
+    glUniform3fv(program.uniform("u_environment[0]"), 9, environment[0].data());
+    glUniform1f(program.uniform("u_environment_scale"), shading.environment);
+    glUniform1f(program.uniform("u_environment_fibre"), shading.environment_fibre);
+    glUniform1f(program.uniform("u_environment_sheen"), shading.environment_sheen);
+    glUniform1f(program.uniform("u_local_scattering"), shading.local_scattering);
+    glUniform1f(program.uniform("u_global_scattering"), shading.global_scattering);
+    glUniform1f(program.uniform("u_crossing_occlusion"), shading.crossing_occlusion);
+    // No yarn shadows asked for: none, statistical or mapped.
+    glUniform1f(program.uniform("u_shadow_density"), view.shadows ? shading.shadow_density : 0.0f);
+    glUniform3fv(program.uniform("u_light_colour"), 1, shading.light_colour.data());
     glUniform1f(program.uniform("u_diffuse"), shading.diffuse);
     glUniform1f(program.uniform("u_wrap"), shading.wrap);
-    glUniform3f(program.uniform("u_primary"), shading.primary_specular, shading.primary_shift,
-                shading.primary_exponent);
-    glUniform3f(program.uniform("u_secondary"), shading.secondary_specular, shading.secondary_shift,
-                shading.secondary_exponent);
-    glUniform1f(program.uniform("u_crossing_occlusion"), shading.crossing_occlusion);
-    glUniform1f(program.uniform("u_ply_groove"), shading.ply_groove);
-    glUniform1f(program.uniform("u_striation"), shading.striation);
-    glUniform1i(program.uniform("u_fibres_per_ply"), shading.fibres_per_ply);
-    glUniform3fv(program.uniform("u_light_colour"), 1, shading.light_colour.data());
-    glUniform1f(program.uniform("u_mean_detail"), mean_fibre_detail(shading));
-    glActiveTexture(GL_TEXTURE0);
+    glUniform3f(program.uniform("u_reflection"), shading.r_weight, shading.r_shift,
+                shading.r_width);
+    glUniform3f(program.uniform("u_transmission"), shading.tt_weight, shading.tt_shift,
+                shading.tt_width);
+    glUniform1f(program.uniform("u_ply_relief"), shading.ply_relief);
+    glUniform1f(program.uniform("u_helix_sin"), std::sin(ply_helix_angle(style_)));
+    const FibreSurface mean = view.fibre_detail ? slice_surface(slice_.core_mean)
+                                                : plain_surface(style_);
+    glUniform3f(program.uniform("u_mean_surface"), mean.ply_offset, mean.tilt_sin, mean.light);
+    glUniform2f(program.uniform("u_far_px"), options.detail_from_px, options.detail_full_px);
+    glUniform1f(program.uniform("u_prefilter_px"), options.prefilter_px);
+    glUniform2f(program.uniform("u_prefilter_fade_px"), options.prefilter_from_px,
+                options.prefilter_until_px);
+    glActiveTexture(GL_TEXTURE0 + kShadowUnit);
     glBindTexture(GL_TEXTURE_2D, gl.shadow_map);
-    glUniform1i(program.uniform("u_shadow_map"), 0);
+    glUniform1i(program.uniform("u_shadow_map"), kShadowUnit);
+    glActiveTexture(GL_TEXTURE0 + kSliceUnit);
+    glBindTexture(GL_TEXTURE_2D, gl.slice);
+    glUniform1i(program.uniform("u_slice"), kSliceUnit);
+    glActiveTexture(GL_TEXTURE0);
     set_matrix(program.uniform("u_shadow_view_projection"), frame.shadow_view_projection);
-    // Half a radius: a yarn's lit half never shadows itself, its far half
-    // (dark by the wrap term anyway) may.
+    // Half a radius: a yarn's lit half never shadows itself.
     glUniform1f(program.uniform("u_shadow_bias"), 0.5f * radius / frame.shadow_depth_range);
     glUniform1f(program.uniform("u_shadow_extent"),
                 static_cast<float>(shadow_extent) / static_cast<float>(gl.shadow_size));
-    glUniform1f(program.uniform("u_alpha"), alpha);
-    glUniform1f(program.uniform("u_half_pixel"), 0.5f / frame.focal_px);
-    glUniform1f(program.uniform("u_shadow_strength"), last_tube_weight_);
-    return program;
+    glUniform1f(program.uniform("u_shadow_strength"), map_strength);
   };
 
-  const int step = point_step(packed_->mean_spacing_mm, pixels_per_mm, options_.min_piece_px);
-  if (last_tube_weight_ > 0) {
-    set_uniforms(false, 1);
-    // Pushed back a little: where lines follow, they win the depth tie.
-    const bool lines_follow = last_tube_weight_ < 1;
-    if (lines_follow) {
-      glEnable(GL_POLYGON_OFFSET_FILL);
-      glPolygonOffset(1, 1);
+  // Layers order only blended far frames; the depth test orders the rest.
+  const Strips strips = choose_points(pixels_per_mm, limits, eye, last_far_ && blending, 0);
+  last_strip_vertices_ = 0;
+  for (const GLsizei count : strips.count) last_strip_vertices_ += count;
+  if (last_far_) {
+    // Yarns thinner than their prefiltered strips: blended back to front
+    // through the cloth's layers, no depth test (the samples cannot tell
+    // such depths apart, and a strip's soft edge must not hide what lies
+    // behind it). "Over" makes a pixel's coverage 1 - prod(1 - alpha), the
+    // union of yarns that overlap at random; the nearer's colour on top.
+    use(*gl.far[shadows]);
+    glUniform1f(gl.far[shadows]->uniform("u_soft_edges"), blending ? 1.0f : 0.0f);
+    if (blending) {
+      glDisable(GL_DEPTH_TEST);
+      glEnable(GL_BLEND);
+      glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
     }
-    draw_curves(packed_->curves, step);
-    glDisable(GL_POLYGON_OFFSET_FILL);
+    draw_strips(strips.mode, strips.count, strips.offset);
+    glEnable(GL_DEPTH_TEST);
+  } else {
+    use(*gl.shading[view.fibre_detail][shadows]);
+    if (blending) {
+      glEnable(GL_BLEND);
+      glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
+    }
+    draw_strips(strips.mode, strips.count, strips.offset);
   }
-  if (last_tube_weight_ < 1) {
-    // Over the tubes by 1 - weight: the blend of the two images
-    // (durupinar2007); alone, a yarn narrower than a pixel covers that much.
-    const float coverage = std::min(last_width_px_, 1.0f);
-    set_uniforms(true, (1 - last_tube_weight_) * coverage);
+  if (last_halo_) {
+    // Over the cores, hidden by nearer ones, writing no depth: the halo of
+    // one yarn must not hide another behind it.
+    use(*gl.halo[shadows]);
     glEnable(GL_BLEND);
     glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
-    draw_curves(packed_->curves, step);
-    glDisable(GL_BLEND);
+    glDepthMask(GL_FALSE);
+    draw_strips(strips.mode, strips.count, strips.offset, 2);
+    glDepthMask(GL_TRUE);
   }
+  glDisable(GL_BLEND);
+  glDisable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
   glBindVertexArray(0);
   glBindBuffer(GL_ARRAY_BUFFER, 0);
 }

@@ -1,6 +1,7 @@
 #pragma once
 // Small yarn sets with known geometry for the yarn renderer's tests, built
-// in memory: straight yarns, two yarns crossing, a grid of wavy yarns.
+// in memory: straight yarns, two yarns crossing, a grid of wavy yarns, a
+// plain weave.
 
 #include <cmath>
 #include <numbers>
@@ -70,6 +71,40 @@ inline cloth::YarnSet wavy_grid(int rows, float length, float spacing, float rad
     }
     set.curves.push_back(std::move(curve));
   }
+  return set;
+}
+
+// A plain weave of `threads` warps (along y) and as many wefts (along x),
+// `spacing` mm apart, each passing over one and under the next: a dense,
+// exactly periodic cloth, the worst case for aliasing far away.
+inline cloth::YarnSet plain_weave(int threads, float spacing, float radius, float flatness,
+                                  float points_per_mm = 5) {
+  cloth::YarnSet set;
+  set.style.radius_mm = radius;
+  set.style.flatness = flatness;
+  set.style.colour = {0.62f, 0.52f, 0.38f};
+  const float length = static_cast<float>(threads) * spacing;
+  const int points = static_cast<int>(length * points_per_mm) + 1;
+  const float wave = std::numbers::pi_v<float> / spacing;
+  for (int direction = 0; direction < 2; ++direction)
+    for (int thread = 0; thread < threads; ++thread) {
+      cloth::YarnCurve curve;
+      const float offset = (static_cast<float>(thread) - static_cast<float>(threads - 1) / 2) * spacing;
+      const float phase = (thread % 2 == 0 ? 0.0f : std::numbers::pi_v<float>) +
+                          (direction == 0 ? 0.0f : std::numbers::pi_v<float>);
+      for (int i = 0; i < points; ++i) {
+        const float along = (static_cast<float>(i) / static_cast<float>(points - 1) - 0.5f) * length;
+        const float lift = std::sin(wave * along + phase);
+        const float z = flatness * radius * lift;
+        curve.points.push_back(direction == 0 ? Eigen::Vector3f(along, offset, z)
+                                              : Eigen::Vector3f(offset, along, z));
+        curve.normals.push_back(Eigen::Vector3f::UnitZ());
+        curve.lift.push_back(lift);
+        curve.colours.push_back(direction == 0 ? Eigen::Vector3f(0.62f, 0.52f, 0.38f)
+                                               : Eigen::Vector3f(0.30f, 0.36f, 0.55f));
+      }
+      set.curves.push_back(std::move(curve));
+    }
   return set;
 }
 

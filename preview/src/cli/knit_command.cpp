@@ -3,10 +3,14 @@
 // 1 K, 10 K and 50 K stitches.
 
 #include <GLES3/gl3.h>
+#include <sys/resource.h>
+
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iostream>
 #include <optional>
+#include <vector>
 
 #include <opencv2/core.hpp>
 
@@ -30,6 +34,7 @@ struct KnitArgs {
   ClothSize cloth_size;
   std::string yarn_colour;
   std::string from_scan;
+  std::string environment = "studio";
   double yaw = 0, pitch = 0, distance = 0;
   double light_tilt = 45, light_slant = 45;
   int samples = kDefaultSamples;
@@ -38,12 +43,27 @@ struct KnitArgs {
   bool no_shadows = false;
   bool plain_fibres = false;
   int frames = 30;
+  std::vector<int> bench_stitches{1000, 10000, 50000};
 };
 
 using Clock = std::chrono::steady_clock;
 
 double milliseconds(Clock::duration duration) {
   return std::chrono::duration<double, std::milli>(duration).count();
+}
+
+// CPU time of every thread of the process (llvmpipe's rasterising threads
+// included), in ms: on a busy machine a steadier measure than wall time.
+double process_cpu_ms() {
+  rusage usage{};
+  getrusage(RUSAGE_SELF, &usage);
+  const auto ms = [](const timeval& t) { return t.tv_sec * 1e3 + t.tv_usec / 1e3; };
+  return ms(usage.ru_utime) + ms(usage.ru_stime);
+}
+
+double median(std::vector<double> values) {
+  std::sort(values.begin(), values.end());
+  return values.empty() ? 0 : values[values.size() / 2];
 }
 
 // The yarn's colour: given, the scan's mean albedo, or none (the chart's).
@@ -86,10 +106,21 @@ struct YarnCanvas : HeadlessCanvas {
   std::unique_ptr<YarnRenderer> renderer;  // destroyed first
 };
 
-Result<YarnCanvas> open_canvas(cv::Size size, int samples) {
-  auto canvas = open_headless_canvas(size, samples);
+// The light from all around: the built-in studio, none, or a map's file.
+Result<EnvironmentLight> environment_light(const std::string& name) {
+  if (name == "studio") return EnvironmentLight::studio();
+  if (name == "none") return EnvironmentLight{};
+  return EnvironmentLight::load(name);
+}
+
+Result<YarnCanvas> open_canvas(const KnitArgs& args, cv::Size size) {
+  auto environment = environment_light(args.environment);
+  if (!environment) return std::unexpected(environment.error());
+  auto canvas = open_headless_canvas(size, args.samples);
   if (!canvas) return std::unexpected(canvas.error());
-  auto renderer = YarnRenderer::create();
+  YarnRendererOptions options;
+  options.environment = *environment;
+  auto renderer = YarnRenderer::create(options);
   if (!renderer) return std::unexpected(renderer.error());
   return YarnCanvas{std::move(*canvas), std::move(*renderer)};
 }
@@ -105,7 +136,7 @@ int render(const KnitArgs& args) {
   cloth::YarnSet yarns;
   cloth->update({args.stretch, args.shear}, yarns);
 
-  auto canvas = open_canvas(*size, args.samples);
+  auto canvas = open_canvas(args, *size);
   if (!canvas) return report_error("knit", canvas.error());
   canvas->renderer->update(yarns);
   canvas->target->bind();
@@ -119,44 +150,62 @@ int render(const KnitArgs& args) {
   return 0;
 }
 
-// Per size: the yarn update (deformation changing every frame), then the
-// frames drawn with that update, at 1920x1080 unless --size says otherwise.
+// Per size: the yarn update (deformation changing every frame), the
+// renderer's upload of it, then the frame drawn with that update, at
+// 1920x1080 unless --size says otherwise. Means and medians of wall time,
+// and the process's CPU time per frame.
 int bench(const KnitArgs& args) {
   auto size = parse_size(args.size.empty() ? "1920x1080" : args.size, "--size");
   if (!size) return report_error("knit", size.error());
-  auto canvas = open_canvas(*size, args.samples);
+  auto canvas = open_canvas(args, *size);
   if (!canvas) return report_error("knit", canvas.error());
   std::cout << "{\"renderer\": \"" << canvas->context->describe() << "\", \"size\": ["
             << size->width << ", " << size->height << "], \"samples\": " << args.samples
             << ", \"runs\": [";
   bool first = true;
-  for (const int stitches : {1000, 10000, 50000}) {
+  for (const int stitches : args.bench_stitches) {
     const int side = static_cast<int>(std::lround(std::sqrt(stitches)));
     auto cloth = ClothModel::load(args.pattern, side, side, std::nullopt, cloth_shape(args),
                                   args.cloth_size);
     if (!cloth) return report_error("knit", cloth.error());
     cloth::YarnSet yarns;
-    double update_ms = 0, frame_ms = 0;
+    std::vector<double> update_ms, upload_ms, frame_ms, cpu_ms, render_cpu_ms;
     for (int frame = -2; frame < args.frames; ++frame) {  // two untimed warm-up frames
       const float phase = 0.2f * static_cast<float>(frame);
+      const double cpu_start = process_cpu_ms();
       const auto start = Clock::now();
       cloth->update({1.15f + 0.1f * std::sin(phase), 0.1f * std::cos(phase)}, yarns);
       const auto updated = Clock::now();
       canvas->renderer->update(yarns);
+      const auto uploaded = Clock::now();
+      const double cpu_uploaded = process_cpu_ms();
       canvas->target->bind();
       canvas->renderer->render(knit_view(args), *size);
       glFinish();  // the frame is done, as before a page flip
       const auto drawn = Clock::now();
       if (frame < 0) continue;
-      update_ms += milliseconds(updated - start);
-      frame_ms += milliseconds(drawn - start);
+      const double cpu_drawn = process_cpu_ms();
+      cpu_ms.push_back(cpu_drawn - cpu_start);
+      render_cpu_ms.push_back(cpu_drawn - cpu_uploaded);
+      update_ms.push_back(milliseconds(updated - start));
+      upload_ms.push_back(milliseconds(uploaded - updated));
+      frame_ms.push_back(milliseconds(drawn - start));
     }
-    const double frames = args.frames;
+    const auto mean = [](const std::vector<double>& values) {
+      double sum = 0;
+      for (const double value : values) sum += value;
+      return sum / static_cast<double>(values.size());
+    };
     std::cout << (first ? "" : ", ") << "{\"stitches\": " << side * side
               << ", \"yarn_points\": " << yarns.point_count()
-              << ", \"yarn_update_ms\": " << update_ms / frames
-              << ", \"frame_ms\": " << frame_ms / frames
-              << ", \"fps\": " << 1000.0 * frames / frame_ms << "}";
+              << ", \"strip_vertices\": " << canvas->renderer->last_strip_vertices()
+              << ", \"yarn_update_ms\": " << mean(update_ms)
+              << ", \"yarn_upload_ms\": " << mean(upload_ms)
+              << ", \"frame_ms\": " << mean(frame_ms)
+              << ", \"frame_ms_median\": " << median(frame_ms)
+              << ", \"frame_cpu_ms\": " << mean(cpu_ms)
+              << ", \"render_cpu_ms\": " << mean(render_cpu_ms)
+              << ", \"fps\": " << 1000.0 / mean(frame_ms) << "}";
     first = false;
   }
   std::cout << "]}\n";
@@ -200,6 +249,9 @@ Command add_knit_command(CLI::App& parent) {
   app->add_option("--from-scan", args->from_scan,
                   "Yarn colour from a scan's maps directory (mean albedo)")
       ->excludes(colour);
+  app->add_option("--environment", args->environment,
+                  "Light from all around: studio, none, or an equirectangular map (EXR, PNG)")
+      ->capture_default_str();
   app->add_option("--yaw", args->yaw, "Camera yaw in degrees (180: the back)")
       ->capture_default_str();
   app->add_option("--pitch", args->pitch, "Camera pitch in degrees")->capture_default_str();
@@ -224,6 +276,10 @@ Command add_knit_command(CLI::App& parent) {
   app->add_option("--frames", args->frames, "Frames timed per size (--bench)")
       ->check(psrig::cli::positive_number())
       ->capture_default_str();
+  app->add_option("--bench-stitches", args->bench_stitches,
+                  "Stitch counts timed (--bench; default 1000 10000 50000)")
+      ->check(CLI::Range(1, 1000000))
+      ->expected(1, -1);
   out->excludes(timed);
   return {app, [args, out] {
             if (args->bench) return bench(*args);

@@ -20,6 +20,9 @@ struct YarnStyle {
   float flatness = 1.0f;
   int plies = 2;                                // plies twisted together, at least 1
   float twist_pitch_mm = 2.5f;                  // yarn length per full turn of the plies
+  // Flyaway fibres standing out of the yarn, relative to a typical spun
+  // yarn's (1); 0 for a smooth filament. Only renderers read it.
+  float hairiness = 1.0f;
   Eigen::Vector3f colour{0.55f, 0.18f, 0.12f};  // linear RGB, when a curve has none
 };
 

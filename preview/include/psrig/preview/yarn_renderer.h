@@ -1,10 +1,16 @@
 #pragma once
-// Yarns drawn from their centrelines (yarn_curves.h) in GLES 3.0: camera-
-// facing strips shaded as twisted fibres (yarn_shading.h), shadowed by a
-// yarn-level shadow map, and far away drawn as lines, with a blended band
-// between the two (durupinar2007-procedural-knit-woven.txt: cylinders near,
-// lines far). Draws into whatever framebuffer is bound; needs its GLES
-// context current for its whole life.
+// Yarns drawn from their centrelines (yarn_curves.h) in GLES 3.0: strips as
+// wide as each yarn's elliptical section looks, shaded as plied, twisted
+// fibres (yarn_shading.h) from one precomputed slice of the yarn swept
+// along it (yarn_slice.h, the lumislice of chen2003-lumislice-knitwear.txt
+// section 5), lit by a light and an environment map, shadowed by a
+// yarn-level shadow map, with a halo of flyaway fibres drawn over them.
+// One level of detail, continuous: the slice's mipmaps average the fibres
+// as the yarn shrinks, a yarn narrower than a few pixels loses its halo
+// and takes statistical shadows for the map's, and one narrower than
+// `min_strip_px` is drawn that wide and that much transparent. Draws into
+// whatever framebuffer is bound; needs its GLES context current for its
+// whole life.
 
 #include <cstddef>
 #include <memory>
@@ -12,31 +18,69 @@
 #include <Eigen/Geometry>
 #include <opencv2/core.hpp>
 
-#include "psrig/preview/egl_context.h"
-#include "psrig/preview/knit_view.h"
 #include "psrig/cloth/yarn_curves.h"
+#include "psrig/preview/egl_context.h"
+#include "psrig/preview/environment_light.h"
+#include "psrig/preview/knit_view.h"
+#include "psrig/preview/strip_points.h"
 #include "psrig/preview/yarn_shading.h"
+#include "psrig/preview/yarn_slice.h"
 
 namespace psrig::preview {
 
 struct YarnRendererOptions {
   FibreShading shading;
+  EnvironmentLight environment = EnvironmentLight::studio();
+  YarnSliceOptions slice;
   // The framebuffer stores linear values (a window surface without an sRGB
   // colour space): the shader encodes sRGB itself.
   bool encode_srgb = false;
   int shadow_map_size = 2048;  // texels a side, at most what the context allows
-  // Level of detail from the yarn's projected width (2 radii) in pixels:
-  // lines only up to `lines_up_to_px`, tubes only from `tubes_from_px`,
-  // between them both, blended by the tube weight. A line is a flat ribbon
-  // at least a pixel wide, shaded as the tube's middle with the fibre
-  // detail averaged (triangles: llvmpipe's multisampled GL lines lose
-  // pieces shorter than a pixel); one narrower than a pixel is drawn that
-  // much transparent. Yarn shadows fade out with the tubes.
-  float lines_up_to_px = 1.0f;
-  float tubes_from_px = 3.0f;
-  // Where the points along a yarn are closer than this on screen, only
-  // every n-th is drawn (up to 32): far yarns cost fewer vertices.
-  float min_piece_px = 3.0f;
+  // The near view's per-fragment detail grows in over the far view's
+  // per-vertex colour as a yarn widens from `detail_from_px` to
+  // `detail_full_px`; a frame whose yarns are all narrower draws the far
+  // view alone.
+  float detail_from_px = 3.0f;
+  float detail_full_px = 5.0f;
+  // Far frames whose yarns are thinner than `prefilter_until_px` blend
+  // them in order (strip_points.h's layers) as strips widened either side
+  // by `prefilter_px`, their coverage prefiltered (the yarn's width
+  // convolved with a tent that wide, about a pixel: the antialiasing filter
+  // 4 samples cannot be for a yarn under a pixel wide, which then shows as
+  // its share of a soft band, not as samples hit or missed). The widening
+  // fades out as the yarn widens from `prefilter_from_px` to
+  // `prefilter_until_px`; once under a quarter pixel everywhere, far frames
+  // draw opaque strips and test depth as near ones do.
+  float prefilter_px = 1.0f;
+  float prefilter_from_px = 0.8f;
+  float prefilter_until_px = 1.5f;
+  // A yarn narrower than this (pixels) is drawn this wide and as
+  // transparent as it is narrower: thinner strips alias under 4x MSAA.
+  float min_strip_px = 1.5f;
+  // The flyaway halo grows in as the yarn widens from `halo_from_px` to
+  // `halo_full_px`; below it no halo pass is drawn.
+  float halo_from_px = 4.0f;
+  float halo_full_px = 10.0f;
+  // The shadow map takes over from the statistical shadows as a yarn grows
+  // from `map_from_texels` to `map_full_texels` wide in it; below, no map
+  // is drawn (a yarn a texel or two wide in a depth map aliases).
+  float map_from_texels = 2.5f;
+  float map_full_texels = 5.0f;
+  // Which centreline points a frame draws (strip_points.h), and the
+  // longest piece while the shadow map is in use (its shadows are looked up
+  // at the vertices).
+  PieceLimits pieces;
+  float shadowed_piece_px = 6.0f;
+  // No piece shorter than this many yarn widths, up to `min_piece_cap_px`
+  // (falling to a pixel, and the lift's tolerance to `near_lift_tolerance`,
+  // as the yarn widens from 2 to 6 px: the loops' shape shows there);
+  // under a pixel, the chord keeps within `tolerance_widths` of the yarn's
+  // width of the curve (a loop's shape, and the gaps beside it, hold).
+  float min_piece_widths = 1.5f;
+  float min_piece_cap_px = 3.0f;
+  float tolerance_widths = 0.0625f;
+  float near_lift_tolerance = 0.15f;
+  float piece_dither = 0.3f;  // PieceLimits::dither once the yarn is 3 px wide
 };
 
 class YarnRenderer {
@@ -48,38 +92,56 @@ class YarnRenderer {
   YarnRenderer& operator=(const YarnRenderer&) = delete;
 
   // Uploads the centrelines (every frame while the cloth moves): one packed
-  // vertex per point, rewritten in place while the point count stays.
-  // Missing normals are +z, missing lifts 1, missing colours the style's;
-  // a curve of fewer than three points is not drawn (a strip needs three).
+  // vertex per point, rewritten in place while the point count stays; the
+  // slice is baked again when the style's look changes. Missing normals are
+  // +z, missing lifts 1, missing colours the style's; a curve of fewer than
+  // three points is not drawn (a strip needs three).
   void update(const cloth::YarnSet& yarns);
 
   // Clears and draws one frame into the bound framebuffer of `viewport`
   // (the shadow pass borrows its own framebuffer and gives the caller's back).
   void render(const KnitView& view, cv::Size viewport);
 
-  // The last frame's yarn width in pixels at the bounds centre, and the
-  // tube weight it chose: 0 lines only, 1 tubes only.
+  // The last frame's yarn width in pixels at the bounds centre, and what it drew.
   [[nodiscard]] float last_yarn_width_px() const { return last_width_px_; }
-  [[nodiscard]] float last_tube_weight() const { return last_tube_weight_; }
+  [[nodiscard]] bool last_drew_shadow_map() const { return last_shadow_map_; }
+  [[nodiscard]] bool last_drew_halo() const { return last_halo_; }
+  [[nodiscard]] bool last_drew_far_only() const { return last_far_; }
+  // Vertices (and restarts) of the last frame's strips.
+  [[nodiscard]] int last_strip_vertices() const { return last_strip_vertices_; }
   // How often update() had to allocate GL storage (the point count changed).
   [[nodiscard]] int buffer_allocations() const { return allocations_; }
+  [[nodiscard]] int slice_bakes() const { return bakes_; }
   [[nodiscard]] const Eigen::AlignedBox3f& bounds() const { return bounds_; }
   [[nodiscard]] const cloth::YarnStyle& style() const { return style_; }
+  [[nodiscard]] const YarnSlice& slice() const { return slice_; }
   [[nodiscard]] const YarnRendererOptions& options() const { return options_; }
 
  private:
   struct Gl;
   struct Packed;
   YarnRenderer() = default;
+  void upload_slice();
+  struct Strips;
+  class ColourBytes;
+  void pack_yarn(const cloth::YarnCurve& curve, std::size_t index, std::size_t first,
+                 ColourBytes& colour_bytes, Eigen::Array3f& low, Eigen::Array3f& high);
+  Strips choose_points(float px_per_mm, const PieceLimits& limits, const Eigen::Vector4f& eye,
+                       bool layered, unsigned which);
 
   std::unique_ptr<Gl> gl_;
   std::unique_ptr<Packed> packed_;
   YarnRendererOptions options_;
   cloth::YarnStyle style_;
+  YarnSlice slice_;
   Eigen::AlignedBox3f bounds_;
   float last_width_px_ = 0;
-  float last_tube_weight_ = 1;
+  bool last_shadow_map_ = false;
+  bool last_halo_ = false;
+  bool last_far_ = false;
+  int last_strip_vertices_ = 0;
   int allocations_ = 0;
+  int bakes_ = 0;
 };
 
 }  // namespace psrig::preview
