@@ -8,7 +8,9 @@ namespace psrig::capture {
 Result<std::unique_ptr<Camera>> open_camera(const config::RigConfig& config) {
   std::unique_ptr<Camera> camera;
   if (config.camera.backend == "sim") {
-    camera = open_sim_camera(config);
+    auto sim = open_sim_camera(config);
+    if (!sim) return std::unexpected(sim.error());
+    camera = std::move(*sim);
   } else if (config.camera.backend == "v4l2") {
     auto v4l2 = open_v4l2_camera(config.camera);
     if (!v4l2) return std::unexpected(v4l2.error());

@@ -7,14 +7,21 @@
 
 #include "psrig/base/log.h"
 #include "psrig/calibration/calibration_store.h"
-#include "psrig/sim/swatch_model.h"
+#include "psrig/capture/fabric_truth.h"
+#include "psrig/sim/world.h"
 
 namespace psrig::capture {
 
 Result<Rig> open_rig(const config::RigConfig& config, bool with_camera,
                      const RigWrappers& wrappers) {
   Rig rig;
-  if (with_camera && config.camera.backend == "sim") rig.world = sim::World::attach(config);
+  if (with_camera && config.camera.backend == "sim") {
+    auto world = sim::World::attach(config);
+    // The simulated camera's world is its device: a pattern it cannot make
+    // fails the camera, as open_rig's errors say which device.
+    if (!world) return std::unexpected(std::move(world.error()).with(ErrorCode::camera));
+    rig.world = std::move(*world);
+  }
   auto backend = firmware_host::open_lights(config);
   if (!backend) return std::unexpected(std::move(backend.error()).with(ErrorCode::lights));
   if (wrappers.lights) *backend = wrappers.lights(std::move(*backend));
@@ -101,18 +108,8 @@ ScanRequest Rig::request(const config::RigConfig& config) const {
   if (world && config.camera.backend == "sim") {
     request.ground_truth_normal = world->swatch().normal;
     request.ground_truth_height = world->swatch().height_mm;
-    if (config.sim.target == "swatch") {
-      const auto pattern = sim::parse_swatch_pattern(config.sim.pattern);
-      const sim::SwatchGauge gauge =
-          sim::swatch_gauge(pattern.value_or(sim::SwatchPattern::jersey));
-      request.ground_truth_fabric = {
-          {"construction", gauge.knitted ? "knit" : "woven"},
-          {"structure", config.sim.pattern},
-          {gauge.knitted ? "wales_per_cm" : "ends_per_cm", gauge.across_per_cm},
-          {gauge.knitted ? "courses_per_cm" : "picks_per_cm", gauge.along_per_cm},
-          {"rotation_deg", config.sim.swatch_rotation_deg},
-          {"skew_deg", 0.0}};
-    }
+    if (const auto& pattern = world->pattern())
+      request.ground_truth_fabric = fabric_ground_truth(*pattern, config.sim.swatch_rotation_deg);
   }
   return request;
 }

@@ -18,8 +18,8 @@ constexpr std::int64_t kBuffers = 4;
 
 class SimCamera final : public Camera {
  public:
-  explicit SimCamera(const config::RigConfig& config)
-      : config_(config), world_(sim::World::attach(config)), sensor_(config.sim, config.sim.seed) {}
+  SimCamera(const config::RigConfig& config, std::shared_ptr<sim::World> world)
+      : config_(config), world_(std::move(world)), sensor_(config.sim, config.sim.seed) {}
 
   Status configure(const config::CameraConfig& settings) override {
     if (running_) return std::unexpected(internal_error("sim camera: configure while streaming"));
@@ -100,8 +100,10 @@ class SimCamera final : public Camera {
 
 }  // namespace
 
-std::unique_ptr<Camera> open_sim_camera(const config::RigConfig& config) {
-  return std::make_unique<SimCamera>(config);
+Result<std::unique_ptr<Camera>> open_sim_camera(const config::RigConfig& config) {
+  auto world = sim::World::attach(config);
+  if (!world) return std::unexpected(std::move(world.error()));
+  return std::make_unique<SimCamera>(config, std::move(*world));
 }
 
 }  // namespace psrig::capture

@@ -3,20 +3,23 @@
 #include <cmath>
 #include <string>
 
+#include "psrig/capture/fabric_truth.h"
 #include "psrig/processing/light_matrix.h"
 #include "psrig/processing/scan_layout.h"
 #include "psrig/sim/lambertian_render.h"
 
 namespace psrig::capture {
 
-processing::Scan make_synthetic_scan(const SyntheticScanParams& params) {
-  const sim::Swatch swatch = sim::make_swatch(params.swatch);
+Result<processing::Scan> make_synthetic_scan(const SyntheticScanParams& params) {
+  auto made = sim::make_swatch(params.swatch);
+  if (!made) return std::unexpected(std::move(made.error()));
+  const sim::Swatch& swatch = *made;
   const double full = params.depth == CV_8U ? 255.0 : 65535.0;
   cv::RNG random(params.swatch.seed * 0x9E3779B97F4A7C15ull + 1);
 
   processing::Scan scan;
   auto& d = scan.description;
-  const std::string pattern(sim::to_string(params.swatch.pattern));
+  const std::string& pattern = params.swatch.pattern.name;
   d.sample_id = "synth-" + pattern + "-" + std::to_string(params.swatch.seed);
   d.sample_description = "synthetic " + pattern + " swatch (psrig synth)";
   d.pixel_size_mm = swatch.pixel_size_mm;
@@ -29,17 +32,9 @@ processing::Scan make_synthetic_scan(const SyntheticScanParams& params) {
                   {"seed", params.swatch.seed},
                   {"cast_shadows", params.cast_shadows}}}};
   // The gauge as made, for checking `psrig measure` (ground_truth.fabric).
-  const sim::SwatchGauge gauge = sim::swatch_gauge(params.swatch.pattern);
-  const char* construction = gauge.knitted ? "knit" : "woven";
-  if (params.fabric_metadata)
-    d.document["fabric"] = {{"construction", construction}, {"structure", pattern}};
-  d.document["ground_truth"]["fabric"] = {
-      {"construction", construction},
-      {"structure", pattern},
-      {gauge.knitted ? "wales_per_cm" : "ends_per_cm", gauge.across_per_cm},
-      {gauge.knitted ? "courses_per_cm" : "picks_per_cm", gauge.along_per_cm},
-      {"rotation_deg", params.swatch.rotation_deg},
-      {"skew_deg", 0.0}};
+  if (params.fabric_metadata) d.document["fabric"] = fabric_metadata(params.swatch.pattern);
+  d.document["ground_truth"]["fabric"] =
+      fabric_ground_truth(params.swatch.pattern, params.swatch.rotation_deg);
 
   for (int k = 0; k < 3; ++k) {
     const cv::Vec3d direction = processing::light_direction(120.0 * k, params.slant_deg);

@@ -102,7 +102,7 @@ struct Candidate {
 // repeat is folded once, finely, and resampled for each split.
 std::vector<Candidate> candidate_splits(const cv::Mat& height, cv::Rect window,
                                         const RepeatFrame& measured, int max_split, int n,
-                                        TemplateBank& bank) {
+                                        const ChartInferenceOptions& options, TemplateBank& bank) {
   const double area = std::abs(cross(measured.u, measured.w));
   const double across = area / norm(measured.w);  // across the wales
   const double up = area / norm(measured.u);      // across the course lines
@@ -114,6 +114,9 @@ std::vector<Candidate> candidate_splits(const cv::Mat& height, cv::Rect window,
   std::vector<Candidate> candidates;
   for (int k = 1; k <= max_split; ++k)
     for (int k2 = 1; k2 <= max_split; ++k2) {
+      if ((options.known_wales_per_repeat > 0 && k != options.known_wales_per_repeat) ||
+          (options.known_courses_per_repeat > 0 && k2 != options.known_courses_per_repeat))
+        continue;
       const double wale_px = across / k, course_px = up / k2;
       const double aspect = course_px / wale_px;
       if (wale_px < kMinStitchPx || course_px < kMinStitchPx || aspect < kMinAspect ||
@@ -291,7 +294,8 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
 
   TemplateBank bank(n);
   std::vector<Candidate> candidates =
-      candidate_splits(height, window, measured, options.max_stitches_per_repeat, n, bank);
+      candidate_splits(height, window, measured, options.max_stitches_per_repeat, n, options,
+                       bank);
   if (candidates.empty())
     return std::unexpected(bad_input(
         {}, "fabric.lattice_px",
@@ -373,6 +377,7 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
     colour_chart(chart, out.colour_index, out.columns, out.rows);
   }
   out.fit = match.score;
+  out.split_from_scan = options.known_wales_per_repeat > 0 || options.known_courses_per_repeat > 0;
   out.wales_per_repeat = reading.candidate.split.wales;
   out.courses_per_repeat = reading.candidate.split.courses;
   int agree = 0;
@@ -416,7 +421,9 @@ void count_stitches(processing::FabricMeasurement& fabric, const InferredKnit& k
   std::erase_if(fabric.notes, [](const std::string& note) {
     return note.starts_with("knit structure not given");
   });
-  fabric.notes.push_back("stitches counted on the maps (chart inference): " +
+  fabric.notes.push_back((knit.split_from_scan ? "stitches to the repeat as scan.json counts them, "
+                                                "their knit and purl read off the maps: "
+                                              : "stitches counted on the maps (chart inference): ") +
                          describe(knit.wales_per_repeat, knit.courses_per_repeat) +
                          " wales x courses to the repeat");
 }

@@ -554,7 +554,40 @@ Result<RigConfig> read(const toml::table& root, const fs::path& file,
       s.colour_matrix = m;
     }
   }
-  PSRIG_TRY(sim->get("pattern", s.pattern, {"jersey", "rib", "garter", "plain", "twill"}));
+  PSRIG_TRY(sim->get("pattern", s.pattern));
+  {
+    // A file is found from the rig.toml's folder; a name in patterns_dir,
+    // when the simulated world is made (sim/swatch_pattern.h).
+    const fs::path given(s.pattern);
+    if (s.pattern.empty())
+      return std::unexpected(
+          sim->error_at(sim->find("pattern"), "pattern",
+                        "is empty; give a .chart or .weave file or a shipped pattern's name, e.g. "
+                        "\"stockinette\""));
+    if (s.pattern.find('/') != std::string::npos || given.extension() == ".chart" ||
+        given.extension() == ".weave") {
+      s.pattern = relative_to_file(file, s.pattern).string();
+      std::error_code ec;
+      if (!fs::is_regular_file(s.pattern, ec))
+        return std::unexpected(sim->error_at(
+            sim->find("pattern"), "pattern",
+            "\"" + s.pattern +
+                "\" is not a file; give a .chart or .weave file (relative to this rig.toml) or a "
+                "shipped pattern's name, e.g. \"stockinette\""));
+    }
+    std::string patterns_dir;
+    PSRIG_TRY(sim->get("patterns_dir", patterns_dir));
+    if (!patterns_dir.empty()) {
+      s.patterns_dir = relative_to_file(file, patterns_dir);
+      std::error_code ec;
+      if (!fs::is_directory(s.patterns_dir, ec))
+        return std::unexpected(sim->error_at(
+            sim->find("patterns_dir"), "patterns_dir",
+            "\"" + s.patterns_dir.string() +
+                "\" is not a folder; point it at the shipped patterns (config/patterns) or "
+                "leave it out"));
+    }
+  }
   PSRIG_TRY(sim->get("swatch_rotation_deg", s.swatch_rotation_deg, -45, 45));
   PSRIG_TRY(sim->get("seed", s.seed));
   PSRIG_TRY(sim->get("width", s.width, 8, 16384));

@@ -4,9 +4,11 @@
 #include <array>
 #include <cmath>
 #include <complex>
+#include <cstdint>
 #include <cstdio>
 #include <limits>
 #include <numbers>
+#include <string>
 #include <utility>
 
 #include <opencv2/imgproc.hpp>
@@ -31,6 +33,11 @@ constexpr double kCandidateFraction = 0.6;
 constexpr double kAxisConeDeg = 15.0;
 // Detail below this fraction of a map's level is rounding, not texture.
 constexpr double kNoDetail = 1e-5;
+// How much better than a lattice vector its multiple must match for the
+// vector to be taken for a sub-period of the repeat the scan counts.
+constexpr double kWholeRepeatGain = 0.1;
+// The most threads scan.json's fabric may say one repeat holds.
+constexpr std::int64_t kMaxThreads = 1000;
 
 double norm(cv::Point2d p) {
   return std::hypot(p.x, p.y);
@@ -103,51 +110,6 @@ struct LagMap {
   }
 };
 
-LagMap lag_map(const std::vector<cv::Mat>& details, const cv::Mat& weight) {
-  // Lags up to half the size each way: padding by half keeps them free of wrap-around.
-  const cv::Size padded(cv::getOptimalDFTSize(weight.cols + weight.cols / 2 + 1),
-                        cv::getOptimalDFTSize(weight.rows + weight.rows / 2 + 1));
-  // Pixels overlapping at each lag: (w - |dx|)(h - |dy|) when every pixel
-  // counts, else the weight's own autocorrelation.
-  cv::Mat count;
-  if (cv::countNonZero(weight != 1.0f) == 0) {
-    count = cv::Mat::zeros(padded, CV_32F);
-    for (int r = 0; r < padded.height; ++r) {
-      const int dy = std::min(r, padded.height - r);
-      for (int c = 0; c < padded.width; ++c) {
-        const int dx = std::min(c, padded.width - c);
-        count.at<float>(r, c) = static_cast<float>(std::max(0, weight.cols - dx)) *
-                                static_cast<float>(std::max(0, weight.rows - dy));
-      }
-    }
-  } else {
-    count = autocorrelation(weight, padded);
-  }
-  cv::Mat sum = cv::Mat::zeros(padded, CV_32F);
-  for (const auto& d : details) {
-    cv::Mat acf = autocorrelation(d, padded);
-    // Mean product over the overlap, over that at zero lag.
-    cv::Mat mean = acf / cv::max(count, 1.0);
-    mean /= std::max(1e-12f, mean.at<float>(0, 0));
-    sum += mean;
-  }
-  sum /= static_cast<double>(details.size());
-  LagMap map;
-  map.lx = weight.cols / 2;
-  map.ly = weight.rows / 2;
-  map.rho.create(2 * map.ly + 1, 2 * map.lx + 1, CV_32F);
-  const float min_count = 0.2f * count.at<float>(0, 0);
-  for (int dy = -map.ly; dy <= map.ly; ++dy) {
-    const int r = (dy + padded.height) % padded.height;
-    for (int dx = -map.lx; dx <= map.lx; ++dx) {
-      const int c = (dx + padded.width) % padded.width;
-      map.rho.at<float>(dy + map.ly, dx + map.lx) =
-          count.at<float>(r, c) >= min_count ? sum.at<float>(r, c) : 0.0f;
-    }
-  }
-  return map;
-}
-
 struct Peak {
   cv::Point2d lag;
   double rho = 0;
@@ -168,6 +130,73 @@ std::vector<Peak> peaks_of(const LagMap& map) {
     }
   }
   return peaks;
+}
+
+// The normalised autocorrelation of the maps' detail, each map weighed by
+// how well it repeats by itself (the square of its own highest peak off
+// zero): a map that does not repeat (an albedo of randomly phased ply
+// stripes on a plain-coloured knit) has no say in where the lattice lies,
+// which, averaged in equally, it could pull by pixels.
+LagMap lag_map(const std::vector<cv::Mat>& details, const cv::Mat& weight) {
+  // Lags up to half the size each way: padding by half keeps them free of wrap-around.
+  const cv::Size padded(cv::getOptimalDFTSize(weight.cols + weight.cols / 2 + 1),
+                        cv::getOptimalDFTSize(weight.rows + weight.rows / 2 + 1));
+  // Pixels overlapping at each lag: (w - |dx|)(h - |dy|) when every pixel
+  // counts, else the weight's own autocorrelation.
+  cv::Mat count;
+  if (cv::countNonZero(weight != 1.0f) == 0) {
+    count = cv::Mat::zeros(padded, CV_32F);
+    for (int r = 0; r < padded.height; ++r) {
+      const int dy = std::min(r, padded.height - r);
+      for (int c = 0; c < padded.width; ++c) {
+        const int dx = std::min(c, padded.width - c);
+        count.at<float>(r, c) = static_cast<float>(std::max(0, weight.cols - dx)) *
+                                static_cast<float>(std::max(0, weight.rows - dy));
+      }
+    }
+  } else {
+    count = autocorrelation(weight, padded);
+  }
+  const float min_count = 0.2f * count.at<float>(0, 0);
+  const auto centred = [&](const cv::Mat& acf) {
+    LagMap map;
+    map.lx = weight.cols / 2;
+    map.ly = weight.rows / 2;
+    map.rho.create(2 * map.ly + 1, 2 * map.lx + 1, CV_32F);
+    for (int dy = -map.ly; dy <= map.ly; ++dy) {
+      const int r = (dy + padded.height) % padded.height;
+      for (int dx = -map.lx; dx <= map.lx; ++dx) {
+        const int c = (dx + padded.width) % padded.width;
+        map.rho.at<float>(dy + map.ly, dx + map.lx) =
+            count.at<float>(r, c) >= min_count ? acf.at<float>(r, c) : 0.0f;
+      }
+    }
+    return map;
+  };
+  std::vector<LagMap> each;
+  std::vector<double> strength;
+  for (const auto& d : details) {
+    cv::Mat acf = autocorrelation(d, padded);
+    // Mean product over the overlap, over that at zero lag.
+    cv::Mat mean = acf / cv::max(count, 1.0);
+    mean /= std::max(1e-12f, mean.at<float>(0, 0));
+    each.push_back(centred(mean));
+    double top = 0;
+    for (const Peak& peak : peaks_of(each.back()))
+      top = std::max(top, peak.rho);
+    strength.push_back(top * top);
+  }
+  double total = 0;
+  for (const double w : strength)
+    total += w;
+  LagMap map;
+  map.lx = each.front().lx;
+  map.ly = each.front().ly;
+  map.rho = cv::Mat(each.front().rho.size(), CV_32F, cv::Scalar(0));
+  for (std::size_t i = 0; i < each.size(); ++i)
+    // Nothing repeats by itself: the plain mean (a repeat may still show in it).
+    map.rho += each[i].rho * (total > 0 ? strength[i] / total : 1.0 / each.size());
+  return map;
 }
 
 // The peak near `guess` to a fraction of a pixel: the highest sample within
@@ -281,14 +310,28 @@ std::optional<std::pair<cv::Point2d, cv::Point2d>> fabric_axes(cv::Point2d a, cv
 
 // How many threads one repeat holds along `dir`: the maps' detail folded
 // onto one repeat (each pixel binned by its phase along `dir`), then the
-// lowest harmonic of that profile that carries half the strongest one's
-// amplitude. Threads look alike on average, so a repeat of k threads folds
-// to a profile with period 1/k.
-int threads_per_repeat(const std::vector<cv::Mat>& details, const cv::Mat& weight, cv::Point2d u,
-                       cv::Point2d v, bool along_u) {
+// lowest harmonic of the folded profile that carries half the strongest
+// one's amplitude. Threads look alike on average, so a repeat of k threads
+// folds to a profile with period 1/k. Two ways of putting the maps
+// together:
+// - `summed`: one profile of the maps' sum. Where a woven's height and
+//   albedo fold to opposite phases (light warps, darker wefts on top of
+//   the crossings) they cancel and it counts too few, so it is the cautious
+//   cue for telling a woven by its threads: a knit's V, two mirror-image
+//   legs a wale, can fold to a second harmonic in one map alone (the
+//   height of a scan only a few stitches wide);
+// - `count`: each map's amplitudes, summed: every map's threads, in
+//   whatever phase. The count, once the cloth is known to be woven.
+struct ThreadCount {
+  int summed = 1;
+  int count = 1;
+};
+ThreadCount threads_per_repeat(const std::vector<cv::Mat>& details, const cv::Mat& weight,
+                               cv::Point2d u, cv::Point2d v, bool along_u) {
   const int bins = std::max(8, static_cast<int>(std::lround(norm(along_u ? u : v))));
   const double det = cross(u, v);
-  std::vector<double> sum(bins, 0.0), count(bins, 0.0);
+  const std::size_t maps = details.size();
+  std::vector<double> sum(bins * maps, 0.0), count(bins, 0.0);
   for (int r = 0; r < weight.rows; ++r) {
     for (int c = 0; c < weight.cols; ++c) {
       const float w = weight.at<float>(r, c);
@@ -298,28 +341,37 @@ int threads_per_repeat(const std::vector<cv::Mat>& details, const cv::Mat& weigh
       const double t = (u.x * r - u.y * c) / det;
       const double phase = along_u ? s : t;
       const int bin = static_cast<int>((phase - std::floor(phase)) * bins) % bins;
-      double value = 0;
-      for (const auto& d : details)
-        value += d.at<float>(r, c);
-      sum[bin] += value;
+      for (std::size_t m = 0; m < maps; ++m)
+        sum[bin * maps + m] += details[m].at<float>(r, c);
       count[bin] += 1;
     }
   }
-  std::vector<double> amplitude;
+  std::vector<double> summed, each;
   const int harmonics = std::min(12, bins / 2 - 1);
   for (int k = 1; k <= harmonics; ++k) {
-    std::complex<double> c_k;
-    for (int i = 0; i < bins; ++i) {
-      if (count[i] == 0) continue;
-      c_k += (sum[i] / count[i]) * std::polar(1.0, -2 * std::numbers::pi * k * i / bins);
+    std::complex<double> total;
+    double amplitudes = 0;
+    for (std::size_t m = 0; m < maps; ++m) {
+      std::complex<double> c_k;
+      for (int i = 0; i < bins; ++i) {
+        if (count[i] == 0) continue;
+        c_k +=
+            (sum[i * maps + m] / count[i]) * std::polar(1.0, -2 * std::numbers::pi * k * i / bins);
+      }
+      total += c_k;
+      amplitudes += std::abs(c_k);
     }
-    amplitude.push_back(std::abs(c_k));
+    summed.push_back(std::abs(total));
+    each.push_back(amplitudes);
   }
-  if (amplitude.empty()) return 1;
-  const double top = *std::max_element(amplitude.begin(), amplitude.end());
-  for (std::size_t k = 0; k < amplitude.size(); ++k)
-    if (amplitude[k] >= 0.5 * top) return static_cast<int>(k) + 1;
-  return 1;
+  const auto lowest = [](const std::vector<double>& amplitude) {
+    if (amplitude.empty()) return 1;
+    const double top = *std::max_element(amplitude.begin(), amplitude.end());
+    for (std::size_t k = 0; k < amplitude.size(); ++k)
+      if (amplitude[k] >= 0.5 * top) return static_cast<int>(k) + 1;
+    return 1;
+  };
+  return {lowest(summed), lowest(each)};
 }
 
 struct Prepared {
@@ -347,14 +399,42 @@ Prepared prepare(const cv::Mat& height, const cv::Mat& albedo) {
   return out;
 }
 
-std::optional<RepeatLattice> lattice_of(const Prepared& in, std::string* why) {
+constexpr const char* kTooSmall = "the maps are too small to hold a repeat";
+// Limits of what a repeat can be: two whole ones inside the maps each way.
+constexpr const char* kTooLarge =
+    "no repeat found: the repeat is larger than half the area measured (the central 1280 pixels a "
+    "side)";
+bool fits(const RepeatLattice& lattice, const cv::Mat& weight) {
+  return norm(lattice.u_px) * 2 <= weight.cols && norm(lattice.v_px) * 2 <= weight.rows;
+}
+
+// Where the scan says one repeat holds `count` stitches (or threads) along
+// a lattice vector, and that vector is only a sub-period: a partial match
+// the 60 % rule took (a seed stitch's purl bump standing where the knit V
+// beside it stands). A whole repeat, k times the vector for k dividing the
+// count, then matches markedly better (by kWholeRepeatGain): the best such
+// multiple is the repeat. A true repeat's multiples match no better.
+cv::Point2d whole_repeat(const LagMap& map, cv::Point2d vector, int count) {
+  const auto part = refine_peak(map, vector, 2);
+  if (!part || count < 2) return vector;
+  cv::Point2d best = vector;
+  double best_rho = part->rho + kWholeRepeatGain;
+  for (int k = 2; k <= count; ++k) {
+    if (count % k != 0) continue;
+    const auto whole = refine_peak(map, k * vector, 2);
+    if (whole && whole->rho >= best_rho) {
+      best = k * vector;
+      best_rho = whole->rho;
+    }
+  }
+  return best;
+}
+
+std::optional<RepeatLattice> lattice_of(const Prepared& in, const LagMap& map, std::string* why) {
   const auto say = [&](const std::string& text) {
     if (why) *why = text;
     return std::nullopt;
   };
-  if (in.weight.cols < 16 || in.weight.rows < 16)
-    return say("the maps are too small to hold a repeat");
-  const LagMap map = lag_map(in.details, in.weight);
   std::vector<Peak> peaks = peaks_of(map);
   double top = 0;
   for (const auto& p : peaks)
@@ -402,21 +482,19 @@ std::optional<RepeatLattice> lattice_of(const Prepared& in, std::string* why) {
     lattice.u_px = x;
     lattice.v_px = y;
   }
-  // Limits of what a repeat can be: two whole ones inside the maps each way.
-  if (norm(lattice.u_px) * 2 > in.weight.cols || norm(lattice.v_px) * 2 > in.weight.rows)
-    return say(
-        "no repeat found: the repeat is larger than half the area measured (the central 1280 "
-        "pixels a side)");
+  if (!fits(lattice, in.weight)) return say(kTooLarge);
   return lattice;
 }
 
-// Wales (ends) per repeat along u and courses (picks) per repeat along v for
-// knit structures the metadata names: a 1x1 rib's repeat holds a knit and a
-// purl wale, garter's a knit and a purl course.
-std::pair<int, int> knit_stitches_per_repeat(const std::string& structure) {
-  if (structure == "rib" || structure == "1x1 rib") return {2, 1};
-  if (structure == "garter") return {1, 2};
-  return {1, 1};
+// Wales per repeat along u and courses per repeat along v for the knit
+// structures older scans name without counting them (fabric.stitches_per_
+// repeat): a 1x1 rib's repeat holds a knit and a purl wale, garter's a knit
+// and a purl course.
+std::optional<std::pair<int, int>> knit_stitches_per_repeat(const std::string& structure) {
+  if (structure == "rib" || structure == "1x1 rib") return std::pair{2, 1};
+  if (structure == "garter") return std::pair{1, 2};
+  if (structure == "jersey") return std::pair{1, 1};
+  return std::nullopt;
 }
 
 }  // namespace
@@ -447,12 +525,29 @@ FabricHints fabric_hints(const nlohmann::json& doc) {
     hints.construction = parse_construction(fabric["construction"].get<std::string>());
   if (fabric.contains("structure") && fabric["structure"].is_string())
     hints.structure = fabric["structure"].get<std::string>();
+  for (const char* key : {"stitches_per_repeat", "threads_per_repeat"}) {
+    if (!fabric.contains(key)) continue;
+    const auto& counts = fabric[key];
+    const auto count = [&](std::size_t i) {
+      return counts[i].is_number_integer() ? counts[i].get<std::int64_t>() : std::int64_t{0};
+    };
+    if (counts.is_array() && counts.size() == 2 && count(0) >= 1 && count(0) <= kMaxThreads &&
+        count(1) >= 1 && count(1) <= kMaxThreads) {
+      hints.across_per_repeat = static_cast<int>(count(0));
+      hints.along_per_repeat = static_cast<int>(count(1));
+    }
+  }
   return hints;
 }
 
 std::optional<RepeatLattice> find_repeat_lattice(const cv::Mat& height, const cv::Mat& albedo,
                                                  std::string* why) {
-  return lattice_of(prepare(height, albedo), why);
+  const Prepared prepared = prepare(height, albedo);
+  if (prepared.weight.cols < 16 || prepared.weight.rows < 16) {
+    if (why) *why = kTooSmall;
+    return std::nullopt;
+  }
+  return lattice_of(prepared, lag_map(prepared.details, prepared.weight), why);
 }
 
 Result<FabricMeasurement> measure_fabric(const cv::Mat& height, const cv::Mat& albedo,
@@ -465,8 +560,23 @@ Result<FabricMeasurement> measure_fabric(const cv::Mat& height, const cv::Mat& a
   if (!options.pixel_size_mm)
     m.notes.push_back("no pixel_size_mm in the scan: densities are per pixel and sizes in pixels");
   const Prepared prepared = prepare(height, albedo);
-  std::string why;
-  const auto lattice = lattice_of(prepared, &why);
+  std::string why = kTooSmall;
+  std::optional<LagMap> map;
+  std::optional<RepeatLattice> lattice;
+  if (prepared.weight.cols >= 16 && prepared.weight.rows >= 16) {
+    map = lag_map(prepared.details, prepared.weight);
+    lattice = lattice_of(prepared, *map, &why);
+  }
+  if (lattice) {
+    // The scan's count of threads per repeat: a lattice vector that is a
+    // sub-period of it is made whole (whole_repeat()).
+    lattice->u_px = whole_repeat(*map, lattice->u_px, options.hints.across_per_repeat);
+    lattice->v_px = whole_repeat(*map, lattice->v_px, options.hints.along_per_repeat);
+    if (!fits(*lattice, prepared.weight)) {
+      why = kTooLarge;
+      lattice.reset();
+    }
+  }
   if (!lattice) {
     m.notes.push_back(why);
     m.construction = options.hints.construction;
@@ -483,8 +593,9 @@ Result<FabricMeasurement> measure_fabric(const cv::Mat& height, const cv::Mat& a
   const int index = static_cast<int>(std::lround(area / std::max(primitive, 1e-9)));
 
   const cv::Point2d us = m.u_px, vs = m.v_px;
-  const int threads_u = threads_per_repeat(prepared.details, prepared.weight, us, vs, true);
-  const int threads_v = threads_per_repeat(prepared.details, prepared.weight, us, vs, false);
+  const ThreadCount along_u = threads_per_repeat(prepared.details, prepared.weight, us, vs, true);
+  const ThreadCount along_v = threads_per_repeat(prepared.details, prepared.weight, us, vs, false);
+  const int threads_u = along_u.count, threads_v = along_v.count;
 
   if (options.hints.construction != Construction::unknown) {
     m.construction = options.hints.construction;
@@ -495,24 +606,36 @@ Result<FabricMeasurement> measure_fabric(const cv::Mat& height, const cv::Mat& a
     // holds two or more alike threads, and a plain or twill cell is centred
     // or oblique (index 2 or more); a knit's loops stack on a plain
     // rectangular lattice.
-    const int woven_cues = (index >= 2 ? 1 : 0) + (threads_u >= 2 && threads_v >= 2 ? 1 : 0);
+    const int woven_cues =
+        (index >= 2 ? 1 : 0) + (along_u.summed >= 2 && along_v.summed >= 2 ? 1 : 0);
     m.construction = woven_cues > 0 ? Construction::woven : Construction::knit;
     m.construction_confidence = woven_cues == 1 ? 0.6 : 0.8;
     m.notes.push_back(std::string("construction guessed from the structure (") +
                       (m.construction == Construction::woven ? "woven" : "knit") +
                       "); give scan.json's fabric.construction to be sure");
   }
-  if (m.construction == Construction::woven) {
+  const bool counted = options.hints.across_per_repeat > 0 && options.hints.along_per_repeat > 0;
+  if (counted) {
+    // The pattern's own count, as the lab (or the simulator) gives it.
+    m.threads_u = options.hints.across_per_repeat;
+    m.threads_v = options.hints.along_per_repeat;
+    if (m.construction == Construction::woven &&
+        (threads_u != m.threads_u || threads_v != m.threads_v))
+      m.notes.push_back("the scan's fabric says " + std::to_string(m.threads_u) + " x " +
+                        std::to_string(m.threads_v) + " threads per repeat; the maps look like " +
+                        std::to_string(threads_u) + " x " + std::to_string(threads_v));
+  } else if (m.construction == Construction::woven) {
     m.threads_u = threads_u;
     m.threads_v = threads_v;
   } else {
-    const auto [wales, courses] = knit_stitches_per_repeat(m.structure);
-    m.threads_u = wales;
-    m.threads_v = courses;
-    if (m.structure.empty())
+    const auto named = knit_stitches_per_repeat(m.structure);
+    m.threads_u = named ? named->first : 1;
+    m.threads_v = named ? named->second : 1;
+    if (!named)
       m.notes.push_back(
-          "knit structure not given: one wale and one course per repeat assumed (a 1x1 rib "
-          "repeat holds two wales, garter two courses; give scan.json's fabric.structure)");
+          "stitches per repeat not given: one wale and one course per repeat assumed (a 1x1 "
+          "rib repeat holds two wales, garter two courses; give scan.json's "
+          "fabric.stitches_per_repeat)");
   }
   const double unit = options.pixel_size_mm ? 10.0 / *options.pixel_size_mm : 1.0;  // px per cm
   m.across_density = m.threads_u * norm(m.v_px) / area * unit;

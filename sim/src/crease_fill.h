@@ -15,11 +15,11 @@
 
 #include <opencv2/core.hpp>
 
-#include "yarn_raster.h"
+#include "psrig/cloth/yarn_raster.h"
 
 namespace psrig::sim::detail {
 
-inline void fill_creases(YarnRaster& raster, double px, double slope) {
+inline void fill_creases(cloth::YarnRaster& raster, double px, double slope) {
   const int rows = raster.top.rows;
   const int cols = raster.top.cols;
   const auto straight = static_cast<float>(slope * px);

@@ -27,27 +27,47 @@ std::optional<SphereTarget> sphere_target(const config::SimConfig& sim) {
   return target;
 }
 
-Swatch make_world_swatch(const config::SimConfig& sim) {
+Swatch target_scene(const config::SimConfig& sim) {
   if (const auto sphere = sphere_target(sim)) return sphere_scene(*sphere);
   if (sim.target == "white_card")
     return white_card({sim.width, sim.height}, sim.pixel_size_mm,
                       static_cast<float>(sim.card_albedo));
   if (sim.target == "charuco_board")
     return charuco_board({sim.width, sim.height}, sim.pixel_size_mm);
-  if (sim.target == "colour_chart") return colour_chart({sim.width, sim.height}, sim.pixel_size_mm);
-  SwatchParams params;
-  params.pattern = parse_swatch_pattern(sim.pattern).value_or(SwatchPattern::jersey);
-  params.size = {sim.width, sim.height};
-  params.pixel_size_mm = sim.pixel_size_mm;
-  params.seed = sim.seed;
-  params.rotation_deg = sim.swatch_rotation_deg;
-  return make_swatch(params);
+  return colour_chart({sim.width, sim.height}, sim.pixel_size_mm);
 }
 
 }  // namespace
 
-World::World(const config::RigConfig& config, std::shared_ptr<firmware_host::SimulatedLeds> leds)
-    : swatch_(make_world_swatch(config.sim)),
+Result<World> World::make(const config::RigConfig& config,
+                          std::shared_ptr<firmware_host::SimulatedLeds> leds) {
+  const config::SimConfig& sim = config.sim;
+  if (sim.target != "swatch")
+    return World(config, target_scene(sim), std::nullopt, std::move(leds));
+  // The pattern names the file it is in, or else the rig.toml that named it.
+  const auto naming = [&](Error error) {
+    if (error.file.empty()) error.file = config.source;
+    return error;
+  };
+  auto pattern = load_swatch_pattern(
+      sim.pattern, sim.patterns_dir,
+      config.source.empty() ? std::filesystem::path() : config.source.parent_path(), "sim.pattern");
+  if (!pattern) return std::unexpected(naming(std::move(pattern.error())));
+  SwatchParams params;
+  params.pattern = *pattern;
+  params.size = {sim.width, sim.height};
+  params.pixel_size_mm = sim.pixel_size_mm;
+  params.seed = sim.seed;
+  params.rotation_deg = sim.swatch_rotation_deg;
+  auto swatch = make_swatch(params);
+  if (!swatch) return std::unexpected(naming(std::move(swatch.error())));
+  return World(config, std::move(*swatch), std::move(*pattern), std::move(leds));
+}
+
+World::World(const config::RigConfig& config, Swatch scene, std::optional<SwatchPattern> pattern,
+             std::shared_ptr<firmware_host::SimulatedLeds> leds)
+    : swatch_(std::move(scene)),
+      pattern_(std::move(pattern)),
       leds_(leds ? std::move(leds)
                  : std::make_shared<firmware_host::SimulatedLeds>(config.lights.channels)) {
   const auto sphere = sphere_target(config.sim);
@@ -89,13 +109,23 @@ World::World(const config::RigConfig& config, std::shared_ptr<firmware_host::Sim
   ambient_ = swatch_.albedo.mul(sky3);
 }
 
-std::shared_ptr<World> World::attach(const config::RigConfig& config) {
+Result<std::shared_ptr<World>> World::attach(const config::RigConfig& config) {
   // Rendering under the registry's lock: a second caller waits for the
-  // world rather than rendering another.
+  // world rather than rendering another. A world that cannot be made is
+  // not registered: the next caller tries again.
   static firmware_host::SimulatedRigRegistry<World> registry;
-  return registry.attach(config, [&] {
-    return std::make_shared<World>(config, firmware_host::SimulatedLeds::attach(config));
+  std::optional<Error> failed;
+  auto world = registry.attach(config, [&]() -> std::shared_ptr<World> {
+    auto made = make(config, firmware_host::SimulatedLeds::attach(config));
+    if (!made) {
+      failed = std::move(made.error());
+      return nullptr;
+    }
+    return std::make_shared<World>(std::move(*made));
   });
+  if (!world)
+    return std::unexpected(failed.value_or(internal_error("the simulated world is missing")));
+  return world;
 }
 
 }  // namespace psrig::sim

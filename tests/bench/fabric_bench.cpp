@@ -11,6 +11,7 @@
 #include "psrig/processing/fabric_measure.h"
 #include "psrig/processing/seamless_tile.h"
 #include "psrig/sim/swatch_model.h"
+#include "shipped_swatch.h"
 
 namespace {
 
@@ -20,10 +21,9 @@ constexpr int kHeight = 3040;
 // A jersey rendered at a quarter of the area, repeated to 12 MP: the
 // figures' cost depends on the size, not on the seams this leaves.
 psrig::processing::Maps jersey_maps() {
-  psrig::sim::SwatchParams params;
-  params.size = {kWidth / 2, kHeight / 2};
+  psrig::sim::SwatchParams params = psrig::test::swatch_params("jersey", {kWidth / 2, kHeight / 2});
   params.rotation_deg = 3;
-  const psrig::sim::Swatch swatch = psrig::sim::make_swatch(params);
+  const psrig::sim::Swatch swatch = psrig::test::made(psrig::sim::make_swatch(params));
   psrig::processing::Maps maps;
   cv::repeat(swatch.height_mm, 2, 2, maps.height);
   cv::repeat(swatch.albedo, 2, 2, maps.albedo);

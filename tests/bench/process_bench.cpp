@@ -14,6 +14,7 @@
 #include "psrig/capture/scan_writer.h"
 #include "psrig/capture/synthetic_scan.h"
 #include "psrig/processing/pipeline.h"
+#include "shipped_swatch.h"
 #include "test_support.h"
 
 namespace {
@@ -29,9 +30,11 @@ const psrig::test::TempDir& workspace() {
 const fs::path& scan_12mp() {
   static const fs::path scan = [] {
     psrig::capture::SyntheticScanParams params;
+    params.swatch.pattern = psrig::test::named_pattern("jersey");
     params.swatch.size = {4056, 3040};
     params.noise = 0.002;
-    psrig::processing::Scan synthetic = psrig::capture::make_synthetic_scan(params);
+    psrig::processing::Scan synthetic =
+        psrig::test::made(psrig::capture::make_synthetic_scan(params));
     synthetic.ground_truth_normal = cv::Mat();  // a rig scan has none
     synthetic.ground_truth_height = cv::Mat();
     const fs::path dir = workspace() / "scan";

@@ -16,8 +16,6 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "knitted_scan.h"
-#include "psrig/cloth/stitch_chart.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -280,10 +278,10 @@ TEST(PsrigPreviewCli, KnitDrawsYarnsAndStretchOpensGaps) {
 // scan's colours; a scan with no chart to read is a clear error.
 TEST(PsrigPreviewCli, KnitFromScanDrawsTheChartReadOffIt) {
   TempDir temp;
-  auto stripes = cloth::load_stitch_chart(shipped_pattern("stripes.chart"));
-  ASSERT_TRUE(stripes);
   const fs::path scan = temp / "stripes";
-  ASSERT_TRUE(write_knitted_scan(knit_maps(*stripes, {400, 400}, 0.03), "stripes", scan));
+  const auto synth = run_program("psrig", {"synth", "--out", scan.string(), "--pattern", "stripes",
+                                           "--size", "400x400", "--pixel-size", "0.03", "-q"});
+  ASSERT_EQ(synth.exit_code, 0) << synth.err;
   const auto process = run_program("psrig", {"process", scan.string(), "-q"});
   ASSERT_EQ(process.exit_code, 0) << process.err;
   const auto draw = [&](const std::string& name, std::vector<std::string> pattern) {

@@ -22,6 +22,7 @@
 #include "psrig/capture/scan_sequencer.h"
 #include "psrig/sim/sensor.h"
 #include "psrig/sim/world.h"
+#include "shipped_swatch.h"
 #include "test_support.h"
 #include "umockdev_bed.h"
 
@@ -80,7 +81,7 @@ struct EmulatedRig {
   }
 
   config::RigConfig config = libcamera_config();
-  std::shared_ptr<sim::World> world = sim::World::attach(config);
+  std::shared_ptr<sim::World> world = test::made(sim::World::attach(config));
   sim::Sensor sensor{config.sim, 5};
   test::UmockdevBed bed;
   EmulatedUvcCamera camera;
@@ -310,7 +311,7 @@ struct ScanRig {
   }
 
   config::RigConfig config = scan_config();
-  std::shared_ptr<sim::World> world = sim::World::attach(config);
+  std::shared_ptr<sim::World> world = test::made(sim::World::attach(config));
   sim::Sensor sensor{config.sim, 11};
   test::UmockdevBed bed;
   EmulatedUvcCamera camera{bed,

@@ -25,6 +25,7 @@
 #include "psrig/capture/scan_sequencer.h"
 #include "psrig/sim/sensor.h"
 #include "psrig/sim/world.h"
+#include "shipped_swatch.h"
 #include "test_support.h"
 #include "umockdev_bed.h"
 
@@ -73,7 +74,7 @@ struct EmulatedRig {
   config::RigConfig config = hil_config();
   // Found through the configuration, as the sim backends find it; lit by
   // the same LEDs the chip's wiring switches.
-  std::shared_ptr<sim::World> world = sim::World::attach(config);
+  std::shared_ptr<sim::World> world = test::made(sim::World::attach(config));
   test::GpioLedWiring wiring{config.lights.gpiod.lines, config.lights.gpiod.active_low};
   sim::Sensor sensor{config.sim, 11};
   test::UmockdevBed bed;

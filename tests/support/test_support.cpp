@@ -1,6 +1,7 @@
 #include "test_support.h"
 
 #include <algorithm>
+#include <cctype>
 #include <cstdlib>
 #include <fcntl.h>
 #include <fstream>
@@ -39,6 +40,19 @@ std::optional<std::filesystem::path> real_dataset(const std::string& name) {
 
 std::filesystem::path shipped_pattern(const std::string& name) {
   return std::filesystem::path(PSRIG_SOURCE_DIR) / "config" / "patterns" / name;
+}
+
+const std::vector<const char*>& shipped_pattern_names() {
+  static const std::vector<const char*> names{"stockinette", "garter",      "rib-1x1", "rib-2x2",
+                                              "seed",        "basketweave", "stripes", "plain",
+                                              "twill-2x2",   "satin-5"};
+  return names;
+}
+
+std::string test_name(std::string name) {
+  for (char& c : name)
+    if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
+  return name;
 }
 
 std::filesystem::path program(const std::string& name) {

@@ -33,6 +33,15 @@ class TempDir {
 // A knit chart or weave matrix shipped in config/patterns, e.g. "garter.chart".
 [[nodiscard]] std::filesystem::path shipped_pattern(const std::string& name);
 
+// The shipped patterns by name, as psrig synth takes them (stockinette,
+// garter, rib-1x1, rib-2x2, seed, basketweave, stripes, plain, twill-2x2,
+// satin-5).
+[[nodiscard]] const std::vector<const char*>& shipped_pattern_names();
+
+// `name` as a GoogleTest parameter's name: letters, digits and '_' only
+// ("rib-1x1" -> "rib_1x1").
+[[nodiscard]] std::string test_name(std::string name);
+
 // A program built into build/bin, e.g. "psrig".
 [[nodiscard]] std::filesystem::path program(const std::string& name);
 

@@ -14,6 +14,7 @@
 #include "psrig/calibration/colour.h"
 #include "psrig/processing/colour_correction.h"
 #include "psrig/sim/world.h"
+#include "shipped_swatch.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -37,7 +38,7 @@ config::RigConfig chart_rig() {
 // mixing camera: noisy (0.3 % of full scale), clipped at 1. BGR.
 cv::Mat capture_chart(const cv::Matx33d& mixing, double level, cv::RNG& rng,
                       cv::Mat* saturated = nullptr) {
-  sim::World world(chart_rig());
+  const sim::World world = test::made(sim::World::make(chart_rig()));
   cv::Mat scene = cv::Mat::zeros(world.radiance(0).size(), CV_32FC3);
   for (int k = 0; k < world.channel_count(); ++k)
     scene += world.radiance(k) * level;

@@ -178,6 +178,33 @@ TEST(Config, SimSpherePlacement) {
   expect_error("[sim]\nsphere_centre_mm = \"middle\"\n", "sim.sphere_centre_mm", 2);
 }
 
+// [sim] pattern: a shipped name is kept as given (the simulator finds it);
+// a chart or weave file is found from the rig.toml's folder and must exist;
+// patterns_dir likewise.
+TEST(Config, SimPatternIsANameOrAFileBesideTheRigToml) {
+  EXPECT_EQ(parse_config("", "rig.toml")->sim.pattern, "jersey");
+  auto named = parse_config("[sim]\npattern = \"rib-2x2\"\n", "/etc/psrig/rig.toml");
+  ASSERT_TRUE(named) << named.error().describe();
+  EXPECT_EQ(named->sim.pattern, "rib-2x2");
+
+  test::TempDir temp;
+  fs::create_directories(temp / "patterns");
+  std::ofstream(temp / "patterns" / "moss.chart") << "K P\nP K\n";
+  const fs::path rig = temp / "rig.toml";
+  auto file =
+      parse_config("[sim]\npattern = \"patterns/moss.chart\"\npatterns_dir = \"patterns\"\n", rig);
+  ASSERT_TRUE(file) << file.error().describe();
+  EXPECT_EQ(fs::path(file->sim.pattern), temp / "patterns" / "moss.chart");
+  EXPECT_EQ(file->sim.patterns_dir, temp / "patterns");
+
+  const auto missing = expect_error("[sim]\npattern = \"argyle.chart\"\n", "sim.pattern", 2);
+  EXPECT_NE(missing.message.find("/etc/psrig/argyle.chart"), std::string::npos) << missing.message;
+  EXPECT_NE(missing.message.find("stockinette"), std::string::npos) << missing.message;
+  expect_error("[sim]\npattern = \"\"\n", "sim.pattern", 2);
+  const auto folder = expect_error("[sim]\npatterns_dir = \"nowhere\"\n", "sim.patterns_dir", 2);
+  EXPECT_NE(folder.message.find("/etc/psrig/nowhere"), std::string::npos) << folder.message;
+}
+
 TEST(Config, ModbusParityAndRegisterMap) {
   auto config = parse_config(
       "[lights.modbus]\nparity = \"O\"\n[lights.modbus.registers]\nenable_coil = "

@@ -12,6 +12,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/sim/swatch_model.h"
+#include "shipped_swatch.h"
+#include "test_support.h"
 
 namespace psrig::processing {
 namespace {
@@ -19,27 +21,31 @@ namespace {
 struct Case {
   const char* pattern;
   double rotation_deg;
+  cv::Size size{640, 480};
 };
 
 sim::Swatch swatch_of(const Case& c, cv::Size size = {640, 480}) {
-  sim::SwatchParams params;
-  params.pattern = *sim::parse_swatch_pattern(c.pattern);
-  params.size = size;
-  params.pixel_size_mm = 0.025;
+  sim::SwatchParams params = test::swatch_params(c.pattern, size, 0.025, 3);
   params.rotation_deg = c.rotation_deg;
-  params.seed = 3;
-  return sim::make_swatch(params);
+  return test::made(sim::make_swatch(params));
+}
+
+// What scan.json's fabric says of a simulated swatch (capture/fabric_truth.h).
+FabricHints hints_of(const sim::SwatchPattern& pattern) {
+  return {pattern.knitted() ? Construction::knit : Construction::woven, pattern.name,
+          pattern.gauge.across_per_repeat, pattern.gauge.along_per_repeat};
 }
 
 class FabricGauge : public ::testing::TestWithParam<Case> {};
 
 TEST_P(FabricGauge, DensitiesWithinOnePercentSkewWithinHalfADegree) {
   const Case c = GetParam();
-  const sim::Swatch swatch = swatch_of(c);
-  const sim::SwatchGauge truth = sim::swatch_gauge(*sim::parse_swatch_pattern(c.pattern));
+  const sim::Swatch swatch = swatch_of(c, c.size);
+  const sim::SwatchPattern pattern = test::named_pattern(c.pattern);
+  const sim::SwatchGauge& truth = pattern.gauge;
   MeasureOptions options;
   options.pixel_size_mm = 0.025;
-  options.hints = {truth.knitted ? Construction::knit : Construction::woven, c.pattern};
+  options.hints = hints_of(pattern);
   const auto m = measure_fabric(swatch.height_mm, swatch.albedo, options);
   ASSERT_TRUE(m) << m.error().describe();
   ASSERT_TRUE(m->periodic) << (m->notes.empty() ? "" : m->notes.back());
@@ -60,11 +66,15 @@ INSTANTIATE_TEST_SUITE_P(Patterns, FabricGauge,
                          ::testing::Values(Case{"jersey", 0}, Case{"rib", 0}, Case{"garter", 0},
                                            Case{"plain", 0}, Case{"twill", 0}, Case{"jersey", 3.5},
                                            Case{"rib", -4}, Case{"garter", 2.5}, Case{"plain", -3},
-                                           Case{"twill", 4}),
+                                           Case{"twill", 4}, Case{"rib-2x2", 0}, Case{"seed", 3},
+                                           Case{"stripes", -2}, Case{"satin-5", 2},
+                                           // Its repeat is 11 x 7.5 mm: two of them each way.
+                                           Case{"basketweave", 3, {1100, 800}}),
                          [](const ::testing::TestParamInfo<Case>& param_info) {
                            const double r = param_info.param.rotation_deg;
-                           return std::string(param_info.param.pattern) + (r == 0  ? ""
-                                                                           : r > 0 ? "_turned_ccw"
+                           return test::test_name(param_info.param.pattern) + (r == 0 ? ""
+                                                                               : r > 0
+                                                                                   ? "_turned_ccw"
                                                                                    : "_turned_cw");
                          });
 
@@ -72,8 +82,8 @@ INSTANTIATE_TEST_SUITE_P(Patterns, FabricGauge,
 // weave's threads, 15 pixels apart, must stay resolved.
 TEST(FabricMeasure, LargeScanIsMeasuredAtFullResolution) {
   const sim::Swatch swatch = swatch_of({"plain", 3}, {1800, 1400});
-  const auto m = measure_fabric(swatch.height_mm, swatch.albedo,
-                                {0.025, {Construction::woven, "plain"}});
+  const auto m =
+      measure_fabric(swatch.height_mm, swatch.albedo, {0.025, {Construction::woven, "plain"}});
   ASSERT_TRUE(m && m->periodic);
   EXPECT_NEAR(m->across_density / 24.0, 1.0, 0.01) << summary_line(*m);
   EXPECT_NEAR(m->along_density / 22.0, 1.0, 0.01) << summary_line(*m);
@@ -94,7 +104,7 @@ TEST(FabricMeasure, TellsKnitFromWovenByStructure) {
     EXPECT_FALSE(m->construction_from_metadata);
     EXPECT_GT(m->construction_confidence, 0.5);
     EXPECT_LT(m->construction_confidence, 1.0);
-    const sim::SwatchGauge truth = sim::swatch_gauge(*sim::parse_swatch_pattern(pattern));
+    const sim::SwatchGauge truth = test::named_pattern(pattern).gauge;
     EXPECT_NEAR(m->across_density / truth.across_per_cm, 1.0, 0.01) << pattern;
   }
 }
@@ -104,7 +114,7 @@ TEST(FabricMeasure, WithoutPixelSizeFiguresArePerPixelAndSaySo) {
   const auto m = measure_fabric(swatch.height_mm, swatch.albedo,
                                 {std::nullopt, {Construction::knit, "jersey"}});
   ASSERT_TRUE(m && m->periodic);
-  const sim::SwatchGauge truth = sim::swatch_gauge(sim::SwatchPattern::jersey);
+  const sim::SwatchGauge truth = test::named_pattern("jersey").gauge;
   // Per pixel = per cm times the pixel size in cm.
   EXPECT_NEAR(m->across_density / (truth.across_per_cm * 0.0025), 1.0, 0.01);
   const nlohmann::json j = to_json(*m);
@@ -161,7 +171,45 @@ TEST(FabricMeasure, ReadsTheScansFabricMetadata) {
       fabric_hints(nlohmann::json{{"fabric", {{"construction", "woven"}, {"structure", "twill"}}}});
   EXPECT_EQ(hints.construction, Construction::woven);
   EXPECT_EQ(hints.structure, "twill");
+  EXPECT_EQ(hints.across_per_repeat, 0);
   EXPECT_EQ(fabric_hints(nlohmann::json{{"fabric", 3}}).construction, Construction::unknown);
+  const auto counted = fabric_hints(nlohmann::json{
+      {"fabric", {{"construction", "knit"}, {"stitches_per_repeat", nlohmann::json{4, 1}}}}});
+  EXPECT_EQ(counted.across_per_repeat, 4);
+  EXPECT_EQ(counted.along_per_repeat, 1);
+  // Counts that are no counts are no hint.
+  for (const nlohmann::json& bad : {nlohmann::json{4}, nlohmann::json{0, 1}, nlohmann::json{2.5, 1},
+                                    nlohmann::json("4x1"), nlohmann::json{4, 1, 1}})
+    EXPECT_EQ(
+        fabric_hints(nlohmann::json{{"fabric", {{"threads_per_repeat", bad}}}}).across_per_repeat,
+        0)
+        << bad.dump();
+}
+
+// Older scans name a 1x1 rib's or garter's structure without counting its
+// stitches; a scan that counts them is measured by its count, whatever its
+// structure is called.
+TEST(FabricMeasure, StitchesPerRepeatFromTheCountOrElseTheOlderNames) {
+  const sim::Swatch swatch = swatch_of({"rib-2x2", 0});
+  const double truth = test::named_pattern("rib-2x2").gauge.across_per_cm;
+  MeasureOptions options;
+  options.pixel_size_mm = 0.025;
+  options.hints = {Construction::knit, "my rib", 4, 1};
+  const auto counted = measure_fabric(swatch.height_mm, swatch.albedo, options);
+  ASSERT_TRUE(counted && counted->periodic);
+  EXPECT_NEAR(counted->across_density / truth, 1.0, 0.01) << summary_line(*counted);
+  EXPECT_EQ(counted->threads_u, 4);
+  options.hints = {Construction::knit, "my rib"};
+  const auto uncounted = measure_fabric(swatch.height_mm, swatch.albedo, options);
+  ASSERT_TRUE(uncounted && uncounted->periodic);
+  EXPECT_NEAR(uncounted->across_density / (truth / 4), 1.0, 0.01);
+  EXPECT_NE(to_json(*uncounted)["notes"].dump().find("stitches_per_repeat"), std::string::npos);
+
+  const sim::Swatch rib = swatch_of({"rib-1x1", 0});
+  options.hints = {Construction::knit, "rib"};  // an older scan's name
+  const auto named = measure_fabric(rib.height_mm, rib.albedo, options);
+  ASSERT_TRUE(named && named->periodic);
+  EXPECT_NEAR(named->across_density / test::named_pattern("rib").gauge.across_per_cm, 1.0, 0.01);
 }
 
 }  // namespace

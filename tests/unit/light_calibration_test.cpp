@@ -23,6 +23,7 @@
 #include "psrig/sim/lambertian_render.h"
 #include "psrig/sim/sphere_target.h"
 #include "psrig/sim/world.h"
+#include "shipped_swatch.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -224,7 +225,7 @@ TEST(LightCalibration, NearLedPositionsFromTheSimulatedRigsSphere) {
        {std::array<double, 2>{-9.7, 6.9}, std::array<double, 2>{9.8, 5.4},
         std::array<double, 2>{0.2, -7.5}}) {
     c.sim.sphere_centre_mm = centre;
-    sim::World world(c);
+    const sim::World world = test::made(sim::World::make(c));
     std::vector<LightFrames> lights;
     std::vector<cv::Mat> all;
     for (int k = 0; k < world.channel_count(); ++k) {

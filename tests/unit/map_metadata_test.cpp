@@ -19,6 +19,7 @@
 #include "psrig/processing/image_metadata.h"
 #include "psrig/processing/map_encoding.h"
 #include "psrig/processing/pipeline.h"
+#include "shipped_swatch.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -152,9 +153,10 @@ TEST(MapMetadata, DirectxNormalFlipsGreenOnly) {
 TEST(MapMetadata, ProcessedMapsCarryScaleSampleAndConvention) {
   TempDir dir;
   capture::SyntheticScanParams params;
+  params.swatch.pattern = test::named_pattern("jersey");
   params.swatch.size = {96, 64};
   params.swatch.pixel_size_mm = 0.04;
-  auto scan = capture::make_synthetic_scan(params);
+  auto scan = test::made(capture::make_synthetic_scan(params));
   scan.description.sample_id = "S-9";
   ASSERT_TRUE(capture::write_scan(scan, dir / "scan"));
   processing::ProcessOptions options;

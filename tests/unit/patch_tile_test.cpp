@@ -9,6 +9,7 @@
 #include "psrig/capture/synthetic_scan.h"
 #include "psrig/processing/pipeline.h"
 #include "psrig/processing/seamless_tile.h"
+#include "shipped_swatch.h"
 #include "test_support.h"
 
 namespace psrig::preview {
@@ -17,10 +18,10 @@ namespace {
 TEST(PatchTile, CutInMemoryThenReadFromTheTileDirectory) {
   test::TempDir temp;
   capture::SyntheticScanParams params;
-  params.swatch.pattern = sim::SwatchPattern::twill;
+  params.swatch.pattern = test::named_pattern("twill");
   params.swatch.size = {480, 360};
   params.swatch.rotation_deg = 2;
-  ASSERT_TRUE(capture::write_scan(capture::make_synthetic_scan(params), temp / "scan"));
+  ASSERT_TRUE(capture::write_scan(test::made(capture::make_synthetic_scan(params)), temp / "scan"));
   const auto processed = processing::process_scan(temp / "scan");
   ASSERT_TRUE(processed) << processed.error().describe();
   const auto maps = load_swatch_maps(processed->maps_directory);

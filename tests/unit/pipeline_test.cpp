@@ -16,6 +16,7 @@
 #include "psrig/processing/image_io.h"
 #include "psrig/processing/map_encoding.h"
 #include "psrig/sim/swatch_model.h"
+#include "shipped_swatch.h"
 #include "synthetic_scene.h"
 #include "test_support.h"
 
@@ -123,9 +124,9 @@ class SyntheticSwatch : public ::testing::TestWithParam<const char*> {};
 TEST_P(SyntheticSwatch, NoiseFreeNormalsAreExact) {
   test::TempDir temp;
   capture::SyntheticScanParams params;
-  params.swatch.pattern = *sim::parse_swatch_pattern(GetParam());
+  params.swatch.pattern = test::named_pattern(GetParam());
   params.swatch.size = {240, 180};
-  ASSERT_TRUE(capture::write_scan(capture::make_synthetic_scan(params), temp / "scan"));
+  ASSERT_TRUE(capture::write_scan(test::made(capture::make_synthetic_scan(params)), temp / "scan"));
   auto summary = process_scan(temp / "scan");
   ASSERT_TRUE(summary) << summary.error().describe();
   const auto& truth = summary->report["ground_truth"];
@@ -141,11 +142,11 @@ TEST_P(SyntheticSwatch, NoiseFreeNormalsAreExact) {
 TEST_P(SyntheticSwatch, NoisyNormalsMatchTheDerivedBound) {
   const double sigma = 0.004;
   capture::SyntheticScanParams params;
-  params.swatch.pattern = *sim::parse_swatch_pattern(GetParam());
+  params.swatch.pattern = test::named_pattern(GetParam());
   params.swatch.size = {240, 180};
   params.noise = sigma;
-  const Scan scan = capture::make_synthetic_scan(params);
-  const auto swatch = sim::make_swatch(params.swatch);
+  const Scan scan = test::made(capture::make_synthetic_scan(params));
+  const auto swatch = test::made(sim::make_swatch(params.swatch));
   auto result = solve(scan);
   ASSERT_TRUE(result);
   const cv::Mat valid = encode_valid_mask(result->flags);
@@ -171,8 +172,12 @@ TEST_P(SyntheticSwatch, NoisyNormalsMatchTheDerivedBound) {
   EXPECT_GE(measured / count, 0.75 * predicted / count);
 }
 
+// Every shipped pattern (config/patterns).
 INSTANTIATE_TEST_SUITE_P(Patterns, SyntheticSwatch,
-                         ::testing::Values("jersey", "rib", "garter", "plain", "twill"));
+                         ::testing::ValuesIn(test::shipped_pattern_names()),
+                         [](const ::testing::TestParamInfo<const char*>& param_info) {
+                           return test::test_name(param_info.param);
+                         });
 
 TEST(Pipeline, AMaskedScanIsIntegratedOverItsMaskAndTheReportSaysHow) {
   // A sphere cap inside a disk mask: `auto` picks the masked solver, the
@@ -226,8 +231,9 @@ TEST(Pipeline, AMaskedScanIsIntegratedOverItsMaskAndTheReportSaysHow) {
 TEST(Pipeline, SwatchScansAreFlattenedAndTheBendIsReported) {
   test::TempDir temp;
   capture::SyntheticScanParams params;
+  params.swatch.pattern = test::named_pattern("jersey");
   params.swatch.size = {240, 180};
-  ASSERT_TRUE(capture::write_scan(capture::make_synthetic_scan(params), temp / "scan"));
+  ASSERT_TRUE(capture::write_scan(test::made(capture::make_synthetic_scan(params)), temp / "scan"));
   auto summary = process_scan(temp / "scan");
   ASSERT_TRUE(summary) << summary.error().describe();
   const auto& r = summary->report;
@@ -415,9 +421,10 @@ TEST(Pipeline, StorageCompressionIsLosslessAndRecorded) {
 TEST(Pipeline, HalfPrecisionMapsStayWithinTheirRoundingAndTakeLessSpace) {
   test::TempDir temp;
   capture::SyntheticScanParams params;
+  params.swatch.pattern = test::named_pattern("jersey");
   params.swatch.size = {160, 120};
   params.noise = 0.002;
-  ASSERT_TRUE(capture::write_scan(capture::make_synthetic_scan(params), temp / "scan"));
+  ASSERT_TRUE(capture::write_scan(test::made(capture::make_synthetic_scan(params)), temp / "scan"));
   const auto process_with = [&](MapPrecision precision) {
     ProcessOptions options;
     options.storage.map_precision = precision;

@@ -13,6 +13,7 @@
 
 #include "psrig/processing/fabric_measure.h"
 #include "psrig/sim/swatch_model.h"
+#include "shipped_swatch.h"
 
 namespace psrig::processing {
 namespace {
@@ -23,13 +24,9 @@ struct Case {
 };
 
 Maps maps_of(const Case& c) {
-  sim::SwatchParams params;
-  params.pattern = *sim::parse_swatch_pattern(c.pattern);
-  params.size = {640, 480};
-  params.pixel_size_mm = 0.025;
+  sim::SwatchParams params = test::swatch_params(c.pattern, {640, 480}, 0.025, 5);
   params.rotation_deg = c.rotation_deg;
-  params.seed = 5;
-  const sim::Swatch swatch = sim::make_swatch(params);
+  const sim::Swatch swatch = test::made(sim::make_swatch(params));
   Maps maps;
   maps.albedo = swatch.albedo;
   maps.height = swatch.height_mm;

@@ -13,6 +13,7 @@
 #include "psrig/config/config_loader.h"
 #include "psrig/firmware_host/sim_lights.h"
 #include "psrig/processing/scan_reader.h"
+#include "psrig/sim/world.h"
 #include "test_support.h"
 
 namespace psrig::capture {

@@ -4,12 +4,15 @@
 
 #include <chrono>
 #include <cmath>
+#include <fstream>
 
 #include <gtest/gtest.h>
 
 #include "psrig/firmware_host/simulated_leds.h"
 #include "psrig/sim/sensor.h"
 #include "psrig/sim/world.h"
+#include "shipped_swatch.h"
+#include "test_support.h"
 
 namespace psrig::sim {
 namespace {
@@ -30,7 +33,7 @@ config::RigConfig small_world() {
 }
 
 TEST(SimWorld, RadianceIsTheRenderedSwatch) {
-  World world(small_world());
+  const World world = test::made(World::make(small_world()));
   ASSERT_EQ(world.channel_count(), 3);
   EXPECT_EQ(world.radiance(0).size(), cv::Size(64, 48));
   EXPECT_NEAR(world.light_directions()[1][1], std::sin(2 * CV_PI / 3) * std::sqrt(0.5), 1e-9);
@@ -45,7 +48,7 @@ TEST(SimWorld, NearLedsArePointSources) {
   c.sim.card_albedo = 0.6;
   c.sim.pixel_size_mm = 0.025;  // a 16 x 12 mm field
   c.geometry.led_distance_mm = 250;
-  World world(c);
+  const World world = test::made(World::make(c));
   ASSERT_EQ(world.light_positions_mm().size(), 3U);
   EXPECT_NEAR(world.light_positions_mm()[0][0], 250 * std::sqrt(0.5), 1e-9);
   EXPECT_NEAR(world.light_directions()[0][2], std::sqrt(0.5), 1e-12);
@@ -64,7 +67,7 @@ TEST(SimWorld, NearLedsArePointSources) {
   EXPECT_GT(r0.at<cv::Vec3f>(240, 640)[0], r0.at<cv::Vec3f>(240, 0)[0] * 1.05);
   // Without positions: distant, uniform over the flat card.
   c.geometry.led_distance_mm.reset();
-  World distant(c);
+  const World distant = test::made(World::make(c));
   EXPECT_TRUE(distant.light_positions_mm().empty());
   EXPECT_NEAR(distant.radiance(0).at<cv::Vec3f>(0, 0)[0], 0.6 * std::sqrt(0.5), 1e-5);
   EXPECT_NEAR(distant.radiance(0).at<cv::Vec3f>(240, 640)[0], 0.6 * std::sqrt(0.5), 1e-5);
@@ -72,16 +75,16 @@ TEST(SimWorld, NearLedsArePointSources) {
 
 TEST(SimWorld, AttachFindsTheRigsWorldThroughTheConfiguration) {
   const config::RigConfig config = small_world();
-  auto world = World::attach(config);
+  auto world = test::made(World::attach(config));
   // The sim camera and the sim lights, opened apart, meet in it.
-  EXPECT_EQ(World::attach(config), world);
+  EXPECT_EQ(test::made(World::attach(config)), world);
   EXPECT_EQ(world->leds(), firmware_host::SimulatedLeds::attach(config));
   config::RigConfig other = config;
   other.sim.seed = 2;
-  EXPECT_NE(World::attach(other), world);
+  EXPECT_NE(test::made(World::attach(other)), world);
   other = config;
   other.camera.exposure_us = 5000;  // not what makes the world
-  EXPECT_EQ(World::attach(other), world);
+  EXPECT_EQ(test::made(World::attach(other)), world);
   // Nobody holding it: the next rig opened gets a fresh world.
   const std::weak_ptr<World> held = world;
   const std::weak_ptr<firmware_host::SimulatedLeds> leds = world->leds();
@@ -90,10 +93,61 @@ TEST(SimWorld, AttachFindsTheRigsWorldThroughTheConfiguration) {
   EXPECT_TRUE(leds.expired());
 }
 
+// [sim] pattern: a shipped name (or an older alias) or a chart or weave file;
+// the world keeps what its swatch is made of.
+TEST(SimWorld, TheSwatchIsTheConfiguredPattern) {
+  config::RigConfig c = small_world();
+  const World jersey = test::made(World::make(c));
+  ASSERT_TRUE(jersey.pattern());
+  EXPECT_EQ(jersey.pattern()->name, "jersey");
+  EXPECT_EQ(jersey.pattern()->file.filename(), "stockinette.chart");
+  EXPECT_TRUE(jersey.pattern()->knitted());
+  test::TempDir temp;
+  std::ofstream(temp / "tabby.weave") << "colour warp #FF0000\n1 0\n0 1\n";
+  c.sim.pattern = (temp / "tabby.weave").string();
+  const World tabby = test::made(World::make(c));
+  ASSERT_TRUE(tabby.pattern());
+  EXPECT_FALSE(tabby.pattern()->knitted());
+  EXPECT_EQ(tabby.pattern()->name, "tabby");
+  // A red warp: the albedo's red is up where the warps lie.
+  cv::Scalar mean = cv::mean(tabby.swatch().albedo);  // BGR
+  EXPECT_GT(mean[2], 2 * mean[1]);
+  // A calibration target has no pattern.
+  c.sim.target = "white_card";
+  EXPECT_FALSE(test::made(World::make(c)).pattern());
+}
+
+// A pattern that cannot be read is bad input naming sim.pattern and the
+// file (the chart's own line and column for a mistake in it), from make()
+// and attach() alike; nothing is registered, so a fixed file is read again.
+TEST(SimWorld, ABadPatternIsBadInputNamingTheKeyAndFile) {
+  config::RigConfig c = small_world();
+  c.source = "/etc/psrig/rig.toml";
+  c.sim.pattern = "argyle";
+  const auto unknown = World::make(c);
+  ASSERT_FALSE(unknown);
+  EXPECT_EQ(unknown.error().kind, ErrorKind::bad_input);
+  EXPECT_EQ(unknown.error().key, "sim.pattern");
+  EXPECT_EQ(unknown.error().file, c.source);
+  EXPECT_NE(unknown.error().message.find("stockinette"), std::string::npos)
+      << unknown.error().describe();
+  test::TempDir temp;
+  const auto chart = temp / "broken.chart";
+  std::ofstream(chart) << "K K\nK X\n";
+  c.sim.pattern = chart.string();
+  const auto broken = World::attach(c);
+  ASSERT_FALSE(broken);
+  EXPECT_EQ(broken.error().kind, ErrorKind::bad_input);
+  EXPECT_EQ(broken.error().file, chart);
+  EXPECT_EQ(broken.error().line, 2);
+  std::ofstream(chart) << "K K\nK P\n";
+  EXPECT_TRUE(World::attach(c));
+}
+
 class SimSensorTest : public ::testing::Test {
  protected:
   config::RigConfig config_ = small_world();
-  World world_{config_};
+  World world_ = test::made(World::make(config_));
   Sensor sensor_{config_.sim, 7};
 };
 
@@ -169,12 +223,15 @@ TEST_F(SimSensorTest, ExposureAndGainScaleTheSignalAndVignettingDarkensCorners) 
   const double two = brightness(dim_sensor.expose(world_, t0, longer, 2)) - black;
   EXPECT_NEAR(two / one, 2.0, 0.1);
   EXPECT_EQ(sensor_.expose(world_, t0, grey, 3).type(), CV_16UC1);
-  // A flat white world would show the fall-off directly; here compare the
-  // corners with the centre over many pixels.
+  // A flat white card shows the fall-off alone: the corners against the
+  // centre, over many pixels.
   config::RigConfig strong = small_world();
   strong.sim.vignetting = 0.5;
+  strong.sim.target = "white_card";
+  const World card = test::made(World::make(strong));
+  card.leds()->set_led(0, true, 1.0, t0 - 1s);
   Sensor vignetted(strong.sim, 1);
-  const cv::Mat frame = vignetted.expose(world_, t0, base, 9);
+  const cv::Mat frame = vignetted.expose(card, t0, base, 9);
   const double centre = brightness(frame(cv::Rect(24, 16, 16, 16)));
   const double corner = brightness(frame(cv::Rect(0, 0, 8, 8)));
   EXPECT_LT(corner - black, 0.8 * (centre - black));

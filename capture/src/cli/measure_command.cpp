@@ -48,11 +48,27 @@ Status write_chart(const fs::path& file, const cloth::InferredKnit& knit, const 
   return {};
 }
 
+// Every stitch read, a row a string of K and P, the bottom course first.
+nlohmann::json stitches_read(const cloth::InferredKnit& knit) {
+  nlohmann::json rows = nlohmann::json::array();
+  for (int row = 0; row < knit.rows; ++row) {
+    std::string text;
+    for (int column = 0; column < knit.columns; ++column)
+      text += knit.stitches[static_cast<std::size_t>(row * knit.columns + column)] ==
+                      cloth::Stitch::knit
+                  ? 'K'
+                  : 'P';
+    rows.push_back(text);
+  }
+  return rows;
+}
+
 nlohmann::json chart_json(const cloth::InferredKnit& knit, const fs::path& file) {
   return {{"file", file.string()},
           {"stitches", {knit.chart.columns, knit.chart.rows}},
           {"palette", knit.chart.palette.size()},
           {"grid", {knit.columns, knit.rows}},
+          {"read", stitches_read(knit)},
           {"agreement", knit.agreement},
           {"fit", knit.fit},
           {"lattice_px",
@@ -93,7 +109,15 @@ Command add_measure_command(CLI::App& parent) {
                         << (m->notes.empty() ? "no repeat found" : m->notes.back()) << '\n';
             std::optional<cloth::InferredKnit> knit;
             if (!args->chart.empty()) {
-              auto inferred = cloth::infer_knit_chart(height, maps->albedo, *m);
+              // The stitches scan.json counts in a repeat are the rig's word
+              // (the simulator's, or the technician's): only their
+              // knit and purl are read off then.
+              cloth::ChartInferenceOptions inference;
+              if (options.hints.across_per_repeat > 0 && options.hints.along_per_repeat > 0) {
+                inference.known_wales_per_repeat = m->threads_u;
+                inference.known_courses_per_repeat = m->threads_v;
+              }
+              auto inferred = cloth::infer_knit_chart(height, maps->albedo, *m, inference);
               if (!inferred) {
                 Error error = inferred.error();
                 error.file = args->maps;

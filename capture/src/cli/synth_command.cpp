@@ -37,8 +37,10 @@ Command add_synth_command(CLI::App& parent) {
                   "Scan directory to create (must not exist; missing parents are made)")
       ->required();
   app->add_option("--pattern", args->pattern,
-                  "Swatch: jersey, rib, garter (knitted), plain, twill (woven)")
-      ->check(CLI::IsMember({"jersey", "rib", "garter", "plain", "twill"}))
+                  "Swatch: a stitch chart (.chart) or weave (.weave) file, or a shipped "
+                  "pattern: stockinette, garter, rib-1x1, rib-2x2, seed, basketweave, stripes "
+                  "(knitted), plain, twill-2x2, satin-5 (woven); jersey, rib and twill are "
+                  "stockinette, rib-1x1 and twill-2x2")
       ->capture_default_str();
   app->add_option("--size", args->size, "Image size WxH in pixels")->capture_default_str();
   app->add_option("--slant", args->slant, "Light slant from the camera axis, degrees")
@@ -73,8 +75,10 @@ Command add_synth_command(CLI::App& parent) {
                   "synth", bad_input({}, "--size",
                                      "expected WxH from 8x8 to 16384x16384, e.g. 640x480; got '" +
                                          args->size + "'"));
+            auto pattern = sim::load_swatch_pattern(args->pattern, {}, {}, "--pattern");
+            if (!pattern) return report_error("synth", pattern.error());
             SyntheticScanParams params;
-            params.swatch.pattern = *sim::parse_swatch_pattern(args->pattern);
+            params.swatch.pattern = std::move(*pattern);
             params.swatch.size = {size->width, size->height};
             params.swatch.pixel_size_mm = args->pixel_size;
             params.swatch.seed = args->seed;
@@ -83,17 +87,19 @@ Command add_synth_command(CLI::App& parent) {
             params.slant_deg = args->slant;
             params.noise = args->noise;
             params.depth = args->bits == 8 ? CV_8U : CV_16U;
-            const processing::Scan scan = make_synthetic_scan(params);
+            const auto scan = make_synthetic_scan(params);
+            if (!scan) return report_error("synth", scan.error());
             // As `psrig scan --out`: missing parents are made (write_scan
             // still refuses an existing scan directory).
             std::error_code ec;
             std::filesystem::create_directories(std::filesystem::path(args->out).parent_path(), ec);
-            if (auto ok = write_scan(scan, args->out); !ok)
+            if (auto ok = write_scan(*scan, args->out); !ok)
               return report_error("synth", ok.error());
             if (!args->quiet)
               std::printf("scan: %s (%s, %dx%d, %.3f mm/px, slant %.0f deg, noise %g)\n",
-                          args->out.c_str(), args->pattern.c_str(), params.swatch.size.width,
-                          params.swatch.size.height, args->pixel_size, args->slant, args->noise);
+                          args->out.c_str(), params.swatch.pattern.name.c_str(),
+                          params.swatch.size.width, params.swatch.size.height, args->pixel_size,
+                          args->slant, args->noise);
             return 0;
           }};
 }

@@ -10,7 +10,12 @@
 #include "psrig/capture/scan_sequencer.h"
 #include "psrig/config/rig_config.h"
 #include "psrig/firmware_host/safe_lights.h"
-#include "psrig/sim/world.h"
+
+// The world's header brings the cloth's (and Eigen's) along; a rig's
+// holders need only hold it (include psrig/sim/world.h to look inside).
+namespace psrig::sim {
+class World;
+}
 
 namespace psrig::capture {
 

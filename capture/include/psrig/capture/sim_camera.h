@@ -9,6 +9,7 @@
 
 namespace psrig::capture {
 
-[[nodiscard]] std::unique_ptr<Camera> open_sim_camera(const config::RigConfig& config);
+// Bad input when the world cannot be made (sim.pattern names no usable pattern).
+[[nodiscard]] Result<std::unique_ptr<Camera>> open_sim_camera(const config::RigConfig& config);
 
 }  // namespace psrig::capture

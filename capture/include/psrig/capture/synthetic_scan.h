@@ -16,13 +16,15 @@ struct SyntheticScanParams {
   int depth = CV_16U;     // CV_8U or CV_16U
   double exposure = 1.0;  // scales the radiance before quantisation
   bool cast_shadows = true;
-  // scan.json's `fabric` (construction and structure) as a lab would enter
-  // it; off, the measurement has to tell knit from woven by itself.
+  // scan.json's `fabric` (construction, structure, stitches or threads per
+  // repeat) as a lab would enter it (fabric_truth.h); off, the measurement
+  // has to tell knit from woven by itself.
   bool fabric_metadata = true;
 };
 
 // Frames, light directions and ground truth (normals, height in mm), ready
 // for capture::write_scan or processing::solve. Deterministic for a seed.
-[[nodiscard]] processing::Scan make_synthetic_scan(const SyntheticScanParams& params);
+// Bad input when the swatch's pattern makes no cloth (sim::make_swatch).
+[[nodiscard]] Result<processing::Scan> make_synthetic_scan(const SyntheticScanParams& params);
 
 }  // namespace psrig::capture

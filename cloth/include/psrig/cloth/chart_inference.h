@@ -80,12 +80,18 @@ struct InferredKnit {
   // v (FabricMeasurement::threads_u, threads_v counted).
   int wales_per_repeat = 1;
   int courses_per_repeat = 1;
+  bool split_from_scan = false;  // those two given (ChartInferenceOptions), not counted
   std::vector<std::string> notes;
 };
 
 struct ChartInferenceOptions {
   int max_stitches_per_repeat = 16;  // each way
   int samples = 16;                  // per stitch face, each way
+  // The stitches the measured repeat holds (wales, courses) where the scan
+  // says so (scan.json's fabric.stitches_per_repeat): only that split is
+  // tried. 0: counted on the maps.
+  int known_wales_per_repeat = 0;
+  int known_courses_per_repeat = 0;
 };
 
 // height: CV_32F (NaN: none); albedo: CV_32FC3 linear BGR (as the maps

@@ -187,7 +187,15 @@ struct SimConfig {
   // finds the inverse from a ColorChecker ("colour_chart").
   std::optional<std::array<double, 9>> colour_matrix;
   double led_angular_diameter_deg = 2;  // each LED as the sphere sees it (chrome highlight size)
+  // The swatch: a .chart or .weave file (config/patterns/README.md; made
+  // absolute from the rig.toml's folder) or a shipped pattern's name
+  // (stockinette, garter, rib-1x1, rib-2x2, seed, basketweave, stripes,
+  // plain, twill-2x2, satin-5; jersey, rib and twill are the older names of
+  // stockinette, rib-1x1 and twill-2x2), found in patterns_dir.
   std::string pattern = "jersey";
+  // Where the shipped patterns are; empty: <psrig's folder>/../share/psrig/
+  // patterns when installed, else the source tree's config/patterns.
+  std::filesystem::path patterns_dir;
   double swatch_rotation_deg = 0;  // the fabric turned counterclockwise (as seen) on the rig
   std::uint64_t seed = 1;
   int width = 640;

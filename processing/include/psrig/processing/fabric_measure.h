@@ -24,10 +24,14 @@ enum class Construction { unknown, knit, woven };
 [[nodiscard]] Construction parse_construction(std::string_view name);
 
 // What the scan says about its fabric (scan.json's `fabric` object:
-// {"construction": "knit"|"woven", "structure": "jersey"|"rib"|...}).
+// {"construction": "knit"|"woven", "structure": "jersey"|"rib"|...,
+// "stitches_per_repeat" (knit) or "threads_per_repeat" (woven): [across, along]}).
 struct FabricHints {
   Construction construction = Construction::unknown;
   std::string structure;  // empty: not given
+  // Wales (ends) and courses (picks) one repeat of the pattern holds; 0: not given.
+  int across_per_repeat = 0;
+  int along_per_repeat = 0;
 };
 // Reads scan.json's `fabric` object (absent or malformed keys: no hint).
 [[nodiscard]] FabricHints fabric_hints(const nlohmann::json& scan_document);

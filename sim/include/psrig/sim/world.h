@@ -7,10 +7,12 @@
 
 #include <chrono>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
+#include "psrig/base/error.h"
 #include "psrig/config/rig_config.h"
 #include "psrig/firmware_host/simulated_leds.h"
 #include "psrig/sim/swatch_model.h"
@@ -22,14 +24,16 @@ using Clock = firmware_host::Clock;
 class World {
  public:
   // The world of `config` lit by `leds` (null: LEDs of its own, switched
-  // through leds(); attach() gives the rig's world instead).
-  explicit World(const config::RigConfig& config,
-                 std::shared_ptr<firmware_host::SimulatedLeds> leds = nullptr);
+  // through leds(); attach() gives the rig's world instead). Bad input,
+  // naming sim.pattern, when the swatch's pattern cannot be read or made.
+  [[nodiscard]] static Result<World> make(
+      const config::RigConfig& config,
+      std::shared_ptr<firmware_host::SimulatedLeds> leds = nullptr);
 
   // The world of the simulated rig `config` describes, lit by its LEDs
   // (SimulatedLeds::attach): the same instance for every holder of an
   // equivalent configuration (firmware_host/simulated_rig.h).
-  [[nodiscard]] static std::shared_ptr<World> attach(const config::RigConfig& config);
+  [[nodiscard]] static Result<std::shared_ptr<World>> attach(const config::RigConfig& config);
 
   [[nodiscard]] int channel_count() const { return static_cast<int>(directions_.size()); }
   // Unit directions toward each LED, camera axes, from the configuration's geometry.
@@ -39,6 +43,8 @@ class World {
   // source (render_point_light), the directions above are from the origin.
   [[nodiscard]] const std::vector<cv::Vec3d>& light_positions_mm() const { return positions_; }
   [[nodiscard]] const Swatch& swatch() const { return swatch_; }
+  // What the swatch is made of ([sim] pattern); none for calibration targets.
+  [[nodiscard]] const std::optional<SwatchPattern>& pattern() const { return pattern_; }
   [[nodiscard]] const std::shared_ptr<firmware_host::SimulatedLeds>& leds() const { return leds_; }
 
   // How much of [begin, end) each LED shone (SimulatedLeds::exposure_weights).
@@ -54,9 +60,13 @@ class World {
   [[nodiscard]] const cv::Mat& ambient() const { return ambient_; }
 
  private:
+  World(const config::RigConfig& config, Swatch scene, std::optional<SwatchPattern> pattern,
+        std::shared_ptr<firmware_host::SimulatedLeds> leds);
+
   std::vector<cv::Vec3d> directions_;
   std::vector<cv::Vec3d> positions_;
   Swatch swatch_;
+  std::optional<SwatchPattern> pattern_;
   std::vector<cv::Mat> radiance_;
   cv::Mat ambient_;
   std::shared_ptr<firmware_host::SimulatedLeds> leds_;
