@@ -31,4 +31,15 @@ std::optional<Eigen::Vector3f> parse_srgb_hex(std::string_view text) {
   return linear;
 }
 
+std::string format_srgb_hex(const Eigen::Vector3f& linear) {
+  std::string text = "#";
+  constexpr const char* kDigits = "0123456789ABCDEF";
+  for (int channel = 0; channel < 3; ++channel) {
+    const auto value = static_cast<int>(std::lround(srgb_encode(linear[channel]) * 255.0f));
+    text += kDigits[value / 16];
+    text += kDigits[value % 16];
+  }
+  return text;
+}
+
 }  // namespace psrig::cloth

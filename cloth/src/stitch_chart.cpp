@@ -1,7 +1,10 @@
 #include "psrig/cloth/stitch_chart.h"
 
+#include <algorithm>
 #include <cctype>
 #include <optional>
+
+#include <spdlog/fmt/fmt.h>
 
 #include "pattern_text.h"
 #include "psrig/cloth/srgb.h"
@@ -225,6 +228,39 @@ Result<StitchChart> parse_stitch_chart(std::string_view text, const fs::path& so
     }
   }
   return chart;
+}
+
+std::string format_stitch_chart(const StitchChart& chart, std::string_view comment) {
+  std::string text;
+  for (std::size_t start = 0; start < comment.size();) {
+    const std::size_t end = std::min(comment.find('\n', start), comment.size());
+    text += "# " + std::string(comment.substr(start, end - start)) + "\n";
+    start = end + 1;
+  }
+  if (!chart.name.empty()) text += "name: " + chart.name + "\n";
+  const auto key = [&](const char* name, float value) {
+    if (value > 0) text += fmt::format("{}: {:.4g}\n", name, value);
+  };
+  key("wales_per_cm", chart.gauge.wales_per_cm);
+  key("courses_per_cm", chart.gauge.courses_per_cm);
+  key("yarn_mm", chart.gauge.yarn_diameter_mm);
+  constexpr std::string_view kLetters = "ABCDEFGHIJKLMNOPQRSTUVWXYZ";
+  const std::size_t colours = std::min(chart.palette.size(), kLetters.size());
+  for (std::size_t i = 0; i < colours; ++i)
+    text += fmt::format("colour {} {}\n", kLetters[i], format_srgb_hex(chart.palette[i]));
+  for (int row = 0; row < chart.rows; ++row) {
+    std::string stitches, letters;
+    for (int column = 0; column < chart.columns; ++column) {
+      stitches += column > 0 ? " " : "";
+      stitches += chart.at(column, row) == Stitch::knit ? 'K' : 'P';
+      letters += column > 0 ? " " : "";
+      letters += kLetters[std::min<std::size_t>(static_cast<std::size_t>(chart.colour_at(column, row)),
+                                                colours > 0 ? colours - 1 : 0)];
+    }
+    text += stitches + (row == 0 ? "   # row 0, the bottom course" : "") + "\n";
+    if (colours > 1) text += "= " + letters + "\n";
+  }
+  return text;
 }
 
 Result<StitchChart> load_stitch_chart(const fs::path& file) {

@@ -31,6 +31,8 @@ constexpr double kCandidateFraction = 0.6;
 // The fabric's directions lie within this of the image axes (the swatch is
 // laid square on the rig, give or take a few degrees and a knit's spirality).
 constexpr double kAxisConeDeg = 15.0;
+// Detail below this fraction of a map's level is rounding, not texture.
+constexpr double kNoDetail = 1e-5;
 // How much better than a lattice vector its multiple must match for the
 // vector to be taken for a sub-period of the repeat the scan counts.
 constexpr double kWholeRepeatGain = 0.1;
@@ -79,7 +81,11 @@ cv::Mat detail_of(const cv::Mat& map, cv::Mat& weight) {
   cv::Mat out = (values - low).mul(weight);
   const double n = std::max(1.0, cv::sum(weight)[0]);
   const double rms = std::sqrt(out.dot(out) / n);
-  if (rms > 0) out /= rms;
+  // A map without detail (a uniform albedo) leaves only the resampling's
+  // rounding, whose autocorrelation has peaks a few pixels apart: no detail.
+  const double level = std::sqrt(values.dot(values) / n);
+  if (!(rms > kNoDetail * level)) return cv::Mat::zeros(map.size(), CV_32F);
+  out /= rms;
   return out;
 }
 
@@ -387,7 +393,8 @@ Prepared prepare(const cv::Mat& height, const cv::Mat& albedo) {
     cv::Mat a = luminance(albedo(centre));
     a.setTo(std::numeric_limits<float>::quiet_NaN(), wh == 0);
     cv::Mat wa;
-    out.details.push_back(detail_of(a, wa));
+    cv::Mat detail = detail_of(a, wa);
+    if (cv::countNonZero(detail) > 0) out.details.push_back(std::move(detail));
   }
   return out;
 }
@@ -667,6 +674,65 @@ nlohmann::json to_json(const FabricMeasurement& m) {
   j["notes"] = m.notes;
   j["summary"] = summary_line(m);
   return j;
+}
+
+Result<FabricMeasurement> fabric_from_json(const nlohmann::json& j,
+                                           std::optional<double> pixel_size_mm) {
+  const auto missing = [](const std::string& key) {
+    return std::unexpected(bad_input({}, "fabric." + key,
+                                     "missing or malformed in report.json (reprocess the scan)"));
+  };
+  if (!j.is_object() || !j.contains("periodic") || !j["periodic"].is_boolean())
+    return missing("periodic");
+  FabricMeasurement m;
+  m.pixel_size_mm = pixel_size_mm;
+  m.periodic = j["periodic"].get<bool>();
+  if (!j.contains("construction") || !j["construction"].is_string()) return missing("construction");
+  m.construction = parse_construction(j["construction"].get<std::string>());
+  m.construction_from_metadata = j.value("construction_source", "") == "metadata";
+  m.construction_confidence = j.value("construction_confidence", 0.0);
+  m.structure = j.value("structure", "");
+  if (j.contains("notes") && j["notes"].is_array())
+    for (const auto& note : j["notes"])
+      if (note.is_string()) m.notes.push_back(note.get<std::string>());
+  if (!m.periodic) return m;
+  const auto point = [&](const char* key) -> std::optional<cv::Point2d> {
+    const auto& lattice = j.contains("lattice_px") ? j["lattice_px"] : nlohmann::json();
+    if (!lattice.is_object() || !lattice.contains(key) || !lattice[key].is_array() ||
+        lattice[key].size() != 2 || !lattice[key][0].is_number() || !lattice[key][1].is_number())
+      return std::nullopt;
+    return cv::Point2d(lattice[key][0].get<double>(), lattice[key][1].get<double>());
+  };
+  const auto u = point("u"), v = point("v");
+  if (!u) return missing("lattice_px.u");
+  if (!v) return missing("lattice_px.v");
+  m.u_px = *u;
+  m.v_px = *v;
+  const bool woven = m.construction == Construction::woven;
+  const std::string per = pixel_size_mm ? "_per_cm" : "_per_px";
+  const std::string across = (woven ? "ends" : "wales") + per;
+  const std::string along = (woven ? "picks" : "courses") + per;
+  if (!j.contains(across) || !j[across].is_number()) return missing(across);
+  if (!j.contains(along) || !j[along].is_number()) return missing(along);
+  m.across_density = j[across].get<double>();
+  m.along_density = j[along].get<double>();
+  m.confidence = j.value("confidence", 0.0);
+  m.skew_deg = j.value("skew_deg", 0.0);
+  m.rotation_deg = j.value("rotation_deg", 0.0);
+  m.wale_rotation_deg = j.value(woven ? "warp_rotation_deg" : "wale_rotation_deg", 0.0);
+  const auto& counts = j.value(woven ? "threads_per_repeat" : "stitches_per_repeat",
+                               nlohmann::json::array({1, 1}));
+  if (counts.is_array() && counts.size() == 2 && counts[0].is_number_integer() &&
+      counts[1].is_number_integer()) {
+    m.threads_u = counts[0].get<int>();
+    m.threads_v = counts[1].get<int>();
+  }
+  const auto& repeat = j.value(pixel_size_mm ? "repeat_mm" : "repeat_px", nlohmann::json());
+  if (repeat.is_array() && repeat.size() == 2 && repeat[0].is_number() && repeat[1].is_number()) {
+    m.repeat_width = repeat[0].get<double>();
+    m.repeat_height = repeat[1].get<double>();
+  }
+  return m;
 }
 
 std::string summary_line(const FabricMeasurement& m) {

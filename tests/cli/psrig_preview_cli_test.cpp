@@ -273,6 +273,55 @@ TEST(PsrigPreviewCli, KnitDrawsYarnsAndStretchOpensGaps) {
   EXPECT_GT(yarn_share(cv::imread((temp / "satin.png").string())), 0.5);
 }
 
+// --from-scan without a chart: the chart read off a scan of two-course
+// stripes, drawn in both its colours; with a chart, that chart in the
+// scan's colours; a scan with no chart to read is a clear error.
+TEST(PsrigPreviewCli, KnitFromScanDrawsTheChartReadOffIt) {
+  TempDir temp;
+  const fs::path scan = temp / "stripes";
+  const auto synth = run_program("psrig", {"synth", "--out", scan.string(), "--pattern", "stripes",
+                                           "--size", "400x400", "--pixel-size", "0.03", "-q"});
+  ASSERT_EQ(synth.exit_code, 0) << synth.err;
+  const auto process = run_program("psrig", {"process", scan.string(), "-q"});
+  ASSERT_EQ(process.exit_code, 0) << process.err;
+  const auto draw = [&](const std::string& name, std::vector<std::string> pattern) {
+    std::vector<std::string> args = {"knit"};
+    args.insert(args.end(), pattern.begin(), pattern.end());
+    for (const std::string& arg : {std::string("--from-scan"), (scan / "maps").string(),
+                                   std::string("--out"), (temp / name).string(),
+                                   std::string("--size"), std::string("320x240"),
+                                   std::string("--stitches"), std::string("8"),
+                                   std::string("--rows"), std::string("8"),
+                                   std::string("--distance"), std::string("14")})
+      args.push_back(arg);
+    return run_program("psrig-preview", args);
+  };
+  // Dark navy and light cream yarn: grey levels far apart in one frame.
+  const auto both_colours = [](const cv::Mat& image) {
+    cv::Mat grey;
+    cv::cvtColor(image, grey, cv::COLOR_BGR2GRAY);
+    return cv::countNonZero(grey > 150) > 500 && cv::countNonZero((grey < 70) & (grey > 5)) > 500;
+  };
+  const auto read_off = draw("read.png", {});
+  ASSERT_EQ(read_off.exit_code, 0) << read_off.err;
+  EXPECT_TRUE(contains(read_off.out, "chart 1 x 4 read off")) << read_off.out;
+  EXPECT_TRUE(contains(read_off.out, "2 colours")) << read_off.out;
+  EXPECT_TRUE(both_colours(cv::imread((temp / "read.png").string()))) << "stripes, not one colour";
+  const auto given = draw("given.png", {shipped_pattern("seed.chart").string()});
+  ASSERT_EQ(given.exit_code, 0) << given.err;
+  EXPECT_TRUE(both_colours(cv::imread((temp / "given.png").string())));
+
+  const fs::path woven = make_maps(temp, "plain", "plain");
+  const auto refused = run_program("psrig-preview", {"knit", "--from-scan", woven.string(),
+                                                     "--out", (temp / "woven.png").string()});
+  EXPECT_EQ(refused.exit_code, 2);
+  EXPECT_TRUE(contains(refused.err, "no stitch chart could be read off")) << refused.err;
+  EXPECT_FALSE(fs::exists(temp / "woven.png"));
+  const auto nothing = run_program("psrig-preview", {"knit", "--out", (temp / "n.png").string()});
+  EXPECT_EQ(nothing.exit_code, 2);
+  EXPECT_TRUE(contains(nothing.err, "give a stitch chart")) << nothing.err;
+}
+
 TEST(PsrigPreviewCli, KnitBadInputNamesTheFileAndLine) {
   TempDir temp;
   const fs::path ragged = temp / "ragged.chart";

@@ -141,6 +141,31 @@ TEST(FabricMeasure, RandomReliefHasNoRepeat) {
   EXPECT_FALSE(to_json(*m).contains("wales_per_cm"));
 }
 
+// report.json's fabric read back gives the measurement that wrote it; a
+// missing lattice names its key.
+TEST(FabricMeasure, ReadsReportJsonBack) {
+  const sim::Swatch swatch = swatch_of({"rib", 3});
+  const auto m = measure_fabric(swatch.height_mm, swatch.albedo, {0.025, {Construction::knit, "rib"}});
+  ASSERT_TRUE(m && m->periodic);
+  const auto back = fabric_from_json(to_json(*m), 0.025);
+  ASSERT_TRUE(back) << back.error().describe();
+  EXPECT_TRUE(back->periodic);
+  EXPECT_EQ(back->construction, Construction::knit);
+  EXPECT_TRUE(back->construction_from_metadata);
+  EXPECT_EQ(back->structure, "rib");
+  EXPECT_EQ(back->u_px, m->u_px);
+  EXPECT_EQ(back->v_px, m->v_px);
+  EXPECT_EQ(back->threads_u, m->threads_u);
+  EXPECT_DOUBLE_EQ(back->across_density, m->across_density);
+  EXPECT_DOUBLE_EQ(back->skew_deg, m->skew_deg);
+  EXPECT_EQ(back->notes, m->notes);
+  nlohmann::json broken = to_json(*m);
+  broken["lattice_px"].erase("v");
+  const auto refused = fabric_from_json(broken, 0.025);
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().key, "fabric.lattice_px.v");
+}
+
 TEST(FabricMeasure, ReadsTheScansFabricMetadata) {
   const auto hints =
       fabric_hints(nlohmann::json{{"fabric", {{"construction", "woven"}, {"structure", "twill"}}}});

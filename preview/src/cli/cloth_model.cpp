@@ -29,16 +29,26 @@ Result<ClothModel> ClothModel::load(const std::filesystem::path& pattern, int co
   }
   auto chart = cloth::load_stitch_chart(pattern);
   if (!chart) return std::unexpected(chart.error());
+  auto knitted = knit(std::move(*chart), columns, rows, colour, {}, shape, size);
+  if (!knitted) return std::unexpected(naming(knitted.error(), pattern));
+  return knitted;
+}
+
+Result<ClothModel> ClothModel::knit(cloth::StitchChart chart, int columns, int rows,
+                                    std::optional<Eigen::Vector3f> colour,
+                                    std::vector<Eigen::Vector3f> stitch_colours,
+                                    cloth::ClothShape shape, const ClothSize& size) {
   cloth::KnitParameters parameters;
   parameters.shape = shape;
   parameters.gauge = {size.wales_per_cm, size.courses_per_cm, size.yarn_mm};
   if (colour) {
-    chart->palette.clear();
+    chart.palette.clear();
     parameters.colour = *colour;
   }
-  auto knit = cloth::KnitFabric::build(*chart, columns, rows, parameters);
-  if (!knit) return std::unexpected(naming(knit.error(), pattern));
-  return ClothModel(std::move(*knit));
+  auto fabric =
+      cloth::KnitFabric::build(chart, columns, rows, parameters, std::move(stitch_colours));
+  if (!fabric) return std::unexpected(fabric.error());
+  return ClothModel(std::move(*fabric));
 }
 
 void ClothModel::update(cloth::ClothDeformation deformation, cloth::YarnSet& yarns) {

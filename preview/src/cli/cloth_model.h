@@ -28,6 +28,13 @@ class ClothModel {
                                                int rows, std::optional<Eigen::Vector3f> colour,
                                                cloth::ClothShape shape = cloth::ClothShape::flat,
                                                const ClothSize& size = {});
+  // A chart at hand (one read off a scan): `colour` as load's;
+  // `stitch_colours`, when not empty, one linear RGB per stitch (row-major,
+  // row 0 first) over both.
+  [[nodiscard]] static Result<ClothModel> knit(cloth::StitchChart chart, int columns, int rows,
+                                               std::optional<Eigen::Vector3f> colour,
+                                               std::vector<Eigen::Vector3f> stitch_colours,
+                                               cloth::ClothShape shape, const ClothSize& size);
 
   // This deformation's yarns into `yarns` (storage reused).
   void update(cloth::ClothDeformation deformation, cloth::YarnSet& yarns);

@@ -47,8 +47,10 @@ struct HeadlessCanvas {
 [[nodiscard]] Result<HeadlessCanvas> open_headless_canvas(cv::Size size, int samples);
 
 // load_swatch_maps for a directory the user named: given a scan directory
-// instead of its maps, the error says which directory was meant.
+// instead of its maps, the error says which directory was meant
+// (with_scan_directory_hint adds that to any error reading maps).
 [[nodiscard]] Result<SwatchMaps> load_maps_argument(const std::filesystem::path& directory);
+[[nodiscard]] Error with_scan_directory_hint(Error error, const std::filesystem::path& directory);
 
 // "1920x1080" -> the size; errors name the option.
 [[nodiscard]] Result<cv::Size> parse_size(const std::string& text, const std::string& option);

@@ -49,11 +49,9 @@ SceneView scene_view(const ViewArgs& args) {
   return view;
 }
 
-Result<SwatchMaps> load_maps_argument(const std::filesystem::path& directory) {
+Error with_scan_directory_hint(Error error, const std::filesystem::path& directory) {
   namespace fs = std::filesystem;
-  auto maps = load_swatch_maps(directory);
-  if (maps || !fs::is_regular_file(directory / processing::scan_files::kDescription)) return maps;
-  Error error = std::move(maps.error());
+  if (!fs::is_regular_file(directory / processing::scan_files::kDescription)) return error;
   const fs::path scan_maps = directory / processing::scan_files::kMapsDirectory;
   if (fs::is_directory(scan_maps))
     error.message += "; " + directory.string() + " is a scan directory: did you mean " +
@@ -62,7 +60,13 @@ Result<SwatchMaps> load_maps_argument(const std::filesystem::path& directory) {
     error.message += "; " + directory.string() +
                      " is a scan directory not yet processed: run `psrig process " +
                      directory.string() + "` first";
-  return std::unexpected(std::move(error));
+  return error;
+}
+
+Result<SwatchMaps> load_maps_argument(const std::filesystem::path& directory) {
+  auto maps = load_swatch_maps(directory);
+  if (maps) return maps;
+  return std::unexpected(with_scan_directory_hint(std::move(maps.error()), directory));
 }
 
 Result<cv::Size> parse_size(const std::string& text, const std::string& option) {

@@ -15,9 +15,11 @@
 #include <opencv2/core.hpp>
 
 #include "cloth_model.h"
+#include "scan_cloth.h"
 #include "command.h"
 #include "psrig/cloth/srgb.h"
 #include "psrig/preview/yarn_renderer.h"
+#include "psrig/cloth/weave_matrix.h"
 #include "psrig/processing/image_io.h"
 
 namespace psrig::preview::cli {
@@ -48,6 +50,9 @@ struct KnitArgs {
 
 using Clock = std::chrono::steady_clock;
 
+// The lean --shear allows: within it yarns still find room.
+constexpr float kMaxShear = 0.6f;
+
 double milliseconds(Clock::duration duration) {
   return std::chrono::duration<double, std::milli>(duration).count();
 }
@@ -66,23 +71,60 @@ double median(std::vector<double> values) {
   return values.empty() ? 0 : values[values.size() / 2];
 }
 
-// The yarn's colour: given, the scan's mean albedo, or none (the chart's).
+// The yarn's colour when given, or none (the chart's).
 Result<std::optional<Eigen::Vector3f>> yarn_colour(const KnitArgs& args) {
-  if (!args.yarn_colour.empty()) {
-    const auto colour = cloth::parse_srgb_hex(args.yarn_colour);
-    if (!colour)
+  if (args.yarn_colour.empty()) return std::optional<Eigen::Vector3f>{};
+  const auto colour = cloth::parse_srgb_hex(args.yarn_colour);
+  if (!colour)
+    return std::unexpected(bad_input(
+        {}, "--yarn-color", "'" + args.yarn_colour + "' is not #RRGGBB (sRGB, hexadecimal)"));
+  return colour;
+}
+
+// The sizes to knit at: the command line's, else the scan's (for a knit,
+// the yarn the chart read off it matched best with).
+ClothSize size_from(const KnitArgs& args, const ScanCloth& scan, bool knit) {
+  ClothSize size = args.cloth_size;
+  const auto per_cm = [](float spacing_mm) { return spacing_mm > 0 ? 10 / spacing_mm : 0.0f; };
+  const auto unless_given = [](float& value, float from_scan) {
+    if (value == 0) value = from_scan;
+  };
+  unless_given(size.wales_per_cm, per_cm(scan.wale_mm));
+  unless_given(size.courses_per_cm, per_cm(scan.course_mm));
+  unless_given(size.ends_per_cm, per_cm(scan.end_mm));
+  unless_given(size.picks_per_cm, per_cm(scan.pick_mm));
+  if (knit && scan.knit) unless_given(size.yarn_mm, scan.knit->chart.gauge.yarn_diameter_mm);
+  return size;
+}
+
+// The cloth to draw: the pattern as given; with --from-scan at the scan's
+// gauge and in its colours (each stitch's, when the scan's chart has more
+// than one), or without a pattern the chart read off the scan.
+Result<ClothModel> cloth_for(const KnitArgs& args, const std::optional<ScanCloth>& scan,
+                             cloth::ClothShape shape) {
+  auto colour = yarn_colour(args);
+  if (!colour) return std::unexpected(colour.error());
+  if (!scan) return ClothModel::load(args.pattern, args.stitches, args.rows, *colour, shape,
+                                     args.cloth_size);
+  const ClothSize size = size_from(args, *scan, !cloth::looks_like_weave(args.pattern));
+  if (args.pattern.empty()) {
+    if (!scan->knit)
       return std::unexpected(bad_input(
-          {}, "--yarn-color", "'" + args.yarn_colour + "' is not #RRGGBB (sRGB, hexadecimal)"));
-    return colour;
+          scan->maps, "--from-scan",
+          "no stitch chart could be read off these maps (" + scan->why +
+              "); give the chart or weave to draw as well"));
+    return ClothModel::knit(scan->knit->chart, args.stitches, args.rows, std::nullopt, {}, shape,
+                            size);
   }
-  if (!args.from_scan.empty()) {
-    auto maps = load_maps_argument(args.from_scan);
-    if (!maps) return std::unexpected(maps.error());
-    const cv::Scalar mean = cv::mean(maps->albedo);
-    return Eigen::Vector3f(static_cast<float>(mean[0]), static_cast<float>(mean[1]),
-                           static_cast<float>(mean[2]));
+  const bool colourful = scan->knit && scan->knit->chart.palette.size() > 1;
+  if (colourful && !cloth::looks_like_weave(args.pattern)) {
+    auto chart = cloth::load_stitch_chart(args.pattern);
+    if (!chart) return std::unexpected(chart.error());
+    return ClothModel::knit(std::move(*chart), args.stitches, args.rows, std::nullopt,
+                            scan->stitch_colours(args.stitches, args.rows), shape, size);
   }
-  return std::optional<Eigen::Vector3f>{};
+  const Eigen::Vector3f yarn = scan->knit ? scan->knit->chart.palette.front() : scan->mean_colour;
+  return ClothModel::load(args.pattern, args.stitches, args.rows, yarn, shape, size);
 }
 
 KnitView knit_view(const KnitArgs& args) {
@@ -125,16 +167,27 @@ Result<YarnCanvas> open_canvas(const KnitArgs& args, cv::Size size) {
   return YarnCanvas{std::move(*canvas), std::move(*renderer)};
 }
 
-int render(const KnitArgs& args) {
+int render(const KnitArgs& args, bool shear_given) {
   auto size = parse_size(args.size.empty() ? "1280x960" : args.size, "--size");
   if (!size) return report_error("knit", size.error());
-  auto colour = yarn_colour(args);
-  if (!colour) return report_error("knit", colour.error());
-  auto cloth = ClothModel::load(args.pattern, args.stitches, args.rows, *colour, cloth_shape(args),
-                                args.cloth_size);
+  std::optional<ScanCloth> scan;
+  if (!args.from_scan.empty()) {
+    auto read = read_scan_cloth(args.from_scan);
+    if (!read) return report_error("knit", read.error());
+    for (const std::string& warning : read->warnings)
+      std::cerr << "psrig-preview knit: warning: " << warning << '\n';
+    if (!read->knit && !args.pattern.empty())
+      std::cerr << "psrig-preview knit: warning: no stitch chart read off " << args.from_scan
+                << " (" << read->why << "): its gauge and mean colour only\n";
+    scan = std::move(*read);
+  }
+  auto cloth = cloth_for(args, scan, cloth_shape(args));
   if (!cloth) return report_error("knit", cloth.error());
+  // The scan's skew leans the wales, unless --shear says otherwise.
+  const float shear =
+      scan && !shear_given ? std::clamp(scan->shear, -kMaxShear, kMaxShear) : args.shear;
   cloth::YarnSet yarns;
-  cloth->update({args.stretch, args.shear}, yarns);
+  cloth->update({args.stretch, shear}, yarns);
 
   auto canvas = open_canvas(args, *size);
   if (!canvas) return report_error("knit", canvas.error());
@@ -146,7 +199,8 @@ int render(const KnitArgs& args) {
   std::cout << "knit: " << args.out << " (" << size->width << "x" << size->height << ", "
             << args.stitches << "x" << args.rows << (cloth->woven() ? " threads" : " stitches")
             << " at " << cloth->describe() << ", " << yarns.point_count() << " yarn points, stretch " << args.stretch << ", shear "
-            << args.shear << ")\n";
+            << shear << ")\n";
+  if (scan) std::cout << "knit: from the scan: " << scan->describe() << "\n";
   return 0;
 }
 
@@ -218,8 +272,9 @@ Command add_knit_command(CLI::App& parent) {
   auto args = std::make_shared<KnitArgs>();
   CLI::App* app = parent.add_subcommand(
       "knit", "Draw knitted (.chart) or woven (.weave) cloth at yarn level to a PNG, or time it");
-  app->add_option("pattern", args->pattern, "Stitch chart (.chart) or weave matrix (.weave)")
-      ->required();
+  app->add_option("pattern", args->pattern,
+                  "Stitch chart (.chart) or weave matrix (.weave); with --from-scan, the chart "
+                  "read off the scan when left out");
   auto* out = app->add_option("--out", args->out, "PNG file to write");
   app->add_option("--size", args->size, "Frame size WxH (default 1280x960; --bench: 1920x1080)");
   app->add_option("--stitches", args->stitches, "Stitches per course (woven: warp threads)")
@@ -232,8 +287,9 @@ Command add_knit_command(CLI::App& parent) {
   app->add_option("--stretch", args->stretch, "Width factor along the courses (1.2: 20 % wider)")
       ->check(CLI::Range(0.5, 2.0))
       ->capture_default_str();
-  app->add_option("--shear", args->shear, "Sideways lean of the wales, mm per mm")
-      ->check(CLI::Range(-0.6, 0.6))
+  auto* shear = app->add_option("--shear", args->shear,
+                                "Sideways lean of the wales, mm per mm (--from-scan: the scan's)")
+      ->check(CLI::Range(-kMaxShear, kMaxShear))
       ->capture_default_str();
   const auto size_option = [&](const char* name, float& value, const char* what) {
     app->add_option(name, value, what)->check(psrig::cli::positive_number());
@@ -247,7 +303,8 @@ Command add_knit_command(CLI::App& parent) {
   size_option("--yarn-mm", args->cloth_size.yarn_mm, "Yarn diameter in mm (over the pattern's)");
   auto* colour = app->add_option("--yarn-color", args->yarn_colour, "Yarn colour #RRGGBB (sRGB)");
   app->add_option("--from-scan", args->from_scan,
-                  "Yarn colour from a scan's maps directory (mean albedo)")
+                  "A scan's maps directory: its gauge and skew, each stitch's colour, and its "
+                  "stitch chart when no pattern is given (read off the maps)")
       ->excludes(colour);
   app->add_option("--environment", args->environment,
                   "Light from all around: studio, none, or an equirectangular map (EXR, PNG)")
@@ -281,13 +338,18 @@ Command add_knit_command(CLI::App& parent) {
       ->check(CLI::Range(1, 1000000))
       ->expected(1, -1);
   out->excludes(timed);
-  return {app, [args, out] {
+  return {app, [args, out, shear] {
+            if (args->pattern.empty() && (args->bench || args->from_scan.empty())) {
+              std::cerr << "psrig-preview knit: error: give a stitch chart or weave matrix (or "
+                           "--from-scan MAPS_DIR to draw the chart read off a scan)\n";
+              return 2;
+            }
             if (args->bench) return bench(*args);
             if (out->count() == 0) {
               std::cerr << "psrig-preview knit: error: --out FILE.png is required (or --bench)\n";
               return 2;
             }
-            return render(*args);
+            return render(*args, shear->count() > 0);
           }};
 }
 

@@ -4,6 +4,7 @@
 // (IEC 61966-2-1). The cloth and its renderers work in linear RGB.
 
 #include <optional>
+#include <string>
 #include <string_view>
 
 #include <Eigen/Core>
@@ -16,5 +17,7 @@ namespace psrig::cloth {
 
 // Linear RGB, or nothing when `text` is not exactly "#RRGGBB".
 [[nodiscard]] std::optional<Eigen::Vector3f> parse_srgb_hex(std::string_view text);
+// A linear RGB colour as "#RRGGBB" (sRGB, clamped to [0, 1], rounded).
+[[nodiscard]] std::string format_srgb_hex(const Eigen::Vector3f& linear);
 
 }  // namespace psrig::cloth

@@ -46,4 +46,12 @@ struct StitchChart {
 // A .chart file; an io error when it cannot be read.
 [[nodiscard]] Result<StitchChart> load_stitch_chart(const std::filesystem::path& file);
 
+// The chart as .chart text that parse_stitch_chart() reads back: `comment`
+// (each line a # comment) first, then its name, the gauge keys it gives,
+// the palette as colour letters A, B, ... in sRGB hex, and the rows from
+// row 0 (the bottom course) up, each with its colour row when the palette
+// has two colours or more.
+[[nodiscard]] std::string format_stitch_chart(const StitchChart& chart,
+                                              std::string_view comment = {});
+
 }  // namespace psrig::cloth

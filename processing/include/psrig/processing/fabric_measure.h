@@ -93,6 +93,11 @@ struct RepeatLattice {
 
 // report.json's `fabric` section.
 [[nodiscard]] nlohmann::json to_json(const FabricMeasurement& m);
+// The measurement back from report.json's `fabric` section (the scan's
+// pixel size is the report's inputs.pixel_size_mm); bad input naming the
+// key when a key to_json() writes is missing or malformed.
+[[nodiscard]] Result<FabricMeasurement> fabric_from_json(const nlohmann::json& fabric,
+                                                         std::optional<double> pixel_size_mm);
 // One line for the CLI summary, e.g. "jersey knit: 6.99 wales/cm, 9.01 courses/cm, ...".
 [[nodiscard]] std::string summary_line(const FabricMeasurement& m);
 
