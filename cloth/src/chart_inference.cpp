@@ -413,6 +413,16 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
   return out;
 }
 
+ChartInferenceOptions options_from_scan(const processing::FabricMeasurement& fabric,
+                                        const processing::FabricHints& hints) {
+  ChartInferenceOptions options;
+  if (hints.across_per_repeat > 0 && hints.along_per_repeat > 0) {
+    options.known_wales_per_repeat = fabric.threads_u;
+    options.known_courses_per_repeat = fabric.threads_v;
+  }
+  return options;
+}
+
 void count_stitches(processing::FabricMeasurement& fabric, const InferredKnit& knit) {
   fabric.threads_u = knit.wales_per_repeat;
   fabric.threads_v = knit.courses_per_repeat;

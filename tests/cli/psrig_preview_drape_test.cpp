@@ -1,7 +1,9 @@
 // `psrig-preview drape` (issue 19): every scene runs, its frames show cloth
 // that moves and then settles, the directory appears whole, bad input is a
 // clear error, and each scene leaves a contact sheet in the build tree
-// (build/drape-contact-sheets/SCENE.png) for a reviewer to look at.
+// (build/drape-contact-sheets/SCENE.png) for a reviewer to look at. A
+// scan's maps drape as the chart read off them, in its colours; the kiosk
+// turns about between the scan's swatch and that drape.
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
@@ -70,6 +72,88 @@ TEST(PsrigPreviewDrape, BadInputIsAClearErrorAndWritesNothing) {
                                                    "--out", (temp / "out").string()});
   EXPECT_EQ(woven.exit_code, 2);
   EXPECT_NE(woven.err.find("plain.weave"), std::string::npos) << woven.err;
+  EXPECT_FALSE(fs::exists(temp / "out"));
+}
+
+// A simulated scan of two-colour stripes, processed: its maps directory.
+fs::path stripes_scan(const TempDir& temp, const std::string& pattern = "stripes") {
+  const fs::path scan = temp / pattern;
+  const auto synth = run_program("psrig", {"synth", "--out", scan.string(), "--pattern", pattern,
+                                           "--size", "400x320", "--pixel-size", "0.03", "-q"});
+  EXPECT_EQ(synth.exit_code, 0) << synth.err;
+  const auto process = run_program("psrig", {"process", scan.string(), "-q"});
+  EXPECT_EQ(process.exit_code, 0) << process.err;
+  return scan / "maps";
+}
+
+// The pixels of `frame` near a colour (sRGB, BGR order), as a share.
+double share_near(const cv::Mat& frame, cv::Scalar bgr) {
+  cv::Mat near;
+  cv::inRange(frame, bgr - cv::Scalar::all(40), bgr + cv::Scalar::all(40), near);
+  return cv::countNonZero(near) / static_cast<double>(frame.total());
+}
+
+// The kiosk shows the swatch for --swatch-seconds, then the scan's knit
+// draping for --drape-seconds (the very frames `psrig-preview drape` makes
+// of the maps), then the swatch again; a woven scan keeps the swatch and
+// says why.
+TEST(PsrigPreviewDrape, TheKioskTurnsAboutBetweenTheSwatchAndItsDrape) {
+  TempDir temp;
+  const fs::path maps = stripes_scan(temp);
+  const std::vector<std::string> cloth = {"--size", "160x120", "--samples", "0"};
+  std::vector<std::string> kiosk_args = {
+      "kiosk", maps.string(), "--headless", "--frames", "12", "--fps", "20", "--swatch-seconds",
+      "0.2", "--drape", "hang", "--drape-seconds", "0.2", "--drape-stitches", "16",
+      "--drape-rows", "20", "--out-dir", (temp / "kiosk").string()};
+  kiosk_args.insert(kiosk_args.end(), cloth.begin(), cloth.end());
+  const auto kiosk = run_program("psrig-preview", kiosk_args);
+  ASSERT_EQ(kiosk.exit_code, 0) << kiosk.err;
+  EXPECT_NE(kiosk.out.find("draping " + maps.string()), std::string::npos) << kiosk.out;
+  std::vector<std::string> drape_args = {"drape", maps.string(), "--scene", "hang", "--out",
+                                         (temp / "drape").string(), "--stitches", "16", "--rows",
+                                         "20", "--seconds", "0.2", "--fps", "20"};
+  drape_args.insert(drape_args.end(), cloth.begin(), cloth.end());
+  const auto drape = run_program("psrig-preview", drape_args);
+  ASSERT_EQ(drape.exit_code, 0) << drape.err;
+
+  const auto kiosk_frame = [&](int n) {
+    return cv::imread((temp / "kiosk" / cv::format("frame_%06d.png", n)).string());
+  };
+  for (int n = 0; n < 12; ++n) {
+    const cv::Mat frame = kiosk_frame(n);
+    ASSERT_FALSE(frame.empty()) << "frame " << n;
+    const bool draping = n >= 4 && n < 8;
+    if (draping) {
+      const cv::Mat drawn =
+          cv::imread((temp / "drape" / cv::format("frame-%04d.png", n - 4)).string());
+      EXPECT_EQ(cv::norm(frame, drawn, cv::NORM_INF), 0) << "kiosk frame " << n;
+    }
+    // Both stripes' colours (stripes.chart: #E9DDC9 and #303B60), the
+    // scan's as read off it, on the swatch and on the drape.
+    EXPECT_GT(share_near(frame, {0xC9, 0xDD, 0xE9}), 0.01) << "frame " << n;
+    EXPECT_GT(share_near(frame, {0x60, 0x3B, 0x30}), 0.01) << "frame " << n;
+  }
+  // The swatch's patch and the drape are not alike.
+  EXPECT_GT(cv::norm(kiosk_frame(3), kiosk_frame(4), cv::NORM_L1) / (160 * 120 * 3), 10.0);
+
+  const fs::path woven = stripes_scan(temp, "plain");
+  kiosk_args[1] = woven.string();
+  kiosk_args[kiosk_args.size() - 5] = (temp / "woven-kiosk").string();
+  const auto plain = run_program("psrig-preview", kiosk_args);
+  ASSERT_EQ(plain.exit_code, 0) << plain.err;
+  EXPECT_NE(plain.out.find("no drape for " + woven.string()), std::string::npos) << plain.out;
+  EXPECT_EQ(plain.out.find("draping"), std::string::npos) << plain.out;
+}
+
+// A woven scan's maps are not draped: exit 2 naming them, nothing written.
+TEST(PsrigPreviewDrape, AWovenScanIsNotDraped) {
+  TempDir temp;
+  const fs::path woven = stripes_scan(temp, "plain");
+  const auto run = run_program("psrig-preview", {"drape", woven.string(), "--out",
+                                                 (temp / "out").string(), "--seconds", "0.1"});
+  EXPECT_EQ(run.exit_code, 2);
+  EXPECT_NE(run.err.find(woven.string()), std::string::npos) << run.err;
+  EXPECT_NE(run.err.find("drape shows knits"), std::string::npos) << run.err;
   EXPECT_FALSE(fs::exists(temp / "out"));
 }
 

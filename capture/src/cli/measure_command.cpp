@@ -109,15 +109,8 @@ Command add_measure_command(CLI::App& parent) {
                         << (m->notes.empty() ? "no repeat found" : m->notes.back()) << '\n';
             std::optional<cloth::InferredKnit> knit;
             if (!args->chart.empty()) {
-              // The stitches scan.json counts in a repeat are the rig's word
-              // (the simulator's, or the technician's): only their
-              // knit and purl are read off then.
-              cloth::ChartInferenceOptions inference;
-              if (options.hints.across_per_repeat > 0 && options.hints.along_per_repeat > 0) {
-                inference.known_wales_per_repeat = m->threads_u;
-                inference.known_courses_per_repeat = m->threads_v;
-              }
-              auto inferred = cloth::infer_knit_chart(height, maps->albedo, *m, inference);
+              auto inferred = cloth::infer_knit_chart(
+                  height, maps->albedo, *m, cloth::options_from_scan(*m, options.hints));
               if (!inferred) {
                 Error error = inferred.error();
                 error.file = args->maps;

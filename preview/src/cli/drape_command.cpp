@@ -1,5 +1,6 @@
-// psrig-preview drape CHART --scene hang|table|sphere|arm --out DIR: a
-// knit hanging, falling over a table's edge, over a ball or an arm that
+// psrig-preview drape CHART_OR_MAPS --scene hang|table|sphere|arm --out
+// DIR: a knit (a stitch chart, or the chart read off a scan's maps at its
+// gauge and in its colours) hanging, falling over a table's edge, over a ball or an arm that
 // swings, simulated at stitch level (cloth/stitch_cloth.h) with its yarns
 // following, drawn headless to DIR/frame-NNNN.png and a contact sheet of
 // the run (DIR/contact-sheet.png); --bench times the simulation step, the
@@ -13,8 +14,8 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "cloth_model.h"
 #include "command.h"
+#include "drape_cloth.h"
 #include "psrig/cloth/drape_scene.h"
 #include "psrig/preview/yarn_renderer.h"
 #include "psrig/processing/atomic_directory.h"
@@ -47,26 +48,9 @@ Result<cloth::DrapeAnimation> animation(const DrapeArgs& args, int stitches, int
   if (!scene)
     return std::unexpected(bad_input({}, "--scene",
                                      "'" + args.scene + "' is not a scene: hang, table, sphere or arm"));
-  if (cloth::looks_like_weave(args.pattern))
-    return std::unexpected(bad_input(args.pattern, {},
-                                     "drape simulates knits; give a stitch chart (.chart)"));
-  auto chart = cloth::load_stitch_chart(args.pattern);
-  if (!chart) return std::unexpected(chart.error());
-  cloth::KnitParameters parameters;
-  parameters.gauge = {args.cloth_size.wales_per_cm, args.cloth_size.courses_per_cm,
-                      args.cloth_size.yarn_mm};
-  auto fabric = cloth::KnitFabric::build(*chart, stitches, rows, parameters);
+  auto fabric = drape_fabric(args.pattern, stitches, rows, args.cloth_size);
   if (!fabric) return std::unexpected(fabric.error());
   return cloth::DrapeAnimation(std::move(*fabric), *scene);
-}
-
-KnitView drape_view(const DrapeArgs& args) {
-  KnitView view;
-  view.yaw_deg = args.yaw;
-  view.pitch_deg = args.pitch;
-  view.light.tilt_deg = 60;
-  view.light.slant_deg = 40;
-  return view;
 }
 
 // Up to 12 frames, evenly through the run, in a grid, each with its time.
@@ -113,7 +97,7 @@ int render(const DrapeArgs& args) {
     scene->yarns(yarns);
     (*renderer)->update(yarns);
     canvas->target->bind();
-    (*renderer)->render(drape_view(args), *size);
+    (*renderer)->render(drape_view(args.yaw, args.pitch), *size);
     cv::Mat image = canvas->target->read();
     char name[32];
     std::snprintf(name, sizeof name, "frame-%04d.png", frame);
@@ -159,7 +143,7 @@ int bench(const DrapeArgs& args) {
       const auto followed = Clock::now();
       (*renderer)->update(yarns);
       canvas->target->bind();
-      (*renderer)->render(drape_view(args), *size);
+      (*renderer)->render(drape_view(args.yaw, args.pitch), *size);
       glFinish();
       const auto drawn = Clock::now();
       if (frame < warm) continue;
@@ -182,8 +166,11 @@ int bench(const DrapeArgs& args) {
 Command add_drape_command(CLI::App& parent) {
   auto args = std::make_shared<DrapeArgs>();
   CLI::App* app = parent.add_subcommand(
-      "drape", "Simulate a knit hanging or draping and draw it to PNG frames, or time it");
-  app->add_option("pattern", args->pattern, "Stitch chart (.chart)")->required();
+      "drape", "Simulate a knit (a chart or a scan's) hanging or draping and draw it to PNG frames, or "
+      "time it");
+  app->add_option("pattern", args->pattern,
+                 "Stitch chart (.chart), or a knitted scan's maps directory (its chart read off)")
+      ->required();
   app->add_option("--scene", args->scene, "hang, table, sphere or arm")->capture_default_str();
   auto* out = app->add_option("--out", args->out, "Directory for the frames and contact sheet");
   app->add_option("--size", args->size, "Frame size WxH (--bench: 1920x1080)")->capture_default_str();

@@ -1,8 +1,10 @@
 // psrig-preview kiosk (MAPS_DIR | --catalogue DIR): the newest scan full
-// screen with the light orbiting, switching when a new scan lands. Runs
-// until SIGINT/SIGTERM (or --frames); a scan that cannot be shown is
+// screen with the light orbiting, switching when a new scan lands; with
+// --drape SCENE, turn about with the scan's knit draping (kiosk_drape.h).
+// Runs until SIGINT/SIGTERM (or --frames); a scan that cannot be shown is
 // reported and the kiosk goes on showing the last good one.
 
+#include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <csignal>
@@ -12,6 +14,7 @@
 #include <optional>
 
 #include "command.h"
+#include "kiosk_drape.h"
 #include "kiosk_output.h"
 #include "psrig/preview/clear_frame.h"
 #include "psrig/preview/newest_scan.h"
@@ -36,6 +39,9 @@ struct KioskArgs {
   int poll_ms = 1000;
   int samples = kDefaultSamples;
   KmsArgs kms;
+  std::string drape;  // "": the swatch only
+  double swatch_seconds = 15, drape_seconds = 15;
+  int drape_stitches = 40, drape_rows = 48;
 };
 
 std::atomic<bool> stop_requested{false};
@@ -90,6 +96,14 @@ int run_kiosk(const KioskArgs& args) {
     return report_error("kiosk", bad_input(args.maps, "MAPS_DIR", "not a directory"));
   if (!args.catalogue.empty() && !fs::is_directory(args.catalogue))
     return report_error("kiosk", bad_input(args.catalogue, "--catalogue", "not a directory"));
+  std::optional<cloth::DrapeScene> drape_scene;
+  if (!args.drape.empty()) {
+    drape_scene = cloth::parse_drape_scene(args.drape);
+    if (!drape_scene)
+      return report_error("kiosk", bad_input({}, "--drape",
+                                             "'" + args.drape +
+                                                 "' is not a scene: hang, table, sphere or arm"));
+  }
   stop_on_signals();
   auto output = args.headless ? open_headless_output(args.size, args.samples, args.out_dir)
                               : open_kms_output(args.kms, args.samples);
@@ -98,6 +112,14 @@ int run_kiosk(const KioskArgs& args) {
   std::cout << "kiosk: " << screen.describe() << std::endl;
 
   RendererOptions options = screen.renderer_options();
+  std::optional<KioskDrape> drape;
+  if (drape_scene)
+    drape.emplace(KioskDrapeOptions{*drape_scene, args.drape_stitches, args.drape_rows,
+                                    args.headless, options.encode_srgb});
+  // The swatch shows for swatch_seconds, then (a knit's scan) the drape
+  // for drape_seconds, from its start each time.
+  bool draping = false;
+  double view_since = 0, last = 0;
   std::unique_ptr<SwatchRenderer> renderer;
   std::optional<Shown> shown, failed;
   SceneMotion motion;
@@ -125,7 +147,10 @@ int run_kiosk(const KioskArgs& args) {
           renderer = std::move(*next);
           shown = newest;
           motion.kick(now, 90);  // a new scan arrives with a spin
+          draping = false;
+          view_since = now;
           std::cout << "kiosk: showing " << newest->maps.string() << std::endl;
+          if (drape) drape->prepare(newest->maps);
         } else {
           failed = newest;
           std::cout << "kiosk: cannot show " << newest->maps.string() << ": "
@@ -133,10 +158,29 @@ int run_kiosk(const KioskArgs& args) {
         }
       }
     }
+    const bool can_drape = drape && renderer && drape->ready();
+    if (!can_drape) {
+      draping = false;
+    } else if (now - view_since >= (draping ? args.drape_seconds : args.swatch_seconds)) {
+      draping = !draping;
+      view_since = now;
+      if (draping) drape->restart();
+    }
+    // A stall (a slow frame, a suspended process) moves the cloth at most
+    // a twentieth of a second.
+    const auto dt = static_cast<float>(std::clamp(now - last, 0.0, 0.05));
+    last = now;
     screen.begin_frame();
-    if (renderer)
+    if (draping) {
+      if (auto ok = drape->draw(dt, screen.size()); !ok) {
+        std::cout << "kiosk: cannot drape: " << ok.error().describe() << std::endl;
+        drape.reset();  // the swatch from now on
+        draping = false;
+      }
+    }
+    if (!draping && renderer)
       renderer->draw(motion.at(now, base), screen.size());
-    else
+    else if (!draping)
       clear_frame(options.background, options.encode_srgb, screen.size());  // waiting for a scan
     if (auto ok = screen.end_frame(frame); !ok) return report_error("kiosk", ok.error());
   }
@@ -164,6 +208,21 @@ Command add_kiosk_command(CLI::App& parent) {
       ->capture_default_str();
   app->add_option("--poll-ms", args->poll_ms, "How often to look for a new scan")
       ->check(psrig::cli::positive_number())
+      ->capture_default_str();
+  app->add_option("--drape", args->drape,
+                  "Turn about with the scan's knit draping: hang, table, sphere or arm (knitted "
+                  "scans: the chart read off the maps, at their gauge, in their colours)");
+  app->add_option("--swatch-seconds", args->swatch_seconds, "With --drape: how long the swatch shows")
+      ->check(psrig::cli::positive_number())
+      ->capture_default_str();
+  app->add_option("--drape-seconds", args->drape_seconds, "With --drape: how long the drape shows")
+      ->check(psrig::cli::positive_number())
+      ->capture_default_str();
+  app->add_option("--drape-stitches", args->drape_stitches, "With --drape: stitches per course")
+      ->check(CLI::Range(2, 400))
+      ->capture_default_str();
+  app->add_option("--drape-rows", args->drape_rows, "With --drape: courses")
+      ->check(CLI::Range(2, 400))
       ->capture_default_str();
   add_samples_option(*app, args->samples);
   add_kms_options(*app, args->kms);

@@ -91,7 +91,9 @@ Result<ScanCloth> read_scan_cloth(const std::filesystem::path& directory) {
     }
   }
   const cv::Mat& height = maps->height.empty() ? maps->p : maps->height;
-  auto knit = cloth::infer_knit_chart(height, maps->albedo, out.fabric);
+  auto knit = cloth::infer_knit_chart(
+      height, maps->albedo, out.fabric,
+      cloth::options_from_scan(out.fabric, processing::fabric_hints(maps->scan_document)));
   if (knit) {
     rest_shape(knit->lattice.next_wale_px, knit->lattice.next_course_px, mm, out, true);
     if (!(mm > 0)) out.wale_mm = out.course_mm = 0;

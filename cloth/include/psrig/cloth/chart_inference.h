@@ -94,6 +94,13 @@ struct ChartInferenceOptions {
   int known_courses_per_repeat = 0;
 };
 
+// Options that take the stitches scan.json counts in a repeat (`hints`,
+// processing::fabric_hints) as the split, as `fabric` measured them: the
+// rig's word (the simulator's, or the technician's), so only knit and purl
+// are read off then.
+[[nodiscard]] ChartInferenceOptions options_from_scan(const processing::FabricMeasurement& fabric,
+                                                      const processing::FabricHints& hints);
+
 // height: CV_32F (NaN: none); albedo: CV_32FC3 linear BGR (as the maps
 // directory's albedo.exr), CV_32FC1, or empty (then no palette). `fabric`
 // is the maps' measurement. Bad input naming the reason: a woven fabric

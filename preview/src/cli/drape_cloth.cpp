@@ -1,0 +1,50 @@
+#include "drape_cloth.h"
+
+namespace psrig::preview::cli {
+
+Result<cloth::KnitFabric> knit_of_scan(const ScanCloth& scan, int stitches, int rows,
+                                       const ClothSize& size) {
+  if (!scan.knit)
+    return std::unexpected(bad_input(scan.maps, {},
+                                     "no stitch chart could be read off these maps (" + scan.why +
+                                         "): drape shows knits"));
+  const auto given = [](float value, float otherwise) { return value > 0 ? value : otherwise; };
+  const auto per_cm = [](float spacing_mm) { return spacing_mm > 0 ? 10 / spacing_mm : 0.0f; };
+  cloth::KnitParameters parameters;
+  parameters.gauge = {given(size.wales_per_cm, per_cm(scan.wale_mm)),
+                      given(size.courses_per_cm, per_cm(scan.course_mm)),
+                      given(size.yarn_mm, scan.knit->chart.gauge.yarn_diameter_mm)};
+  return cloth::KnitFabric::build(scan.knit->chart, stitches, rows, parameters,
+                                  scan.stitch_colours(stitches, rows));
+}
+
+Result<cloth::KnitFabric> drape_fabric(const std::filesystem::path& chart_or_maps, int stitches,
+                                       int rows, const ClothSize& size) {
+  if (std::filesystem::is_directory(chart_or_maps)) {
+    auto scan = read_scan_cloth(chart_or_maps);
+    if (!scan) return std::unexpected(scan.error());
+    return knit_of_scan(*scan, stitches, rows, size);
+  }
+  if (cloth::looks_like_weave(chart_or_maps))
+    return std::unexpected(bad_input(chart_or_maps, {},
+                                     "drape simulates knits; give a stitch chart (.chart) or a "
+                                     "knitted scan's maps directory"));
+  auto chart = cloth::load_stitch_chart(chart_or_maps);
+  if (!chart) return std::unexpected(chart.error());
+  cloth::KnitParameters parameters;
+  parameters.gauge = {size.wales_per_cm, size.courses_per_cm, size.yarn_mm};
+  auto fabric = cloth::KnitFabric::build(*chart, stitches, rows, parameters);
+  if (!fabric && fabric.error().file.empty()) fabric.error().file = chart_or_maps;
+  return fabric;
+}
+
+KnitView drape_view(double yaw_deg, double pitch_deg) {
+  KnitView view;
+  view.yaw_deg = yaw_deg;
+  view.pitch_deg = pitch_deg;
+  view.light.tilt_deg = 60;
+  view.light.slant_deg = 40;
+  return view;
+}
+
+}  // namespace psrig::preview::cli

@@ -1,0 +1,29 @@
+#pragma once
+// The knit a drape shows (`psrig-preview drape`, the kiosk's drape): a
+// stitch chart at the gauge its file or the command line gives, or a
+// scan's own, the chart read off its maps (scan_cloth.h) knitted at the
+// scan's gauge and yarn in each stitch's colour.
+
+#include <filesystem>
+
+#include "cloth_model.h"
+#include "psrig/cloth/knit_fabric.h"
+#include "psrig/preview/knit_view.h"
+#include "scan_cloth.h"
+
+namespace psrig::preview::cli {
+
+// `chart_or_maps`: a .chart file, or a maps (or scan) directory. `size`
+// over the chart's or the scan's gauge where given.
+[[nodiscard]] Result<cloth::KnitFabric> drape_fabric(const std::filesystem::path& chart_or_maps,
+                                                     int stitches, int rows,
+                                                     const ClothSize& size = {});
+// The scan's knit; bad input naming the maps when no chart was read off
+// them (woven, no repeat, not knitted: `scan.why`).
+[[nodiscard]] Result<cloth::KnitFabric> knit_of_scan(const ScanCloth& scan, int stitches, int rows,
+                                                     const ClothSize& size = {});
+
+// The camera and light a drape is seen with.
+[[nodiscard]] KnitView drape_view(double yaw_deg, double pitch_deg);
+
+}  // namespace psrig::preview::cli
