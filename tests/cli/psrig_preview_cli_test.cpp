@@ -158,6 +158,40 @@ TEST(PsrigPreviewCli, KioskOfAPathThatIsNotThereExitsTwoNamingIt) {
   }
 }
 
+// A headless kiosk running in the background, its stdout going to a file.
+class BackgroundKiosk {
+ public:
+  BackgroundKiosk(const std::vector<std::string>& args, const fs::path& out) {
+    const std::string preview = program("psrig-preview").string();
+    std::vector<std::string> all = {preview, "kiosk"};
+    all.insert(all.end(), args.begin(), args.end());
+    std::vector<char*> argv;
+    for (std::string& arg : all) argv.push_back(arg.data());
+    argv.push_back(nullptr);
+    posix_spawn_file_actions_t actions;
+    posix_spawn_file_actions_init(&actions);
+    posix_spawn_file_actions_addopen(&actions, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    spawned_ = posix_spawn(&pid_, preview.c_str(), &actions, nullptr, argv.data(), environ) == 0;
+    posix_spawn_file_actions_destroy(&actions);
+  }
+  ~BackgroundKiosk() {
+    if (spawned_ && pid_ > 0) stop();
+  }
+  [[nodiscard]] bool spawned() const { return spawned_; }
+  // SIGTERM; the wait status.
+  int stop() {
+    ::kill(pid_, SIGTERM);
+    int status = 0;
+    ::waitpid(pid_, &status, 0);
+    pid_ = 0;
+    return status;
+  }
+
+ private:
+  pid_t pid_ = 0;
+  bool spawned_ = false;
+};
+
 TEST(PsrigPreviewCli, KioskFollowsNewScansAndSkipsABrokenOne) {
   TempDir temp;
   const fs::path catalogue = temp / "catalogue";
@@ -166,27 +200,12 @@ TEST(PsrigPreviewCli, KioskFollowsNewScansAndSkipsABrokenOne) {
   make_maps(temp, "first", "jersey");
   fs::rename(temp / "first", catalogue / "first");
 
-  const std::string out = (temp / "stdout.txt").string();
-  const std::string preview = program("psrig-preview").string();
-  const std::string catalogue_arg = catalogue.string(), frames = (temp / "frames").string();
-  std::vector<const char*> argv = {
-      preview.c_str(), "kiosk",  "--catalogue", catalogue_arg.c_str(), "--headless", "--frames",
-      "20000",         "--size", "48x36",       "--samples",           "0",          "--out-dir",
-      frames.c_str(),  nullptr};
-  posix_spawn_file_actions_t actions;
-  posix_spawn_file_actions_init(&actions);
-  posix_spawn_file_actions_addopen(&actions, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  pid_t pid = 0;
-  ASSERT_EQ(posix_spawn(&pid, preview.c_str(), &actions, nullptr,
-                        const_cast<char* const*>(argv.data()), environ),
-            0);
-  posix_spawn_file_actions_destroy(&actions);
-  const auto stop = [&] {
-    ::kill(pid, SIGTERM);
-    int status = 0;
-    ::waitpid(pid, &status, 0);
-    return status;
-  };
+  const fs::path out = temp / "stdout.txt";
+  BackgroundKiosk kiosk({"--catalogue", catalogue.string(), "--headless", "--frames", "20000",
+                         "--size", "48x36", "--samples", "0", "--out-dir",
+                         (temp / "frames").string()},
+                        out);
+  ASSERT_TRUE(kiosk.spawned());
 
   EXPECT_TRUE(wait_for(out, "showing " + (catalogue / "first" / "maps").string()))
       << read_file(out);
@@ -202,7 +221,52 @@ TEST(PsrigPreviewCli, KioskFollowsNewScansAndSkipsABrokenOne) {
   EXPECT_TRUE(wait_for(out, "showing " + (catalogue / "third" / "maps").string()))
       << read_file(out);
 
-  const int status = stop();
+  const int status = kiosk.stop();
+  ASSERT_TRUE(WIFEXITED(status)) << "the kiosk ends cleanly on SIGTERM";
+  EXPECT_EQ(WEXITSTATUS(status), 0);
+  EXPECT_TRUE(contains(read_file(out), "kiosk: stopped"));
+}
+
+// With --drape, as on the display: each new scan's chart is read and
+// knitted in the background while its swatch shows; a woven scan keeps
+// the swatch and says why; the kiosk still ends cleanly on SIGTERM with a
+// knit in hand.
+TEST(PsrigPreviewCli, KioskDrapesEachNewKnitInTheBackground) {
+  TempDir temp;
+  const fs::path catalogue = temp / "catalogue";
+  fs::create_directories(catalogue);
+  const auto scan = [&](const std::string& name, const std::string& pattern) {
+    const fs::path made = temp / name;
+    const auto synth = run_program("psrig", {"synth", "--out", made.string(), "--pattern", pattern,
+                                             "--size", "400x320", "--pixel-size", "0.03", "-q"});
+    ASSERT_EQ(synth.exit_code, 0) << synth.err;
+    const auto process = run_program("psrig", {"process", made.string(), "-q"});
+    ASSERT_EQ(process.exit_code, 0) << process.err;
+    fs::rename(made, catalogue / name);
+  };
+  scan("first", "stripes");
+
+  const fs::path out = temp / "stdout.txt";
+  BackgroundKiosk kiosk({"--catalogue", catalogue.string(), "--headless", "--frames", "20000",
+                         "--size", "64x48", "--samples", "0", "--drape", "sphere",
+                         "--drape-in-background", "--swatch-seconds", "0.1", "--drape-seconds",
+                         "0.1", "--drape-stitches", "12", "--drape-rows", "12", "--out-dir",
+                         (temp / "frames").string()},
+                        out);
+  ASSERT_TRUE(kiosk.spawned());
+  EXPECT_TRUE(wait_for(out, "draping " + (catalogue / "first" / "maps").string()))
+      << read_file(out);
+  scan("second", "plain");
+  EXPECT_TRUE(wait_for(out, "no drape for " + (catalogue / "second" / "maps").string()))
+      << read_file(out);
+  scan("third", "seed");
+  EXPECT_TRUE(wait_for(out, "draping " + (catalogue / "third" / "maps").string()))
+      << read_file(out);
+  scan("fourth", "rib-1x1");  // stopped while it may still be knitting
+  EXPECT_TRUE(wait_for(out, "showing " + (catalogue / "fourth" / "maps").string()))
+      << read_file(out);
+
+  const int status = kiosk.stop();
   ASSERT_TRUE(WIFEXITED(status)) << "the kiosk ends cleanly on SIGTERM";
   EXPECT_EQ(WEXITSTATUS(status), 0);
   EXPECT_TRUE(contains(read_file(out), "kiosk: stopped"));

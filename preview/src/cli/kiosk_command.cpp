@@ -42,6 +42,7 @@ struct KioskArgs {
   std::string drape;  // "": the swatch only
   double swatch_seconds = 15, drape_seconds = 15;
   int drape_stitches = 40, drape_rows = 48;
+  bool drape_in_background = false;  // headless: as the display does
 };
 
 std::atomic<bool> stop_requested{false};
@@ -115,7 +116,8 @@ int run_kiosk(const KioskArgs& args) {
   std::optional<KioskDrape> drape;
   if (drape_scene)
     drape.emplace(KioskDrapeOptions{*drape_scene, args.drape_stitches, args.drape_rows,
-                                    args.headless, options.encode_srgb});
+                                    args.headless && !args.drape_in_background,
+                                    options.encode_srgb});
   // The swatch shows for swatch_seconds, then (a knit's scan) the drape
   // for drape_seconds, from its start each time.
   bool draping = false;
@@ -224,6 +226,10 @@ Command add_kiosk_command(CLI::App& parent) {
   app->add_option("--drape-rows", args->drape_rows, "With --drape: courses")
       ->check(CLI::Range(2, 400))
       ->capture_default_str();
+  app->add_flag("--drape-in-background", args->drape_in_background,
+                "Headless with --drape: read and knit each scan's drape in the background, as "
+                "on the display (the frames then depend on timing; by default a headless run "
+                "waits for it)");
   add_samples_option(*app, args->samples);
   add_kms_options(*app, args->kms);
   return {app, [args] { return run_kiosk(*args); }};
