@@ -18,5 +18,7 @@ extern const ShaderSource yarn_vert;
 extern const ShaderSource yarn_frag;
 extern const ShaderSource yarn_depth_frag;
 extern const ShaderSource yarn_fibres_glsl;  // inserted into both yarn shaders
+extern const ShaderSource prop_vert;
+extern const ShaderSource prop_frag;
 
 }  // namespace psrig::preview::shaders

@@ -424,7 +424,8 @@ void draw_strips(GLenum mode, const std::array<GLsizei, kLayers>& count,
 
 }  // namespace
 
-void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
+void YarnRenderer::render(const KnitView& view, cv::Size viewport,
+                          const std::function<void(const KnitFrame&)>& beneath) {
   GLint target = 0;
   glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &target);
   const Gl& gl = *gl_;
@@ -523,6 +524,16 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport) {
   }
 
   clear_frame(view.background, options.encode_srgb, viewport);
+  if (beneath) {
+    beneath(frame);
+    glDisable(GL_CULL_FACE);
+    glDisable(GL_BLEND);
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LEQUAL);
+    glDepthMask(GL_TRUE);
+    glBindVertexArray(gl.array);
+    glBindBuffer(GL_ARRAY_BUFFER, gl.buffer);
+  }
   if (!drawing) {
     glDisable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
     glBindVertexArray(0);

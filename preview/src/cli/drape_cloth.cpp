@@ -47,4 +47,28 @@ KnitView drape_view(double yaw_deg, double pitch_deg) {
   return view;
 }
 
+Result<DrapeRenderers> drape_renderers(const YarnRendererOptions& options) {
+  auto yarns = YarnRenderer::create(options);
+  if (!yarns) return std::unexpected(yarns.error());
+  auto props = PropRenderer::create(options.encode_srgb);
+  if (!props) return std::unexpected(props.error());
+  return DrapeRenderers{std::move(*yarns), std::move(*props), {}};
+}
+
+void draw_drape(cloth::DrapeAnimation& animation, DrapeRenderers& renderers, const KnitView& view,
+                cv::Size size) {
+  animation.yarns(renderers.curves);
+  draw_drape_frame(animation, renderers, view, size);
+}
+
+void draw_drape_frame(const cloth::DrapeAnimation& animation, DrapeRenderers& renderers,
+                      const KnitView& view, cv::Size size) {
+  renderers.yarns->update(renderers.curves);
+  // The floor and the table reach well beyond the cloth, under it.
+  const Eigen::AlignedBox3f& bounds = renderers.yarns->bounds();
+  renderers.props->update(animation.cloth().colliders, bounds.center(), 4 * bounds.diagonal().norm());
+  renderers.yarns->render(view, size,
+                          [&](const KnitFrame& frame) { renderers.props->draw(frame); });
+}
+
 }  // namespace psrig::preview::cli

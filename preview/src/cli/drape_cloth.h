@@ -7,6 +7,9 @@
 #include <filesystem>
 
 #include "cloth_model.h"
+#include "psrig/cloth/drape_scene.h"
+#include "psrig/preview/prop_renderer.h"
+#include "psrig/preview/yarn_renderer.h"
 #include "psrig/cloth/knit_fabric.h"
 #include "psrig/preview/knit_view.h"
 #include "scan_cloth.h"
@@ -25,5 +28,20 @@ namespace psrig::preview::cli {
 
 // The camera and light a drape is seen with.
 [[nodiscard]] KnitView drape_view(double yaw_deg, double pitch_deg);
+
+// What draws a drape's frames: the yarns and what they lie on.
+struct DrapeRenderers {
+  std::unique_ptr<YarnRenderer> yarns;
+  std::unique_ptr<PropRenderer> props;
+  cloth::YarnSet curves;  // storage reused frame to frame
+};
+[[nodiscard]] Result<DrapeRenderers> drape_renderers(const YarnRendererOptions& options = {});
+// The animation's yarns (into renderers.curves) and colliders as they are
+// now, drawn into the bound framebuffer; draw_drape_frame() draws the
+// curves already there.
+void draw_drape(cloth::DrapeAnimation& animation, DrapeRenderers& renderers, const KnitView& view,
+                cv::Size size);
+void draw_drape_frame(const cloth::DrapeAnimation& animation, DrapeRenderers& renderers,
+                      const KnitView& view, cv::Size size);
 
 }  // namespace psrig::preview::cli

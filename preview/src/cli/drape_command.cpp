@@ -17,7 +17,6 @@
 #include "command.h"
 #include "drape_cloth.h"
 #include "psrig/cloth/drape_scene.h"
-#include "psrig/preview/yarn_renderer.h"
 #include "psrig/processing/atomic_directory.h"
 #include "psrig/processing/image_io.h"
 
@@ -81,8 +80,8 @@ int render(const DrapeArgs& args) {
   if (!scene) return report_error("drape", scene.error());
   auto canvas = open_headless_canvas(*size, args.samples);
   if (!canvas) return report_error("drape", canvas.error());
-  auto renderer = YarnRenderer::create();
-  if (!renderer) return report_error("drape", renderer.error());
+  auto renderers = drape_renderers();
+  if (!renderers) return report_error("drape", renderers.error());
   const std::filesystem::path out(args.out);
   if (out.has_parent_path()) std::filesystem::create_directories(out.parent_path());
   auto staging = processing::AtomicDirectory::create(out);
@@ -90,14 +89,11 @@ int render(const DrapeArgs& args) {
 
   const int frames = std::max(1, static_cast<int>(std::lround(args.seconds * args.fps)));
   const auto dt = static_cast<float>(1 / args.fps);
-  cloth::YarnSet yarns;
   std::vector<std::pair<double, cv::Mat>> drawn;
   for (int frame = 0; frame < frames; ++frame) {
     scene->advance(dt);
-    scene->yarns(yarns);
-    (*renderer)->update(yarns);
     canvas->target->bind();
-    (*renderer)->render(drape_view(args.yaw, args.pitch), *size);
+    draw_drape(*scene, *renderers, drape_view(args.yaw, args.pitch), *size);
     cv::Mat image = canvas->target->read();
     char name[32];
     std::snprintf(name, sizeof name, "frame-%04d.png", frame);
@@ -122,8 +118,8 @@ int bench(const DrapeArgs& args) {
   if (!size) return report_error("drape", size.error());
   auto canvas = open_headless_canvas(*size, args.samples);
   if (!canvas) return report_error("drape", canvas.error());
-  auto renderer = YarnRenderer::create();
-  if (!renderer) return report_error("drape", renderer.error());
+  auto renderers = drape_renderers();
+  if (!renderers) return report_error("drape", renderers.error());
   std::cout << "{\"renderer\": \"" << canvas->context->describe() << "\", \"scene\": \"" << args.scene
             << "\", \"size\": [" << size->width << ", " << size->height << "], \"runs\": [";
   bool first = true;
@@ -131,7 +127,6 @@ int bench(const DrapeArgs& args) {
     const int side = static_cast<int>(std::lround(std::sqrt(stitches)));
     auto scene = animation(args, side, side);
     if (!scene) return report_error("drape", scene.error());
-    cloth::YarnSet yarns;
     const auto dt = static_cast<float>(1 / args.fps);
     double step_ms = 0, yarn_ms = 0, frame_ms = 0;
     const int warm = static_cast<int>(args.fps / 2), timed = static_cast<int>(args.fps);
@@ -139,11 +134,10 @@ int bench(const DrapeArgs& args) {
       const auto start = Clock::now();
       scene->advance(dt);
       const auto stepped = Clock::now();
-      scene->yarns(yarns);
+      scene->yarns(renderers->curves);
       const auto followed = Clock::now();
-      (*renderer)->update(yarns);
       canvas->target->bind();
-      (*renderer)->render(drape_view(args.yaw, args.pitch), *size);
+      draw_drape_frame(*scene, *renderers, drape_view(args.yaw, args.pitch), *size);
       glFinish();
       const auto drawn = Clock::now();
       if (frame < warm) continue;

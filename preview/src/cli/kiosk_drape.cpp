@@ -2,7 +2,6 @@
 
 #include <iostream>
 
-#include "drape_cloth.h"
 
 namespace psrig::preview::cli {
 void KioskDrape::prepare(const std::filesystem::path& maps) {
@@ -58,17 +57,15 @@ void KioskDrape::restart() {
 Status KioskDrape::draw(float dt, cv::Size size) {
   if (!animation_) restart();
   if (!animation_) return {};
-  if (!renderer_) {
+  if (!renderers_) {
     YarnRendererOptions options;
     options.encode_srgb = options_.encode_srgb;
-    auto renderer = YarnRenderer::create(options);
-    if (!renderer) return std::unexpected(renderer.error());
-    renderer_ = std::move(*renderer);
+    auto renderers = drape_renderers(options);
+    if (!renderers) return std::unexpected(renderers.error());
+    renderers_ = std::move(*renderers);
   }
   animation_->advance(dt);
-  animation_->yarns(yarns_);
-  renderer_->update(yarns_);
-  renderer_->render(drape_view(yaw_deg_, 25), size);
+  draw_drape(*animation_, *renderers_, drape_view(yaw_deg_, 25), size);
   return {};
 }
 

@@ -12,7 +12,7 @@
 #include <string>
 
 #include "psrig/cloth/drape_scene.h"
-#include "psrig/preview/yarn_renderer.h"
+#include "drape_cloth.h"
 
 namespace psrig::preview::cli {
 
@@ -51,8 +51,7 @@ class KioskDrape {
   std::future<Made> making_;
   std::optional<Made> made_;
   std::optional<cloth::DrapeAnimation> animation_;
-  std::unique_ptr<YarnRenderer> renderer_;
-  cloth::YarnSet yarns_;
+  std::optional<DrapeRenderers> renderers_;
   double yaw_deg_ = 20;
 };
 

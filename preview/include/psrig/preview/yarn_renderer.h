@@ -13,6 +13,7 @@
 // whole life.
 
 #include <cstddef>
+#include <functional>
 #include <memory>
 
 #include <Eigen/Geometry>
@@ -100,7 +101,10 @@ class YarnRenderer {
 
   // Clears and draws one frame into the bound framebuffer of `viewport`
   // (the shadow pass borrows its own framebuffer and gives the caller's back).
-  void render(const KnitView& view, cv::Size viewport);
+  // `beneath`, when given, draws into the cleared frame before the yarns,
+  // with this frame's camera (what the cloth lies on: prop_renderer.h).
+  void render(const KnitView& view, cv::Size viewport,
+              const std::function<void(const KnitFrame&)>& beneath = {});
 
   // The last frame's yarn width in pixels at the bounds centre, and what it drew.
   [[nodiscard]] float last_yarn_width_px() const { return last_width_px_; }
