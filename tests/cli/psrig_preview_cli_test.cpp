@@ -236,13 +236,9 @@ TEST(PsrigPreviewCli, KioskDrapesEachNewKnitInTheBackground) {
   const fs::path catalogue = temp / "catalogue";
   fs::create_directories(catalogue);
   const auto scan = [&](const std::string& name, const std::string& pattern) {
-    const fs::path made = temp / name;
-    const auto synth = run_program("psrig", {"synth", "--out", made.string(), "--pattern", pattern,
-                                             "--size", "400x320", "--pixel-size", "0.03", "-q"});
-    ASSERT_EQ(synth.exit_code, 0) << synth.err;
-    const auto process = run_program("psrig", {"process", made.string(), "-q"});
-    ASSERT_EQ(process.exit_code, 0) << process.err;
-    fs::rename(made, catalogue / name);
+    const auto maps = synth_and_process(temp / name, pattern);
+    ASSERT_TRUE(maps) << maps.error();
+    fs::rename(temp / name, catalogue / name);
   };
   scan("first", "stripes");
 

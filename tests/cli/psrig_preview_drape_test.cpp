@@ -75,15 +75,12 @@ TEST(PsrigPreviewDrape, BadInputIsAClearErrorAndWritesNothing) {
   EXPECT_FALSE(fs::exists(temp / "out"));
 }
 
-// A simulated scan of two-colour stripes, processed: its maps directory.
+// A simulated scan of two-colour stripes (or `pattern`), processed: its
+// maps directory.
 fs::path stripes_scan(const TempDir& temp, const std::string& pattern = "stripes") {
-  const fs::path scan = temp / pattern;
-  const auto synth = run_program("psrig", {"synth", "--out", scan.string(), "--pattern", pattern,
-                                           "--size", "400x320", "--pixel-size", "0.03", "-q"});
-  EXPECT_EQ(synth.exit_code, 0) << synth.err;
-  const auto process = run_program("psrig", {"process", scan.string(), "-q"});
-  EXPECT_EQ(process.exit_code, 0) << process.err;
-  return scan / "maps";
+  const auto maps = synth_and_process(temp / pattern, pattern);
+  EXPECT_TRUE(maps) << maps.error();
+  return maps.value_or(fs::path());
 }
 
 // The pixels of `frame` near a colour (sRGB, BGR order), as a share.

@@ -68,6 +68,17 @@ std::string read_all(const std::filesystem::path& file) {
 }
 }  // namespace
 
+std::expected<std::filesystem::path, std::string> synth_and_process(
+    const std::filesystem::path& scan, const std::string& pattern, const std::string& size,
+    const std::string& pixel_size) {
+  const auto synth = run_program("psrig", {"synth", "--out", scan.string(), "--pattern", pattern,
+                                           "--size", size, "--pixel-size", pixel_size, "-q"});
+  if (synth.exit_code != 0) return std::unexpected("psrig synth: " + synth.err);
+  const auto process = run_program("psrig", {"process", scan.string(), "-q"});
+  if (process.exit_code != 0) return std::unexpected("psrig process: " + process.err);
+  return scan / "maps";
+}
+
 ProgramRun run_program(const std::string& name, const std::vector<std::string>& args) {
   TempDir capture("psrig-run");
   const auto out = capture / "out", err = capture / "err";

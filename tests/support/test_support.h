@@ -2,6 +2,7 @@
 // Helpers shared by the tests: scratch directories, the real datasets, and
 // the paths of the built programs.
 
+#include <expected>
 #include <filesystem>
 #include <optional>
 #include <string>
@@ -53,6 +54,13 @@ struct ProgramRun {
 
 // Runs a built program with `args` and waits for it.
 [[nodiscard]] ProgramRun run_program(const std::string& name, const std::vector<std::string>& args);
+
+// `psrig synth --pattern PATTERN` at SIZE (WxH) and PIXEL_SIZE mm into
+// `scan`, then `psrig process`: the maps directory, or the failing step's
+// stderr.
+[[nodiscard]] std::expected<std::filesystem::path, std::string> synth_and_process(
+    const std::filesystem::path& scan, const std::string& pattern,
+    const std::string& size = "400x320", const std::string& pixel_size = "0.03");
 
 // Names in `directory`, hidden ones included, sorted.
 [[nodiscard]] std::vector<std::string> list_directory(const std::filesystem::path& directory);
