@@ -8,12 +8,9 @@ Result<cloth::KnitFabric> knit_of_scan(const ScanCloth& scan, int stitches, int 
     return std::unexpected(bad_input(scan.maps, {},
                                      "no stitch chart could be read off these maps (" + scan.why +
                                          "): drape shows knits"));
-  const auto given = [](float value, float otherwise) { return value > 0 ? value : otherwise; };
-  const auto per_cm = [](float spacing_mm) { return spacing_mm > 0 ? 10 / spacing_mm : 0.0f; };
+  const ClothSize knit_at = scan.cloth_size(size, true);
   cloth::KnitParameters parameters;
-  parameters.gauge = {given(size.wales_per_cm, per_cm(scan.wale_mm)),
-                      given(size.courses_per_cm, per_cm(scan.course_mm)),
-                      given(size.yarn_mm, scan.knit->chart.gauge.yarn_diameter_mm)};
+  parameters.gauge = {knit_at.wales_per_cm, knit_at.courses_per_cm, knit_at.yarn_mm};
   return cloth::KnitFabric::build(scan.knit->chart, stitches, rows, parameters,
                                   scan.stitch_colours(stitches, rows));
 }

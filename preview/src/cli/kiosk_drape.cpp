@@ -2,8 +2,14 @@
 
 #include <iostream>
 
-
 namespace psrig::preview::cli {
+namespace {
+
+// The kiosk's camera on the drape, as `psrig-preview drape`'s default.
+constexpr double kYawDeg = 20, kPitchDeg = 25;
+
+}  // namespace
+
 void KioskDrape::prepare(const std::filesystem::path& maps) {
   wanted_ = maps;
   animation_.reset();
@@ -65,7 +71,7 @@ Status KioskDrape::draw(float dt, cv::Size size) {
     renderers_ = std::move(*renderers);
   }
   animation_->advance(dt);
-  draw_drape(*animation_, *renderers_, drape_view(yaw_deg_, 25), size);
+  draw_drape(*animation_, *renderers_, drape_view(kYawDeg, kPitchDeg), size);
   return {};
 }
 

@@ -52,7 +52,6 @@ class KioskDrape {
   std::optional<Made> made_;
   std::optional<cloth::DrapeAnimation> animation_;
   std::optional<DrapeRenderers> renderers_;
-  double yaw_deg_ = 20;
 };
 
 }  // namespace psrig::preview::cli

@@ -81,22 +81,6 @@ Result<std::optional<Eigen::Vector3f>> yarn_colour(const KnitArgs& args) {
   return colour;
 }
 
-// The sizes to knit at: the command line's, else the scan's (for a knit,
-// the yarn the chart read off it matched best with).
-ClothSize size_from(const KnitArgs& args, const ScanCloth& scan, bool knit) {
-  ClothSize size = args.cloth_size;
-  const auto per_cm = [](float spacing_mm) { return spacing_mm > 0 ? 10 / spacing_mm : 0.0f; };
-  const auto unless_given = [](float& value, float from_scan) {
-    if (value == 0) value = from_scan;
-  };
-  unless_given(size.wales_per_cm, per_cm(scan.wale_mm));
-  unless_given(size.courses_per_cm, per_cm(scan.course_mm));
-  unless_given(size.ends_per_cm, per_cm(scan.end_mm));
-  unless_given(size.picks_per_cm, per_cm(scan.pick_mm));
-  if (knit && scan.knit) unless_given(size.yarn_mm, scan.knit->chart.gauge.yarn_diameter_mm);
-  return size;
-}
-
 // The cloth to draw: the pattern as given; with --from-scan at the scan's
 // gauge and in its colours (each stitch's, when the scan's chart has more
 // than one), or without a pattern the chart read off the scan.
@@ -106,7 +90,7 @@ Result<ClothModel> cloth_for(const KnitArgs& args, const std::optional<ScanCloth
   if (!colour) return std::unexpected(colour.error());
   if (!scan) return ClothModel::load(args.pattern, args.stitches, args.rows, *colour, shape,
                                      args.cloth_size);
-  const ClothSize size = size_from(args, *scan, !cloth::looks_like_weave(args.pattern));
+  const ClothSize size = scan->cloth_size(args.cloth_size, !cloth::looks_like_weave(args.pattern));
   if (args.pattern.empty()) {
     if (!scan->knit)
       return std::unexpected(bad_input(

@@ -55,6 +55,19 @@ std::vector<Eigen::Vector3f> ScanCloth::stitch_colours(int columns, int rows) co
   return colours;
 }
 
+ClothSize ScanCloth::cloth_size(ClothSize given, bool knitted) const {
+  const auto per_cm = [](float spacing_mm) { return spacing_mm > 0 ? 10 / spacing_mm : 0.0f; };
+  const auto unless_given = [](float& value, float from_scan) {
+    if (value == 0) value = from_scan;
+  };
+  unless_given(given.wales_per_cm, per_cm(wale_mm));
+  unless_given(given.courses_per_cm, per_cm(course_mm));
+  unless_given(given.ends_per_cm, per_cm(end_mm));
+  unless_given(given.picks_per_cm, per_cm(pick_mm));
+  if (knitted && knit) unless_given(given.yarn_mm, knit->chart.gauge.yarn_diameter_mm);
+  return given;
+}
+
 std::string ScanCloth::describe() const {
   if (knit)
     return fmt::format("chart {} x {} read off {} ({} colour{}, {:.1f} % of {} stitches agree), "

@@ -12,6 +12,7 @@
 
 #include <Eigen/Core>
 
+#include "cloth_model.h"
 #include "psrig/base/error.h"
 #include "psrig/cloth/chart_inference.h"
 #include "psrig/processing/fabric_measure.h"
@@ -37,6 +38,9 @@ struct ScanCloth {
   // One linear RGB per stitch of a columns x rows cloth (row 0 first): the
   // read chart's colours tiled; empty without a chart.
   [[nodiscard]] std::vector<Eigen::Vector3f> stitch_colours(int columns, int rows) const;
+  // The sizes to knit at: `given`'s where given (not 0), else the scan's
+  // (for a knit, the yarn the chart read off it matched best with).
+  [[nodiscard]] ClothSize cloth_size(ClothSize given, bool knit) const;
   // A few words: "chart 2 x 2 read off MAPS, 7.0 x 9.2 per cm, shear 0.10".
   [[nodiscard]] std::string describe() const;
 };
