@@ -1,5 +1,5 @@
 # Checks at configure time that a library does not link, directly or through
-# another target, a library it must stay free of: config and firmware_host
+# another target, a library it must stay free of: config and lights
 # (where the rig's safety lives) build without the image and numerics stack.
 
 # Every library `target` links, followed through targets, into `out`.

@@ -1,5 +1,6 @@
 #include "psrig/base/cli_command.h"
 
+#include <algorithm>
 #include <exception>
 #include <iostream>
 #include <string>
@@ -49,19 +50,52 @@ SubcommandProgram::SubcommandProgram(std::string name, std::string_view version,
                                      std::string description, spdlog::level::level_enum quiet_level)
     : name_(std::move(name)), quiet_level_(quiet_level), app_(std::move(description)) {
   app_.require_subcommand(1);
+  // Subcommands (added later, inheriting this) hand the options they do not
+  // know to the program: `psrig process -v SCAN` as well as `psrig -v process`.
+  app_.fallthrough();
   app_.set_version_flag("--version", name_ + ' ' + std::string(version),
                         "Print the program's version and exit");
   app_.add_flag("-v,--verbose", verbose_, "Log what each stage does");
+  app_.add_flag("-q,--quiet", quiet_, "Print nothing on success (warnings still go to stderr)");
 }
+
+namespace {
+
+bool is_quiet_flag(std::string_view arg) { return arg == "-q" || arg == "--quiet"; }
+
+// -q before the subcommand moves after it, so that a subcommand with a -q of
+// its own (print nothing on success) gets it; one without hands it back.
+std::vector<std::string> quiet_after_subcommand(int argc, char** argv, const CLI::App& app) {
+  std::vector<std::string> args(argv + 1, argv + argc);
+  // The program's own options take no values: the first word is the subcommand.
+  const auto named = std::find_if(args.begin(), args.end(),
+                                  [](const std::string& arg) { return !arg.starts_with('-'); });
+  if (named == args.end() ||
+      app.get_subcommands([&](const CLI::App* sub) { return sub->check_name(*named); }).empty())
+    return args;
+  std::vector<std::string> before, after;
+  for (auto it = args.begin(); it != named; ++it)
+    (is_quiet_flag(*it) ? after : before).push_back(*it);
+  before.push_back(*named);
+  before.insert(before.end(), after.begin(), after.end());
+  before.insert(before.end(), named + 1, args.end());
+  return before;
+}
+
+}  // namespace
 
 int SubcommandProgram::run(int argc, char** argv, const std::vector<Command>& commands) {
   try {
-    app_.parse(argc, argv);
+    std::vector<std::string> args = quiet_after_subcommand(argc, argv, app_);
+    std::reverse(args.begin(), args.end());  // CLI11 takes them last first
+    app_.parse(args);
   } catch (const CLI::ParseError& e) {
     const int code = app_.exit(e);  // prints help, the version or the usage error
     return code == 0 ? exit_done : exit_bad_input;
   }
-  set_log_level(verbose_ ? spdlog::level::debug : quiet_level_);
+  set_log_level(verbose_ ? spdlog::level::debug
+                         : quiet_ ? std::max(quiet_level_, spdlog::level::warn)
+                                  : quiet_level_);
   try {
     for (const auto& command : commands)
       if (command.app->parsed()) return command.run();

@@ -335,7 +335,7 @@ std::optional<fs::path> CalibrationStore::current() const {
   return std::nullopt;
 }
 
-Result<processing::AtomicDirectory> CalibrationStore::begin_next() const {
+Result<formats::AtomicDirectory> CalibrationStore::begin_next() const {
   std::error_code ec;
   fs::create_directories(directory_, ec);
   if (ec)
@@ -347,7 +347,7 @@ Result<processing::AtomicDirectory> CalibrationStore::begin_next() const {
     return std::unexpected(io_error(directory_, "holds 9999 calibrations; archive some"));
   char name[16];
   std::snprintf(name, sizeof name, "%04d", next);
-  return processing::AtomicDirectory::create(directory_ / name);
+  return formats::AtomicDirectory::create(directory_ / name);
 }
 
 }  // namespace psrig::calibration

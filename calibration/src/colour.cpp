@@ -10,7 +10,7 @@
 #include <opencv2/imgproc.hpp>
 #include <opencv2/mcc.hpp>
 
-#include "psrig/processing/image_io.h"
+#include "psrig/formats/image_io.h"
 #include "psrig/processing/linearise.h"
 
 namespace psrig::calibration {
@@ -357,8 +357,8 @@ ColourCorrection fit_colour_correction(const std::array<cv::Vec3d, kChartPatches
 }
 
 Result<LinearColourImage> read_linear_colour(const std::filesystem::path& file,
-                                             processing::Encoding encoding) {
-  auto stored = processing::read_image(file, "--image");
+                                             formats::Encoding encoding) {
+  auto stored = formats::read_image(file, "--image");
   if (!stored) return std::unexpected(stored.error());
   const cv::Mat& image = *stored;
   if (image.channels() < 3)
@@ -371,7 +371,7 @@ Result<LinearColourImage> read_linear_colour(const std::filesystem::path& file,
         "has an unsupported pixel type; give an 8- or 16-bit PNG or a 32-bit float TIFF/EXR"));
   cv::Mat bgr = image;
   if (bgr.channels() == 4) cv::cvtColor(image, bgr, cv::COLOR_BGRA2BGR);
-  const double full = processing::full_scale(bgr.depth());
+  const double full = formats::full_scale(bgr.depth());
   LinearColourImage out;
   cv::Mat planes[3];
   cv::split(bgr, planes);

@@ -6,7 +6,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "psrig/processing/image_io.h"
+#include "psrig/formats/image_io.h"
 #include "psrig/processing/linearise.h"
 
 namespace psrig::calibration {
@@ -82,14 +82,14 @@ Result<ImageFolder> list_image_folder(const fs::path& directory) {
   return folder;
 }
 
-Result<cv::Mat> read_linear_grey(const fs::path& file, processing::Encoding encoding) {
-  auto stored = processing::read_image(file, "");
+Result<cv::Mat> read_linear_grey(const fs::path& file, formats::Encoding encoding) {
+  auto stored = formats::read_image(file, "");
   if (!stored) return std::unexpected(stored.error());
   const cv::Mat& image = *stored;
   if (image.depth() != CV_8U && image.depth() != CV_16U && image.depth() != CV_32F)
     return std::unexpected(bad_input(
         file, "", "has an unsupported pixel type; give 8- or 16-bit PNG or 32-bit float TIFF/EXR"));
-  const double full = processing::full_scale(image.depth());
+  const double full = formats::full_scale(image.depth());
   const processing::CodeLineariser lineariser(encoding, 0, full, image.depth());
   cv::Mat continuous = image.isContinuous() ? image : image.clone();
   cv::Mat linear(continuous.size(), CV_MAKETYPE(CV_32F, continuous.channels()));
@@ -106,7 +106,7 @@ Result<cv::Mat> read_linear_grey(const fs::path& file, processing::Encoding enco
 }
 
 Result<cv::Mat> read_mask(const fs::path& file, const std::string& key) {
-  auto stored = processing::read_image(file, key);
+  auto stored = formats::read_image(file, key);
   if (!stored) return std::unexpected(stored.error());
   cv::Mat image = *stored;
   if (image.channels() > 1) {

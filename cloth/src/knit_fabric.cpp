@@ -8,7 +8,7 @@
 #include <Eigen/LU>
 
 #include "mesh_placement.h"
-#include "psrig/processing/parallel.h"
+#include "psrig/base/parallel.h"
 
 namespace psrig::cloth {
 
@@ -109,7 +109,7 @@ void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
   // Each course: every stitch's loop from the repeat at rest, moved by its
   // blend's relaxation (pulled back through its face's deformation, which
   // the mesh puts back), then the next sinker to close it.
-  processing::parallel_chunks(rows_, 4, [&](int begin, int end) {
+  psrig::parallel_chunks(rows_, 4, [&](int begin, int end) {
     for (int row = begin; row < end; ++row) {
       const auto course = static_cast<std::size_t>(row % repeat_rows);
       const CellYarn& source = rest_.yarns[course];

@@ -50,7 +50,6 @@ const RelaxedRepeats::Node& RelaxedRepeats::node(const std::array<int, 3>& index
     for (std::size_t k = 0; k < affine.yarns[y].points.size(); ++k)
       made->offset.push_back(relaxed.yarns[y].points[k] - affine.yarns[y].points[k]);
   found = std::move(made);
-  ++relaxed_;
   return *found;
 }
 

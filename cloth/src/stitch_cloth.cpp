@@ -5,7 +5,7 @@
 
 #include <Eigen/SparseCholesky>
 
-#include "psrig/processing/parallel.h"
+#include "psrig/base/parallel.h"
 
 namespace psrig::cloth {
 namespace {
@@ -135,7 +135,7 @@ void StitchCloth::step(float dt, int iterations) {
   std::vector<Eigen::Vector3f> pulled(springs_.size());  // k times the spring's target vector
   Eigen::MatrixX3d rhs(static_cast<Eigen::Index>(count), 3);
   for (int iteration = 0; iteration < std::max(iterations, 1); ++iteration) {
-    processing::parallel_chunks(static_cast<int>(springs_.size()), 4096, [&](int begin, int end) {
+    psrig::parallel_chunks(static_cast<int>(springs_.size()), 4096, [&](int begin, int end) {
       for (int s = begin; s < end; ++s) {
         const Spring& spring = springs_[static_cast<std::size_t>(s)];
         const Eigen::Vector3f d =
@@ -146,7 +146,7 @@ void StitchCloth::step(float dt, int iterations) {
                            : Eigen::Vector3f::Zero();
       }
     });
-    processing::parallel_chunks(static_cast<int>(count), 2048, [&](int begin, int end) {
+    psrig::parallel_chunks(static_cast<int>(count), 2048, [&](int begin, int end) {
       for (int i = begin; i < end; ++i) {
         const auto v = static_cast<std::size_t>(i);
         Eigen::Vector3d b = solver.inertia * inertial.row(i).transpose();
@@ -191,7 +191,7 @@ void StitchCloth::limit_strain() {
   std::vector<Eigen::Vector3f>& x = mesh_.vertices;
   for (int pass = 0; pass < kPasses; ++pass)
     for (const std::vector<Spring>& group : limited_)
-      processing::parallel_chunks(static_cast<int>(group.size()), 1024, [&](int begin, int end) {
+      psrig::parallel_chunks(static_cast<int>(group.size()), 1024, [&](int begin, int end) {
         for (int s = begin; s < end; ++s) {
           const Spring& spring = group[static_cast<std::size_t>(s)];
           const auto a = static_cast<std::size_t>(spring.a), b = static_cast<std::size_t>(spring.b);
@@ -211,7 +211,7 @@ void StitchCloth::limit_strain() {
 void StitchCloth::collide(bool friction) {
   const float half = 0.5f * material_.thickness_mm;
   std::vector<Eigen::Vector3f>& x = mesh_.vertices;
-  processing::parallel_chunks(static_cast<int>(x.size()), 1024, [&](int begin, int end) {
+  psrig::parallel_chunks(static_cast<int>(x.size()), 1024, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
       const auto v = static_cast<std::size_t>(i);
       if (pinned_[v]) continue;

@@ -5,7 +5,7 @@
 #include <Eigen/LU>
 
 #include "mesh_placement.h"
-#include "psrig/processing/parallel.h"
+#include "psrig/base/parallel.h"
 
 namespace psrig::cloth {
 
@@ -60,7 +60,7 @@ void WovenFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
   const float depth = dimensions_.half_thickness_mm;
   yarns.style = style();
   yarns.curves.resize(static_cast<std::size_t>(warps_ + wefts_));
-  processing::parallel_chunks(warps_ + wefts_, 8, [&](int begin, int end) {
+  psrig::parallel_chunks(warps_ + wefts_, 8, [&](int begin, int end) {
     for (int thread = begin; thread < end; ++thread) {
       const bool warp = thread < warps_;
       const int index = warp ? thread : thread - warps_;

@@ -9,7 +9,7 @@
 #include <nlohmann/json.hpp>
 
 #include "psrig/export/occlusion.h"
-#include "psrig/processing/atomic_directory.h"
+#include "psrig/formats/atomic_directory.h"
 #include "texture_set.h"
 
 namespace psrig::export_ {
@@ -84,14 +84,14 @@ tinygltf::ExtensionMap repeat_transform(int repeats) {
 
 // A single-file export may replace an earlier one; a directory only when it
 // holds STEM.gltf (an earlier export), never anything else.
-Result<processing::AtomicDirectory::Existing> check_directory_target(const fs::path& out,
+Result<formats::AtomicDirectory::Existing> check_directory_target(const fs::path& out,
                                                                      const std::string& main_file) {
   std::error_code ec;
   const auto status = fs::symlink_status(out, ec);
-  if (!fs::exists(status)) return processing::AtomicDirectory::Existing::refuse;
+  if (!fs::exists(status)) return formats::AtomicDirectory::Existing::refuse;
   if (fs::is_directory(status) &&
       (fs::is_empty(out, ec) || fs::is_regular_file(out / main_file, ec)))
-    return processing::AtomicDirectory::Existing::replace;
+    return formats::AtomicDirectory::Existing::replace;
   return std::unexpected(bad_input(out, "--out",
                                    "exists and is not an earlier export; refusing to replace it "
                                    "(choose another --out, or remove it)"));
@@ -106,7 +106,7 @@ Result<ExportResult> export_gltf(const MaterialSource& source, const fs::path& o
   const std::string stem = out.stem().string();
   if (options.binary && fs::is_directory(out, ec))
     return std::unexpected(bad_input(out, "--out", "is a directory; name the .glb file"));
-  std::optional<processing::AtomicDirectory::Existing> existing;
+  std::optional<formats::AtomicDirectory::Existing> existing;
   if (!options.binary) {
     auto checked = check_directory_target(out, stem + ".gltf");
     if (!checked) return std::unexpected(checked.error());
@@ -323,7 +323,7 @@ Result<ExportResult> export_gltf(const MaterialSource& source, const fs::path& o
     return result;
   }
 
-  auto staging = processing::AtomicDirectory::create(out);
+  auto staging = formats::AtomicDirectory::create(out);
   if (!staging)
     return std::unexpected(
         io_error(out, "cannot make the export here: " + staging.error().message));

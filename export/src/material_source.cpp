@@ -6,14 +6,14 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "psrig/processing/scan_layout.h"
-#include "psrig/processing/seamless_tile.h"
+#include "psrig/formats/scan_layout.h"
+#include "psrig/analysis/seamless_tile.h"
 
 namespace psrig::export_ {
 namespace {
 
 namespace fs = std::filesystem;
-namespace map_files = processing::map_files;
+namespace map_files = formats::map_files;
 using nlohmann::json;
 
 Result<json> read_json(const fs::path& file) {
@@ -107,7 +107,7 @@ Status read_maps_facts(MaterialSource& source) {
       source.height_units = height["units"].get<std::string>();
   }
   // The scan's own description, when the maps sit in it (SCAN_DIR/maps).
-  const fs::path scan_file = source.directory.parent_path() / processing::scan_files::kDescription;
+  const fs::path scan_file = source.directory.parent_path() / formats::scan_files::kDescription;
   if (source.scan_time.empty() && fs::exists(scan_file, ec)) {
     if (auto scan = read_json(scan_file)) {
       source.scan_time = scan_time_of(*scan);
@@ -120,10 +120,10 @@ Status read_maps_facts(MaterialSource& source) {
 Status read_tile_facts(MaterialSource& source, const fs::path& tile_file) {
   auto tile = read_json(tile_file);
   if (!tile) return std::unexpected(tile.error());
-  if (!tile->contains("format") || (*tile)["format"] != processing::kTileFormat)
+  if (!tile->contains("format") || (*tile)["format"] != formats::tile_files::kFormat)
     return std::unexpected(bad_input(
         tile_file, "format",
-        std::string("expected \"") + processing::kTileFormat + "\"; remake the tile with psrig tile"));
+        std::string("expected \"") + formats::tile_files::kFormat + "\"; remake the tile with psrig tile"));
   auto pixel = optional_length(*tile, tile_file, "pixel_size_mm");
   if (!pixel) return std::unexpected(pixel.error());
   source.pixel_size_mm = *pixel;
@@ -173,7 +173,7 @@ Result<MaterialSource> material_source_from(const fs::path& directory) {
   if (fs::is_regular_file(directory / map_files::kHeightPng, ec))
     source.height_png = directory / map_files::kHeightPng;
 
-  const fs::path tile_file = directory / processing::kTileDescription;
+  const fs::path tile_file = directory / formats::tile_files::kDescription;
   if (auto ok =
           fs::exists(tile_file, ec) ? read_tile_facts(source, tile_file) : read_maps_facts(source);
       !ok)
@@ -192,7 +192,7 @@ Result<MaterialSource> material_source_from(const fs::path& directory) {
     source.height_units = "px";
     source.warnings.push_back(
         "no pixel size (pixel_size_mm) in " +
-        (source.tile ? (directory / processing::kTileDescription).string()
+        (source.tile ? (directory / formats::tile_files::kDescription).string()
                      : (directory / map_files::kReport).string()) +
         ": the export is in pixels, one pixel written as 1 mm; calibrate the rig's scale "
         "(psrig calibrate scale) for real sizes");
@@ -206,11 +206,11 @@ Result<MaterialSource> material_source_from(const fs::path& directory) {
 
 Result<MaterialSource> material_for_export(const fs::path& directory, bool whole_scan) {
   std::error_code ec;
-  if (whole_scan || fs::is_regular_file(directory / processing::kTileDescription, ec) ||
+  if (whole_scan || fs::is_regular_file(directory / formats::tile_files::kDescription, ec) ||
       !fs::is_directory(directory, ec))
     return material_source_from(directory);
   std::vector<std::string> warnings;
-  auto tile = processing::ensure_tile(directory, warnings);
+  auto tile = analysis::ensure_tile(directory, warnings);
   auto source = material_source_from(tile ? *tile : directory);
   if (!source) return source;
   if (!tile)

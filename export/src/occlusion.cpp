@@ -4,7 +4,7 @@
 #include <cmath>
 #include <vector>
 
-#include "psrig/processing/parallel.h"
+#include "psrig/base/parallel.h"
 
 namespace psrig::export_ {
 
@@ -39,7 +39,7 @@ cv::Mat ambient_occlusion(const cv::Mat& height, double pixel_size, int radius_p
     }
   }
   cv::Mat out(h.size(), CV_32F);
-  processing::parallel_chunks(h.rows, 16, [&](int begin, int end) {
+  psrig::parallel_chunks(h.rows, 16, [&](int begin, int end) {
     for (int r = begin; r < end; ++r) {
       const float* centre = h.ptr<float>(r);
       const float* above = h.ptr<float>(std::max(r - 1, 0));

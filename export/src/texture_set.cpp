@@ -10,8 +10,8 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "psrig/processing/image_io.h"
-#include "psrig/processing/map_encoding.h"
+#include "psrig/formats/image_io.h"
+#include "psrig/formats/map_encoding.h"
 
 namespace psrig::export_ {
 namespace {
@@ -28,7 +28,7 @@ std::string number(double v) {
 
 Result<TextureSet> load_textures(const MaterialSource& source) {
   TextureSet t;
-  auto albedo = processing::read_image(source.albedo, "albedo");
+  auto albedo = formats::read_image(source.albedo, "albedo");
   if (!albedo) return std::unexpected(albedo.error());
   if (albedo->type() == CV_8UC1) cv::cvtColor(*albedo, *albedo, cv::COLOR_GRAY2BGR);
   if (albedo->type() == CV_8UC4) cv::cvtColor(*albedo, *albedo, cv::COLOR_BGRA2BGR);
@@ -54,7 +54,7 @@ Result<TextureSet> load_textures(const MaterialSource& source) {
   }();
   t.mean_linear_rgb = {mean_srgb_linear[2], mean_srgb_linear[1], mean_srgb_linear[0]};
 
-  auto normal = processing::read_image(source.normal, "normal");
+  auto normal = formats::read_image(source.normal, "normal");
   if (!normal) return std::unexpected(normal.error());
   if (normal->type() == CV_8UC3) normal->convertTo(*normal, CV_16UC3, 257.0);
   if (normal->type() != CV_16UC3)
@@ -66,7 +66,7 @@ Result<TextureSet> load_textures(const MaterialSource& source) {
   t.normal = *normal;
 
   if (!source.height_exr.empty()) {
-    auto height = processing::read_image(source.height_exr, "height");
+    auto height = formats::read_image(source.height_exr, "height");
     if (!height) return std::unexpected(height.error());
     if (height->type() != CV_32FC1 || height->size() != t.albedo.size())
       return std::unexpected(bad_input(source.height_exr, "height",
@@ -76,7 +76,7 @@ Result<TextureSet> load_textures(const MaterialSource& source) {
       cv::minMaxLoc(*height, &t.height_low, &t.height_high, nullptr, nullptr, finite);
       t.height_mean = cv::mean(*height, finite)[0];
     }
-    cv::Mat png = processing::encode_height16(*height, t.height_low, t.height_high);
+    cv::Mat png = formats::encode_height16(*height, t.height_low, t.height_high);
     png.setTo(0, ~finite);  // holes at the lowest height, as psrig process writes them
     t.height = png;
   } else if (!source.height_png.empty()) {
@@ -84,7 +84,7 @@ Result<TextureSet> load_textures(const MaterialSource& source) {
       return std::unexpected(bad_input(source.height_png, "height",
                                        "has no known range (report.json height.png_range) and "
                                        "no height.exr is beside it; reprocess the scan"));
-    auto height = processing::read_image(source.height_png, "height");
+    auto height = formats::read_image(source.height_png, "height");
     if (!height) return std::unexpected(height.error());
     if (height->type() != CV_16UC1 || height->size() != t.albedo.size())
       return std::unexpected(bad_input(source.height_png, "height",
@@ -97,13 +97,13 @@ Result<TextureSet> load_textures(const MaterialSource& source) {
   return t;
 }
 
-processing::ImageMetadata texture_metadata(const MaterialSource& source, const TextureSet& textures,
+formats::ImageMetadata texture_metadata(const MaterialSource& source, const TextureSet& textures,
                                            TextureKind kind) {
-  namespace keys = processing::metadata_keys;
-  processing::ImageMetadata m;
+  namespace keys = formats::metadata_keys;
+  formats::ImageMetadata m;
   m.pixel_size_mm = source.pixel_size_mm;
-  m.colour_space = kind == TextureKind::albedo ? processing::ImageMetadata::ColourSpace::colour
-                                               : processing::ImageMetadata::ColourSpace::data;
+  m.colour_space = kind == TextureKind::albedo ? formats::ImageMetadata::ColourSpace::colour
+                                               : formats::ImageMetadata::ColourSpace::data;
   if (!source.sample_id.empty()) m.text.emplace_back(keys::kSample, source.sample_id);
   if (!source.scan_time.empty()) m.text.emplace_back(keys::kScanTime, source.scan_time);
   if (source.pixel_size_mm) m.text.emplace_back(keys::kPixelSize, number(*source.pixel_size_mm));
@@ -121,7 +121,7 @@ processing::ImageMetadata texture_metadata(const MaterialSource& source, const T
 }
 
 cv::Mat to_directx(const cv::Mat& normal16) {
-  return processing::flip_normal_green(normal16);
+  return formats::flip_normal_green(normal16);
 }
 
 cv::Mat to_8bit(const cv::Mat& image16) {
@@ -131,14 +131,14 @@ cv::Mat to_8bit(const cv::Mat& image16) {
 }
 
 Result<std::vector<unsigned char>> encode_png(const cv::Mat& image,
-                                              const processing::ImageMetadata& metadata) {
+                                              const formats::ImageMetadata& metadata) {
   // Through a file: the metadata-carrying writer is file based.
   char name[] = "/tmp/psrig-export-XXXXXX.png";
   const int fd = ::mkstemps(name, 4);
   if (fd < 0) return std::unexpected(io_error("/tmp", "cannot create a temporary file"));
   ::close(fd);
   const fs::path file = name;
-  auto ok = processing::write_image(file, image, {cv::IMWRITE_PNG_COMPRESSION, 6}, metadata);
+  auto ok = formats::write_image(file, image, {cv::IMWRITE_PNG_COMPRESSION, 6}, metadata);
   std::vector<unsigned char> bytes;
   if (ok) {
     std::ifstream in(file, std::ios::binary);

@@ -9,7 +9,7 @@
 
 #include "psrig/base/error.h"
 #include "psrig/export/material_source.h"
-#include "psrig/processing/image_metadata.h"
+#include "psrig/formats/image_metadata.h"
 
 namespace psrig::export_ {
 
@@ -27,7 +27,7 @@ struct TextureSet {
 
 // What a texture file says about itself (image_metadata.h).
 enum class TextureKind { albedo, normal, normal_directx, height, occlusion };
-[[nodiscard]] processing::ImageMetadata texture_metadata(const MaterialSource& source,
+[[nodiscard]] formats::ImageMetadata texture_metadata(const MaterialSource& source,
                                                          const TextureSet& textures,
                                                          TextureKind kind);
 
@@ -38,7 +38,7 @@ enum class TextureKind { albedo, normal, normal_directx, height, occlusion };
 
 // Encodes `image` as a PNG (deflate level 6: exports travel) with metadata.
 [[nodiscard]] Result<std::vector<unsigned char>> encode_png(
-    const cv::Mat& image, const processing::ImageMetadata& metadata);
+    const cv::Mat& image, const formats::ImageMetadata& metadata);
 // Writes `bytes` to `file`.
 [[nodiscard]] Status write_bytes(const std::filesystem::path& file,
                                  const std::vector<unsigned char>& bytes);

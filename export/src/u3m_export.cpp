@@ -8,7 +8,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "psrig/processing/atomic_directory.h"
+#include "psrig/formats/atomic_directory.h"
 #include "texture_set.h"
 #include "u3ma_archive.h"
 
@@ -98,14 +98,14 @@ cv::Mat render_preview(const TextureSet& t) {
   return out;
 }
 
-Result<processing::AtomicDirectory::Existing> check_directory_target(const fs::path& out,
+Result<formats::AtomicDirectory::Existing> check_directory_target(const fs::path& out,
                                                                      const std::string& main_file) {
   std::error_code ec;
   const auto status = fs::symlink_status(out, ec);
-  if (!fs::exists(status)) return processing::AtomicDirectory::Existing::refuse;
+  if (!fs::exists(status)) return formats::AtomicDirectory::Existing::refuse;
   if (fs::is_directory(status) &&
       (fs::is_empty(out, ec) || fs::is_regular_file(out / main_file, ec)))
-    return processing::AtomicDirectory::Existing::replace;
+    return formats::AtomicDirectory::Existing::replace;
   return std::unexpected(bad_input(out, "--out",
                                    "exists and is not an earlier export; refusing to replace it "
                                    "(choose another --out, or remove it)"));
@@ -203,7 +203,7 @@ Result<ExportResult> export_u3m(const MaterialSource& source, const fs::path& ou
   const std::string main_file = stem + ".u3m";
   if (options.archive && fs::is_directory(out, ec))
     return std::unexpected(bad_input(out, "--out", "is a directory; name the .u3ma file"));
-  std::optional<processing::AtomicDirectory::Existing> existing;
+  std::optional<formats::AtomicDirectory::Existing> existing;
   if (!options.archive) {
     auto checked = check_directory_target(out, main_file);
     if (!checked) return std::unexpected(checked.error());
@@ -244,7 +244,7 @@ Result<ExportResult> export_u3m(const MaterialSource& source, const fs::path& ou
   const cv::Mat preview = render_preview(*textures);
   {
     // The preview's own pixel size: the material's over fewer pixels.
-    processing::ImageMetadata m = texture_metadata(source, *textures, TextureKind::albedo);
+    formats::ImageMetadata m = texture_metadata(source, *textures, TextureKind::albedo);
     if (m.pixel_size_mm) *m.pixel_size_mm *= static_cast<double>(source.width_px) / preview.cols;
     auto png = encode_png(preview, m);
     if (!png) return std::unexpected(png.error());
@@ -274,7 +274,7 @@ Result<ExportResult> export_u3m(const MaterialSource& source, const fs::path& ou
     }
     return result;
   }
-  auto staging = processing::AtomicDirectory::create(out);
+  auto staging = formats::AtomicDirectory::create(out);
   if (!staging)
     return std::unexpected(
         io_error(out, "cannot make the export here: " + staging.error().message));

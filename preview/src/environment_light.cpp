@@ -6,7 +6,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/cloth/srgb.h"
-#include "psrig/processing/image_io.h"
+#include "psrig/formats/image_io.h"
 
 namespace psrig::preview {
 namespace {
@@ -113,7 +113,7 @@ EnvironmentLight EnvironmentLight::from_equirectangular(const cv::Mat& image) {
 }
 
 Result<EnvironmentLight> EnvironmentLight::load(const std::filesystem::path& file) {
-  auto image = processing::read_image(file, "--environment");
+  auto image = formats::read_image(file, "--environment");
   if (!image) return std::unexpected(image.error());
   if (image->empty() || image->cols < 2 * image->rows - 1 || image->cols > 2 * image->rows + 1)
     return std::unexpected(bad_input(file, "--environment",

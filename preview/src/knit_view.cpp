@@ -5,7 +5,7 @@
 #include <numbers>
 
 #include "camera_matrices.h"
-#include "psrig/processing/light_matrix.h"
+#include "psrig/formats/light_matrix.h"
 
 namespace psrig::preview {
 Eigen::Vector2f KnitFrame::project(const Eigen::Vector3f& point, cv::Size viewport) const {
@@ -32,7 +32,7 @@ KnitFrame knit_frame(const Eigen::AlignedBox3f& bounds, const KnitView& view, cv
   frame.projection = perspective(fov_y, aspect, near, frame.distance + radius);
   frame.focal_px = static_cast<float>(viewport.height) / 2 / std::tan(fov_y / 2);
 
-  const cv::Vec3d l = processing::light_direction(view.light.tilt_deg, view.light.slant_deg);
+  const cv::Vec3d l = formats::light_direction(view.light.tilt_deg, view.light.slant_deg);
   const Eigen::Vector3f toward(static_cast<float>(l[0]), static_cast<float>(l[1]),
                                static_cast<float>(l[2]));
   if (view.light.kind == LightKind::point) {

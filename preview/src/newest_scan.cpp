@@ -2,7 +2,7 @@
 
 #include <system_error>
 
-#include "psrig/processing/scan_layout.h"
+#include "psrig/formats/scan_layout.h"
 
 namespace psrig::preview {
 
@@ -14,8 +14,8 @@ std::optional<std::filesystem::path> newest_maps(const std::filesystem::path& ca
   for (const auto& entry : fs::directory_iterator(catalogue, error)) {
     if (!entry.is_directory(error)) continue;
     for (const fs::path& maps :
-         {entry.path() / processing::scan_files::kMapsDirectory, entry.path()}) {
-      const auto written = fs::last_write_time(maps / processing::map_files::kReport, error);
+         {entry.path() / formats::scan_files::kMapsDirectory, entry.path()}) {
+      const auto written = fs::last_write_time(maps / formats::map_files::kReport, error);
       if (error) continue;
       if (!newest || written > newest_time || (written == newest_time && maps > *newest)) {
         newest = maps;

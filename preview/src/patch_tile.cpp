@@ -6,9 +6,9 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "psrig/processing/fabric_measure.h"
-#include "psrig/processing/maps_reader.h"
-#include "psrig/processing/seamless_tile.h"
+#include "psrig/analysis/fabric_measure.h"
+#include "psrig/formats/maps_reader.h"
+#include "psrig/analysis/seamless_tile.h"
 
 namespace psrig::preview {
 
@@ -18,11 +18,11 @@ namespace {
 
 // A tile psrig tile wrote: its maps, and tile.json for the physical size.
 std::optional<PatchTile> stored_tile(const SwatchMaps& maps) {
-  const fs::path dir = maps.directory / processing::kTileDirectory;
-  std::ifstream in(dir / processing::kTileDescription);
+  const fs::path dir = maps.directory / formats::tile_files::kDirectory;
+  std::ifstream in(dir / formats::tile_files::kDescription);
   if (!in) return std::nullopt;
   const auto doc = nlohmann::json::parse(in, nullptr, false);
-  if (!doc.is_object() || doc.value("format", "") != processing::kTileFormat) return std::nullopt;
+  if (!doc.is_object() || doc.value("format", "") != formats::tile_files::kFormat) return std::nullopt;
   auto loaded = load_swatch_maps(dir);
   if (!loaded) return std::nullopt;
   PatchTile tile;
@@ -48,14 +48,14 @@ PatchTile patch_tile(const SwatchMaps& maps) {
   PatchTile out;
   out.maps = maps;
   std::vector<std::string> warnings;
-  auto read = processing::read_maps(maps.directory, warnings);
+  auto read = formats::read_maps(maps.directory, warnings);
   if (!read) {
     out.source = "the maps as they are (" + read.error().describe() + ")";
     return out;
   }
   const cv::Mat& height = read->height.empty() ? read->p : read->height;
-  const auto lattice = processing::find_repeat_lattice(height, read->albedo);
-  auto tile = processing::make_seamless_tile(*read, lattice);
+  const auto lattice = analysis::find_repeat_lattice(height, read->albedo);
+  auto tile = analysis::make_seamless_tile(*read, lattice);
   if (!tile) {
     out.source = "the maps as they are (" + tile.error().describe() + ")";
     return out;

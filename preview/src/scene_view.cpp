@@ -6,7 +6,7 @@
 #include <Eigen/Geometry>
 
 #include "camera_matrices.h"
-#include "psrig/processing/light_matrix.h"
+#include "psrig/formats/light_matrix.h"
 
 namespace psrig::preview {
 namespace {
@@ -58,7 +58,7 @@ FrameSetup frame_setup(cv::Size2d swatch_extent, const SceneView& view, cv::Size
     setup.eye << eye, 1;
   }
 
-  const cv::Vec3d l = processing::light_direction(view.light.tilt_deg, view.light.slant_deg);
+  const cv::Vec3d l = formats::light_direction(view.light.tilt_deg, view.light.slant_deg);
   const Eigen::Vector3f toward(static_cast<float>(l[0]), static_cast<float>(l[1]),
                                static_cast<float>(l[2]));
   setup.marker_radius = 0.03f * diagonal;

@@ -5,16 +5,16 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "psrig/processing/image_io.h"
+#include "psrig/formats/image_io.h"
 #include "psrig/processing/linearise.h"
-#include "psrig/processing/map_encoding.h"
-#include "psrig/processing/scan_layout.h"
+#include "psrig/formats/map_encoding.h"
+#include "psrig/formats/scan_layout.h"
 
 namespace psrig::preview {
 namespace {
 
 namespace fs = std::filesystem;
-namespace map_files = processing::map_files;
+namespace map_files = formats::map_files;
 
 // Any depth, one or three channels, BGR as OpenCV reads it -> CV_32FC3 RGB.
 cv::Mat to_rgb_float(const cv::Mat& image) {
@@ -29,17 +29,17 @@ cv::Mat to_rgb_float(const cv::Mat& image) {
 
 Result<cv::Mat> read_albedo(const fs::path& directory) {
   if (fs::exists(directory / map_files::kAlbedoExr)) {
-    auto exr = processing::read_image(directory / map_files::kAlbedoExr, "albedo");
+    auto exr = formats::read_image(directory / map_files::kAlbedoExr, "albedo");
     if (!exr) return std::unexpected(exr.error());
     return to_rgb_float(*exr);
   }
-  auto png = processing::read_image(directory / map_files::kAlbedoPng, "albedo");
+  auto png = formats::read_image(directory / map_files::kAlbedoPng, "albedo");
   if (!png) return std::unexpected(png.error());
   if (png->depth() != CV_8U && png->depth() != CV_16U)
     return std::unexpected(bad_input(directory / map_files::kAlbedoPng, "albedo",
                                      "expected an 8- or 16-bit sRGB image"));
   const double full = png->depth() == CV_8U ? 255 : 65535;
-  const processing::CodeLineariser srgb(processing::Encoding::srgb, 0, full, png->depth());
+  const processing::CodeLineariser srgb(formats::Encoding::srgb, 0, full, png->depth());
   cv::Mat linear(png->size(), CV_32FC(png->channels()));
   for (int row = 0; row < png->rows; ++row)
     srgb.convert(png->ptr(row), png->cols * png->channels(), linear.ptr<float>(row));
@@ -48,7 +48,7 @@ Result<cv::Mat> read_albedo(const fs::path& directory) {
 
 Result<cv::Mat> read_normals(const fs::path& directory) {
   const fs::path file = directory / map_files::kNormalPng;
-  auto png = processing::read_image(file, "normal");
+  auto png = formats::read_image(file, "normal");
   if (!png) return std::unexpected(png.error());
   if (png->channels() != 3 || (png->depth() != CV_8U && png->depth() != CV_16U))
     return std::unexpected(
@@ -67,7 +67,7 @@ Result<cv::Mat> read_normals(const fs::path& directory) {
 // A grey map in [0, 1] (gloss, alpha) if the file is there.
 Result<cv::Mat> read_optional_fraction(const fs::path& file, const std::string& key) {
   if (!fs::exists(file)) return cv::Mat();
-  auto image = processing::read_image(file, key);
+  auto image = formats::read_image(file, key);
   if (!image) return std::unexpected(image.error());
   if (image->channels() != 1 || (image->depth() != CV_8U && image->depth() != CV_16U))
     return std::unexpected(bad_input(file, key, "expected an 8- or 16-bit grey image"));
@@ -128,7 +128,7 @@ Result<SwatchMaps> load_swatch_maps(const fs::path& directory) {
   if (!normal) return std::unexpected(normal.error());
   maps.normal = std::move(*normal);
   if (fs::exists(directory / map_files::kHeightExr)) {
-    auto height = processing::read_image(directory / map_files::kHeightExr, "height");
+    auto height = formats::read_image(directory / map_files::kHeightExr, "height");
     if (!height) return std::unexpected(height.error());
     if (height->channels() != 1)
       return std::unexpected(

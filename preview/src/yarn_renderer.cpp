@@ -14,7 +14,7 @@
 #include "psrig/cloth/srgb.h"
 #include "psrig/preview/clear_frame.h"
 #include "psrig/preview/strip_points.h"
-#include "psrig/processing/parallel.h"
+#include "psrig/base/parallel.h"
 
 namespace psrig::preview {
 namespace {
@@ -295,12 +295,12 @@ void YarnRenderer::update(const cloth::YarnSet& yarns) {
   padding.position_arc[3] = std::numeric_limits<float>::max();
   std::fill_n(packed.points.begin(), kPadding, padding);
   constexpr int kChunk = 8;
-  const int chunks = processing::chunk_count(yarn_count, kChunk);
+  const int chunks = psrig::chunk_count(yarn_count, kChunk);
   std::vector<Eigen::Array3f> lows(static_cast<std::size_t>(chunks),
                                    Eigen::Array3f::Constant(std::numeric_limits<float>::max()));
   std::vector<Eigen::Array3f> highs(static_cast<std::size_t>(chunks),
                                     Eigen::Array3f::Constant(-std::numeric_limits<float>::max()));
-  processing::parallel_chunks(yarn_count, kChunk, [&](int begin, int end) {
+  psrig::parallel_chunks(yarn_count, kChunk, [&](int begin, int end) {
     ColourBytes colour_bytes;
     Eigen::Array3f& low = lows[static_cast<std::size_t>(begin / kChunk)];
     Eigen::Array3f& high = highs[static_cast<std::size_t>(begin / kChunk)];

@@ -8,7 +8,7 @@
 #include <numbers>
 #include <vector>
 
-#include "psrig/processing/parallel.h"
+#include "psrig/base/parallel.h"
 #include "psrig/processing/woodham.h"
 
 namespace psrig::processing {

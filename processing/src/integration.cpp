@@ -16,7 +16,7 @@
 
 #include <fftw3.h>
 
-#include "psrig/processing/parallel.h"
+#include "psrig/base/parallel.h"
 
 // Both methods work on the gradient field extended by mirroring across every
 // border (z even about the half-pixel beyond the first and last sample), so

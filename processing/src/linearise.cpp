@@ -6,7 +6,7 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "vector_clones.h"
+#include "psrig/base/vector_clones.h"
 
 namespace psrig::processing {
 namespace {
@@ -127,17 +127,17 @@ void scale_in_place(float* __restrict values, float factor, int n) {
 
 }  // namespace
 
-CodeLineariser::CodeLineariser(Encoding encoding, double black_level, double white_level, int depth)
+CodeLineariser::CodeLineariser(formats::Encoding encoding, double black_level, double white_level, int depth)
     : encoding_(encoding), black_(black_level), white_(white_level), depth_(depth) {
-  const double full = full_scale(depth);
+  const double full = formats::full_scale(depth);
   const auto decode = [&](double code) {
-    return encoding == Encoding::srgb ? srgb_to_linear(code / full) * full : code;
+    return encoding == formats::Encoding::srgb ? srgb_to_linear(code / full) * full : code;
   };
   const double black_linear = decode(black_level);
   const double range = decode(white_level) - black_linear;
   scale_ = static_cast<float>(1.0 / range);
   offset_ = static_cast<float>(-black_linear / range);
-  if (encoding == Encoding::srgb && depth != CV_32F) {
+  if (encoding == formats::Encoding::srgb && depth != CV_32F) {
     table_.resize(static_cast<std::size_t>(full) + 1);
     for (std::size_t code = 0; code < table_.size(); ++code)
       table_[code] = static_cast<float>((decode(static_cast<double>(code)) - black_linear) / range);
@@ -145,8 +145,8 @@ CodeLineariser::CodeLineariser(Encoding encoding, double black_level, double whi
 }
 
 float CodeLineariser::operator()(double stored) const {
-  if (encoding_ == Encoding::linear) return static_cast<float>(stored) * scale_ + offset_;
-  const double full = full_scale(depth_);
+  if (encoding_ == formats::Encoding::linear) return static_cast<float>(stored) * scale_ + offset_;
+  const double full = formats::full_scale(depth_);
   return static_cast<float>(srgb_to_linear(stored / full) * full) * scale_ + offset_;
 }
 
@@ -176,7 +176,7 @@ void CodeLineariser::convert(const void* stored, int count, float* linear, float
     scale_in_place(linear, factor, count);
 }
 
-Result<ScanLineariser> ScanLineariser::create(const Scan& scan) {
+Result<ScanLineariser> ScanLineariser::create(const formats::Scan& scan) {
   if (scan.frames.empty())
     return std::unexpected(internal_error("ScanLineariser: scan has no frames"));
   ScanLineariser result(scan,
@@ -239,7 +239,7 @@ Result<ScanLineariser> ScanLineariser::create(const Scan& scan) {
   return result;
 }
 
-ScanLineariser::ScanLineariser(const Scan& scan, CodeLineariser codes)
+ScanLineariser::ScanLineariser(const formats::Scan& scan, CodeLineariser codes)
     : scan_(&scan),
       codes_(codes),
       channels_(scan.channels()),

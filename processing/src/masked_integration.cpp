@@ -51,9 +51,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/processing/integration.h"
-#include "psrig/processing/parallel.h"
+#include "psrig/base/parallel.h"
 #include "gradient_inputs.h"
-#include "vector_clones.h"
+#include "psrig/base/vector_clones.h"
 
 namespace psrig::processing {
 namespace {

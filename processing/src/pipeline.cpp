@@ -11,19 +11,19 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "psrig/base/log.h"
-#include "psrig/processing/atomic_directory.h"
+#include "psrig/formats/atomic_directory.h"
 #include "psrig/processing/colour_correction.h"
 #include "psrig/processing/evaluation.h"
-#include "psrig/processing/fabric_measure.h"
+#include "psrig/analysis/fabric_measure.h"
 #include "psrig/processing/flatten.h"
 #include "psrig/processing/hole_fill.h"
-#include "psrig/processing/image_io.h"
-#include "psrig/processing/image_metadata.h"
-#include "psrig/processing/map_encoding.h"
-#include "psrig/processing/parallel.h"
+#include "psrig/formats/image_io.h"
+#include "psrig/formats/image_metadata.h"
+#include "psrig/formats/map_encoding.h"
+#include "psrig/base/parallel.h"
 #include "psrig/processing/report.h"
-#include "psrig/processing/scan_layout.h"
-#include "psrig/processing/scan_reader.h"
+#include "psrig/formats/scan_layout.h"
+#include "psrig/formats/scan_reader.h"
 
 namespace psrig::processing {
 namespace {
@@ -45,19 +45,19 @@ constexpr double kSpeckAreaMm2 = 0.25;
 // wrote (or empty): --out must never swallow a scan or a home directory.
 // Says how the commit must treat the target: replace what was checked, or
 // refuse anything that appeared since.
-Result<AtomicDirectory::Existing> check_output(const fs::path& output) {
+Result<formats::AtomicDirectory::Existing> check_output(const fs::path& output) {
   std::error_code ec;
   const auto status = fs::symlink_status(output, ec);
-  if (!fs::exists(status)) return AtomicDirectory::Existing::refuse;
+  if (!fs::exists(status)) return formats::AtomicDirectory::Existing::refuse;
   if (!fs::is_directory(status))
     return std::unexpected(
         bad_input(output, "", "exists and is not a directory; choose another --out"));
-  if (fs::is_empty(output, ec) && !ec) return AtomicDirectory::Existing::replace;
-  std::ifstream report(output / map_files::kReport);
+  if (fs::is_empty(output, ec) && !ec) return formats::AtomicDirectory::Existing::replace;
+  std::ifstream report(output / formats::map_files::kReport);
   const nlohmann::json doc = nlohmann::json::parse(report, nullptr, false);
   if (doc.is_object() && doc.contains("format") && doc["format"].is_string() &&
       doc["format"].get<std::string>() == kReportFormat)
-    return AtomicDirectory::Existing::replace;
+    return formats::AtomicDirectory::Existing::replace;
   return std::unexpected(
       bad_input(output, "",
                 "exists and is not a psrig maps directory; refusing to replace it "
@@ -71,7 +71,10 @@ std::string fmt_number(double v) {
   return text;
 }
 
+// `loaded`: the scan already in memory (the rig's, as_stored), else it is
+// read from `scan_directory`.
 Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
+                                         std::optional<formats::Scan> loaded,
                                          const ProcessOptions& options) {
   auto log = logger("processing");
   const auto start = Clock::now();
@@ -93,14 +96,15 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   // Where the maps go is checked next: a bad --out should not wait for a
   // 12 MP read. Nothing is visible there until the commit.
   const fs::path output =
-      options.output.empty() ? scan_directory / scan_files::kMapsDirectory : options.output;
+      options.output.empty() ? scan_directory / formats::scan_files::kMapsDirectory : options.output;
   const auto existing = check_output(output);
   if (!existing) return std::unexpected(existing.error());
-  auto staging = AtomicDirectory::create(output);
+  auto staging = formats::AtomicDirectory::create(output);
   if (!staging) return std::unexpected(staging.error());
   const fs::path dir = staging->path();
 
-  auto scan = read_scan(scan_directory);
+  auto scan = loaded ? Result<formats::Scan>(std::move(*loaded)) : formats::read_scan(scan_directory);
+  loaded.reset();
   if (!scan) return std::unexpected(scan.error());
   stages.emplace_back("read", ms_since(start));
 
@@ -119,7 +123,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
 
   // The rig's colour calibration, when the scan carries one: the albedo
   // in linear light, before it is encoded, becomes linear sRGB D65.
-  auto colour = read_colour_correction(scan->description.document, scan_directory / "scan.json");
+  auto colour = read_colour_correction(scan->description.document, scan_directory / formats::scan_files::kDescription);
   if (!colour) return std::unexpected(colour.error());
   cv::Mat albedo = result.albedo;
   const bool colour_corrected = *colour && albedo.channels() == 3;
@@ -128,7 +132,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
     apply_colour_matrix((*colour)->rgb_matrix, albedo);
   }
 
-  const cv::Mat valid = encode_valid_mask(result.flags);
+  const cv::Mat valid = processing::encode_valid_mask(result.flags);
   GroundTruthSummary truth;
   double evaluate_ms = 0;
   // The report's statistics, and the ground truth's when the scan has one.
@@ -155,27 +159,27 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   const bool in_mm = scan->description.pixel_size_mm.has_value();
   // What every map file says about itself (image_metadata.h): its scale,
   // the sample and when it was scanned.
-  const auto metadata = [&](ImageMetadata::ColourSpace space) {
-    ImageMetadata m;
+  const auto metadata = [&](formats::ImageMetadata::ColourSpace space) {
+    formats::ImageMetadata m;
     m.pixel_size_mm = scan->description.pixel_size_mm;
     m.colour_space = space;
     if (!scan->description.sample_id.empty())
-      m.text.emplace_back(metadata_keys::kSample, scan->description.sample_id);
+      m.text.emplace_back(formats::metadata_keys::kSample, scan->description.sample_id);
     const auto& doc = scan->description.document;
     if (doc.contains("capture") && doc["capture"].is_object() &&
         doc["capture"].contains("started") && doc["capture"]["started"].is_string())
-      m.text.emplace_back(metadata_keys::kScanTime, doc["capture"]["started"].get<std::string>());
-    if (in_mm) m.text.emplace_back(metadata_keys::kPixelSize, fmt_number(pixel_size));
-    m.text.emplace_back(metadata_keys::kSoftware, "psrig");
+      m.text.emplace_back(formats::metadata_keys::kScanTime, doc["capture"]["started"].get<std::string>());
+    if (in_mm) m.text.emplace_back(formats::metadata_keys::kPixelSize, fmt_number(pixel_size));
+    m.text.emplace_back(formats::metadata_keys::kSoftware, "psrig");
     return m;
   };
   std::optional<HeightSummary> height_summary;
   std::optional<BendSummary> bend_summary;
   // The fabric measurement runs beside the map writes, from the height on.
-  MeasureOptions measure;
+  analysis::MeasureOptions measure;
   measure.pixel_size_mm = scan->description.pixel_size_mm;
-  measure.hints = fabric_hints(scan->description.document);
-  std::future<Result<FabricMeasurement>> fabric_future;
+  measure.hints = analysis::fabric_hints(scan->description.document);
+  std::future<Result<analysis::FabricMeasurement>> fabric_future;
   double integrate_ms = 0;
   struct Task {
     std::string name;
@@ -183,13 +187,13 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   };
   // Every map losslessly compressed as [storage] says (report.json's
   // options record it).
-  const std::vector<int> png_out = png_params(options.storage.png_level);
+  const std::vector<int> png_out = formats::png_params(options.storage.png_level);
   // Half floats hold albedo (linear, about 0..1) to 1 part in 2000, at half
   // the bytes of a float map; p, q and height as [storage] map_precision
   // says (storage_options.h: why half is the default).
-  const std::vector<int> half_exr = exr_params(options.storage.exr_compression, true);
-  const std::vector<int> map_exr = exr_params(options.storage.exr_compression,
-                                              options.storage.map_precision == MapPrecision::half);
+  const std::vector<int> half_exr = formats::exr_params(options.storage.exr_compression, true);
+  const std::vector<int> map_exr = formats::exr_params(options.storage.exr_compression,
+                                              options.storage.map_precision == formats::MapPrecision::half);
   std::vector<Task> tasks;
   if (options.integration != IntegrationMethod::none) {
     tasks.push_back(
@@ -252,7 +256,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
            }
            bend_summary = bend;
            fabric_future = std::async(std::launch::async, [&measure, &result, h = *height] {
-             return measure_fabric(h, result.albedo, measure);
+             return analysis::measure_fabric(h, result.albedo, measure);
            });
 
            double low = 0, high = 0;
@@ -264,49 +268,49 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
              truth.height_rms_error = height_rms_error(*height, scan->ground_truth_height, finite);
            integrate_ms = ms_since(integrate_start);
            log->debug("integration ({}): {:.0f} ms", to_string(summary.method), integrate_ms);
-           ImageMetadata height_meta = metadata(ImageMetadata::ColourSpace::data);
-           height_meta.text.emplace_back(metadata_keys::kUnits, summary.units);
-           if (auto ok = write_image(dir / map_files::kHeightExr, *height, map_exr, height_meta);
+           formats::ImageMetadata height_meta = metadata(formats::ImageMetadata::ColourSpace::data);
+           height_meta.text.emplace_back(formats::metadata_keys::kUnits, summary.units);
+           if (auto ok = formats::write_image(dir / formats::map_files::kHeightExr, *height, map_exr, height_meta);
                !ok)
              return ok;
-           cv::Mat png = encode_height16(*height, low, high);
+           cv::Mat png = formats::encode_height16(*height, low, high);
            png.setTo(0, ~finite);
-           height_meta.text.emplace_back(metadata_keys::kHeightRange,
+           height_meta.text.emplace_back(formats::metadata_keys::kHeightRange,
                                          fmt_number(low) + " " + fmt_number(high));
-           return write_image(dir / map_files::kHeightPng, png, png_out, height_meta);
+           return formats::write_image(dir / formats::map_files::kHeightPng, png, png_out, height_meta);
          }});
   }
   tasks.push_back({"statistics", evaluate});
-  tasks.push_back({map_files::kNormalPng, [&] {
-                     const cv::Mat normal = encode_normal16(result.p, result.q);
-                     ImageMetadata m = metadata(ImageMetadata::ColourSpace::data);
-                     m.text.emplace_back(metadata_keys::kNormalConvention, "OpenGL (+Y up)");
-                     if (auto ok = write_image(dir / map_files::kNormalPng, normal, png_out, m);
+  tasks.push_back({formats::map_files::kNormalPng, [&] {
+                     const cv::Mat normal = formats::encode_normal16(result.p, result.q);
+                     formats::ImageMetadata m = metadata(formats::ImageMetadata::ColourSpace::data);
+                     m.text.emplace_back(formats::metadata_keys::kNormalConvention, "OpenGL (+Y up)");
+                     if (auto ok = formats::write_image(dir / formats::map_files::kNormalPng, normal, png_out, m);
                          !ok || !options.directx_normal)
                        return ok;
                      m.text.back().second = "DirectX (+Y down)";
-                     return write_image(dir / map_files::kNormalDirectxPng,
-                                        flip_normal_green(normal), png_out, m);
+                     return formats::write_image(dir / formats::map_files::kNormalDirectxPng,
+                                        formats::flip_normal_green(normal), png_out, m);
                    }});
-  tasks.push_back({map_files::kAlbedoPng, [&] {
-                     return write_image(dir / map_files::kAlbedoPng, encode_albedo_srgb8(albedo),
-                                        png_out, metadata(ImageMetadata::ColourSpace::colour));
+  tasks.push_back({formats::map_files::kAlbedoPng, [&] {
+                     return formats::write_image(dir / formats::map_files::kAlbedoPng, formats::encode_albedo_srgb8(albedo),
+                                        png_out, metadata(formats::ImageMetadata::ColourSpace::colour));
                    }});
-  tasks.push_back({map_files::kAlbedoExr, [&] {
-                     return write_image(dir / map_files::kAlbedoExr, albedo, half_exr,
-                                        metadata(ImageMetadata::ColourSpace::unspecified));
+  tasks.push_back({formats::map_files::kAlbedoExr, [&] {
+                     return formats::write_image(dir / formats::map_files::kAlbedoExr, albedo, half_exr,
+                                        metadata(formats::ImageMetadata::ColourSpace::unspecified));
                    }});
-  ImageMetadata gradient_meta = metadata(ImageMetadata::ColourSpace::unspecified);
-  gradient_meta.text.emplace_back(metadata_keys::kUnits, "dz/dx, dz/dy (y up), unitless");
-  tasks.push_back({map_files::kP, [&] {
-                     return write_image(dir / map_files::kP, result.p, map_exr, gradient_meta);
+  formats::ImageMetadata gradient_meta = metadata(formats::ImageMetadata::ColourSpace::unspecified);
+  gradient_meta.text.emplace_back(formats::metadata_keys::kUnits, "dz/dx, dz/dy (y up), unitless");
+  tasks.push_back({formats::map_files::kP, [&] {
+                     return formats::write_image(dir / formats::map_files::kP, result.p, map_exr, gradient_meta);
                    }});
-  tasks.push_back({map_files::kQ, [&] {
-                     return write_image(dir / map_files::kQ, result.q, map_exr, gradient_meta);
+  tasks.push_back({formats::map_files::kQ, [&] {
+                     return formats::write_image(dir / formats::map_files::kQ, result.q, map_exr, gradient_meta);
                    }});
-  tasks.push_back({map_files::kMask, [&] {
-                     return write_image(dir / map_files::kMask, valid, png_out,
-                                        metadata(ImageMetadata::ColourSpace::data));
+  tasks.push_back({formats::map_files::kMask, [&] {
+                     return formats::write_image(dir / formats::map_files::kMask, valid, png_out,
+                                        metadata(formats::ImageMetadata::ColourSpace::data));
                    }});
 
   stage_start = Clock::now();
@@ -333,7 +337,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   const auto measure_start = Clock::now();  // what is left of it after the writes
   const auto fabric = fabric_future.valid()
                           ? fabric_future.get()
-                          : measure_fabric(result.p, result.albedo, measure);  // no height
+                          : analysis::measure_fabric(result.p, result.albedo, measure);  // no height
   stages.emplace_back("measure", ms_since(measure_start));
   stages.emplace_back("total", ms_since(start));
 
@@ -351,7 +355,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
                                      ? nlohmann::json((*colour)->calibration)
                                      : nlohmann::json(nullptr);
   if (fabric) report["fabric"] = to_json(*fabric);
-  const fs::path report_path = dir / map_files::kReport;
+  const fs::path report_path = dir / formats::map_files::kReport;
   std::ofstream out(report_path);
   out << report.dump(2) << '\n';
   out.close();
@@ -385,7 +389,16 @@ std::string_view to_string(Flatten flatten) {
 
 Result<ProcessSummary> process_scan(const fs::path& scan_directory, const ProcessOptions& options) {
   try {
-    return process_unguarded(scan_directory, options);
+    return process_unguarded(scan_directory, std::nullopt, options);
+  } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
+    return std::unexpected(internal_error(std::string("processing failed: ") + e.what()));
+  }
+}
+
+Result<ProcessSummary> process_scan(formats::Scan scan, const fs::path& scan_directory,
+                                    const ProcessOptions& options) {
+  try {
+    return process_unguarded(scan_directory, std::move(scan), options);
   } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
     return std::unexpected(internal_error(std::string("processing failed: ") + e.what()));
   }

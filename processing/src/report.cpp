@@ -1,7 +1,7 @@
 #include "psrig/processing/report.h"
 
-#include "psrig/processing/light_matrix.h"
-#include "psrig/processing/parallel.h"
+#include "psrig/formats/light_matrix.h"
+#include "psrig/base/parallel.h"
 
 namespace psrig::processing {
 namespace {
@@ -29,7 +29,7 @@ json pixel_counts(const PixelCounts& n) {
 }  // namespace
 
 json make_report(const ReportInputs& in) {
-  const Scan& scan = *in.scan;
+  const formats::Scan& scan = *in.scan;
   const auto& d = scan.description;
   json report;
   report["format"] = kReportFormat;
@@ -38,8 +38,8 @@ json make_report(const ReportInputs& in) {
                  {"sample", {{"id", d.sample_id}, {"description", d.sample_description}}},
                  {"size", {in.size.width, in.size.height}},
                  {"channels", in.channels},
-                 {"bit_depth", depth_name(in.depth)},
-                 {"encoding", d.encoding == Encoding::srgb ? "srgb" : "linear"},
+                 {"bit_depth", formats::depth_name(in.depth)},
+                 {"encoding", d.encoding == formats::Encoding::srgb ? "srgb" : "linear"},
                  {"black_level", d.black_level},
                  {"white_level", scan.white_level},
                  {"lights", d.lights.size()},
@@ -73,7 +73,7 @@ json make_report(const ReportInputs& in) {
     times[stage] = ms;
   report["timings_ms"] = times;
 
-  const LightMatrix matrix = make_light_matrix(d);
+  const formats::LightMatrix matrix = formats::make_light_matrix(d);
   json rows = json::array();
   for (const auto& l : matrix.directions)
     rows.push_back({l[0], l[1], l[2]});

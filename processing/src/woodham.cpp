@@ -8,10 +8,10 @@
 #include <optional>
 #include <vector>
 
-#include "psrig/processing/parallel.h"
-#include "psrig/processing/scan_layout.h"
+#include "psrig/base/parallel.h"
+#include "psrig/formats/scan_layout.h"
 #include "stream_store.h"
-#include "vector_clones.h"
+#include "psrig/base/vector_clones.h"
 
 namespace psrig::processing {
 namespace {
@@ -729,9 +729,9 @@ double lts_consistency(double alpha) {
   return std::sqrt(alpha / (alpha - 2 * q * phi));
 }
 
-Coefficients make_coefficients(const Scan& scan) {
+Coefficients make_coefficients(const formats::Scan& scan) {
   Coefficients co;
-  for (const auto& d : make_light_matrix(scan.description).directions) {
+  for (const auto& d : formats::make_light_matrix(scan.description).directions) {
     const std::array<float, 3> l{static_cast<float>(d[0]), static_cast<float>(d[1]),
                                  static_cast<float>(d[2])};
     co.direction.push_back(l);
@@ -764,7 +764,7 @@ const char* reject_method(const SolveOptions& options, int lights) {
   return options.reject_outliers && lights >= 4 ? "lts-reweighted" : "none";
 }
 
-Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& result) {
+Status solve_into(const formats::Scan& scan, const SolveOptions& options, SolveResult& result) {
   auto lineariser = ScanLineariser::create(scan);
   if (!lineariser) return std::unexpected(lineariser.error());
   const int lights = static_cast<int>(scan.frames.size());
@@ -776,7 +776,7 @@ Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& re
   std::optional<NearField> near;
   if (scan.description.near_field()) {
     if (!scan.description.pixel_size_mm)
-      return std::unexpected(bad_input(scan.description.directory / scan_files::kDescription,
+      return std::unexpected(bad_input(scan.description.directory / formats::scan_files::kDescription,
                                        "lights[0].position_mm",
                                        "needs pixel_size_mm to place the pixels on the swatch"));
     near.emplace();
@@ -848,7 +848,7 @@ Status solve_into(const Scan& scan, const SolveOptions& options, SolveResult& re
   return {};
 }
 
-Result<SolveResult> solve(const Scan& scan, const SolveOptions& options) {
+Result<SolveResult> solve(const formats::Scan& scan, const SolveOptions& options) {
   SolveResult result;
   if (auto ok = solve_into(scan, options, result); !ok) return std::unexpected(ok.error());
   return result;
@@ -870,6 +870,19 @@ cv::Mat normals_from_gradients(const cv::Mat& p, const cv::Mat& q) {
     }
   });
   return normals;
+}
+
+cv::Mat encode_valid_mask(const cv::Mat& flags) {
+  cv::Mat out(flags.size(), CV_8U);
+  parallel_chunks(flags.rows, kRowsPerChunk, [&](int begin, int end) {
+    for (int r = begin; r < end; ++r) {
+      const std::uint8_t* f = flags.ptr<std::uint8_t>(r);
+      std::uint8_t* o = out.ptr<std::uint8_t>(r);
+      for (int i = 0; i < flags.cols; ++i)
+        o[i] = is_valid(f[i]) ? 255 : 0;
+    }
+  });
+  return out;
 }
 
 }  // namespace psrig::processing

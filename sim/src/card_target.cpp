@@ -2,8 +2,9 @@
 
 #include <cmath>
 
-#include <opencv2/aruco/charuco.hpp>
 #include <opencv2/imgproc.hpp>
+
+#include "psrig/calibration/scale.h"
 
 namespace psrig::sim {
 
@@ -19,15 +20,13 @@ Swatch white_card(cv::Size size, double pixel_size_mm, float albedo) {
 Swatch charuco_board(cv::Size size, double pixel_size_mm) {
   constexpr int kSamples = 4;
   const double sample_mm = pixel_size_mm / kSamples;
-  const auto board = cv::aruco::CharucoBoard::create(
-      kBoardSquaresX, kBoardSquaresY, static_cast<float>(kBoardSquareMm),
-      static_cast<float>(kBoardMarkerMm),
-      cv::aruco::getPredefinedDictionary(cv::aruco::DICT_4X4_50));
-  const cv::Size printed(
-      static_cast<int>(std::lround(kBoardSquaresX * kBoardSquareMm / sample_mm)),
-      static_cast<int>(std::lround(kBoardSquaresY * kBoardSquareMm / sample_mm)));
-  cv::Mat ink;
-  board->draw(printed, ink, 0, 1);
+  calibration::CharucoSpec spec;
+  spec.squares_x = kBoardSquaresX;
+  spec.squares_y = kBoardSquaresY;
+  spec.square_mm = kBoardSquareMm;
+  spec.marker_mm = kBoardMarkerMm;
+  const cv::Mat ink = calibration::draw_charuco(spec, 1.0 / sample_mm);
+  const cv::Size printed = ink.size();
   // White paper with the board centred on it, then into the sensor's pixels.
   const cv::Size fine(size.width * kSamples, size.height * kSamples);
   cv::Mat paper(fine, CV_8U, cv::Scalar(255));

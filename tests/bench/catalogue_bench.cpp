@@ -10,7 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "psrig/config/config_loader.h"
-#include "psrig/daemon/catalogue.h"
+#include "psrig/catalogue/catalogue.h"
 #include "psrig/daemon/http_api.h"
 #include "psrig/daemon/scan_service.h"
 #include "bench_config.h"
@@ -23,7 +23,7 @@ namespace fs = std::filesystem;
 
 // N done rows, each with a three-kilobyte report, as a day's scans leave them.
 void fill(const fs::path& storage_root, int scans) {
-  auto catalogue = daemon::Catalogue::open(storage_root);
+  auto catalogue = catalogue::Catalogue::open(storage_root);
   if (!catalogue) throw std::runtime_error(catalogue.error().describe());
   nlohmann::json report = {
       {"pixels", {{"total", 12'000'000}, {"valid", 11'800'000}}},

@@ -10,7 +10,7 @@
 #include <benchmark/benchmark.h>
 
 #include "knitted_maps.h"
-#include "psrig/cloth/chart_inference.h"
+#include "psrig/analysis/chart_inference.h"
 #include "test_support.h"
 
 namespace {
@@ -19,7 +19,7 @@ using namespace psrig;
 
 struct Input {
   test::KnittedMaps maps;
-  processing::FabricMeasurement fabric;
+  analysis::FabricMeasurement fabric;
 };
 
 Input input(int which) {
@@ -28,17 +28,17 @@ Input input(int which) {
   Input in;
   in.maps = which == 2 ? test::knit_maps(*chart, {560, 400}, 0.04)
                        : test::knit_maps(*chart, {400, 320}, 0.03);
-  processing::MeasureOptions options;
+  analysis::MeasureOptions options;
   options.pixel_size_mm = in.maps.pixel_size_mm;
-  options.hints.construction = processing::Construction::knit;
-  in.fabric = *processing::measure_fabric(in.maps.height, in.maps.albedo, options);
+  options.hints.construction = analysis::Construction::knit;
+  in.fabric = *analysis::measure_fabric(in.maps.height, in.maps.albedo, options);
   return in;
 }
 
 void BM_ChartInference(benchmark::State& state) {
   const Input in = input(static_cast<int>(state.range(0)));
   for (auto _ : state) {
-    auto knit = cloth::infer_knit_chart(in.maps.height, in.maps.albedo, in.fabric);
+    auto knit = analysis::infer_knit_chart(in.maps.height, in.maps.albedo, in.fabric);
     if (!knit) {
       state.SkipWithError(knit.error().describe().c_str());
       return;
@@ -50,11 +50,11 @@ BENCHMARK(BM_ChartInference)->DenseRange(0, 2)->Unit(benchmark::kMillisecond)->U
 
 void BM_ChartInferenceMeasure(benchmark::State& state) {
   const Input in = input(static_cast<int>(state.range(0)));
-  processing::MeasureOptions options;
+  analysis::MeasureOptions options;
   options.pixel_size_mm = in.maps.pixel_size_mm;
-  options.hints.construction = processing::Construction::knit;
+  options.hints.construction = analysis::Construction::knit;
   for (auto _ : state) {
-    auto m = processing::measure_fabric(in.maps.height, in.maps.albedo, options);
+    auto m = analysis::measure_fabric(in.maps.height, in.maps.albedo, options);
     benchmark::DoNotOptimize(m);
   }
 }

@@ -8,8 +8,8 @@
 #include <benchmark/benchmark.h>
 #include <opencv2/core.hpp>
 
-#include "psrig/processing/fabric_measure.h"
-#include "psrig/processing/seamless_tile.h"
+#include "psrig/analysis/fabric_measure.h"
+#include "psrig/analysis/seamless_tile.h"
 #include "psrig/sim/swatch_model.h"
 #include "shipped_swatch.h"
 
@@ -20,11 +20,11 @@ constexpr int kHeight = 3040;
 
 // A jersey rendered at a quarter of the area, repeated to 12 MP: the
 // figures' cost depends on the size, not on the seams this leaves.
-psrig::processing::Maps jersey_maps() {
+psrig::formats::Maps jersey_maps() {
   psrig::sim::SwatchParams params = psrig::test::swatch_params("jersey", {kWidth / 2, kHeight / 2});
   params.rotation_deg = 3;
   const psrig::sim::Swatch swatch = psrig::test::made(psrig::sim::make_swatch(params));
-  psrig::processing::Maps maps;
+  psrig::formats::Maps maps;
   cv::repeat(swatch.height_mm, 2, 2, maps.height);
   cv::repeat(swatch.albedo, 2, 2, maps.albedo);
   cv::Mat n[3];
@@ -39,10 +39,10 @@ psrig::processing::Maps jersey_maps() {
 
 void BM_MeasureFabric(benchmark::State& state) {
   const auto maps = jersey_maps();
-  psrig::processing::MeasureOptions options;
+  psrig::analysis::MeasureOptions options;
   options.pixel_size_mm = 0.025;
   for (auto _ : state) {
-    auto m = psrig::processing::measure_fabric(maps.height, maps.albedo, options);
+    auto m = psrig::analysis::measure_fabric(maps.height, maps.albedo, options);
     benchmark::DoNotOptimize(m);
   }
 }
@@ -50,8 +50,8 @@ void BM_MeasureFabric(benchmark::State& state) {
 void BM_SeamlessTile(benchmark::State& state) {
   const auto maps = jersey_maps();
   for (auto _ : state) {
-    const auto lattice = psrig::processing::find_repeat_lattice(maps.height, maps.albedo);
-    auto tile = psrig::processing::make_seamless_tile(maps, lattice);
+    const auto lattice = psrig::analysis::find_repeat_lattice(maps.height, maps.albedo);
+    auto tile = psrig::analysis::make_seamless_tile(maps, lattice);
     benchmark::DoNotOptimize(tile);
   }
 }

@@ -22,7 +22,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/processing/integration.h"
-#include "psrig/processing/parallel.h"
+#include "psrig/base/parallel.h"
 
 namespace {
 
@@ -35,7 +35,7 @@ constexpr std::int64_t kPixels = static_cast<std::int64_t>(kWidth) * kHeight;
 void make_gradients(cv::Mat& p, cv::Mat& q) {
   p.create(kHeight, kWidth, CV_32F);
   q.create(kHeight, kWidth, CV_32F);
-  psrig::processing::parallel_chunks(kHeight, 16, [&](int begin, int end) {
+  psrig::parallel_chunks(kHeight, 16, [&](int begin, int end) {
     for (int row = begin; row < end; ++row) {
       auto* p_row = p.ptr<float>(row);
       auto* q_row = q.ptr<float>(row);
@@ -112,7 +112,7 @@ void BM_FftPair(benchmark::State& state) {
   psrig::processing::prepare_fftw_threads();  // the same thread setup as the integrators
   const std::size_t pixels = static_cast<std::size_t>(kPixels);
   float* buffer = fftwf_alloc_real(pixels);
-  fftwf_plan_with_nthreads(psrig::processing::thread_count());
+  fftwf_plan_with_nthreads(psrig::thread_count());
   fftwf_plan forward =
       fftwf_plan_r2r_2d(kHeight, kWidth, buffer, buffer, FFTW_REDFT10, FFTW_REDFT10, FFTW_ESTIMATE);
   fftwf_plan inverse =

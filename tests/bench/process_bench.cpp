@@ -11,8 +11,8 @@
 
 #include <benchmark/benchmark.h>
 
-#include "psrig/capture/scan_writer.h"
-#include "psrig/capture/synthetic_scan.h"
+#include "psrig/formats/scan_writer.h"
+#include "psrig/sim/synthetic_scan.h"
 #include "psrig/processing/pipeline.h"
 #include "shipped_swatch.h"
 #include "test_support.h"
@@ -29,16 +29,16 @@ const psrig::test::TempDir& workspace() {
 // Written once per benchmark run; about ten seconds.
 const fs::path& scan_12mp() {
   static const fs::path scan = [] {
-    psrig::capture::SyntheticScanParams params;
+    psrig::sim::SyntheticScanParams params;
     params.swatch.pattern = psrig::test::named_pattern("jersey");
     params.swatch.size = {4056, 3040};
     params.noise = 0.002;
-    psrig::processing::Scan synthetic =
-        psrig::test::made(psrig::capture::make_synthetic_scan(params));
+    psrig::formats::Scan synthetic =
+        psrig::test::made(psrig::sim::make_synthetic_scan(params));
     synthetic.ground_truth_normal = cv::Mat();  // a rig scan has none
     synthetic.ground_truth_height = cv::Mat();
     const fs::path dir = workspace() / "scan";
-    if (auto ok = psrig::capture::write_scan(synthetic, dir); !ok)
+    if (auto ok = psrig::formats::write_scan(synthetic, dir); !ok)
       std::fprintf(stderr, "%s\n", ok.error().describe().c_str());
     return dir;
   }();
@@ -56,7 +56,7 @@ std::size_t maps_bytes = 0;  // measured by BM_Process, used by BM_FileCopy
 
 // Processes the 12 MP scan with `storage`'s compression; counts the bytes
 // of the maps (output_MB), of the frames (input_MB) and of both (stored_MB).
-void process_12mp(benchmark::State& state, const psrig::processing::StorageOptions& storage) {
+void process_12mp(benchmark::State& state, const psrig::formats::StorageOptions& storage) {
   const fs::path& scan = scan_12mp();
   psrig::processing::ProcessOptions options;
   options.storage = storage;
@@ -81,10 +81,10 @@ void BM_Process(benchmark::State& state) {
 
 // The other choices, for picking the defaults by bytes and time.
 void BM_ProcessExr(benchmark::State& state) {
-  psrig::processing::StorageOptions storage;
-  storage.exr_compression = static_cast<psrig::processing::ExrCompression>(state.range(0));
+  psrig::formats::StorageOptions storage;
+  storage.exr_compression = static_cast<psrig::formats::ExrCompression>(state.range(0));
   storage.png_level = static_cast<int>(state.range(1));
-  storage.map_precision = static_cast<psrig::processing::MapPrecision>(state.range(2));
+  storage.map_precision = static_cast<psrig::formats::MapPrecision>(state.range(2));
   state.SetLabel(std::string("exr ") + to_string(storage.exr_compression) + ", png level " +
                  std::to_string(storage.png_level) + ", maps " + to_string(storage.map_precision));
   process_12mp(state, storage);
@@ -111,8 +111,8 @@ void BM_FileCopy(benchmark::State& state) {
   }
 }
 
-constexpr int kHalf = static_cast<int>(psrig::processing::MapPrecision::half);
-constexpr int kFloat = static_cast<int>(psrig::processing::MapPrecision::full);
+constexpr int kHalf = static_cast<int>(psrig::formats::MapPrecision::half);
+constexpr int kFloat = static_cast<int>(psrig::formats::MapPrecision::full);
 
 BENCHMARK(BM_Process)
     ->Name("BM_Process/12MP")
@@ -127,12 +127,12 @@ BENCHMARK(BM_FileCopy)
 
 BENCHMARK(BM_ProcessExr)
     ->Name("BM_ProcessStorage/12MP")
-    ->Args({static_cast<int>(psrig::processing::ExrCompression::none), 1, kHalf})
-    ->Args({static_cast<int>(psrig::processing::ExrCompression::zip), 1, kHalf})
-    ->Args({static_cast<int>(psrig::processing::ExrCompression::piz), 1, kHalf})
-    ->Args({static_cast<int>(psrig::processing::ExrCompression::automatic), 6, kHalf})
+    ->Args({static_cast<int>(psrig::formats::ExrCompression::none), 1, kHalf})
+    ->Args({static_cast<int>(psrig::formats::ExrCompression::zip), 1, kHalf})
+    ->Args({static_cast<int>(psrig::formats::ExrCompression::piz), 1, kHalf})
+    ->Args({static_cast<int>(psrig::formats::ExrCompression::automatic), 6, kHalf})
     // The maps before half precision: the same run's baseline.
-    ->Args({static_cast<int>(psrig::processing::ExrCompression::automatic), 1, kFloat})
+    ->Args({static_cast<int>(psrig::formats::ExrCompression::automatic), 1, kFloat})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime()
     ->Iterations(2);

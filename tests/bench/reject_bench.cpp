@@ -17,7 +17,7 @@
 
 namespace {
 
-using psrig::processing::Scan;
+using psrig::formats::Scan;
 
 const cv::Size k12MP(4056, 3040);
 

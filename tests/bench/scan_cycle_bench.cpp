@@ -12,8 +12,8 @@
 
 #include <benchmark/benchmark.h>
 
-#include "psrig/capture/rig.h"
-#include "psrig/capture/scan_sequencer.h"
+#include "psrig/rig/rig.h"
+#include "psrig/rig/scan_sequencer.h"
 #include "psrig/config/config_loader.h"
 
 namespace {
@@ -28,15 +28,15 @@ void BM_ScanCycle(benchmark::State& state, int exposure_us, int readout_us) {
   config->camera.exposure_us = exposure_us;
   config->sim.readout_us = readout_us;
   config->capture.process = false;
-  auto rig = psrig::capture::open_rig(*config);
+  auto rig = psrig::rig::open_rig(*config);
   if (!rig) {
     state.SkipWithError(rig.error().describe().c_str());
     return;
   }
-  psrig::capture::ScanSequencer sequencer(*config, *rig->lights, *rig->camera);
+  psrig::rig::ScanSequencer sequencer(*config, *rig->lights, *rig->camera);
   double overhead = 0, skipped = 0;
   for (auto _ : state) {
-    psrig::capture::CaptureTiming timing;
+    psrig::rig::CaptureTiming timing;
     auto scan = sequencer.acquire({}, timing);
     if (!scan) {
       state.SkipWithError(scan.error().describe().c_str());

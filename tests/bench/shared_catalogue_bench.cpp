@@ -24,7 +24,7 @@
 #include "postgres_server.h"
 #include "psrig/base/log.h"
 #include "psrig/config/config_loader.h"
-#include "psrig/daemon/catalogue.h"
+#include "psrig/catalogue/catalogue.h"
 #include "psrig/daemon/scan_service.h"
 
 namespace psrig::test {
@@ -61,16 +61,16 @@ class WriteTimes {
 };
 
 // A catalogue that times each row write it passes on.
-class TimedCatalogue final : public daemon::Catalogue {
+class TimedCatalogue final : public catalogue::Catalogue {
  public:
-  TimedCatalogue(std::unique_ptr<daemon::Catalogue> inner, WriteTimes& times)
+  TimedCatalogue(std::unique_ptr<catalogue::Catalogue> inner, WriteTimes& times)
       : inner_(std::move(inner)), times_(times) {}
 
   const char* backend() const override { return inner_->backend(); }
   const fs::path& storage_root() const override { return inner_->storage_root(); }
   const fs::path& rig_root() const override { return inner_->rig_root(); }
   const std::string& rig_name() const override { return inner_->rig_name(); }
-  Result<std::int64_t> add(const daemon::ScanSubmission& submission) override {
+  Result<std::int64_t> add(const catalogue::ScanSubmission& submission) override {
     return timed([&] { return inner_->add(submission); });
   }
   Status mark_running(std::int64_t id, const fs::path& scan_directory) override {
@@ -79,7 +79,7 @@ class TimedCatalogue final : public daemon::Catalogue {
   Status mark_done(std::int64_t id, const fs::path& maps, const nlohmann::json& report) override {
     return timed([&] { return inner_->mark_done(id, maps, report); });
   }
-  Status mark_failed(std::int64_t id, daemon::ScanStatus status, daemon::ScanErrorCode code,
+  Status mark_failed(std::int64_t id, catalogue::ScanStatus status, catalogue::ScanErrorCode code,
                      const std::string& message, bool keep) override {
     return timed([&] { return inner_->mark_failed(id, status, code, message, keep); });
   }
@@ -88,20 +88,20 @@ class TimedCatalogue final : public daemon::Catalogue {
   void inject_write_failure(std::optional<Error> error, int writes_first) override {
     inner_->inject_write_failure(std::move(error), writes_first);
   }
-  Result<std::optional<daemon::CatalogueEntry>> get(std::int64_t id) const override {
+  Result<std::optional<catalogue::CatalogueEntry>> get(std::int64_t id) const override {
     return inner_->get(id);
   }
-  Result<std::vector<daemon::CatalogueEntry>> search(
-      const daemon::CatalogueQuery& query) const override {
+  Result<std::vector<catalogue::CatalogueEntry>> search(
+      const catalogue::CatalogueQuery& query) const override {
     return inner_->search(query);
   }
-  Result<std::int64_t> count(const daemon::CatalogueQuery& query) const override {
+  Result<std::int64_t> count(const catalogue::CatalogueQuery& query) const override {
     return inner_->count(query);
   }
   Result<bool> remove(std::int64_t id) override { return inner_->remove(id); }
-  Result<daemon::CatalogueRecovery> recover() override { return inner_->recover(); }
-  Status announce(const daemon::RigRecord& rig) override { return inner_->announce(rig); }
-  Result<std::vector<daemon::RigRecord>> rigs() const override { return inner_->rigs(); }
+  Result<catalogue::CatalogueRecovery> recover() override { return inner_->recover(); }
+  Status announce(const catalogue::RigRecord& rig) override { return inner_->announce(rig); }
+  Result<std::vector<catalogue::RigRecord>> rigs() const override { return inner_->rigs(); }
 
  private:
   template <class Write>
@@ -111,7 +111,7 @@ class TimedCatalogue final : public daemon::Catalogue {
     times_.add(std::chrono::duration<double, std::milli>(Clock::now() - start).count());
     return result;
   }
-  std::unique_ptr<daemon::Catalogue> inner_;
+  std::unique_ptr<catalogue::Catalogue> inner_;
   WriteTimes& times_;
 };
 
@@ -143,7 +143,7 @@ void run_rigs(benchmark::State& state, int rigs, const std::string& url) {
                                 (url.empty() ? "" : "\n[catalogue]\nurl = \"" + url + "\"\n")}};
     auto config = config::load_config(bench_config(temp, edits, name + ".toml"));
     if (!config) return state.SkipWithError(config.error().describe().c_str());
-    auto catalogue = daemon::open_catalogue(daemon::catalogue_options(*config));
+    auto catalogue = catalogue::open_catalogue(catalogue::catalogue_options(*config));
     if (!catalogue) return state.SkipWithError(catalogue.error().describe().c_str());
     auto service = daemon::ScanService::start(
         *config, std::make_unique<TimedCatalogue>(std::move(*catalogue), times));
@@ -174,7 +174,7 @@ void run_rigs(benchmark::State& state, int rigs, const std::string& url) {
   const double seconds = std::chrono::duration<double>(Clock::now() - start).count();
   // Every accepted scan, once, done: read back from the catalogue itself.
   std::size_t done = 0, found = 0, rows_written = 0;
-  daemon::CatalogueQuery everything;
+  catalogue::CatalogueQuery everything;
   everything.limit = 1000;
   for (auto& service : services) {
     everything.rig = service->catalogue().rig_name();
@@ -184,7 +184,7 @@ void run_rigs(benchmark::State& state, int rigs, const std::string& url) {
       for (const auto& row : *rows) {
         ++rows_written;
         found += accepted.count(row.id);
-        done += row.status == daemon::ScanStatus::done && accepted.count(row.id) ? 1 : 0;
+        done += row.status == catalogue::ScanStatus::done && accepted.count(row.id) ? 1 : 0;
       }
       if (rows->size() < static_cast<std::size_t>(everything.limit)) break;
     }

@@ -11,13 +11,13 @@
 
 #include <benchmark/benchmark.h>
 
-#include "psrig/processing/parallel.h"
+#include "psrig/base/parallel.h"
 #include "psrig/processing/woodham.h"
 #include "synthetic_scene.h"
 
 namespace {
 
-using psrig::processing::Scan;
+using psrig::formats::Scan;
 
 const cv::Size k12MP(4056, 3040);
 
@@ -64,7 +64,7 @@ void BM_StreamCopy(benchmark::State& state) {
   const std::size_t in_row = scan.frames[0].cols * scan.frames[0].elemSize();
   std::vector<unsigned char> output(out_row * size.height);
   for (auto _ : state) {
-    psrig::processing::parallel_chunks(size.height, 8, [&](int begin, int end) {
+    psrig::parallel_chunks(size.height, 8, [&](int begin, int end) {
       for (int r = begin; r < end; ++r) {
         unsigned char* out = output.data() + out_row * r;
         std::size_t written = 0;
@@ -97,7 +97,7 @@ void BM_StreamCopyNonTemporal(benchmark::State& state) {
   const std::size_t bytes = out_row * size.height;
   auto* output = static_cast<unsigned char*>(std::aligned_alloc(64, (bytes + 63) / 64 * 64));
   for (auto _ : state) {
-    psrig::processing::parallel_chunks(size.height, 8, [&](int begin, int end) {
+    psrig::parallel_chunks(size.height, 8, [&](int begin, int end) {
       for (int r = begin; r < end; ++r) {
         auto* out = reinterpret_cast<__m128i*>(output + out_row * r);
         std::size_t written = 0;

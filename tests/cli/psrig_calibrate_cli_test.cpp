@@ -17,7 +17,7 @@
 #include "psrig/calibration/image_set.h"
 #include "psrig/calibration/light_calibration.h"
 #include "psrig/calibration/sphere.h"
-#include "psrig/processing/light_matrix.h"
+#include "psrig/formats/light_matrix.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -62,7 +62,7 @@ void expect_sim_answer(const json& calibration, const std::vector<double>& inten
   const auto& lights = calibration["lights"]["per_light"];
   ASSERT_EQ(lights.size(), 3u);
   for (int k = 0; k < 3; ++k) {
-    const cv::Vec3d truth = processing::light_direction(120.0 * k, 45);
+    const cv::Vec3d truth = formats::light_direction(120.0 * k, 45);
     const double error = calibration::angle_deg(direction_of(lights[k]), truth);
     std::printf("sim %s light %d: error %.3f deg, intensity %.4f\n", what, k, error,
                 lights[k]["intensity"].get<double>());
@@ -137,7 +137,7 @@ TEST(PsrigCalibrate, AScanWithoutACalibrationSaysSoInScanJson) {
   auto check = run_program("psrig", {"config", "check", config.string()});
   EXPECT_TRUE(contains(check.out, "light calibration: none")) << check.out;
   EXPECT_LT(calibration::angle_deg(direction_of(description["lights"][1]),
-                                   processing::light_direction(120, 45)),
+                                   formats::light_direction(120, 45)),
             1e-3);
 }
 
@@ -253,7 +253,7 @@ TEST(PsrigCalibrateFlat, TheFlatCorrectsTheMatteSphereUnderVignetting) {
     double worst = 0;
     for (int k = 0; k < 3; ++k)
       worst = std::max(worst, calibration::angle_deg(direction_of(c["lights"]["per_light"][k]),
-                                                     processing::light_direction(120.0 * k, 45)));
+                                                     formats::light_direction(120.0 * k, 45)));
     return worst;
   };
   const std::vector<std::string> matte = {"calibrate",     "lights",   "--config",
@@ -500,9 +500,9 @@ TEST(PsrigImport, ADirectionsFileAndAnRgbMaskMakeAProcessableScan) {
   TempDir temp;
   const fs::path folder = temp / "images";
   fs::create_directories(folder);
-  const std::vector<cv::Vec3d> lights = {processing::light_direction(0, 40),
-                                         processing::light_direction(120, 40),
-                                         processing::light_direction(240, 40)};
+  const std::vector<cv::Vec3d> lights = {formats::light_direction(0, 40),
+                                         formats::light_direction(120, 40),
+                                         formats::light_direction(240, 40)};
   std::ofstream directions(temp / "lights.txt");
   directions << "3\n";
   for (int k = 0; k < 3; ++k) {

@@ -15,7 +15,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "psrig/cloth/chart_inference.h"
+#include "psrig/analysis/chart_inference.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -50,7 +50,7 @@ double stitches_right(const nlohmann::json& read, const cloth::StitchChart& char
     columns = static_cast<int>(text.size());
     for (char c : text) grid.push_back(c == 'K' ? cloth::Stitch::knit : cloth::Stitch::purl);
   }
-  return cloth::agreement_with_chart(grid, columns, static_cast<int>(read.size()), chart);
+  return analysis::agreement_with_chart(grid, columns, static_cast<int>(read.size()), chart);
 }
 
 class ChartRoundTrip : public ::testing::TestWithParam<Trip> {};
@@ -93,7 +93,7 @@ TEST_P(ChartRoundTrip, MeasuresTheGaugeAndReadsTheChartBack) {
   auto inferred = cloth::load_stitch_chart(chart_file);
   ASSERT_TRUE(inferred) << inferred.error().describe();
   if (trip.whole_chart) {
-    EXPECT_TRUE(cloth::same_chart_up_to_shift(*inferred, *truth))
+    EXPECT_TRUE(analysis::same_chart_up_to_shift(*inferred, *truth))
         << "read off:\n" << cloth::format_stitch_chart(*inferred)
         << "knitted:\n" << cloth::format_stitch_chart(*truth);
   }

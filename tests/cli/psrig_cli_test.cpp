@@ -18,8 +18,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "psrig/processing/image_io.h"
-#include "psrig/processing/map_encoding.h"
+#include "psrig/formats/image_io.h"
+#include "psrig/formats/map_encoding.h"
 #include "sim_modbus_driver.h"
 #include "synthetic_scene.h"
 #include "test_support.h"
@@ -67,7 +67,7 @@ TEST(PsrigCli, RejectWithTwelveLightsNamesTheMethodInTheReport) {
   const fs::path scan = temp / "scan";
   fs::create_directories(scan);
   const auto lights = dome_lights(12, 50);
-  const processing::Scan rendered = render_scan(sphere_surface({48, 40}, 15, 1), lights, CV_16U,
+  const formats::Scan rendered = render_scan(sphere_surface({48, 40}, 15, 1), lights, CV_16U,
                                                 0.002, 1, {}, {.strength = 0.5, .exponent = 40});
   nlohmann::json doc = {{"format", "psrig-scan/1"}, {"lights", nlohmann::json::array()}};
   for (std::size_t k = 0; k < lights.size(); ++k) {
@@ -166,6 +166,56 @@ TEST(PsrigCli, VersionPrintsTheProjectVersion) {
   EXPECT_EQ(run.out, "psrig " PSRIG_VERSION "\n");
 }
 
+// -v, -q and --version where a user types them: before the subcommand or
+// after it, in all three programs.
+TEST(PsrigCli, CommonFlagsGoBeforeOrAfterTheSubcommand) {
+  TempDir temp;
+  const auto scan = (temp / "scan").string();
+  auto synth = run_program("psrig", {"synth", "--out", scan, "--size", "96x72", "-q"});
+  ASSERT_EQ(synth.exit_code, 0) << synth.err;
+  int n = 0;
+  const auto process = [&](std::vector<std::string> args) {
+    for (auto& arg : args)
+      if (arg == "SCAN") arg = scan;
+    args.insert(args.end(), {"--out", (temp / ("maps" + std::to_string(n++))).string()});
+    return run_program("psrig", args);
+  };
+  for (const auto& args : {std::vector<std::string>{"-v", "process", "SCAN"},
+                           std::vector<std::string>{"process", "-v", "SCAN"},
+                           std::vector<std::string>{"process", "SCAN", "--verbose"}}) {
+    const auto run = process(args);
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_TRUE(contains(run.err, "integration (")) << args[0] << ' ' << args[1] << ": " << run.err;
+    EXPECT_FALSE(run.out.empty());
+  }
+  for (const auto& args : {std::vector<std::string>{"-q", "process", "SCAN"},
+                           std::vector<std::string>{"process", "-q", "SCAN"},
+                           std::vector<std::string>{"--quiet", "process", "SCAN"}}) {
+    const auto run = process(args);
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_EQ(run.out, "") << args[0] << ' ' << args[1];
+  }
+  // A subcommand without a -q of its own takes the program's.
+  const auto config = run_program(
+      "psrig", {"-q", "config", "check", PSRIG_SOURCE_DIR "/config/sim.toml"});
+  EXPECT_EQ(config.exit_code, 0) << config.err;
+  const auto config_after = run_program(
+      "psrig", {"config", "check", PSRIG_SOURCE_DIR "/config/sim.toml", "-q"});
+  EXPECT_EQ(config_after.exit_code, 0) << config_after.err;
+  for (const auto& args : {std::vector<std::string>{"process", "--version"},
+                           std::vector<std::string>{"config", "check", "--version"}}) {
+    const auto run = run_program("psrig", args);
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_EQ(run.out, "psrig " PSRIG_VERSION "\n");
+  }
+  const auto daemon = run_program("psrigd", {"--version"});
+  EXPECT_EQ(daemon.exit_code, 0) << daemon.err;
+  EXPECT_EQ(daemon.out, "psrigd " PSRIG_VERSION "\n");
+  // An option nobody knows is still a usage error, wherever it is.
+  const auto unknown = run_program("psrig", {"process", "--no-such-flag", scan});
+  EXPECT_EQ(unknown.exit_code, 2);
+}
+
 // One way a scan can be wrong, what the message must name, and the change
 // that makes it so.
 struct BadScan {
@@ -232,7 +282,7 @@ TEST(PsrigCli, SummaryCountsThePixelsOutsideTheMask) {
             0);
   cv::Mat mask(24, 32, CV_8U, cv::Scalar(255));
   mask.colRange(0, 8).setTo(0);  // a quarter of the swatch left out
-  ASSERT_TRUE(processing::write_image(scan / "mask.png", mask));
+  ASSERT_TRUE(formats::write_image(scan / "mask.png", mask));
   edit_json(scan, [](auto& d) { d["mask"] = "mask.png"; });
   auto run = run_program("psrig", {"process", scan.string()});
   ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -275,9 +325,9 @@ TEST(PsrigCli, IntegrateANormalMapMadeElsewhere) {
   TempDir temp;
   const Cap cap = sphere_cap(120, 90, 80, 40);
   // A 16-bit OpenGL normal map whose background is black (no normal there).
-  cv::Mat normal = processing::encode_normal16(cap.p, cap.q);
+  cv::Mat normal = formats::encode_normal16(cap.p, cap.q);
   normal.setTo(cv::Scalar(0, 0, 0), cap.mask == 0);
-  ASSERT_TRUE(processing::write_image(temp / "normal.png", normal));
+  ASSERT_TRUE(formats::write_image(temp / "normal.png", normal));
   const fs::path out = temp / "height.exr";
   auto run =
       run_program("psrig", {"integrate", (temp / "normal.png").string(), "--out", out.string()});
@@ -285,7 +335,7 @@ TEST(PsrigCli, IntegrateANormalMapMadeElsewhere) {
   EXPECT_TRUE(contains(run.out, "method: masked")) << run.out;
   EXPECT_TRUE(contains(run.out, "pixels: " + std::to_string(cv::countNonZero(cap.mask))))
       << run.out;
-  auto height = processing::read_image(out, "height");
+  auto height = formats::read_image(out, "height");
   ASSERT_TRUE(height);
   ASSERT_EQ(height->type(), CV_32FC1);
   EXPECT_TRUE(std::isnan(height->at<float>(0, 0)));
@@ -298,15 +348,15 @@ TEST(PsrigCli, IntegrateANormalMapMadeElsewhere) {
                                        (temp / "flipped.exr").string(), "--green-down", "-q"});
   ASSERT_EQ(flipped.exit_code, 0) << flipped.err;
   EXPECT_TRUE(flipped.out.empty()) << flipped.out;
-  EXPECT_GT(masked_rms(*processing::read_image(temp / "flipped.exr", "h"), cap.z, cap.mask), 1.0);
+  EXPECT_GT(masked_rms(*formats::read_image(temp / "flipped.exr", "h"), cap.z, cap.mask), 1.0);
 }
 
 TEST(PsrigCli, IntegrateGradientMapsWithAMaskAndFlatten) {
   TempDir temp;
   const Cap cap = sphere_cap(100, 80, 70, 35);
-  ASSERT_TRUE(processing::write_image(temp / "p.exr", cap.p));
-  ASSERT_TRUE(processing::write_image(temp / "q.exr", cap.q));
-  ASSERT_TRUE(processing::write_image(temp / "mask.png", cap.mask));
+  ASSERT_TRUE(formats::write_image(temp / "p.exr", cap.p));
+  ASSERT_TRUE(formats::write_image(temp / "q.exr", cap.q));
+  ASSERT_TRUE(formats::write_image(temp / "mask.png", cap.mask));
   const std::string p = (temp / "p.exr").string();
   const std::string q = (temp / "q.exr").string();
   const std::string mask = (temp / "mask.png").string();
@@ -316,13 +366,13 @@ TEST(PsrigCli, IntegrateGradientMapsWithAMaskAndFlatten) {
   // In mm, and flattened by default once a pixel size says this is a swatch:
   // the cap is a bend at this scale (a 7 mm ball under a 10 mm cut-off).
   EXPECT_TRUE(contains(run.out, "bend removed:")) << run.out;
-  auto flat = processing::read_image(temp / "z.exr", "z");
+  auto flat = formats::read_image(temp / "z.exr", "z");
   ASSERT_TRUE(flat);
   run = run_program("psrig", {"integrate", p, q, "--mask", mask, "--out", (temp / "z.exr").string(),
                               "--pixel-size", "0.1", "--flatten", "off", "--method", "masked"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_FALSE(contains(run.out, "bend removed:")) << run.out;
-  auto kept = processing::read_image(temp / "z.exr", "z");
+  auto kept = formats::read_image(temp / "z.exr", "z");
   ASSERT_TRUE(kept);
   const cv::Mat truth_mm = cap.z * 0.1;
   EXPECT_LT(masked_rms(*kept, truth_mm, cap.mask), 1e-3);
@@ -331,7 +381,7 @@ TEST(PsrigCli, IntegrateGradientMapsWithAMaskAndFlatten) {
   run = run_program("psrig", {"integrate", p, q, "--mask", mask, "--out",
                               (temp / "fc.exr").string(), "--method", "fc"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
-  auto fc = processing::read_image(temp / "fc.exr", "fc");
+  auto fc = formats::read_image(temp / "fc.exr", "fc");
   ASSERT_TRUE(fc);
   EXPECT_TRUE(std::isnan(fc->at<float>(0, 0)));
   const double masked_px = masked_rms(*kept, truth_mm, cap.mask) / 0.1;
@@ -341,10 +391,10 @@ TEST(PsrigCli, IntegrateGradientMapsWithAMaskAndFlatten) {
 TEST(PsrigCli, IntegrateBadInputExitsTwoNamingTheFileAndWritesNothing) {
   TempDir temp;
   const Cap cap = sphere_cap(40, 30, 50, 12);
-  ASSERT_TRUE(processing::write_image(temp / "p.exr", cap.p));
-  ASSERT_TRUE(processing::write_image(temp / "q.exr", cap.q));
-  ASSERT_TRUE(processing::write_image(temp / "mask.png", cap.mask));
-  ASSERT_TRUE(processing::write_image(temp / "small.png", cv::Mat(10, 10, CV_8U, cv::Scalar(1))));
+  ASSERT_TRUE(formats::write_image(temp / "p.exr", cap.p));
+  ASSERT_TRUE(formats::write_image(temp / "q.exr", cap.q));
+  ASSERT_TRUE(formats::write_image(temp / "mask.png", cap.mask));
+  ASSERT_TRUE(formats::write_image(temp / "small.png", cv::Mat(10, 10, CV_8U, cv::Scalar(1))));
   const std::string p = (temp / "p.exr").string();
   const std::string q = (temp / "q.exr").string();
   const std::string out = (temp / "h.exr").string();

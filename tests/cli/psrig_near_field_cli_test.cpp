@@ -14,8 +14,8 @@
 #include <nlohmann/json.hpp>
 
 #include "psrig/processing/evaluation.h"
-#include "psrig/processing/light_matrix.h"
-#include "psrig/processing/scan_reader.h"
+#include "psrig/formats/light_matrix.h"
+#include "psrig/formats/scan_reader.h"
 #include "psrig/processing/woodham.h"
 #include "test_support.h"
 
@@ -55,7 +55,7 @@ struct FieldError {
 // The solve's angular error against the card's truth: the central 10 %
 // square, the outer 5 % band, the whole field.
 FieldError field_error(const fs::path& scan_directory) {
-  auto scan = processing::read_scan(scan_directory);
+  auto scan = formats::read_scan(scan_directory);
   EXPECT_TRUE(scan) << scan.error().describe();
   auto solved = processing::solve(*scan);
   EXPECT_TRUE(solved);
@@ -96,7 +96,7 @@ TEST(PsrigNearField, CalibratedLedPositionsCorrectTheWholeField) {
   ASSERT_EQ(section["places"].size(), 3u);
   EXPECT_EQ(section["sphere_diameter_mm"].get<double>(), 6.0);
   for (int k = 0; k < 3; ++k) {
-    const cv::Vec3d truth = 250.0 * processing::light_direction(120.0 * k, 45);
+    const cv::Vec3d truth = 250.0 * formats::light_direction(120.0 * k, 45);
     const auto& p = section["per_light"][k];
     const cv::Vec3d found(p["position_mm"][0].get<double>(), p["position_mm"][1].get<double>(),
                           p["position_mm"][2].get<double>());
@@ -135,7 +135,7 @@ TEST(PsrigNearField, CalibratedLedPositionsCorrectTheWholeField) {
   for (int k = 0; k < 3; ++k) {
     const auto& p = again["led_positions_mm"]["positions"][k];
     const cv::Vec3d found(p[0].get<double>(), p[1].get<double>(), p[2].get<double>());
-    EXPECT_LT(cv::norm(found - 250.0 * processing::light_direction(120.0 * k, 45)), 10.0) << k;
+    EXPECT_LT(cv::norm(found - 250.0 * formats::light_direction(120.0 * k, 45)), 10.0) << k;
   }
 
   // Corrected: the next scan carries the positions and is processed with them.

@@ -44,6 +44,18 @@ TEST(PsrigPreviewCli, VersionPrintsTheProjectVersion) {
   EXPECT_EQ(run.out, "psrig-preview " PSRIG_VERSION "\n");
 }
 
+TEST(PsrigPreviewCli, CommonFlagsGoAfterTheSubcommandToo) {
+  for (const auto& args : {std::vector<std::string>{"render", "--version"},
+                           std::vector<std::string>{"kiosk", "-v", "--version"}}) {
+    const auto run = run_program("psrig-preview", args);
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    EXPECT_EQ(run.out, "psrig-preview " PSRIG_VERSION "\n");
+  }
+  const auto quiet = run_program("psrig-preview", {"-q", "render", "/no/such/maps", "--out", "x.png"});
+  EXPECT_EQ(quiet.exit_code, 2) << quiet.err;  // -q taken; the missing maps are the error
+  EXPECT_TRUE(contains(quiet.err, "/no/such/maps")) << quiet.err;
+}
+
 TEST(PsrigPreviewCli, ABadNumberSaysTheRangeInAFewWords) {
   auto fps = run_program("psrig-preview", {"kiosk", "--headless", "--fps", "0"});
   EXPECT_EQ(fps.exit_code, 2);

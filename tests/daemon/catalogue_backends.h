@@ -14,7 +14,7 @@
 #include <gtest/gtest.h>
 
 #include "postgres_server.h"
-#include "psrig/daemon/catalogue.h"
+#include "psrig/catalogue/catalogue.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -44,9 +44,9 @@ class CatalogueBackendTest : public ::testing::TestWithParam<Backend> {
   [[nodiscard]] const std::string& url() const { return url_; }
 
   // How `rig` opens the catalogue of `root` (the shared storage root).
-  [[nodiscard]] daemon::CatalogueOptions options(const std::filesystem::path& root,
+  [[nodiscard]] catalogue::CatalogueOptions options(const std::filesystem::path& root,
                                                  const std::string& rig = kRig) const {
-    daemon::CatalogueOptions o;
+    catalogue::CatalogueOptions o;
     o.storage_root = root;
     o.rig_name = rig;
     if (postgres()) {
@@ -56,12 +56,12 @@ class CatalogueBackendTest : public ::testing::TestWithParam<Backend> {
     }
     return o;
   }
-  [[nodiscard]] Result<std::unique_ptr<daemon::Catalogue>> try_open(
+  [[nodiscard]] Result<std::unique_ptr<catalogue::Catalogue>> try_open(
       const std::filesystem::path& root, const std::string& rig = kRig) {
     last_root_ = root;
-    return daemon::open_catalogue(options(root, rig));
+    return catalogue::open_catalogue(options(root, rig));
   }
-  [[nodiscard]] std::unique_ptr<daemon::Catalogue> open(const std::filesystem::path& root,
+  [[nodiscard]] std::unique_ptr<catalogue::Catalogue> open(const std::filesystem::path& root,
                                                         const std::string& rig = kRig) {
     auto catalogue = try_open(root, rig);
     EXPECT_TRUE(catalogue) << catalogue.error().describe();

@@ -5,7 +5,7 @@
 // shared database's outages and rigs) is below and in
 // postgres_catalogue_test.cpp.
 
-#include "psrig/daemon/catalogue.h"
+#include "psrig/catalogue/catalogue.h"
 
 #include <fstream>
 #include <functional>
@@ -21,11 +21,11 @@ namespace psrig::test {
 namespace {
 
 namespace fs = std::filesystem;
-using daemon::Catalogue;
-using daemon::CatalogueQuery;
-using daemon::ScanErrorCode;
-using daemon::ScanStatus;
-using daemon::ScanSubmission;
+using catalogue::Catalogue;
+using catalogue::CatalogueQuery;
+using catalogue::ScanErrorCode;
+using catalogue::ScanStatus;
+using catalogue::ScanSubmission;
 
 std::int64_t add(Catalogue& catalogue, const std::string& sample,
                  std::vector<std::string> tags = {}) {
@@ -41,7 +41,7 @@ void make_scan(const fs::path& directory) {
   std::ofstream(directory / "maps" / "report.json") << "{}";
 }
 
-std::vector<std::int64_t> ids(const std::vector<daemon::CatalogueEntry>& entries) {
+std::vector<std::int64_t> ids(const std::vector<catalogue::CatalogueEntry>& entries) {
   std::vector<std::int64_t> out;
   for (const auto& e : entries)
     out.push_back(e.id);
@@ -72,7 +72,7 @@ TEST_P(CatalogueTest, ARowThroughItsLife) {
   EXPECT_EQ((*entry)->sample_id, "J-0042");
   EXPECT_EQ((*entry)->rig, kRig);
   EXPECT_EQ((*entry)->tags, (std::vector<std::string>{"knit", "cotton"}));  // duplicates once
-  EXPECT_TRUE(daemon::normalise_timestamp((*entry)->created, false)) << (*entry)->created;
+  EXPECT_TRUE(catalogue::normalise_timestamp((*entry)->created, false)) << (*entry)->created;
   EXPECT_TRUE((*entry)->started.empty());
 
   const fs::path scan = catalogue->rig_root() / "20260504-091233-J-0042";
@@ -141,12 +141,12 @@ TEST_P(CatalogueTest, SearchBySampleTagDateAndStatusNewestFirst) {
             Ids{c});
   // A bare date as `to` means the whole of that day.
   EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
-              q.from = daemon::normalise_timestamp("2026-05-02", false);
-              q.to = daemon::normalise_timestamp("2026-05-03", true);
+              q.from = catalogue::normalise_timestamp("2026-05-02", false);
+              q.to = catalogue::normalise_timestamp("2026-05-03", true);
             })),
             (Ids{c, b}));
   EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) {
-              q.from = daemon::normalise_timestamp("2026-05-02T12:00:00Z", false);
+              q.from = catalogue::normalise_timestamp("2026-05-02T12:00:00Z", false);
             })),
             (Ids{d, c, b}));
   EXPECT_EQ(search(*catalogue, query([](CatalogueQuery& q) { q.status = ScanStatus::failed; })),
@@ -182,7 +182,7 @@ TEST_P(CatalogueTest, SearchBySampleTagDateAndStatusNewestFirst) {
 }
 
 TEST(Catalogue, TimestampsAreCheckedAndNormalised) {
-  using daemon::normalise_timestamp;
+  using catalogue::normalise_timestamp;
   EXPECT_EQ(normalise_timestamp("2026-05-04", false), "2026-05-04T00:00:00Z");
   EXPECT_EQ(normalise_timestamp("2026-05-04", true), "2026-05-04T23:59:59Z");
   EXPECT_EQ(normalise_timestamp("2026-05-04T09:12:33Z", true), "2026-05-04T09:12:33Z");
@@ -195,7 +195,7 @@ TEST(Catalogue, TimestampsAreCheckedAndNormalised) {
 
 // Real calendar days and times of day only, not whatever has the digits.
 TEST(Catalogue, TimestampsAreRealDatesAndTimes) {
-  using daemon::normalise_timestamp;
+  using catalogue::normalise_timestamp;
   for (const char* real : {"2028-02-29", "2000-02-29", "2026-01-31", "2026-04-30", "2026-12-31",
                            "9999-12-31T23:59:59Z", "2026-05-04T00:00:00Z", "2026-05-04 23:59:59"})
     EXPECT_TRUE(normalise_timestamp(real, false)) << real;
@@ -355,7 +355,7 @@ TEST_P(CatalogueTest, ANewerSchemaIsRefused) {
 TEST_P(CatalogueTest, ARigAnnouncesItselfAndIsListed) {
   auto catalogue = open(temp.path());
   ASSERT_TRUE(catalogue);
-  daemon::RigRecord self;
+  catalogue::RigRecord self;
   self.name = kRig;
   self.api_url = "http://rig-a.lab:8470";
   self.token = "secret-token-0123456789";
@@ -370,7 +370,7 @@ TEST_P(CatalogueTest, ARigAnnouncesItselfAndIsListed) {
   EXPECT_EQ(rigs->front().api_url, "http://rig-a.lab:8470");
   EXPECT_EQ(rigs->front().token, "secret-token-0123456789");
   EXPECT_EQ(rigs->front().status.value("state", ""), "scanning");
-  EXPECT_TRUE(daemon::normalise_timestamp(rigs->front().last_seen, false))
+  EXPECT_TRUE(catalogue::normalise_timestamp(rigs->front().last_seen, false))
       << rigs->front().last_seen;
   EXPECT_GE(rigs->front().seen_seconds_ago, -1.0);
   EXPECT_LT(rigs->front().seen_seconds_ago, 10.0);
@@ -394,7 +394,7 @@ Error disk_full() {
 
 // What the database file says, read by a second connection: what the
 // process would leave behind if it died now.
-std::optional<daemon::CatalogueEntry> on_disk(const fs::path& root, std::int64_t id) {
+std::optional<catalogue::CatalogueEntry> on_disk(const fs::path& root, std::int64_t id) {
   auto reader = open_sqlite(root);
   if (!reader) return std::nullopt;
   auto entry = reader->get(id);
@@ -515,10 +515,10 @@ TEST(SqliteCatalogue, AnOlderCatalogueIsBroughtUpToDate) {
     EXPECT_EQ(sqlite3_exec(db, sql, nullptr, nullptr, nullptr), SQLITE_OK)
         << sql << ": " << sqlite3_errmsg(db);
   sqlite3_close(db);
-  daemon::CatalogueOptions options;
+  catalogue::CatalogueOptions options;
   options.storage_root = temp.path();
   options.rig_name = "bench-3";
-  auto catalogue = daemon::open_catalogue(options);
+  auto catalogue = catalogue::open_catalogue(options);
   ASSERT_TRUE(catalogue) << catalogue.error().describe();
   using Range = CatalogueQuery::FabricRange;
   EXPECT_EQ(search(**catalogue, query([](CatalogueQuery& q) {

@@ -21,7 +21,7 @@
 #include <gtest/gtest.h>
 
 #include "daemon_process.h"
-#include "psrig/firmware_host/switch_log_file.h"
+#include "psrig/lights/switch_log_file.h"
 #include "sim_modbus_driver.h"
 
 namespace psrig::test {
@@ -119,8 +119,8 @@ TEST(LedsDarkAfterDeath, TheUnitsStopCommandSwitchesOffWhatAKilledDaemonLeftLit)
   EXPECT_FALSE((*driver)->log().overlap()) << *(*driver)->log().overlap();
 }
 
-using firmware_host::LoggedSwitch;
-using firmware_host::read_switch_log_file;
+using lights::LoggedSwitch;
+using lights::read_switch_log_file;
 
 std::vector<LoggedSwitch> read_switches(const fs::path& file) {
   auto read = read_switch_log_file(file);
@@ -130,8 +130,8 @@ std::vector<LoggedSwitch> read_switches(const fs::path& file) {
 
 // The channel the log leaves on, if any.
 std::optional<int> lit(const std::vector<LoggedSwitch>& switches) {
-  firmware_host::SwitchLog log;
-  firmware_host::replay(switches, log);
+  lights::SwitchLog log;
+  lights::replay(switches, log);
   const auto on = log.on_now();
   return on.empty() ? std::nullopt : std::optional<int>(on.front());
 }
@@ -191,8 +191,8 @@ TEST(LedsDarkAfterDeath, TheSimulatedLightsLogShowsTheStopCommandSwitchingOffAKi
     EXPECT_FALSE(after[i].event.on) << "line " << i + 1;
   }
   EXPECT_FALSE(lit(after)) << read_file(switches);
-  firmware_host::SwitchLog log;
-  firmware_host::replay(after, log);
+  lights::SwitchLog log;
+  lights::replay(after, log);
   EXPECT_FALSE(log.overlap()) << *log.overlap();
 
   const auto ms = [](Clock::duration d) {

@@ -45,7 +45,7 @@ class FakeScanControl : public ScanControl {
     const std::scoped_lock lock(mutex_);
     return status_;
   }
-  Result<std::int64_t> submit(ScanSubmission submission) override {
+  Result<std::int64_t> submit(catalogue::ScanSubmission submission) override {
     const std::scoped_lock lock(mutex_);
     submissions_.push_back(std::move(submission));
     // As ScanService refuses: a full queue names its key, a catalogue
@@ -82,7 +82,7 @@ class FakeScanControl : public ScanControl {
     const std::scoped_lock lock(mutex_);
     next_id_ = id;
   }
-  std::vector<ScanSubmission> submissions() const {
+  std::vector<catalogue::ScanSubmission> submissions() const {
     const std::scoped_lock lock(mutex_);
     return submissions_;
   }
@@ -94,7 +94,7 @@ class FakeScanControl : public ScanControl {
  private:
   mutable std::mutex mutex_;
   DaemonStatus status_ = idle_status();
-  std::vector<ScanSubmission> submissions_;
+  std::vector<catalogue::ScanSubmission> submissions_;
   std::int64_t next_id_ = 1;
   bool refuse_ = false;
   bool storage_fails_ = false;
@@ -310,14 +310,14 @@ TEST_F(ModbusServerTest, StatusFollowsTheScanThroughInputsAndRegisters) {
   // A failed scan: the error input, and why.
   control_.script([](DaemonStatus& s) {
     s.state = DaemonState::error;
-    s.last_error_code = ScanErrorCode::camera;
+    s.last_error_code = catalogue::ScanErrorCode::camera;
     s.last_error = "camera: no frame within 2000 ms";
   });
   inputs = plc.inputs();
   words = plc.registers();
   EXPECT_THAT(inputs, ::testing::ElementsAre(true, false, true, false));  // ready again, error
   EXPECT_EQ(words[modbus_register::state], static_cast<int>(DaemonState::error));
-  EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(ScanErrorCode::camera));
+  EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(catalogue::ScanErrorCode::camera));
 
   // Starting up or stopping: neither ready nor busy.
   control_.script([](DaemonStatus& s) { s.state = DaemonState::stopping; });
@@ -333,7 +333,7 @@ TEST_F(ModbusServerTest, RefusedTriggerShowsAsErrorCodeUntilOneIsAccepted) {
   EXPECT_EQ(control_.submissions().size(), 1u);
   auto words = plc.registers();
   EXPECT_TRUE(plc.inputs()[modbus_input::error]);
-  EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(ScanErrorCode::queue_full));
+  EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(catalogue::ScanErrorCode::queue_full));
   EXPECT_EQ(words[modbus_register::triggers_refused], 1);
   EXPECT_EQ(words[modbus_register::triggers_accepted], 0);
 
@@ -342,7 +342,7 @@ TEST_F(ModbusServerTest, RefusedTriggerShowsAsErrorCodeUntilOneIsAccepted) {
   ASSERT_TRUE(plc.write_coil(modbus_coil::trigger, false));
   ASSERT_TRUE(plc.write_coil(modbus_coil::trigger, true));
   words = plc.registers();
-  EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(ScanErrorCode::aborted));
+  EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(catalogue::ScanErrorCode::aborted));
   EXPECT_EQ(words[modbus_register::triggers_refused], 2);
 
   // Refused because the catalogue cannot write (a full disk): storage, not the queue.
@@ -351,7 +351,7 @@ TEST_F(ModbusServerTest, RefusedTriggerShowsAsErrorCodeUntilOneIsAccepted) {
   ASSERT_TRUE(plc.write_coil(modbus_coil::trigger, false));
   ASSERT_TRUE(plc.write_coil(modbus_coil::trigger, true));
   words = plc.registers();
-  EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(ScanErrorCode::storage));
+  EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(catalogue::ScanErrorCode::storage));
   EXPECT_EQ(words[modbus_register::triggers_refused], 3);
 
   control_.script([](DaemonStatus& s) { s.state = DaemonState::idle; });
@@ -381,7 +381,7 @@ TEST_F(ModbusServerTest, LightsOffCoilActsOnItsRisingEdge) {
   ASSERT_TRUE(plc.write_coil(modbus_coil::lights_off, true));
   EXPECT_EQ(control_.lights_off_calls(), 2);
   EXPECT_TRUE(plc.inputs()[modbus_input::error]);
-  EXPECT_EQ(plc.registers()[modbus_register::error_code], static_cast<int>(ScanErrorCode::lights));
+  EXPECT_EQ(plc.registers()[modbus_register::error_code], static_cast<int>(catalogue::ScanErrorCode::lights));
   EXPECT_EQ(server_->counters().lights_off, 1u);
 }
 

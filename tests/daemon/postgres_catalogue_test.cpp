@@ -18,10 +18,10 @@ namespace {
 
 namespace fs = std::filesystem;
 using namespace std::chrono_literals;
-using daemon::Catalogue;
-using daemon::CatalogueQuery;
-using daemon::ScanErrorCode;
-using daemon::ScanStatus;
+using catalogue::Catalogue;
+using catalogue::CatalogueQuery;
+using catalogue::ScanErrorCode;
+using catalogue::ScanStatus;
 
 using SharedCatalogue = CatalogueBackendTest;
 
@@ -36,14 +36,14 @@ void make_scan(const fs::path& directory) {
   std::ofstream(directory / "scan.json") << "{}";
 }
 
-std::vector<daemon::CatalogueEntry> rows(const Catalogue& catalogue, CatalogueQuery query = {}) {
+std::vector<catalogue::CatalogueEntry> rows(const Catalogue& catalogue, CatalogueQuery query = {}) {
   query.limit = 1000;
   auto found = catalogue.search(query);
   EXPECT_TRUE(found) << found.error().describe();
-  return found ? *found : std::vector<daemon::CatalogueEntry>{};
+  return found ? *found : std::vector<catalogue::CatalogueEntry>{};
 }
 
-std::optional<daemon::CatalogueEntry> row(const Catalogue& catalogue, std::int64_t id) {
+std::optional<catalogue::CatalogueEntry> row(const Catalogue& catalogue, std::int64_t id) {
   auto entry = catalogue.get(id);
   EXPECT_TRUE(entry) << entry.error().describe();
   return entry ? *entry : std::nullopt;
@@ -214,7 +214,7 @@ TEST_P(SharedCatalogue, RigsStartingTogetherMigrateOnce) {
   std::vector<std::future<bool>> starts;
   for (int i = 0; i < 4; ++i)
     starts.push_back(std::async(std::launch::async, [this, i] {
-      auto catalogue = daemon::open_catalogue(options(temp / "shared", "rig-" + std::to_string(i)));
+      auto catalogue = catalogue::open_catalogue(options(temp / "shared", "rig-" + std::to_string(i)));
       EXPECT_TRUE(catalogue) << catalogue.error().describe();
       return catalogue && add(**catalogue, "S") > 0;
     }));
@@ -226,7 +226,7 @@ TEST_P(SharedCatalogue, ADatabaseThatIsNotThereIsNamed) {
   auto missing = options(temp / "shared");
   missing.url = "postgresql://psrig@%2Fnonexistent%2Fsocket/psrig";
   missing.start_patience = 1s;
-  auto catalogue = daemon::open_catalogue(missing);
+  auto catalogue = catalogue::open_catalogue(missing);
   ASSERT_FALSE(catalogue);
   EXPECT_EQ(catalogue.error().key, "catalogue.url");
   EXPECT_NE(catalogue.error().describe().find("/nonexistent/socket"), std::string::npos)

@@ -10,9 +10,9 @@
 #include "daemon_process.h"
 #include "psrig/calibration/calibration_store.h"
 #include "psrig/calibration/light_calibration.h"
-#include "psrig/firmware_host/switch_log.h"
-#include "psrig/firmware_host/switch_log_file.h"
-#include "psrig/processing/light_matrix.h"
+#include "psrig/lights/switch_log.h"
+#include "psrig/lights/switch_log_file.h"
+#include "psrig/formats/light_matrix.h"
 
 namespace psrig::test {
 namespace {
@@ -154,7 +154,7 @@ TEST(PsrigdCalibration, CalibrationsRunThroughTheApiQueuedWithScans) {
   for (int k = 0; k < 3; ++k) {
     const auto& d = current["calibration"]["lights"]["per_light"][k]["direction"];
     const cv::Vec3d found(d[0].get<double>(), d[1].get<double>(), d[2].get<double>());
-    EXPECT_LT(calibration::angle_deg(found, processing::light_direction(120.0 * k, 45)), 0.3) << k;
+    EXPECT_LT(calibration::angle_deg(found, formats::light_direction(120.0 * k, 45)), 0.3) << k;
   }
   EXPECT_EQ(daemon.get("/v1/calibrations")["versions"].size(), 1u);
 
@@ -193,10 +193,10 @@ TEST(PsrigdCalibration, CalibrationsRunThroughTheApiQueuedWithScans) {
     EXPECT_EQ(event["kind"], "scale");
     EXPECT_TRUE(contains(event["error"].get<std::string>(), "board")) << event.dump();
   }
-  auto logged = firmware_host::read_switch_log_file(switches);
+  auto logged = lights::read_switch_log_file(switches);
   ASSERT_TRUE(logged) << logged.error().describe();
-  firmware_host::SwitchLog log;
-  firmware_host::replay(*logged, log);
+  lights::SwitchLog log;
+  lights::replay(*logged, log);
   EXPECT_TRUE(log.on_now().empty());
   EXPECT_EQ(daemon.get("/v1/calibrations")["versions"].size(), 2u);  // nothing stored
   EXPECT_NE(daemon.get("/v1/status")["state"], "error");

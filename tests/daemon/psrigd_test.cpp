@@ -23,7 +23,8 @@
 #include "daemon_process.h"
 #include "raw_http.h"
 #include "psrig/config/config_loader.h"
-#include "psrig/firmware_host/light_controller.h"
+#include "psrig/rig/open_devices.h"
+#include "psrig/lights/light_controller.h"
 #include "sim_modbus_driver.h"
 
 namespace psrig::test {
@@ -697,7 +698,7 @@ TEST(Psrigd, LightsOffWithTheRigClosedReachesTheLedDriver) {
   ASSERT_TRUE(rig) << rig.error().describe();
   // (another client of the driver, held open: its own closing would
   // switch the LED off)
-  auto stuck = firmware_host::open_lights(*rig);
+  auto stuck = psrig::rig::open_lights(*rig);
   ASSERT_TRUE(stuck) << stuck.error().describe();
   ASSERT_TRUE((*stuck)->turn_on(1));
   ASSERT_EQ(driver.leds_on(), std::vector<int>{1});
@@ -744,7 +745,7 @@ TEST(Psrigd, BodilessPostsAreAnsweredAtOnce) {
   EXPECT_TRUE(driver.leds_on().empty());
   auto rig = config::load_config(setup.config);
   ASSERT_TRUE(rig) << rig.error().describe();
-  auto stuck = firmware_host::open_lights(*rig);
+  auto stuck = psrig::rig::open_lights(*rig);
   ASSERT_TRUE(stuck) << stuck.error().describe();
   ASSERT_TRUE((*stuck)->turn_on(2));
   ASSERT_EQ(driver.leds_on(), std::vector<int>{2});

@@ -16,7 +16,7 @@ namespace {
 
 using daemon::ScanCancel;
 using daemon::ScanService;
-using daemon::ScanStatus;
+using catalogue::ScanStatus;
 
 // A service over config/sim.toml at 160x120, scans in `temp`/scans.
 std::unique_ptr<ScanService> start_service(const TempDir& temp, const Edits& edits = {}) {
@@ -34,9 +34,9 @@ std::int64_t submit(ScanService& service, const std::string& sample_id) {
   return id ? *id : -1;
 }
 
-daemon::CatalogueEntry wait_finished(ScanService& service, std::int64_t id) {
+catalogue::CatalogueEntry wait_finished(ScanService& service, std::int64_t id) {
   const auto deadline = std::chrono::steady_clock::now() + 30s;
-  daemon::CatalogueEntry entry;
+  catalogue::CatalogueEntry entry;
   while (std::chrono::steady_clock::now() < deadline) {
     auto got = service.catalogue().get(id);
     EXPECT_TRUE(got && *got);
@@ -123,13 +123,13 @@ TEST(PsrigdScanService, AScanAcceptedAsTheCatalogueStopsWritingEndsFailedNotQueu
   ASSERT_GT(id, 0);
   ASSERT_TRUE(wait_for([&] { return service->status().state == daemon::DaemonState::error; }));
   const auto status = service->status();
-  EXPECT_EQ(status.last_error_code, daemon::ScanErrorCode::storage);
+  EXPECT_EQ(status.last_error_code, catalogue::ScanErrorCode::storage);
   EXPECT_NE(status.last_error.find("disk is full"), std::string::npos) << status.last_error;
   EXPECT_EQ(service->catalogue().pending_count(), 1U);
   // The row as the database file has it, through a second connection.
   const auto on_disk = [&] {
-    daemon::CatalogueEntry row;
-    auto reader = daemon::Catalogue::open(temp / "scans");
+    catalogue::CatalogueEntry row;
+    auto reader = catalogue::Catalogue::open(temp / "scans");
     EXPECT_TRUE(reader) << reader.error().describe();
     if (!reader) return row;
     auto entry = (*reader)->get(id);
@@ -143,15 +143,15 @@ TEST(PsrigdScanService, AScanAcceptedAsTheCatalogueStopsWritingEndsFailedNotQueu
   ASSERT_TRUE(wait_for([&] { return service->catalogue().pending_count() == 0; }));
   const auto row = on_disk();
   EXPECT_EQ(row.status, ScanStatus::failed);
-  EXPECT_EQ(row.error_code, daemon::ScanErrorCode::storage);
+  EXPECT_EQ(row.error_code, catalogue::ScanErrorCode::storage);
   EXPECT_EQ(row.error_message, status.last_error);
   EXPECT_TRUE(row.scan_directory.empty());
   for (const auto unfinished : {ScanStatus::queued, ScanStatus::running}) {
-    daemon::CatalogueQuery query;
+    catalogue::CatalogueQuery query;
     query.status = unfinished;
     auto rows = service->catalogue().search(query);
     ASSERT_TRUE(rows);
-    EXPECT_TRUE(rows->empty()) << rows->size() << " rows " << daemon::to_string(unfinished);
+    EXPECT_TRUE(rows->empty()) << rows->size() << " rows " << catalogue::to_string(unfinished);
   }
   // And the daemon scans on.
   EXPECT_EQ(wait_finished(*service, submit(*service, "NEXT")).status, ScanStatus::done);
@@ -165,7 +165,7 @@ TEST(PsrigdScanService, RowsLeftUnfinishedByTheLastRunFailAtStartUp) {
   {
     auto config = config::load_config(daemon_config(temp, free_port()));
     ASSERT_TRUE(config) << config.error().describe();
-    auto catalogue = daemon::Catalogue::open(config->storage.root);
+    auto catalogue = catalogue::Catalogue::open(config->storage.root);
     ASSERT_TRUE(catalogue) << catalogue.error().describe();
     queued = (*catalogue)->add({"Q", "", {}, "test"}).value_or(-1);
     running = (*catalogue)->add({"R", "", {}, "test"}).value_or(-1);

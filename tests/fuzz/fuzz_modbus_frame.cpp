@@ -23,6 +23,7 @@
 namespace {
 
 using namespace psrig::daemon;
+using namespace psrig::catalogue;
 
 class StandInControl final : public ScanControl {
  public:

@@ -18,7 +18,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "fuzz_support.h"
-#include "psrig/processing/image_io.h"
+#include "psrig/formats/image_io.h"
 
 namespace {
 constexpr std::uint8_t kSignature[8] = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
@@ -35,7 +35,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
   if (size < sizeof kSignature || !std::equal(kSignature, kSignature + 8, data)) return 0;
   static const auto file = psrig::fuzz::scratch_directory() / "frame.png";
   psrig::fuzz::write_file(file, data, size);
-  auto image = psrig::processing::read_image(file, "lights[0].image");
+  auto image = psrig::formats::read_image(file, "lights[0].image");
   if (!image) {
     (void)image.error().describe();
     return 0;

@@ -15,13 +15,13 @@
 #include <opencv2/core.hpp>
 
 #include "fuzz_support.h"
-#include "psrig/processing/image_io.h"
-#include "psrig/processing/scan_reader.h"
+#include "psrig/formats/image_io.h"
+#include "psrig/formats/scan_reader.h"
 
 namespace {
 
 namespace fs = std::filesystem;
-using psrig::processing::write_image;
+using psrig::formats::write_image;
 
 fs::path directory() {
   static const fs::path dir = [] {
@@ -69,7 +69,7 @@ extern "C" int LLVMFuzzerInitialize(int*, char***) {
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   const fs::path dir = directory();
   psrig::fuzz::write_file(dir / "scan.json", data, size);
-  auto description = psrig::processing::read_scan_description(dir);
+  auto description = psrig::formats::read_scan_description(dir);
   if (!description) {
     (void)description.error().describe();
     return 0;
@@ -81,7 +81,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
     check(std::abs(norm - 1.0) < 1e-6, "has a light direction that is not a unit vector");
     check(d[2] > 0, "has a light that does not face the swatch (z <= 0)");
   }
-  auto scan = psrig::processing::read_scan(dir);
+  auto scan = psrig::formats::read_scan(dir);
   if (scan) {
     check(scan->frames.size() == description->lights.size(), "gives a frame count unlike its lights");
   } else {

@@ -9,8 +9,8 @@
 #include "emulated_gpio_chip.h"
 #include "emulated_strobe_controller.h"
 #include "emulated_v4l2_camera.h"
-#include "psrig/capture/camera_discovery.h"
-#include "psrig/firmware_host/device_discovery.h"
+#include "psrig/cameras/camera_discovery.h"
+#include "psrig/lights/device_discovery.h"
 #include "umockdev_bed.h"
 
 namespace psrig::test {
@@ -25,12 +25,12 @@ TEST(DevicesHil, FindsTheChipTheCameraAndTheStrobeController) {
       [](const FrameRequest& r) { return cv::Mat(r.height, r.width, CV_16UC1); });
   EmulatedStrobeController controller(bed);
 
-  const auto chips = firmware_host::find_gpio_chips();
+  const auto chips = lights::find_gpio_chips();
   ASSERT_EQ(chips.size(), 1U);
   EXPECT_EQ(chips[0].path, "/dev/gpiochip0");
   EXPECT_EQ(chips[0].description, "label \"rig-leds\", 8 lines");
 
-  const auto cameras = capture::find_cameras();
+  const auto cameras = cameras::find_cameras();
   const auto v4l2 = std::find_if(cameras.begin(), cameras.end(),
                                  [](const auto& c) { return c.backend == "v4l2"; });
   ASSERT_NE(v4l2, cameras.end());
@@ -40,12 +40,12 @@ TEST(DevicesHil, FindsTheChipTheCameraAndTheStrobeController) {
   EXPECT_NE(v4l2->description.find("formats psrig takes: Y12 pRAA"), std::string::npos)
       << v4l2->description;
 
-  const auto controllers = firmware_host::find_usb_strobe_controllers(0x1209, 0x5053);
+  const auto controllers = lights::find_usb_strobe_controllers(0x1209, 0x5053);
   ASSERT_EQ(controllers.size(), 1U);
   EXPECT_EQ(controllers[0].path, "001:002");
   EXPECT_NE(controllers[0].description.find("serial A17"), std::string::npos)
       << controllers[0].description;
-  EXPECT_TRUE(firmware_host::find_usb_strobe_controllers(0x1209, 0x0001).empty());
+  EXPECT_TRUE(lights::find_usb_strobe_controllers(0x1209, 0x0001).empty());
 }
 
 }  // namespace

@@ -13,17 +13,18 @@
 
 #include "emulated_gpio_chip.h"
 #include "gpio_led_wiring.h"
-#include "psrig/firmware_host/gpiod_lights.h"
-#include "psrig/firmware_host/light_controller.h"
-#include "psrig/firmware_host/safe_lights.h"
-#include "psrig/firmware_host/simulated_leds.h"
+#include "psrig/lights/gpiod_lights.h"
+#include "psrig/rig/open_devices.h"
+#include "psrig/lights/light_controller.h"
+#include "psrig/lights/safe_lights.h"
+#include "psrig/sim/simulated_leds.h"
 #include "umockdev_bed.h"
 
 namespace psrig::test {
 namespace {
 
-using firmware_host::LightController;
-using firmware_host::SafeLights;
+using lights::LightController;
+using lights::SafeLights;
 using namespace std::chrono_literals;
 
 const std::vector<unsigned> kLines{17, 27, 22};
@@ -77,7 +78,7 @@ class GpiodLights : public ::testing::Test {
 };
 
 std::unique_ptr<LightController> open_or_fail(const config::LightsConfig& config) {
-  auto lights = firmware_host::open_gpiod_lights(config);
+  auto lights = lights::open_gpiod_lights(config);
   if (!lights) ADD_FAILURE() << lights.error().describe();
   return lights ? std::move(*lights) : nullptr;
 }
@@ -210,7 +211,7 @@ TEST_F(GpiodLights, LinesLightTheSimulatedWorld) {
   config::RigConfig rig;
   rig.sim.width = 32;
   rig.sim.height = 24;
-  auto leds = firmware_host::SimulatedLeds::attach(rig);
+  auto leds = sim::SimulatedLeds::attach(rig);
   const GpioLedWiring wiring{kLines, true};
   wiring.connect(chip, GpioLedWiring::to_leds(leds));
   auto lights = open_or_fail(gpiod_config("gpiochip0", true));
@@ -230,7 +231,7 @@ TEST_F(GpiodLights, DimmingIsRefusedAndZeroIntensityKeepsTheChannelDark) {
   auto& chip = add_chip("gpiochip0", "psrig-leds", 0);
   auto config = gpiod_config("gpiochip0");
   config.intensity = {1.0, 0.5, 1.0};
-  auto refused = firmware_host::open_gpiod_lights(config);
+  auto refused = lights::open_gpiod_lights(config);
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error().key, "lights.intensity[1]");
   EXPECT_EQ(chip.requested(), std::set<unsigned>{});
@@ -250,7 +251,7 @@ TEST_F(GpiodLights, DimmingIsRefusedAndZeroIntensityKeepsTheChannelDark) {
 // Errors name what is wrong (chip, line, configuration key) and what exists.
 TEST_F(GpiodLights, UnknownChipPathNamesItAndTheChipsThatExist) {
   add_chip("gpiochip0", "psrig-leds", 0);
-  auto lights = firmware_host::open_gpiod_lights(gpiod_config("/dev/gpiochip7"));
+  auto lights = lights::open_gpiod_lights(gpiod_config("/dev/gpiochip7"));
   ASSERT_FALSE(lights);
   const auto& error = lights.error();
   EXPECT_EQ(error.key, "lights.gpiod.chip");
@@ -262,7 +263,7 @@ TEST_F(GpiodLights, UnknownChipPathNamesItAndTheChipsThatExist) {
 TEST_F(GpiodLights, UnknownLabelNamesItAndTheLabelsThatExist) {
   add_chip("gpiochip0", "pinctrl-bcm2711", 0);
   add_chip("gpiochip1", "psrig-leds", 1);
-  auto lights = firmware_host::open_gpiod_lights(gpiod_config("psrig-ledz"));
+  auto lights = lights::open_gpiod_lights(gpiod_config("psrig-ledz"));
   ASSERT_FALSE(lights);
   const auto& error = lights.error();
   EXPECT_EQ(error.key, "lights.gpiod.chip");
@@ -273,7 +274,7 @@ TEST_F(GpiodLights, UnknownLabelNamesItAndTheLabelsThatExist) {
 
 TEST_F(GpiodLights, NotAGpioChipIsSaidSo) {
   add_chip("gpiochip0", "psrig-leds", 0);
-  auto lights = firmware_host::open_gpiod_lights(gpiod_config("/dev/null"));
+  auto lights = lights::open_gpiod_lights(gpiod_config("/dev/null"));
   ASSERT_FALSE(lights);
   EXPECT_EQ(lights.error().key, "lights.gpiod.chip");
   EXPECT_NE(lights.error().message.find("not a GPIO character device"), std::string::npos)
@@ -284,7 +285,7 @@ TEST_F(GpiodLights, OffsetBeyondTheChipNamesLineChipAndKey) {
   auto& chip = add_chip("gpiochip0", "psrig-leds", 0);
   auto config = gpiod_config("gpiochip0");
   config.gpiod.lines = {17, 40, 22};
-  auto lights = firmware_host::open_gpiod_lights(config);
+  auto lights = lights::open_gpiod_lights(config);
   ASSERT_FALSE(lights);
   const auto& error = lights.error();
   EXPECT_EQ(error.key, "lights.gpiod.lines[1]");
@@ -297,7 +298,7 @@ TEST_F(GpiodLights, OffsetBeyondTheChipNamesLineChipAndKey) {
 TEST_F(GpiodLights, LineHeldBySomeoneElseNamesTheHolder) {
   auto& chip = add_chip("gpiochip0", "psrig-leds", 0);
   chip.hold(27, "spi0 CS1");
-  auto lights = firmware_host::open_gpiod_lights(gpiod_config("gpiochip0"));
+  auto lights = lights::open_gpiod_lights(gpiod_config("gpiochip0"));
   ASSERT_FALSE(lights);
   const auto& error = lights.error();
   EXPECT_EQ(error.key, "lights.gpiod.lines[1]");
@@ -310,7 +311,7 @@ TEST_F(GpiodLights, SecondPsrigOnTheSameLinesIsToldWhy) {
   add_chip("gpiochip0", "psrig-leds", 0);
   auto first = open_or_fail(gpiod_config("gpiochip0"));
   ASSERT_TRUE(first);
-  auto second = firmware_host::open_gpiod_lights(gpiod_config("gpiochip0"));
+  auto second = lights::open_gpiod_lights(gpiod_config("gpiochip0"));
   ASSERT_FALSE(second);
   EXPECT_EQ(second.error().key, "lights.gpiod.lines[0]");
   EXPECT_NE(second.error().message.find("another psrig is running"), std::string::npos)
@@ -354,7 +355,7 @@ TEST_F(GpiodLights, ChipVanishingMidUseIsReportedClearly) {
   EXPECT_EQ(lights->log().on_now(), std::vector<int>{0});
   lights.reset();  // closing a vanished chip neither hangs nor crashes
   // Reopening finds no chip at all.
-  auto reopened = firmware_host::open_gpiod_lights(gpiod_config("gpiochip0"));
+  auto reopened = lights::open_gpiod_lights(gpiod_config("gpiochip0"));
   ASSERT_FALSE(reopened);
   EXPECT_NE(reopened.error().message.find("no GPIO chips found"), std::string::npos)
       << reopened.error().message;
@@ -390,13 +391,13 @@ TEST_F(GpiodLights, FactoryOpensGpiodAndBlamesTheConfigFile) {
   config::RigConfig rig;
   rig.source = "/etc/psrig/rig.toml";
   rig.lights = gpiod_config("gpiochip0");
-  auto lights = firmware_host::open_lights(rig);
+  auto lights = psrig::rig::open_lights(rig);
   ASSERT_TRUE(lights) << lights.error().describe();
   EXPECT_EQ((*lights)->describe().rfind("gpiod gpiochip0", 0), 0u) << (*lights)->describe();
   lights->reset();
 
   rig.lights.gpiod.lines = {17, 99, 22};
-  auto bad = firmware_host::open_lights(rig);
+  auto bad = psrig::rig::open_lights(rig);
   ASSERT_FALSE(bad);
   EXPECT_EQ(bad.error().describe().rfind("/etc/psrig/rig.toml: lights.gpiod.lines[1]: ", 0), 0u)
       << bad.error().describe();

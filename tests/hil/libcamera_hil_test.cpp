@@ -16,17 +16,18 @@
 #include <opencv2/core.hpp>
 
 #include "emulated_uvc_camera.h"
-#include "psrig/capture/camera.h"
-#include "psrig/capture/libcamera_camera.h"
-#include "psrig/capture/rig.h"
-#include "psrig/capture/scan_sequencer.h"
+#include "psrig/cameras/camera.h"
+#include "psrig/rig/open_devices.h"
+#include "psrig/cameras/libcamera_camera.h"
+#include "psrig/rig/rig.h"
+#include "psrig/rig/scan_sequencer.h"
 #include "psrig/sim/sensor.h"
 #include "psrig/sim/world.h"
 #include "shipped_swatch.h"
 #include "test_support.h"
 #include "umockdev_bed.h"
 
-namespace psrig::capture {
+namespace psrig::cameras {
 namespace {
 
 using namespace std::chrono_literals;
@@ -88,7 +89,7 @@ struct EmulatedRig {
 };
 
 std::unique_ptr<Camera> open_started(const config::RigConfig& rig) {
-  auto camera = open_camera(rig);
+  auto camera = psrig::rig::open_camera(rig);
   EXPECT_TRUE(camera.has_value()) << (camera ? "" : camera.error().describe());
   if (!camera) return nullptr;
   auto started = (*camera)->start();
@@ -117,14 +118,14 @@ TEST(LibcameraHil, FindsTheEmulatedUvcCameraByItsId) {
 
   auto config = rig.config;
   config.camera.device = rig.camera.camera_id();
-  auto camera = open_camera(config);
+  auto camera = psrig::rig::open_camera(config);
   ASSERT_TRUE(camera) << camera.error().describe();
   EXPECT_NE((*camera)->describe().find(kModel), std::string::npos) << (*camera)->describe();
   EXPECT_GT(rig.camera.media().requests(), 0);  // the media graph was read
 
   config.camera.device = "no-such-camera";
   camera.value().reset();  // one user at a time
-  auto missing = open_camera(config);
+  auto missing = psrig::rig::open_camera(config);
   ASSERT_FALSE(missing);
   EXPECT_EQ(missing.error().key, "camera.device");
   EXPECT_NE(missing.error().message.find(rig.camera.camera_id()), std::string::npos)
@@ -194,7 +195,7 @@ TEST(LibcameraHil, AutoTakesTheDeepestLinearFormatOffered) {
   ASSERT_TRUE(frame) << frame.error().describe();
   EXPECT_EQ(frame->white_level, 4095);
   EXPECT_EQ(frame->image.type(), CV_16UC3);  // demosaiced
-  EXPECT_EQ(frame->encoding, processing::Encoding::linear);
+  EXPECT_EQ(frame->encoding, formats::Encoding::linear);
 }
 
 TEST(LibcameraHil, ConfigurationErrorsNameTheCameraAndTheKey) {
@@ -202,7 +203,7 @@ TEST(LibcameraHil, ConfigurationErrorsNameTheCameraAndTheKey) {
   EmulatedRig rig;
   auto config = rig.config;
   config.camera.format = "Y16";
-  auto not_offered = open_camera(config);
+  auto not_offered = psrig::rig::open_camera(config);
   ASSERT_FALSE(not_offered);
   // Bad input naming the key, as the v4l2 backend says it.
   EXPECT_EQ(not_offered.error().kind, ErrorKind::bad_input) << not_offered.error().describe();
@@ -282,7 +283,7 @@ TEST(LibcameraHil, AnUnpluggedCameraIsAClearErrorNamingIt) {
   EXPECT_TRUE(camera->stop());
   camera.reset();
   // And a camera that is gone is not found again.
-  auto reopened = open_camera(rig.config);
+  auto reopened = psrig::rig::open_camera(rig.config);
   ASSERT_FALSE(reopened);
   EXPECT_NE(reopened.error().describe().find("no camera found"), std::string::npos)
       << reopened.error().describe();
@@ -328,8 +329,8 @@ struct ScanRig {
                              return sensor.expose(*world, r.exposure_start, settings, r.sequence);
                            }};
 
-  ScanRequest request_into(const test::TempDir& dir) const {
-    ScanRequest request;
+  rig::ScanRequest request_into(const test::TempDir& dir) const {
+    rig::ScanRequest request;
     request.directory = dir / "scan";
     request.sample_id = "HIL-LIBCAMERA";
     request.ground_truth_normal = world->swatch().normal;
@@ -342,9 +343,9 @@ TEST(LibcameraHil, AScanThroughLibcameraRecoversTheSwatch) {
   SKIP_WITHOUT_EMULATION();
   test::TempDir dir;
   ScanRig emulated;
-  auto rig = open_rig(emulated.config);
+  auto rig = rig::open_rig(emulated.config);
   ASSERT_TRUE(rig) << rig.error().describe();
-  ScanSequencer sequencer(emulated.config, *rig->lights, *rig->camera);
+  rig::ScanSequencer sequencer(emulated.config, *rig->lights, *rig->camera);
   auto outcome = sequencer.capture(emulated.request_into(dir));
   ASSERT_TRUE(outcome) << outcome.error().describe();
   ASSERT_TRUE(outcome->maps);
@@ -362,10 +363,10 @@ TEST(LibcameraHil, ACameraUnpluggedMidScanEndsItWithAllLedsOff) {
   SKIP_WITHOUT_EMULATION();
   test::TempDir dir;
   ScanRig emulated;
-  auto rig = open_rig(emulated.config);
+  auto rig = rig::open_rig(emulated.config);
   ASSERT_TRUE(rig) << rig.error().describe();
-  ScanSequencer sequencer(emulated.config, *rig->lights, *rig->camera);
-  auto outcome = sequencer.capture(emulated.request_into(dir), [&](const ScanProgress& progress) {
+  rig::ScanSequencer sequencer(emulated.config, *rig->lights, *rig->camera);
+  auto outcome = sequencer.capture(emulated.request_into(dir), [&](const rig::ScanProgress& progress) {
     if (progress.step == "light 3 of 3") emulated.camera.unplug();
   });
   ASSERT_FALSE(outcome);
@@ -379,4 +380,4 @@ TEST(LibcameraHil, ACameraUnpluggedMidScanEndsItWithAllLedsOff) {
 }
 
 }  // namespace
-}  // namespace psrig::capture
+}  // namespace psrig::cameras

@@ -21,15 +21,15 @@
 #include "emulated_gpio_chip.h"
 #include "emulated_v4l2_camera.h"
 #include "gpio_led_wiring.h"
-#include "psrig/capture/rig.h"
-#include "psrig/capture/scan_sequencer.h"
+#include "psrig/rig/rig.h"
+#include "psrig/rig/scan_sequencer.h"
 #include "psrig/sim/sensor.h"
 #include "psrig/sim/world.h"
 #include "shipped_swatch.h"
 #include "test_support.h"
 #include "umockdev_bed.h"
 
-namespace psrig::capture {
+namespace psrig::rig {
 namespace {
 
 using namespace std::chrono_literals;
@@ -67,7 +67,7 @@ config::RigConfig hil_config() {
 struct EmulatedRig {
   explicit EmulatedRig(std::uint32_t sensor_format = V4L2_PIX_FMT_Y12) : format(sensor_format) {
     wiring.connect(chip,
-                   test::GpioLedWiring::to_leds(firmware_host::SimulatedLeds::attach(config)));
+                   test::GpioLedWiring::to_leds(sim::SimulatedLeds::attach(config)));
   }
 
   std::uint32_t format;
@@ -98,7 +98,7 @@ struct EmulatedRig {
 
   // Never two LEDs on, and all off now, as the backend, the chip and the
   // world each saw it.
-  void expect_led_invariant(const firmware_host::SafeLights* lights) const {
+  void expect_led_invariant(const lights::SafeLights* lights) const {
     if (lights) {
       EXPECT_FALSE(lights->log().overlap()) << *lights->log().overlap();
       EXPECT_TRUE(lights->log().on_now().empty());
@@ -116,7 +116,7 @@ struct Opened {
 };
 
 Opened open(EmulatedRig& emulated) {
-  auto rig = open_rig(emulated.config);
+  auto rig = rig::open_rig(emulated.config);
   EXPECT_TRUE(rig) << (rig ? "" : rig.error().describe());
   if (!rig) return {};
   Opened opened{std::move(*rig), nullptr};
@@ -125,7 +125,7 @@ Opened open(EmulatedRig& emulated) {
   return opened;
 }
 
-ScanRequest request_into(const test::TempDir& dir, const EmulatedRig& emulated) {
+rig::ScanRequest request_into(const test::TempDir& dir, const EmulatedRig& emulated) {
   ScanRequest request;
   request.directory = dir / "scan";
   request.sample_id = "HIL-1";
@@ -231,4 +231,4 @@ TEST(ScanHil, GpioChipVanishingMidScanEndsWithAllLedsOff) {
 }
 
 }  // namespace
-}  // namespace psrig::capture
+}  // namespace psrig::rig

@@ -21,18 +21,19 @@
 
 #include "emulated_strobe_controller.h"
 #include "psrig/config/rig_config.h"
-#include "psrig/firmware_host/light_controller.h"
-#include "psrig/firmware_host/usb_lights.h"
+#include "psrig/rig/open_devices.h"
+#include "psrig/lights/light_controller.h"
+#include "psrig/lights/usb_lights.h"
 #include "umockdev_bed.h"
 
 namespace psrig::test {
 namespace {
 
 using namespace std::chrono_literals;
-using firmware_host::open_usb_lights;
-using firmware_host::open_usb_strobe;
-using firmware_host::SwitchEvent;
-namespace strobe = firmware_host::strobe;
+using lights::open_usb_lights;
+using lights::open_usb_strobe;
+using lights::SwitchEvent;
+namespace strobe = lights::strobe;
 
 // Skips the test when not under umockdev-wrapper.
 #define REQUIRE_UMOCKDEV() \
@@ -95,7 +96,7 @@ class UsbHilOpened : public ::testing::Test {
 
   std::unique_ptr<UmockdevBed> bed_;
   std::unique_ptr<EmulatedStrobeController> controller_;
-  std::unique_ptr<firmware_host::UsbStrobeLights> lights_;  // last in, first out
+  std::unique_ptr<lights::UsbStrobeLights> lights_;  // last in, first out
 };
 
 TEST(UsbHil, OpensDescribesAndStartsAllOff) {
@@ -424,7 +425,7 @@ TEST(UsbHil, TheFactoryOpensTheUsbBackend) {
   EmulatedStrobeController controller(bed);
   config::RigConfig rig;
   rig.lights = usb_config();
-  auto lights = firmware_host::open_lights(rig);
+  auto lights = psrig::rig::open_lights(rig);
   ASSERT_TRUE(lights) << lights.error().describe();
   EXPECT_TRUE(contains((*lights)->describe(), "usb strobe controller 1209:5053"));
 }

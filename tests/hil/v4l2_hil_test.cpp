@@ -12,11 +12,12 @@
 #include <gtest/gtest.h>
 
 #include "emulated_v4l2_camera.h"
-#include "psrig/capture/camera.h"
-#include "psrig/capture/v4l2_formats.h"
+#include "psrig/cameras/camera.h"
+#include "psrig/rig/open_devices.h"
+#include "psrig/cameras/v4l2_formats.h"
 #include "umockdev_bed.h"
 
-namespace psrig::capture {
+namespace psrig::cameras {
 namespace {
 
 using namespace std::chrono_literals;
@@ -45,7 +46,7 @@ config::RigConfig v4l2_config(const std::string& device, const std::string& form
 
 // The factory, as the rig opens its camera; started.
 std::unique_ptr<Camera> open_started(const config::RigConfig& rig) {
-  auto camera = open_camera(rig);
+  auto camera = psrig::rig::open_camera(rig);
   EXPECT_TRUE(camera.has_value()) << (camera ? "" : camera.error().describe());
   if (!camera) return nullptr;
   auto started = (*camera)->start();
@@ -146,7 +147,7 @@ TEST(V4l2Hil, EveryFormatIsNegotiatedMappedAndConvertedToTheScene) {
     // An ISP's RGB and YUYV are gamma-encoded; sensor data is linear.
     const bool encoded = c.fourcc == V4L2_PIX_FMT_RGB24 || c.fourcc == V4L2_PIX_FMT_BGR24 ||
                          c.fourcc == V4L2_PIX_FMT_YUYV;
-    EXPECT_EQ(frame.encoding, encoded ? processing::Encoding::srgb : processing::Encoding::linear);
+    EXPECT_EQ(frame.encoding, encoded ? formats::Encoding::srgb : formats::Encoding::linear);
     EXPECT_NE(camera->describe().find(name), std::string::npos) << camera->describe();
 
     const int scale = 1 << (c.bits - 8);
@@ -346,7 +347,7 @@ TEST(V4l2Hil, ConfigurationErrorsNameTheDeviceAndTheKey) {
   options.formats = {V4L2_PIX_FMT_GREY, V4L2_PIX_FMT_YUYV};
   EmulatedV4l2Camera device(bed, options, ramp_scene);
 
-  auto not_offered = open_camera(v4l2_config(device.devnode(), "Y16"));
+  auto not_offered = psrig::rig::open_camera(v4l2_config(device.devnode(), "Y16"));
   ASSERT_FALSE(not_offered.has_value());
   EXPECT_EQ(not_offered.error().key, "camera.format");
   EXPECT_EQ(not_offered.error().file, device.devnode());
@@ -357,13 +358,13 @@ TEST(V4l2Hil, ConfigurationErrorsNameTheDeviceAndTheKey) {
   auto rig = v4l2_config(device.devnode(), "GREY");
   rig.camera.width = 640;
   rig.camera.height = 480;
-  auto wrong_size = open_camera(rig);
+  auto wrong_size = psrig::rig::open_camera(rig);
   ASSERT_FALSE(wrong_size.has_value());
   EXPECT_EQ(wrong_size.error().key, "camera.width");
   EXPECT_NE(wrong_size.error().message.find("32x24"), std::string::npos)
       << wrong_size.error().describe();
 
-  auto missing = open_camera(v4l2_config("/dev/psrig-no-such-video"));
+  auto missing = psrig::rig::open_camera(v4l2_config("/dev/psrig-no-such-video"));
   ASSERT_FALSE(missing.has_value());
   EXPECT_EQ(missing.error().key, "camera.device");
 }
@@ -376,7 +377,7 @@ TEST(V4l2Hil, ExposureInDriverUnitsWithoutALineTimeIsRefusedByKey) {
   options.exposure = {V4L2_CID_EXPOSURE, 4, 2000, 1,
                       1000};  // lines, and no pixel rate to say how long
   EmulatedV4l2Camera device(bed, options, ramp_scene);
-  auto camera = open_camera(v4l2_config(device.devnode()));
+  auto camera = psrig::rig::open_camera(v4l2_config(device.devnode()));
   ASSERT_FALSE(camera.has_value());
   EXPECT_EQ(camera.error().key, "camera.exposure_us");
   EXPECT_NE(camera.error().message.find("V4L2_CID_EXPOSURE"), std::string::npos)
@@ -384,4 +385,4 @@ TEST(V4l2Hil, ExposureInDriverUnitsWithoutALineTimeIsRefusedByKey) {
 }
 
 }  // namespace
-}  // namespace psrig::capture
+}  // namespace psrig::cameras

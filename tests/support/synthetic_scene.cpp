@@ -5,14 +5,14 @@
 #include <numbers>
 #include <random>
 
-#include "psrig/processing/light_matrix.h"
+#include "psrig/formats/light_matrix.h"
 
 namespace psrig::test {
 
 std::vector<cv::Vec3d> ring_lights(int count, double slant_deg, double first_tilt_deg) {
   std::vector<cv::Vec3d> lights;
   for (int k = 0; k < count; ++k)
-    lights.push_back(processing::light_direction(first_tilt_deg + 360.0 * k / count, slant_deg));
+    lights.push_back(formats::light_direction(first_tilt_deg + 360.0 * k / count, slant_deg));
   return lights;
 }
 
@@ -122,10 +122,10 @@ cv::Mat dome_cast_shadow(cv::Size size, double radius, const cv::Vec3d& light) {
   return mask;
 }
 
-processing::Scan render_scan(const Surface& surface, const std::vector<cv::Vec3d>& lights,
+formats::Scan render_scan(const Surface& surface, const std::vector<cv::Vec3d>& lights,
                              int depth, double noise, std::uint64_t seed,
                              const std::vector<cv::Mat>& shadows, Specular specular) {
-  processing::Scan scan;
+  formats::Scan scan;
   const int channels = surface.albedo.channels();
   const double full = depth == CV_8U ? 255 : depth == CV_16U ? 65535 : 1;
   std::mt19937_64 random(seed);
@@ -178,7 +178,7 @@ double predicted_rms_angle(const std::vector<cv::Vec3d>& lights, const cv::Vec3d
          std::sqrt(cv::trace(projector * ltl.inv() * projector));
 }
 
-cv::Mat naive_rule_normals(const processing::Scan& scan) {
+cv::Mat naive_rule_normals(const formats::Scan& scan) {
   const int lights = static_cast<int>(scan.frames.size());
   const int channels = scan.channels();
   const cv::Size size = scan.size();

@@ -7,7 +7,7 @@
 
 #include <opencv2/core.hpp>
 
-#include "psrig/processing/scan.h"
+#include "psrig/formats/scan.h"
 
 namespace psrig::test {
 
@@ -57,7 +57,7 @@ struct Specular {
 // `depth` (CV_8U, CV_16U or CV_32F). The scan carries the ground-truth
 // normals, and `description` is filled so solve() can run on it.
 // Where `shadows[k]` is given and nonzero, light k is blocked.
-[[nodiscard]] processing::Scan render_scan(const Surface& surface,
+[[nodiscard]] formats::Scan render_scan(const Surface& surface,
                                            const std::vector<cv::Vec3d>& lights, int depth,
                                            double noise = 0, std::uint64_t seed = 1,
                                            const std::vector<cv::Mat>& shadows = {},
@@ -76,7 +76,7 @@ struct Specular {
 // rounded down), then least squares. Straight from the frames over the
 // white level, less the dark frame (no flats or intensities): unit normals, CV_32FC3,
 // (0, 0, 0) where it has no answer.
-[[nodiscard]] cv::Mat naive_rule_normals(const processing::Scan& scan);
+[[nodiscard]] cv::Mat naive_rule_normals(const formats::Scan& scan);
 
 // Mean angle in degrees between two normal maps over the pixels where
 // `select` is nonzero (all pixels when empty).

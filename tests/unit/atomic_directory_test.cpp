@@ -2,7 +2,7 @@
 // reads them back, for those (the daemon's catalogue) that clean up what a
 // killed writer left.
 
-#include "psrig/processing/atomic_directory.h"
+#include "psrig/formats/atomic_directory.h"
 
 #include <unistd.h>
 
@@ -17,23 +17,23 @@ namespace fs = std::filesystem;
 
 TEST(AtomicDirectory, ItsStagingDirectoryNamesItsTargetAndItsWriter) {
   test::TempDir temp;
-  auto directory = AtomicDirectory::create(temp / "20261124-120000-swatch");
+  auto directory = formats::AtomicDirectory::create(temp / "20261124-120000-swatch");
   ASSERT_TRUE(directory) << directory.error().describe();
-  const auto staging = AtomicDirectory::parse_staging(directory->path());
+  const auto staging = formats::AtomicDirectory::parse_staging(directory->path());
   ASSERT_TRUE(staging) << directory->path();
   EXPECT_EQ(staging->target, "20261124-120000-swatch");
   EXPECT_EQ(staging->writer, ::getpid());
   // The target itself is not a staging directory.
-  EXPECT_FALSE(AtomicDirectory::parse_staging(directory->target()));
+  EXPECT_FALSE(formats::AtomicDirectory::parse_staging(directory->target()));
 }
 
 TEST(AtomicDirectory, StagingNamesAreReadBackWholeOrNotAtAll) {
-  const auto maps = AtomicDirectory::parse_staging("/data/scan/.maps.partial-4242-123456");
+  const auto maps = formats::AtomicDirectory::parse_staging("/data/scan/.maps.partial-4242-123456");
   ASSERT_TRUE(maps);
   EXPECT_EQ(maps->target, "maps");
   EXPECT_EQ(maps->writer, 4242);
   // A target whose own name holds the mark is read from the last one.
-  const auto odd = AtomicDirectory::parse_staging(".a.partial-1-2.partial-77-9");
+  const auto odd = formats::AtomicDirectory::parse_staging(".a.partial-1-2.partial-77-9");
   ASSERT_TRUE(odd);
   EXPECT_EQ(odd->target, "a.partial-1-2");
   EXPECT_EQ(odd->writer, 77);
@@ -42,7 +42,7 @@ TEST(AtomicDirectory, StagingNamesAreReadBackWholeOrNotAtAll) {
        {"maps", "scan.json", ".maps", ".maps.partial-", ".maps.partial-12", ".maps.partial-12-",
         ".maps.partial--5", ".maps.partial-0-5", ".maps.partial-x1-5", ".maps.partial-12-5x",
         "maps.partial-12-5", "..partial-12-5", ".maps.partial-99999999999-5"})
-    EXPECT_FALSE(AtomicDirectory::parse_staging(name)) << name;
+    EXPECT_FALSE(formats::AtomicDirectory::parse_staging(name)) << name;
 }
 
 }  // namespace

@@ -6,8 +6,8 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "psrig/processing/image_io.h"
-#include "psrig/processing/map_encoding.h"
+#include "psrig/formats/image_io.h"
+#include "psrig/formats/map_encoding.h"
 
 namespace psrig::test {
 
@@ -38,14 +38,14 @@ KnownMaps write_known_maps(const fs::path& directory, const MapsSpec& spec) {
     }
   // The gradients of the pixel grid: p per pixel in mm over mm is unitless.
   maps.height = height;
-  maps.normal = processing::encode_normal16(p, q);
+  maps.normal = formats::encode_normal16(p, q);
   cv::minMaxLoc(height, &maps.low, &maps.high);
-  (void)processing::write_image(directory / "albedo.png", maps.albedo);
-  (void)processing::write_image(directory / "normal.png", maps.normal);
+  (void)formats::write_image(directory / "albedo.png", maps.albedo);
+  (void)formats::write_image(directory / "normal.png", maps.normal);
   if (spec.height_map) {
-    (void)processing::write_image(directory / "height.exr", height);
-    (void)processing::write_image(directory / "height.png",
-                                  processing::encode_height16(height, maps.low, maps.high));
+    (void)formats::write_image(directory / "height.exr", height);
+    (void)formats::write_image(directory / "height.png",
+                                  formats::encode_height16(height, maps.low, maps.high));
   }
   if (spec.report) {
     nlohmann::json report = {

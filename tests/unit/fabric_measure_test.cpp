@@ -2,7 +2,7 @@
 // laid and turned by a few degrees, within 1 % of its densities and 0.5 deg
 // of its skew and rotation.
 
-#include "psrig/processing/fabric_measure.h"
+#include "psrig/analysis/fabric_measure.h"
 
 #include <cmath>
 #include <string>
@@ -30,9 +30,9 @@ sim::Swatch swatch_of(const Case& c, cv::Size size = {640, 480}) {
   return test::made(sim::make_swatch(params));
 }
 
-// What scan.json's fabric says of a simulated swatch (capture/fabric_truth.h).
-FabricHints hints_of(const sim::SwatchPattern& pattern) {
-  return {pattern.knitted() ? Construction::knit : Construction::woven, pattern.name,
+// What scan.json's fabric says of a simulated swatch (sim/fabric_truth.h).
+analysis::FabricHints hints_of(const sim::SwatchPattern& pattern) {
+  return {pattern.knitted() ? analysis::Construction::knit : analysis::Construction::woven, pattern.name,
           pattern.gauge.across_per_repeat, pattern.gauge.along_per_repeat};
 }
 
@@ -43,17 +43,17 @@ TEST_P(FabricGauge, DensitiesWithinOnePercentSkewWithinHalfADegree) {
   const sim::Swatch swatch = swatch_of(c, c.size);
   const sim::SwatchPattern pattern = test::named_pattern(c.pattern);
   const sim::SwatchGauge& truth = pattern.gauge;
-  MeasureOptions options;
+  analysis::MeasureOptions options;
   options.pixel_size_mm = 0.025;
   options.hints = hints_of(pattern);
-  const auto m = measure_fabric(swatch.height_mm, swatch.albedo, options);
+  const auto m = analysis::measure_fabric(swatch.height_mm, swatch.albedo, options);
   ASSERT_TRUE(m) << m.error().describe();
   ASSERT_TRUE(m->periodic) << (m->notes.empty() ? "" : m->notes.back());
-  EXPECT_NEAR(m->across_density / truth.across_per_cm, 1.0, 0.01) << summary_line(*m);
-  EXPECT_NEAR(m->along_density / truth.along_per_cm, 1.0, 0.01) << summary_line(*m);
-  EXPECT_NEAR(m->skew_deg, 0.0, 0.5) << summary_line(*m);
-  EXPECT_NEAR(m->rotation_deg, c.rotation_deg, 0.5) << summary_line(*m);
-  EXPECT_NEAR(m->wale_rotation_deg, c.rotation_deg, 0.5) << summary_line(*m);
+  EXPECT_NEAR(m->across_density / truth.across_per_cm, 1.0, 0.01) << analysis::summary_line(*m);
+  EXPECT_NEAR(m->along_density / truth.along_per_cm, 1.0, 0.01) << analysis::summary_line(*m);
+  EXPECT_NEAR(m->skew_deg, 0.0, 0.5) << analysis::summary_line(*m);
+  EXPECT_NEAR(m->rotation_deg, c.rotation_deg, 0.5) << analysis::summary_line(*m);
+  EXPECT_NEAR(m->wale_rotation_deg, c.rotation_deg, 0.5) << analysis::summary_line(*m);
   const nlohmann::json j = to_json(*m);
   EXPECT_EQ(j["units"], "per_cm");
   EXPECT_TRUE(j.contains(truth.knitted ? "wales_per_cm" : "ends_per_cm")) << j.dump();
@@ -83,11 +83,11 @@ INSTANTIATE_TEST_SUITE_P(Patterns, FabricGauge,
 TEST(FabricMeasure, LargeScanIsMeasuredAtFullResolution) {
   const sim::Swatch swatch = swatch_of({"plain", 3}, {1800, 1400});
   const auto m =
-      measure_fabric(swatch.height_mm, swatch.albedo, {0.025, {Construction::woven, "plain"}});
+      analysis::measure_fabric(swatch.height_mm, swatch.albedo, {0.025, {analysis::Construction::woven, "plain"}});
   ASSERT_TRUE(m && m->periodic);
-  EXPECT_NEAR(m->across_density / 24.0, 1.0, 0.01) << summary_line(*m);
-  EXPECT_NEAR(m->along_density / 22.0, 1.0, 0.01) << summary_line(*m);
-  EXPECT_NEAR(m->rotation_deg, 3.0, 0.5) << summary_line(*m);
+  EXPECT_NEAR(m->across_density / 24.0, 1.0, 0.01) << analysis::summary_line(*m);
+  EXPECT_NEAR(m->along_density / 22.0, 1.0, 0.01) << analysis::summary_line(*m);
+  EXPECT_NEAR(m->rotation_deg, 3.0, 0.5) << analysis::summary_line(*m);
 }
 
 // Without metadata the construction comes from the structure: a weave's
@@ -96,11 +96,11 @@ TEST(FabricMeasure, TellsKnitFromWovenByStructure) {
   for (const auto& [pattern, knitted] :
        {std::pair{"jersey", true}, std::pair{"plain", false}, std::pair{"twill", false}}) {
     const sim::Swatch swatch = swatch_of({pattern, 2});
-    MeasureOptions options;
+    analysis::MeasureOptions options;
     options.pixel_size_mm = 0.025;
-    const auto m = measure_fabric(swatch.height_mm, swatch.albedo, options);
+    const auto m = analysis::measure_fabric(swatch.height_mm, swatch.albedo, options);
     ASSERT_TRUE(m && m->periodic) << pattern;
-    EXPECT_EQ(m->construction, knitted ? Construction::knit : Construction::woven) << pattern;
+    EXPECT_EQ(m->construction, knitted ? analysis::Construction::knit : analysis::Construction::woven) << pattern;
     EXPECT_FALSE(m->construction_from_metadata);
     EXPECT_GT(m->construction_confidence, 0.5);
     EXPECT_LT(m->construction_confidence, 1.0);
@@ -111,8 +111,8 @@ TEST(FabricMeasure, TellsKnitFromWovenByStructure) {
 
 TEST(FabricMeasure, WithoutPixelSizeFiguresArePerPixelAndSaySo) {
   const sim::Swatch swatch = swatch_of({"jersey", 0});
-  const auto m = measure_fabric(swatch.height_mm, swatch.albedo,
-                                {std::nullopt, {Construction::knit, "jersey"}});
+  const auto m = analysis::measure_fabric(swatch.height_mm, swatch.albedo,
+                                {std::nullopt, {analysis::Construction::knit, "jersey"}});
   ASSERT_TRUE(m && m->periodic);
   const sim::SwatchGauge truth = test::named_pattern("jersey").gauge;
   // Per pixel = per cm times the pixel size in cm.
@@ -133,7 +133,7 @@ TEST(FabricMeasure, RandomReliefHasNoRepeat) {
   cv::GaussianBlur(height, height, {0, 0}, 6);
   rng.fill(albedo, cv::RNG::UNIFORM, 0.2, 0.8);
   cv::GaussianBlur(albedo, albedo, {0, 0}, 4);
-  const auto m = measure_fabric(height, albedo, {0.025, {}});
+  const auto m = analysis::measure_fabric(height, albedo, {0.025, {}});
   ASSERT_TRUE(m);
   EXPECT_FALSE(m->periodic);
   ASSERT_FALSE(m->notes.empty());
@@ -145,12 +145,12 @@ TEST(FabricMeasure, RandomReliefHasNoRepeat) {
 // missing lattice names its key.
 TEST(FabricMeasure, ReadsReportJsonBack) {
   const sim::Swatch swatch = swatch_of({"rib", 3});
-  const auto m = measure_fabric(swatch.height_mm, swatch.albedo, {0.025, {Construction::knit, "rib"}});
+  const auto m = analysis::measure_fabric(swatch.height_mm, swatch.albedo, {0.025, {analysis::Construction::knit, "rib"}});
   ASSERT_TRUE(m && m->periodic);
-  const auto back = fabric_from_json(to_json(*m), 0.025);
+  const auto back = analysis::fabric_from_json(to_json(*m), 0.025);
   ASSERT_TRUE(back) << back.error().describe();
   EXPECT_TRUE(back->periodic);
-  EXPECT_EQ(back->construction, Construction::knit);
+  EXPECT_EQ(back->construction, analysis::Construction::knit);
   EXPECT_TRUE(back->construction_from_metadata);
   EXPECT_EQ(back->structure, "rib");
   EXPECT_EQ(back->u_px, m->u_px);
@@ -161,19 +161,19 @@ TEST(FabricMeasure, ReadsReportJsonBack) {
   EXPECT_EQ(back->notes, m->notes);
   nlohmann::json broken = to_json(*m);
   broken["lattice_px"].erase("v");
-  const auto refused = fabric_from_json(broken, 0.025);
+  const auto refused = analysis::fabric_from_json(broken, 0.025);
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error().key, "fabric.lattice_px.v");
 }
 
 TEST(FabricMeasure, ReadsTheScansFabricMetadata) {
   const auto hints =
-      fabric_hints(nlohmann::json{{"fabric", {{"construction", "woven"}, {"structure", "twill"}}}});
-  EXPECT_EQ(hints.construction, Construction::woven);
+      analysis::fabric_hints(nlohmann::json{{"fabric", {{"construction", "woven"}, {"structure", "twill"}}}});
+  EXPECT_EQ(hints.construction, analysis::Construction::woven);
   EXPECT_EQ(hints.structure, "twill");
   EXPECT_EQ(hints.across_per_repeat, 0);
-  EXPECT_EQ(fabric_hints(nlohmann::json{{"fabric", 3}}).construction, Construction::unknown);
-  const auto counted = fabric_hints(nlohmann::json{
+  EXPECT_EQ(analysis::fabric_hints(nlohmann::json{{"fabric", 3}}).construction, analysis::Construction::unknown);
+  const auto counted = analysis::fabric_hints(nlohmann::json{
       {"fabric", {{"construction", "knit"}, {"stitches_per_repeat", nlohmann::json{4, 1}}}}});
   EXPECT_EQ(counted.across_per_repeat, 4);
   EXPECT_EQ(counted.along_per_repeat, 1);
@@ -181,7 +181,7 @@ TEST(FabricMeasure, ReadsTheScansFabricMetadata) {
   for (const nlohmann::json& bad : {nlohmann::json{4}, nlohmann::json{0, 1}, nlohmann::json{2.5, 1},
                                     nlohmann::json("4x1"), nlohmann::json{4, 1, 1}})
     EXPECT_EQ(
-        fabric_hints(nlohmann::json{{"fabric", {{"threads_per_repeat", bad}}}}).across_per_repeat,
+        analysis::fabric_hints(nlohmann::json{{"fabric", {{"threads_per_repeat", bad}}}}).across_per_repeat,
         0)
         << bad.dump();
 }
@@ -192,22 +192,22 @@ TEST(FabricMeasure, ReadsTheScansFabricMetadata) {
 TEST(FabricMeasure, StitchesPerRepeatFromTheCountOrElseTheOlderNames) {
   const sim::Swatch swatch = swatch_of({"rib-2x2", 0});
   const double truth = test::named_pattern("rib-2x2").gauge.across_per_cm;
-  MeasureOptions options;
+  analysis::MeasureOptions options;
   options.pixel_size_mm = 0.025;
-  options.hints = {Construction::knit, "my rib", 4, 1};
-  const auto counted = measure_fabric(swatch.height_mm, swatch.albedo, options);
+  options.hints = {analysis::Construction::knit, "my rib", 4, 1};
+  const auto counted = analysis::measure_fabric(swatch.height_mm, swatch.albedo, options);
   ASSERT_TRUE(counted && counted->periodic);
-  EXPECT_NEAR(counted->across_density / truth, 1.0, 0.01) << summary_line(*counted);
+  EXPECT_NEAR(counted->across_density / truth, 1.0, 0.01) << analysis::summary_line(*counted);
   EXPECT_EQ(counted->threads_u, 4);
-  options.hints = {Construction::knit, "my rib"};
-  const auto uncounted = measure_fabric(swatch.height_mm, swatch.albedo, options);
+  options.hints = {analysis::Construction::knit, "my rib"};
+  const auto uncounted = analysis::measure_fabric(swatch.height_mm, swatch.albedo, options);
   ASSERT_TRUE(uncounted && uncounted->periodic);
   EXPECT_NEAR(uncounted->across_density / (truth / 4), 1.0, 0.01);
   EXPECT_NE(to_json(*uncounted)["notes"].dump().find("stitches_per_repeat"), std::string::npos);
 
   const sim::Swatch rib = swatch_of({"rib-1x1", 0});
-  options.hints = {Construction::knit, "rib"};  // an older scan's name
-  const auto named = measure_fabric(rib.height_mm, rib.albedo, options);
+  options.hints = {analysis::Construction::knit, "rib"};  // an older scan's name
+  const auto named = analysis::measure_fabric(rib.height_mm, rib.albedo, options);
   ASSERT_TRUE(named && named->periodic);
   EXPECT_NEAR(named->across_density / test::named_pattern("rib").gauge.across_per_cm, 1.0, 0.01);
 }

@@ -1,7 +1,7 @@
 // Image files: psrig's own PNG path must agree with OpenCV's both ways, and
 // damaged files must give errors, never crashes or wrong pixels.
 
-#include "psrig/processing/image_io.h"
+#include "psrig/formats/image_io.h"
 
 #include <fstream>
 #include <random>
@@ -35,8 +35,8 @@ TEST(ImageIo, PngRoundTripsEveryTypeAtEveryLevel) {
     for (int level : {0, 1, 6}) {
       const fs::path file =
           temp / ("t" + std::to_string(type) + "_" + std::to_string(level) + ".png");
-      ASSERT_TRUE(write_image(file, image, {cv::IMWRITE_PNG_COMPRESSION, level}));
-      auto back = read_image(file, "test");
+      ASSERT_TRUE(formats::write_image(file, image, {cv::IMWRITE_PNG_COMPRESSION, level}));
+      auto back = formats::read_image(file, "test");
       ASSERT_TRUE(back) << back.error().describe();
       EXPECT_EQ(back->type(), type);
       EXPECT_EQ(cv::norm(*back, image, cv::NORM_INF), 0) << "type " << type << " level " << level;
@@ -54,9 +54,9 @@ TEST(ImageIo, LargePngsSpanManyChunksBothWays) {
   test::TempDir temp;
   cv::Mat image(900, 1300, CV_16UC3);
   cv::RNG(9).fill(image, cv::RNG::UNIFORM, 0, 65536);
-  ASSERT_TRUE(write_image(temp / "big.png", image));
+  ASSERT_TRUE(formats::write_image(temp / "big.png", image));
   EXPECT_GT(std::filesystem::file_size(temp / "big.png"), 3u << 20);
-  auto back = read_image(temp / "big.png", "test");
+  auto back = formats::read_image(temp / "big.png", "test");
   ASSERT_TRUE(back);
   EXPECT_EQ(cv::norm(*back, image, cv::NORM_INF), 0);
   EXPECT_EQ(
@@ -73,7 +73,7 @@ TEST(ImageIo, ReadsWhatLibpngWroteWithEveryFilter) {
     cv::GaussianBlur(image, image, cv::Size(5, 5), 1.5);  // gradients make Paeth and Average win
     const fs::path file = temp / ("lib" + std::to_string(type) + ".png");
     ASSERT_TRUE(cv::imwrite(file.string(), image, {cv::IMWRITE_PNG_COMPRESSION, 9}));
-    auto back = read_image(file, "test");
+    auto back = formats::read_image(file, "test");
     ASSERT_TRUE(back) << back.error().describe();
     EXPECT_EQ(cv::norm(*back, image, cv::NORM_INF), 0) << "type " << type;
   }
@@ -83,7 +83,7 @@ TEST(ImageIo, PngsOutsideTheFastPathStillRead) {
   test::TempDir temp;
   const cv::Mat rgba(9, 7, CV_16UC4, cv::Scalar(1000, 2000, 3000, 65535));
   ASSERT_TRUE(cv::imwrite((temp / "rgba.png").string(), rgba));
-  auto back = read_image(temp / "rgba.png", "test");
+  auto back = formats::read_image(temp / "rgba.png", "test");
   ASSERT_TRUE(back);
   EXPECT_EQ(back->type(), CV_16UC4);  // the scan reader then refuses it, naming the alpha channel
   EXPECT_EQ(cv::norm(*back, rgba, cv::NORM_INF), 0);
@@ -93,7 +93,7 @@ TEST(ImageIo, DamagedPngsGiveErrors) {
   test::TempDir temp;
   const cv::Mat image = random_image(CV_16UC3, 5);
   const fs::path good = temp / "good.png";
-  ASSERT_TRUE(write_image(good, image));
+  ASSERT_TRUE(formats::write_image(good, image));
   std::ifstream in(good, std::ios::binary);
   const std::string bytes((std::istreambuf_iterator<char>(in)), {});
 
@@ -101,7 +101,7 @@ TEST(ImageIo, DamagedPngsGiveErrors) {
   for (std::size_t keep : {std::size_t{10}, std::size_t{40}, bytes.size() / 2, bytes.size() - 5}) {
     const fs::path file = temp / "cut.png";
     std::ofstream(file, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(keep));
-    auto read = read_image(file, "lights[0].image");
+    auto read = formats::read_image(file, "lights[0].image");
     ASSERT_FALSE(read) << "kept " << keep;
     EXPECT_EQ(read.error().kind, ErrorKind::bad_input);
     EXPECT_EQ(read.error().key, "lights[0].image");
@@ -115,7 +115,7 @@ TEST(ImageIo, DamagedPngsGiveErrors) {
     const fs::path file = temp / "flip.png";
     std::ofstream(file, std::ios::binary)
         .write(damaged.data(), static_cast<std::streamsize>(damaged.size()));
-    auto read = read_image(file, "x");
+    auto read = formats::read_image(file, "x");
     if (read) {
       EXPECT_EQ(cv::norm(*read, image, cv::NORM_INF), 0) << "byte " << at;
     }
@@ -128,14 +128,14 @@ TEST(ImageIo, DamagedPngsGiveErrors) {
 TEST(ImageIo, AChunkLongerThanTheFileIsRefusedBeforeAnyoneAllocatesIt) {
   test::TempDir temp;
   const fs::path good = temp / "good.png";
-  ASSERT_TRUE(write_image(good, random_image(CV_8UC1, 3)));
+  ASSERT_TRUE(formats::write_image(good, random_image(CV_8UC1, 3)));
   std::ifstream in(good, std::ios::binary);
   std::string bytes((std::istreambuf_iterator<char>(in)), {});
   // After IHDR (8 + 25 bytes): a tEXt chunk declaring 0x3A2F0019 bytes.
   bytes.insert(33, std::string("\x3a\x2f\x00\x19tEXtComment\0short", 22));
   const fs::path file = temp / "text.png";
   std::ofstream(file, std::ios::binary).write(bytes.data(), static_cast<std::streamsize>(bytes.size()));
-  auto read = read_image(file, "mask");
+  auto read = formats::read_image(file, "mask");
   ASSERT_FALSE(read);
   EXPECT_EQ(read.error().kind, ErrorKind::bad_input);
   EXPECT_NE(read.error().message.find("damaged PNG: chunk 'tEXt' at byte 33 declares 976158745 bytes"),
@@ -144,7 +144,7 @@ TEST(ImageIo, AChunkLongerThanTheFileIsRefusedBeforeAnyoneAllocatesIt) {
 }
 
 TEST(ImageIo, WriteErrorsNameTheFile) {
-  auto failed = write_image("/nonexistent-dir/x.png", cv::Mat(4, 4, CV_8U, cv::Scalar(1)));
+  auto failed = formats::write_image("/nonexistent-dir/x.png", cv::Mat(4, 4, CV_8U, cv::Scalar(1)));
   ASSERT_FALSE(failed);
   EXPECT_EQ(failed.error().file, fs::path("/nonexistent-dir/x.png"));
 }

@@ -20,7 +20,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/base/error.h"
-#include "psrig/processing/parallel.h"
+#include "psrig/base/parallel.h"
 #include "test_support.h"
 
 namespace psrig::processing {

@@ -2,13 +2,13 @@
 // shared conversions, and the error a rig with no camera gets. With a
 // camera attached, a real capture runs (skipped otherwise).
 
-#include "psrig/capture/libcamera_camera.h"
+#include "psrig/cameras/libcamera_camera.h"
 
 #include <chrono>
 
 #include <gtest/gtest.h>
 
-namespace psrig::capture {
+namespace psrig::cameras {
 namespace {
 
 TEST(LibcameraFormats, MapOntoTheV4l2LayoutsWithTheSameBytes) {
@@ -67,4 +67,4 @@ TEST(LibcameraCamera, CapturesFromARealCamera) {
 }
 
 }  // namespace
-}  // namespace psrig::capture
+}  // namespace psrig::cameras

@@ -17,8 +17,8 @@
 #include "psrig/calibration/image_set.h"
 #include "psrig/calibration/sphere.h"
 #include "psrig/processing/evaluation.h"
-#include "psrig/processing/light_matrix.h"
-#include "psrig/processing/scan_reader.h"
+#include "psrig/formats/light_matrix.h"
+#include "psrig/formats/scan_reader.h"
 #include "psrig/processing/woodham.h"
 #include "psrig/sim/lambertian_render.h"
 #include "psrig/sim/sphere_target.h"
@@ -61,8 +61,8 @@ sim::SphereTarget target(sim::SphereKind kind) {
 
 const std::vector<cv::Vec3d>& test_lights() {
   static const std::vector<cv::Vec3d> lights = {
-      processing::light_direction(30, 20), processing::light_direction(150, 45),
-      processing::light_direction(270, 60), processing::light_direction(200, 35)};
+      formats::light_direction(30, 20), formats::light_direction(150, 45),
+      formats::light_direction(270, 60), formats::light_direction(200, 35)};
   return lights;
 }
 
@@ -140,7 +140,7 @@ TEST(LightCalibration, NearLedPositionsFromTheSphereAtThreePlaces) {
   cv::RNG rng(5);
   std::vector<cv::Vec3d> truth;
   for (const double tilt : {0.0, 120.0, 240.0})
-    truth.push_back(250 * processing::light_direction(tilt, 45));
+    truth.push_back(250 * formats::light_direction(tilt, 45));
   sim::SphereTarget t;
   t.kind = sim::SphereKind::chrome;
   t.size = {1280, 960};
@@ -189,11 +189,11 @@ TEST(LightCalibration, NearLedPositionsFromTheSphereAtThreePlaces) {
   card.height_mm = cv::Mat(480, 640, CV_32F, cv::Scalar(0));
   card.normal = cv::Mat(480, 640, CV_32FC3, cv::Scalar(0, 0, 1));
   card.albedo = cv::Mat(480, 640, CV_32FC3, cv::Scalar::all(0.6));
-  processing::Scan scan;
+  formats::Scan scan;
   scan.description.pixel_size_mm = 0.025;
   for (std::size_t k = 0; k < truth.size(); ++k) {
     scan.frames.push_back(grey_of(sim::render_point_light(card, {truth[k], {1, 1, 1}}, false)));
-    processing::ScanLight light;
+    formats::ScanLight light;
     light.image = "led" + std::to_string(k) + ".exr";
     light.direction = (*positions)[k].position_mm / cv::norm((*positions)[k].position_mm);
     light.position_mm = (*positions)[k].position_mm;
@@ -332,7 +332,7 @@ TEST(LightCalibration, ObjectsAndADimChromeRimAreNotTakenForASphere) {
     ASSERT_TRUE(listed);
     std::vector<cv::Mat> images;
     for (const auto& file : listed->images)
-      images.push_back(*read_linear_grey(file, processing::Encoding::linear));
+      images.push_back(*read_linear_grey(file, formats::Encoding::linear));
     auto found = find_sphere(images, {}, *data / object);
     EXPECT_FALSE(found) << object;
     if (!found) {
@@ -371,7 +371,7 @@ TEST(LightCalibration, ScanReaderTakesAnRgbMaskWithEqualChannels) {
   for (int k = 0; k < 3; ++k) {
     cv::imwrite((temp / ("led" + std::to_string(k) + ".png")).string(),
                 cv::Mat(8, 8, CV_8U, cv::Scalar(100)));
-    const cv::Vec3d d = processing::light_direction(120.0 * k, 45);
+    const cv::Vec3d d = formats::light_direction(120.0 * k, 45);
     lights.push_back(
         {{"image", "led" + std::to_string(k) + ".png"}, {"direction", {d[0], d[1], d[2]}}});
   }
@@ -382,12 +382,12 @@ TEST(LightCalibration, ScanReaderTakesAnRgbMaskWithEqualChannels) {
       {"format", "psrig-scan/1"},
       {"lights", lights},
       {"mask", "mask.png"}}.dump();
-  auto scan = processing::read_scan(temp.path());
+  auto scan = formats::read_scan(temp.path());
   ASSERT_TRUE(scan) << scan.error().describe();
   EXPECT_EQ(cv::countNonZero(scan->mask), 32);
   rgb.at<cv::Vec3b>(1, 1) = {0, 255, 0};
   cv::imwrite((temp / "mask.png").string(), rgb);
-  auto refused = processing::read_scan(temp.path());
+  auto refused = formats::read_scan(temp.path());
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error().key, "mask");
 }
@@ -406,7 +406,7 @@ TEST(LightCalibration, ScanReaderTakesAPaletteMask) {
   for (int k = 0; k < 3; ++k) {
     cv::imwrite((temp / ("led" + std::to_string(k) + ".png")).string(),
                 cv::Mat(24, 32, CV_8U, cv::Scalar(100)));
-    const cv::Vec3d d = processing::light_direction(120.0 * k, 45);
+    const cv::Vec3d d = formats::light_direction(120.0 * k, 45);
     lights.push_back(
         {{"image", "led" + std::to_string(k) + ".png"}, {"direction", {d[0], d[1], d[2]}}});
   }
@@ -415,7 +415,7 @@ TEST(LightCalibration, ScanReaderTakesAPaletteMask) {
       {"format", "psrig-scan/1"},
       {"lights", lights},
       {"mask", "mask.png"}}.dump();
-  auto scan = processing::read_scan(temp.path());
+  auto scan = formats::read_scan(temp.path());
   ASSERT_TRUE(scan) << scan.error().describe();
   EXPECT_EQ(cv::countNonZero(scan->mask), 16 * 24);
   auto mask = read_mask(temp / "mask.png");
@@ -431,7 +431,7 @@ TEST(LightCalibration, StoreNumbersVersionsAndTheNewestIsCurrent) {
   c.method = "chrome";
   for (int k = 0; k < 3; ++k) {
     LightEstimate e;
-    e.direction = processing::light_direction(120.0 * k, 40);
+    e.direction = formats::light_direction(120.0 * k, 40);
     e.uncertainty_deg = 0.1;
     c.chrome.push_back(e);
   }
@@ -439,7 +439,7 @@ TEST(LightCalibration, StoreNumbersVersionsAndTheNewestIsCurrent) {
     auto staging = store.begin_next();
     ASSERT_TRUE(staging) << staging.error().describe();
     ASSERT_TRUE(write_new_file(staging->path() / kCalibrationFile, to_json(c, utc_now()).dump(2)));
-    ASSERT_TRUE(staging->commit(processing::AtomicDirectory::Existing::refuse, true));
+    ASSERT_TRUE(staging->commit(formats::AtomicDirectory::Existing::refuse, true));
   }
   ASSERT_EQ(store.versions().size(), 2u);
   ASSERT_TRUE(store.current());
@@ -481,7 +481,7 @@ TEST(LightCalibration, UwCse455ChromeDirectionsAgreeBetweenChannelsAndWithTheGra
         for (const auto& plane : planes)
           frames.frames.push_back({plane, file});
       } else {
-        frames.frames.push_back({*read_linear_grey(file, processing::Encoding::linear), file});
+        frames.frames.push_back({*read_linear_grey(file, formats::Encoding::linear), file});
       }
       lights.push_back(frames);
     }

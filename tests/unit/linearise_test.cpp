@@ -7,7 +7,7 @@
 
 #include <gtest/gtest.h>
 
-#include "psrig/processing/map_encoding.h"
+#include "psrig/formats/map_encoding.h"
 #include "psrig/processing/woodham.h"
 #include "synthetic_scene.h"
 
@@ -18,21 +18,21 @@ double srgb_encode(double linear) {
   return linear <= 0.0031308 ? 12.92 * linear : 1.055 * std::pow(linear, 1 / 2.4) - 0.055;
 }
 
-double angular_error(const Scan& scan) {
+double angular_error(const formats::Scan& scan) {
   auto result = solve(scan);
   EXPECT_TRUE(result) << (result ? "" : result.error().describe());
   if (!result) return 180;
   return test::mean_angular_error_deg(normals_from_gradients(result->p, result->q),
-                                      scan.ground_truth_normal, encode_valid_mask(result->flags));
+                                      scan.ground_truth_normal, processing::encode_valid_mask(result->flags));
 }
 
 // A colour sphere under three lights, rendered linear in float.
-Scan float_sphere() {
+formats::Scan float_sphere() {
   return test::render_scan(test::sphere_surface({96, 72}, 30, 3), test::ring_lights(3, 45), CV_32F);
 }
 
 TEST(CodeLineariser, BlackAndWhiteLevelsMapToZeroAndOne) {
-  const CodeLineariser codes(Encoding::linear, 1000, 61000, CV_16U);
+  const CodeLineariser codes(formats::Encoding::linear, 1000, 61000, CV_16U);
   const std::uint16_t stored[] = {1000, 31000, 61000, 0};
   float linear[4];
   codes.convert(stored, 4, linear);
@@ -43,7 +43,7 @@ TEST(CodeLineariser, BlackAndWhiteLevelsMapToZeroAndOne) {
 }
 
 TEST(CodeLineariser, SrgbCodesAreDecoded) {
-  const CodeLineariser codes(Encoding::srgb, 0, 255, CV_8U);
+  const CodeLineariser codes(formats::Encoding::srgb, 0, 255, CV_8U);
   const std::uint8_t stored[] = {0, 188, 255, 10};
   float linear[4];
   codes.convert(stored, 4, linear);
@@ -54,7 +54,7 @@ TEST(CodeLineariser, SrgbCodesAreDecoded) {
 }
 
 TEST(ScanLineariser, SrgbEncodedFramesGiveTheLinearAnswer) {
-  Scan scan = float_sphere();
+  formats::Scan scan = float_sphere();
   for (auto& frame : scan.frames) {
     cv::Mat encoded(frame.size(), frame.type());
     for (int i = 0; i < static_cast<int>(frame.total() * 3); ++i)
@@ -63,14 +63,14 @@ TEST(ScanLineariser, SrgbEncodedFramesGiveTheLinearAnswer) {
     encoded.convertTo(frame, CV_16UC3, 65535);
   }
   scan.white_level = 65535;
-  scan.description.encoding = Encoding::srgb;
+  scan.description.encoding = formats::Encoding::srgb;
   EXPECT_LT(angular_error(scan), 0.05);
-  scan.description.encoding = Encoding::linear;  // the same codes taken as linear: wrong shape
+  scan.description.encoding = formats::Encoding::linear;  // the same codes taken as linear: wrong shape
   EXPECT_GT(angular_error(scan), 2.0);
 }
 
 TEST(ScanLineariser, BlackLevelIsSubtracted) {
-  Scan scan = float_sphere();
+  formats::Scan scan = float_sphere();
   for (auto& frame : scan.frames)
     frame = frame * 0.8 + 0.1;  // a sensor with a pedestal
   scan.description.black_level = 0.1;
@@ -81,7 +81,7 @@ TEST(ScanLineariser, BlackLevelIsSubtracted) {
 }
 
 TEST(ScanLineariser, DarkFrameIsSubtracted) {
-  Scan scan = float_sphere();
+  formats::Scan scan = float_sphere();
   cv::Mat ambient(scan.size(), CV_32FC3);
   cv::randu(ambient, 0.02, 0.12);  // uneven room light, the same in every frame
   for (auto& frame : scan.frames)
@@ -93,7 +93,7 @@ TEST(ScanLineariser, DarkFrameIsSubtracted) {
 }
 
 TEST(ScanLineariser, FlatFieldsDivideOutEachLedsPattern) {
-  Scan scan = float_sphere();
+  formats::Scan scan = float_sphere();
   const cv::Size size = scan.size();
   const std::vector<cv::Point2d> hot_spots = {{0, 0}, {95, 10}, {40, 71}};
   for (std::size_t k = 0; k < 3; ++k) {
@@ -113,14 +113,14 @@ TEST(ScanLineariser, FlatFieldsDivideOutEachLedsPattern) {
   }
   scan.description.flats = {"flat0.exr", "flat1.exr", "flat2.exr"};
   EXPECT_LT(angular_error(scan), 0.1);
-  Scan uncorrected = scan;
+  formats::Scan uncorrected = scan;
   uncorrected.flats.clear();
   uncorrected.description.flats.clear();
   EXPECT_GT(angular_error(uncorrected), 2.0);
 }
 
 TEST(ScanLineariser, BlackFlatIsAnError) {
-  Scan scan = float_sphere();
+  formats::Scan scan = float_sphere();
   for (int k = 0; k < 3; ++k)
     scan.flats.push_back(cv::Mat(scan.size(), CV_32FC3, cv::Scalar::all(0.5)));
   scan.flats[1].setTo(0);
@@ -134,7 +134,7 @@ TEST(ScanLineariser, BlackFlatIsAnError) {
 }
 
 TEST(ScanLineariser, IntensityIsDividedOutPerLight) {
-  Scan scan = float_sphere();
+  formats::Scan scan = float_sphere();
   scan.frames[2] *= 1.7;
   scan.description.lights[2].intensity_bgr = {1.7, 1.7, 1.7};
   auto lineariser = ScanLineariser::create(scan);
@@ -145,7 +145,7 @@ TEST(ScanLineariser, IntensityIsDividedOutPerLight) {
 }
 
 TEST(ScanLineariser, SaturationFollowsTheWhiteLevel) {
-  Scan scan =
+  formats::Scan scan =
       test::render_scan(test::sphere_surface({16, 16}, 5, 1), test::ring_lights(3, 45), CV_8U);
   scan.frames[0].at<std::uint8_t>(3, 3) = 200;
   scan.frames[1].at<std::uint8_t>(4, 4) = 199;

@@ -1,7 +1,7 @@
 // The maps directory's encodings follow docs/design.md ("Maps directory",
 // "Normal-map convention").
 
-#include "psrig/processing/map_encoding.h"
+#include "psrig/formats/map_encoding.h"
 
 #include <cmath>
 
@@ -14,7 +14,7 @@ namespace {
 
 cv::Vec3w normal_rgb(float p, float q) {
   const cv::Vec3w bgr =
-      encode_normal16(cv::Mat(1, 1, CV_32F, cv::Scalar(p)), cv::Mat(1, 1, CV_32F, cv::Scalar(q)))
+      formats::encode_normal16(cv::Mat(1, 1, CV_32F, cv::Scalar(p)), cv::Mat(1, 1, CV_32F, cv::Scalar(q)))
           .at<cv::Vec3w>(0, 0);
   return {bgr[2], bgr[1], bgr[0]};
 }
@@ -37,7 +37,7 @@ TEST(MapEncoding, NormalMapIsOpenGlConvention) {
 
 TEST(MapEncoding, AlbedoIsSrgbEncodedAndClamped) {
   cv::Mat albedo = (cv::Mat_<float>(1, 5) << 0.0f, 1.0f, 0.5f, -0.2f, 1.7f);
-  const cv::Mat srgb = encode_albedo_srgb8(albedo);
+  const cv::Mat srgb = formats::encode_albedo_srgb8(albedo);
   EXPECT_EQ(srgb.type(), CV_8UC1);
   EXPECT_EQ(srgb.at<std::uint8_t>(0, 0), 0);
   EXPECT_EQ(srgb.at<std::uint8_t>(0, 1), 255);
@@ -45,12 +45,12 @@ TEST(MapEncoding, AlbedoIsSrgbEncodedAndClamped) {
   EXPECT_EQ(srgb.at<std::uint8_t>(0, 3), 0);
   EXPECT_EQ(srgb.at<std::uint8_t>(0, 4), 255);
   const cv::Mat colour(2, 2, CV_32FC3, cv::Scalar(0.2, 0.5, 0.8));
-  EXPECT_EQ(encode_albedo_srgb8(colour).type(), CV_8UC3);
+  EXPECT_EQ(formats::encode_albedo_srgb8(colour).type(), CV_8UC3);
 }
 
 TEST(MapEncoding, HeightSpansTheSixteenBitRange) {
   const cv::Mat height = (cv::Mat_<float>(1, 3) << -0.2f, 0.1f, 0.4f);
-  const cv::Mat png = encode_height16(height, -0.2, 0.4);
+  const cv::Mat png = formats::encode_height16(height, -0.2, 0.4);
   EXPECT_EQ(png.at<std::uint16_t>(0, 0), 0);
   EXPECT_EQ(png.at<std::uint16_t>(0, 1), 32768);
   EXPECT_EQ(png.at<std::uint16_t>(0, 2), 65535);
@@ -59,7 +59,7 @@ TEST(MapEncoding, HeightSpansTheSixteenBitRange) {
 TEST(MapEncoding, MaskMarksValidPixels) {
   const cv::Mat flags = (cv::Mat_<std::uint8_t>(1, 5) << 0, kShadowed, kShadowed | kRecovered,
                          kOutsideMask, kLowSignal);
-  const cv::Mat mask = encode_valid_mask(flags);
+  const cv::Mat mask = processing::encode_valid_mask(flags);
   EXPECT_EQ(mask.at<std::uint8_t>(0, 0), 255);
   EXPECT_EQ(mask.at<std::uint8_t>(0, 1), 0);
   EXPECT_EQ(mask.at<std::uint8_t>(0, 2), 255);
@@ -75,9 +75,9 @@ TEST(MapEncoding, DecodingANormalMapGivesTheGradientsBack) {
       p.at<float>(r, c) = 0.3F * (c - 4);
       q.at<float>(r, c) = -0.2F * (r - 3);
     }
-  cv::Mat png = encode_normal16(p, q);
+  cv::Mat png = formats::encode_normal16(p, q);
   png.at<cv::Vec3w>(0, 0) = cv::Vec3w(0, 0, 0);  // background: no normal
-  const DecodedGradients back = decode_normal_map(png);
+  const formats::DecodedGradients back = formats::decode_normal_map(png);
   ASSERT_EQ(back.p.type(), CV_32FC1);
   EXPECT_TRUE(std::isnan(back.p.at<float>(0, 0)));
   EXPECT_TRUE(std::isnan(back.q.at<float>(0, 0)));
@@ -88,19 +88,19 @@ TEST(MapEncoding, DecodingANormalMapGivesTheGradientsBack) {
       EXPECT_NEAR(back.q.at<float>(r, c), q.at<float>(r, c), 1e-3) << r << "," << c;
     }
   // DirectX (green down): q changes sign, p does not.
-  const DecodedGradients directx = decode_normal_map(png, true);
+  const formats::DecodedGradients directx = formats::decode_normal_map(png, true);
   EXPECT_NEAR(directx.q.at<float>(5, 5), -q.at<float>(5, 5), 1e-3);
   EXPECT_NEAR(directx.p.at<float>(5, 5), p.at<float>(5, 5), 1e-3);
   // 8-bit with alpha: alpha 0 has no normal. Floats hold n itself.
   cv::Mat rgba(1, 2, CV_8UC4, cv::Scalar(255, 128, 128, 255));  // B G R A: flat
   rgba.at<cv::Vec4b>(0, 1)[3] = 0;
-  const DecodedGradients a = decode_normal_map(rgba);
+  const formats::DecodedGradients a = formats::decode_normal_map(rgba);
   EXPECT_NEAR(a.p.at<float>(0, 0), 0.0, 1e-2);
   EXPECT_TRUE(std::isnan(a.p.at<float>(0, 1)));
   cv::Mat floats(1, 1, CV_32FC3, cv::Scalar(0.8, 0.0, 0.6));  // B = z, G = y, R = x
-  const DecodedGradients f = decode_normal_map(floats);
+  const formats::DecodedGradients f = formats::decode_normal_map(floats);
   EXPECT_NEAR(f.p.at<float>(0, 0), -0.6 / 0.8, 1e-6);
-  EXPECT_TRUE(decode_normal_map(cv::Mat(2, 2, CV_32FC1)).p.empty());
+  EXPECT_TRUE(formats::decode_normal_map(cv::Mat(2, 2, CV_32FC1)).p.empty());
 }
 
 }  // namespace

@@ -13,11 +13,11 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "psrig/capture/scan_writer.h"
-#include "psrig/capture/synthetic_scan.h"
-#include "psrig/processing/image_io.h"
-#include "psrig/processing/image_metadata.h"
-#include "psrig/processing/map_encoding.h"
+#include "psrig/formats/scan_writer.h"
+#include "psrig/sim/synthetic_scan.h"
+#include "psrig/formats/image_io.h"
+#include "psrig/formats/image_metadata.h"
+#include "psrig/formats/map_encoding.h"
 #include "psrig/processing/pipeline.h"
 #include "shipped_swatch.h"
 #include "test_support.h"
@@ -26,7 +26,7 @@ namespace psrig::test {
 namespace {
 
 namespace fs = std::filesystem;
-using processing::ImageMetadata;
+using formats::ImageMetadata;
 
 struct PngChunks {
   std::vector<std::string> order;                          // chunk types as they come
@@ -78,7 +78,7 @@ ImageMetadata sample_metadata(ImageMetadata::ColourSpace space) {
 TEST(MapMetadata, ColourPngCarriesSrgbScaleAndText) {
   TempDir dir;
   cv::Mat image(20, 30, CV_8UC3, cv::Scalar(10, 120, 240));
-  ASSERT_TRUE(processing::write_image(dir / "a.png", image, {},
+  ASSERT_TRUE(formats::write_image(dir / "a.png", image, {},
                                       sample_metadata(ImageMetadata::ColourSpace::colour)));
   const PngChunks chunks = read_chunks(dir / "a.png");
   ASSERT_TRUE(chunks.data.contains("sRGB"));
@@ -102,7 +102,7 @@ TEST(MapMetadata, ColourPngCarriesSrgbScaleAndText) {
 TEST(MapMetadata, DataPngIsLinearNotSrgb) {
   TempDir dir;
   cv::Mat image(8, 8, CV_16UC1, cv::Scalar(1234));
-  ASSERT_TRUE(processing::write_image(dir / "h.png", image, {cv::IMWRITE_PNG_COMPRESSION, 0},
+  ASSERT_TRUE(formats::write_image(dir / "h.png", image, {cv::IMWRITE_PNG_COMPRESSION, 0},
                                       sample_metadata(ImageMetadata::ColourSpace::data)));
   const PngChunks chunks = read_chunks(dir / "h.png");
   EXPECT_FALSE(chunks.data.contains("sRGB"));
@@ -114,7 +114,7 @@ TEST(MapMetadata, DataPngIsLinearNotSrgb) {
 TEST(MapMetadata, ExrCarriesAttributes) {
   TempDir dir;
   cv::Mat image(6, 9, CV_32F, cv::Scalar(0.125));
-  ASSERT_TRUE(processing::write_image(dir / "h.exr", image, {},
+  ASSERT_TRUE(formats::write_image(dir / "h.exr", image, {},
                                       sample_metadata(ImageMetadata::ColourSpace::data)));
   Imf::InputFile in((dir / "h.exr").c_str());
   const Imf::Header& header = in.header();
@@ -128,14 +128,14 @@ TEST(MapMetadata, ExrCarriesAttributes) {
   ASSERT_EQ(back.type(), CV_32FC1);
   EXPECT_EQ(cv::norm(back, image, cv::NORM_INF), 0.0);
   // The caller's compression is kept.
-  ASSERT_TRUE(processing::write_image(
+  ASSERT_TRUE(formats::write_image(
       dir / "z.exr", image, {cv::IMWRITE_EXR_COMPRESSION, cv::IMWRITE_EXR_COMPRESSION_ZIP},
       sample_metadata(ImageMetadata::ColourSpace::data)));
   EXPECT_EQ(Imf::InputFile((dir / "z.exr").c_str()).header().compression(), Imf::ZIP_COMPRESSION);
   EXPECT_EQ(in.header().compression(), Imf::NO_COMPRESSION);
   // Three channels, half: OpenCV reads the colours back in its order.
   cv::Mat colour(4, 5, CV_32FC3, cv::Scalar(0.25, 0.5, 0.75));
-  ASSERT_TRUE(processing::write_image(dir / "c.exr", colour,
+  ASSERT_TRUE(formats::write_image(dir / "c.exr", colour,
                                       {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_HALF},
                                       sample_metadata(ImageMetadata::ColourSpace::unspecified)));
   const cv::Mat colour_back = cv::imread((dir / "c.exr").string(), cv::IMREAD_UNCHANGED);
@@ -145,20 +145,20 @@ TEST(MapMetadata, ExrCarriesAttributes) {
 
 TEST(MapMetadata, DirectxNormalFlipsGreenOnly) {
   cv::Mat normal(2, 2, CV_16UC3, cv::Scalar(100, 2000, 30000));  // BGR
-  const cv::Mat dx = processing::flip_normal_green(normal);
+  const cv::Mat dx = formats::flip_normal_green(normal);
   EXPECT_EQ(dx.at<cv::Vec3w>(1, 1), cv::Vec3w(100, 65535 - 2000, 30000));
-  EXPECT_EQ(cv::norm(processing::flip_normal_green(dx), normal, cv::NORM_INF), 0.0);
+  EXPECT_EQ(cv::norm(formats::flip_normal_green(dx), normal, cv::NORM_INF), 0.0);
 }
 
 TEST(MapMetadata, ProcessedMapsCarryScaleSampleAndConvention) {
   TempDir dir;
-  capture::SyntheticScanParams params;
+  sim::SyntheticScanParams params;
   params.swatch.pattern = test::named_pattern("jersey");
   params.swatch.size = {96, 64};
   params.swatch.pixel_size_mm = 0.04;
-  auto scan = test::made(capture::make_synthetic_scan(params));
+  auto scan = test::made(sim::make_synthetic_scan(params));
   scan.description.sample_id = "S-9";
-  ASSERT_TRUE(capture::write_scan(scan, dir / "scan"));
+  ASSERT_TRUE(formats::write_scan(scan, dir / "scan"));
   processing::ProcessOptions options;
   options.directx_normal = true;
   auto summary = processing::process_scan(dir / "scan", options);

@@ -4,7 +4,8 @@
 // and injected faults. Every test checks the driver's own record too: never
 // two LEDs on, and all off after a failure.
 
-#include "psrig/firmware_host/modbus_lights.h"
+#include "psrig/lights/modbus_lights.h"
+#include "psrig/rig/open_devices.h"
 
 #include <atomic>
 #include <chrono>
@@ -19,10 +20,10 @@
 #include <gmock/gmock.h>
 #include <gtest/gtest.h>
 
-#include "psrig/firmware_host/safe_lights.h"
+#include "psrig/lights/safe_lights.h"
 #include "sim_modbus_driver.h"
 
-namespace psrig::firmware_host {
+namespace psrig::lights {
 namespace {
 
 using std::chrono::milliseconds;
@@ -91,8 +92,8 @@ class ModbusLightsTest : public ::testing::TestWithParam<std::string> {
     config_.modbus.retries = 2;
   }
 
-  std::unique_ptr<LightController> open() {
-    auto opened = open_modbus_lights(config_);
+  std::unique_ptr<lights::LightController> open() {
+    auto opened = lights::open_modbus_lights(config_);
     EXPECT_TRUE(opened.has_value()) << opened.error().describe();
     return opened ? std::move(*opened) : nullptr;
   }
@@ -100,7 +101,7 @@ class ModbusLightsTest : public ::testing::TestWithParam<std::string> {
   // From both sides: the host's log, the driver's own switch history and
   // the world's view never show two LEDs on, and the host never even asked
   // for it (the driver's interlock would have refused).
-  void expect_never_two_on(const LightController& lights) const {
+  void expect_never_two_on(const lights::LightController& lights) const {
     EXPECT_EQ(lights.log().overlap(), std::nullopt);
     EXPECT_EQ(driver_->log().overlap(), std::nullopt);
     EXPECT_LE(world_.max_on(), 1u);
@@ -222,7 +223,7 @@ TEST_P(ModbusLightsTest, CustomRegisterMapWorks) {
 TEST_P(ModbusLightsTest, RegisterMapMismatchIsRefusedAtOpenByName) {
   start_driver();                              // the default map
   config_.modbus.registers.enable_coil = 200;  // not the driver's
-  auto opened = open_modbus_lights(config_);
+  auto opened = lights::open_modbus_lights(config_);
   ASSERT_FALSE(opened.has_value());
   EXPECT_THAT(opened.error().message,
               AllOf(HasSubstr("refused reading back the enable coils (coils 200-202, "
@@ -232,7 +233,7 @@ TEST_P(ModbusLightsTest, RegisterMapMismatchIsRefusedAtOpenByName) {
 
   config_.modbus.registers = {};
   config_.modbus.registers.all_off_coil = 33;  // a gap in the driver's coils
-  opened = open_modbus_lights(config_);
+  opened = lights::open_modbus_lights(config_);
   ASSERT_FALSE(opened.has_value());
   EXPECT_THAT(opened.error().message,
               AllOf(HasSubstr("refused switching every LED off (writing coil 33"),
@@ -246,7 +247,7 @@ TEST_P(ModbusLightsTest, ForeignDeviceIsNamedAndNeverWrittenTo) {
   registers.device_id = 0x0BAD;  // some other Modbus device on that address
   start_driver(registers);
   config_.modbus.registers.device_id = 0x4C44;
-  const auto opened = open_modbus_lights(config_);
+  const auto opened = lights::open_modbus_lights(config_);
   ASSERT_FALSE(opened.has_value());
   EXPECT_THAT(opened.error().message,
               AllOf(HasSubstr(endpoint()), HasSubstr("device id 0x0bad in input register 1"),
@@ -318,7 +319,7 @@ TEST_P(ModbusLightsTest, DriverFaultStatusIsAnErrorAndEverythingGoesOff) {
   lights.reset();
 
   // A driver already in fault is not used at all.
-  const auto reopened = open_modbus_lights(config_);
+  const auto reopened = lights::open_modbus_lights(config_);
   ASSERT_FALSE(reopened.has_value());
   EXPECT_THAT(reopened.error().message, HasSubstr("at start-up"));
   EXPECT_TRUE(driver_->leds_on().empty());
@@ -509,7 +510,7 @@ TEST_P(ModbusLightsTest, WrongSlaveIdIsNamedInTheError) {
   config_.modbus.slave = 6;
   config_.modbus.timeout_ms = 100;
   config_.modbus.retries = 0;
-  const auto opened = open_modbus_lights(config_);
+  const auto opened = lights::open_modbus_lights(config_);
   ASSERT_FALSE(opened.has_value());
   EXPECT_THAT(opened.error().message,
               AllOf(HasSubstr("slave 6"), HasSubstr("no answer"), HasSubstr("lights.modbus.slave"),
@@ -565,7 +566,7 @@ TEST_P(ModbusLightsTest, SafeLightsFailureLeavesEveryLedOff) {
   config_.modbus.timeout_ms = 100;
   auto lights = open();
   ASSERT_TRUE(lights);
-  SafeLights safe(std::move(lights), milliseconds(5000));
+  lights::SafeLights safe(std::move(lights), milliseconds(5000));
   ASSERT_TRUE(safe.turn_on(0).has_value());
   EXPECT_THAT(driver_->leds_on(), ElementsAre(0));
 
@@ -600,7 +601,7 @@ TEST_P(ModbusLightsTest, SafeLightsWatchdogSwitchesTheDriverOff) {
   start_driver();
   auto lights = open();
   ASSERT_TRUE(lights);
-  SafeLights safe(std::move(lights), milliseconds(100));
+  lights::SafeLights safe(std::move(lights), milliseconds(100));
   ASSERT_TRUE(safe.turn_on(2).has_value());
   EXPECT_THAT(driver_->leds_on(), ElementsAre(2));
   const auto deadline = Clock::now() + std::chrono::seconds(5);
@@ -617,7 +618,7 @@ TEST_P(ModbusLightsTest, FactoryOpensTheModbusBackend) {
   rig.source = "/etc/psrig/rig.toml";
   rig.lights = config_;
   rig.lights.backend = "modbus";
-  auto opened = open_lights(rig);
+  auto opened = psrig::rig::open_lights(rig);
   ASSERT_TRUE(opened.has_value()) << opened.error().describe();
   EXPECT_THAT((*opened)->describe(), HasSubstr(endpoint()));
   ASSERT_TRUE((*opened)->turn_on(1).has_value());
@@ -626,7 +627,7 @@ TEST_P(ModbusLightsTest, FactoryOpensTheModbusBackend) {
   EXPECT_TRUE(driver_->leds_on().empty());
 
   rig.lights.modbus.timeout_ms = 0;
-  opened = open_lights(rig);
+  opened = psrig::rig::open_lights(rig);
   ASSERT_FALSE(opened.has_value());
   EXPECT_EQ(opened.error().key, "lights.modbus.timeout_ms");
   EXPECT_EQ(opened.error().file, rig.source);
@@ -645,7 +646,7 @@ TEST(ModbusLightsTcpTest, DroppedConnectionIsReopenedOrReported) {
   config.modbus = driver.host_config();
   config.modbus.timeout_ms = 200;
   config.modbus.retries = 2;
-  auto opened = open_modbus_lights(config);
+  auto opened = lights::open_modbus_lights(config);
   ASSERT_TRUE(opened.has_value()) << opened.error().describe();
   auto& lights = **opened;
   EXPECT_EQ(driver.connections(), 1);
@@ -671,25 +672,25 @@ TEST(ModbusLightsTcpTest, DroppedConnectionIsReopenedOrReported) {
 TEST(ModbusLightsConfigTest, BadSettingsNameTheKey) {
   config::LightsConfig config;
   config.modbus.transport = "udp";
-  auto opened = open_modbus_lights(config);
+  auto opened = lights::open_modbus_lights(config);
   ASSERT_FALSE(opened.has_value());
   EXPECT_EQ(opened.error().key, "lights.modbus.transport");
 
   config.modbus.transport = "rtu";
   config.modbus.parity = 'X';
-  opened = open_modbus_lights(config);
+  opened = lights::open_modbus_lights(config);
   ASSERT_FALSE(opened.has_value());
   EXPECT_EQ(opened.error().key, "lights.modbus.parity");
 
   config.modbus.parity = 'E';
   config.modbus.registers.intensity_full_scale = 0;
-  opened = open_modbus_lights(config);
+  opened = lights::open_modbus_lights(config);
   ASSERT_FALSE(opened.has_value());
   EXPECT_EQ(opened.error().key, "lights.modbus.registers.intensity_full_scale");
 
   config.modbus.registers = {};
   config.modbus.registers.all_off_coil = 2;  // one of the three enable coils
-  opened = open_modbus_lights(config);
+  opened = lights::open_modbus_lights(config);
   ASSERT_FALSE(opened.has_value());
   EXPECT_EQ(opened.error().key, "lights.modbus.registers.all_off_coil");
   EXPECT_THAT(opened.error().message, HasSubstr("enable coils 0-2"));
@@ -699,7 +700,7 @@ TEST(ModbusLightsConfigTest, MissingSerialPortNamesTheDeviceAndTheFix) {
   config::LightsConfig config;
   config.modbus.transport = "rtu";
   config.modbus.device = "/dev/ttyNOSUCH0";
-  const auto opened = open_modbus_lights(config);
+  const auto opened = lights::open_modbus_lights(config);
   ASSERT_FALSE(opened.has_value());
   EXPECT_THAT(opened.error().describe(),
               AllOf(HasSubstr("/dev/ttyNOSUCH0"), HasSubstr("lights.modbus.device"),
@@ -707,4 +708,4 @@ TEST(ModbusLightsConfigTest, MissingSerialPortNamesTheDeviceAndTheFix) {
 }
 
 }  // namespace
-}  // namespace psrig::firmware_host
+}  // namespace psrig::lights

@@ -9,13 +9,13 @@
 
 #include <gtest/gtest.h>
 
-#include "psrig/capture/rig.h"
-#include "psrig/capture/scan_sequencer.h"
+#include "psrig/rig/rig.h"
+#include "psrig/rig/scan_sequencer.h"
 #include "psrig/processing/evaluation.h"
-#include "psrig/processing/image_io.h"
-#include "psrig/processing/parallel.h"
+#include "psrig/formats/image_io.h"
+#include "psrig/base/parallel.h"
 #include "psrig/processing/pipeline.h"
-#include "psrig/processing/scan_reader.h"
+#include "psrig/formats/scan_reader.h"
 #include "psrig/processing/woodham.h"
 #include "test_support.h"
 
@@ -53,9 +53,9 @@ double mean_error(const cv::Mat& error, const cv::Rect& r) {
 TEST(NearField, SimulatedRigIsCorrectedOverTheWholeField) {
   test::TempDir dir;
   const auto config = near_rig();
-  auto rig = capture::open_rig(config);
+  auto rig = rig::open_rig(config);
   ASSERT_TRUE(rig) << rig.error().describe();
-  capture::ScanSequencer sequencer(config, *rig->lights, *rig->camera);
+  rig::ScanSequencer sequencer(config, *rig->lights, *rig->camera);
   auto request = rig->request(config);
   request.directory = dir / "scan";
   auto outcome = sequencer.capture(request, {});
@@ -63,7 +63,7 @@ TEST(NearField, SimulatedRigIsCorrectedOverTheWholeField) {
   ASSERT_TRUE(outcome->maps);
 
   // scan.json carries the positions and where the axis meets the image.
-  auto scan = processing::read_scan(request.directory);
+  auto scan = formats::read_scan(request.directory);
   ASSERT_TRUE(scan) << scan.error().describe();
   ASSERT_TRUE(scan->description.near_field());
   EXPECT_NEAR((*scan->description.lights[0].position_mm)[0], 250 * std::sqrt(0.5), 1e-9);
@@ -84,7 +84,7 @@ TEST(NearField, SimulatedRigIsCorrectedOverTheWholeField) {
   ASSERT_TRUE(near_solve);
   const cv::Mat near_error =
       processing::angular_error_deg(near_solve->p, near_solve->q, scan->ground_truth_normal);
-  processing::Scan directional = *scan;
+  formats::Scan directional = *scan;
   for (auto& light : directional.description.lights)
     light.position_mm.reset();
   auto far_solve = processing::solve(directional);
@@ -113,9 +113,9 @@ TEST(NearField, SimulatedRigIsCorrectedOverTheWholeField) {
       near_edges, processing::describe(near_error).max);
   // Bit for bit the same whatever the thread count.
   for (const int threads : {1, 3}) {
-    processing::set_thread_count(threads);
+    psrig::set_thread_count(threads);
     auto again = processing::solve(*scan);
-    processing::set_thread_count(0);
+    psrig::set_thread_count(0);
     ASSERT_TRUE(again);
     EXPECT_EQ(cv::norm(again->p, near_solve->p, cv::NORM_INF), 0) << threads;
     EXPECT_EQ(cv::norm(again->q, near_solve->q, cv::NORM_INF), 0) << threads;
@@ -138,7 +138,7 @@ TEST(NearField, ScanReaderChecksPositions) {
     std::filesystem::remove_all(path);
     std::filesystem::create_directories(path);
     for (int k = 0; k < 3; ++k)
-      ASSERT_TRUE(processing::write_image(path / ("led" + std::to_string(k) + ".png"),
+      ASSERT_TRUE(formats::write_image(path / ("led" + std::to_string(k) + ".png"),
                                           cv::Mat(8, 8, CV_16U, cv::Scalar(30000))));
     std::ofstream(path / "scan.json")
         << R"({"format": "psrig-scan/1", "lights": )" << lights_json << extra << "}";
@@ -148,13 +148,13 @@ TEST(NearField, ScanReaderChecksPositions) {
           {"image": "led1.png", "direction": [-0.3536, 0.6124, 0.7071], "position_mm": [-88.4, 153.1, 176.8]},
           {"image": "led2.png", "direction": [-0.3536, -0.6124, 0.7071], "position_mm": [-88.4, -153.1, 176.8]}])";
   write(good, R"(, "pixel_size_mm": 0.025, "principal_point_px": [3.5, 3.5])");
-  auto ok = processing::read_scan(dir / "s");
+  auto ok = formats::read_scan(dir / "s");
   ASSERT_TRUE(ok) << ok.error().describe();
   EXPECT_TRUE(ok->description.near_field());
   EXPECT_EQ(ok->description.principal_point_px, cv::Point2d(3.5, 3.5));
 
   const auto expect_key = [&](const std::string& key) {
-    auto bad = processing::read_scan(dir / "s");
+    auto bad = formats::read_scan(dir / "s");
     ASSERT_FALSE(bad);
     EXPECT_EQ(bad.error().key, key) << bad.error().describe();
   };

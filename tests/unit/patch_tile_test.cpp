@@ -5,10 +5,10 @@
 
 #include <gtest/gtest.h>
 
-#include "psrig/capture/scan_writer.h"
-#include "psrig/capture/synthetic_scan.h"
+#include "psrig/formats/scan_writer.h"
+#include "psrig/sim/synthetic_scan.h"
 #include "psrig/processing/pipeline.h"
-#include "psrig/processing/seamless_tile.h"
+#include "psrig/analysis/seamless_tile.h"
 #include "shipped_swatch.h"
 #include "test_support.h"
 
@@ -17,11 +17,11 @@ namespace {
 
 TEST(PatchTile, CutInMemoryThenReadFromTheTileDirectory) {
   test::TempDir temp;
-  capture::SyntheticScanParams params;
+  sim::SyntheticScanParams params;
   params.swatch.pattern = test::named_pattern("twill");
   params.swatch.size = {480, 360};
   params.swatch.rotation_deg = 2;
-  ASSERT_TRUE(capture::write_scan(test::made(capture::make_synthetic_scan(params)), temp / "scan"));
+  ASSERT_TRUE(formats::write_scan(test::made(sim::make_synthetic_scan(params)), temp / "scan"));
   const auto processed = processing::process_scan(temp / "scan");
   ASSERT_TRUE(processed) << processed.error().describe();
   const auto maps = load_swatch_maps(processed->maps_directory);
@@ -41,15 +41,15 @@ TEST(PatchTile, CutInMemoryThenReadFromTheTileDirectory) {
 
   // psrig tile's directory, when there is one, is what the view repeats.
   std::vector<std::string> warnings;
-  const auto read = processing::read_maps(processed->maps_directory, warnings);
+  const auto read = formats::read_maps(processed->maps_directory, warnings);
   ASSERT_TRUE(read);
-  const auto tile = processing::make_seamless_tile(
-      *read, processing::find_repeat_lattice(read->height, read->albedo), {.repeats = 2});
+  const auto tile = analysis::make_seamless_tile(
+      *read, analysis::find_repeat_lattice(read->height, read->albedo), {.repeats = 2});
   ASSERT_TRUE(tile);
   ASSERT_TRUE(
-      processing::write_tile(*tile, processed->maps_directory / processing::kTileDirectory));
+      analysis::write_tile(*tile, processed->maps_directory / formats::tile_files::kDirectory));
   const PatchTile stored = patch_tile(*maps);
-  EXPECT_EQ(stored.source, (processed->maps_directory / processing::kTileDirectory).string());
+  EXPECT_EQ(stored.source, (processed->maps_directory / formats::tile_files::kDirectory).string());
   EXPECT_EQ(stored.repeats_u, 2);
   EXPECT_EQ(stored.maps.size(), tile->maps.p.size());
   EXPECT_NEAR(stored.maps.pixel_size_mm, *tile->pixel_size_mm, 1e-12);

@@ -10,11 +10,11 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "psrig/capture/scan_writer.h"
-#include "psrig/capture/synthetic_scan.h"
+#include "psrig/formats/scan_writer.h"
+#include "psrig/sim/synthetic_scan.h"
 #include "psrig/processing/evaluation.h"
-#include "psrig/processing/image_io.h"
-#include "psrig/processing/map_encoding.h"
+#include "psrig/formats/image_io.h"
+#include "psrig/formats/map_encoding.h"
 #include "psrig/sim/swatch_model.h"
 #include "shipped_swatch.h"
 #include "synthetic_scene.h"
@@ -33,8 +33,8 @@ const std::vector<std::string> kMapFiles = {"albedo.exr", "albedo.png", "height.
 fs::path write_plane_scan(const fs::path& dir, const cv::Vec3f& normal) {
   test::Surface plane{cv::Mat(48, 64, CV_32FC3, cv::Scalar(normal[0], normal[1], normal[2])),
                       cv::Mat(48, 64, CV_32FC3, cv::Scalar(0.5, 0.5, 0.5))};
-  const Scan scan = test::render_scan(plane, test::ring_lights(3, 45), CV_16U);
-  EXPECT_TRUE(capture::write_scan(scan, dir));
+  const formats::Scan scan = test::render_scan(plane, test::ring_lights(3, 45), CV_16U);
+  EXPECT_TRUE(formats::write_scan(scan, dir));
   return dir;
 }
 
@@ -43,7 +43,7 @@ TEST(Pipeline, WritesEveryMapAndTheReport) {
   auto scan =
       test::render_scan(test::sphere_surface({96, 80}, 30, 3), test::ring_lights(3, 45), CV_16U);
   scan.description.pixel_size_mm = 0.05;
-  ASSERT_TRUE(capture::write_scan(scan, temp / "scan"));
+  ASSERT_TRUE(formats::write_scan(scan, temp / "scan"));
   auto summary = process_scan(temp / "scan");
   ASSERT_TRUE(summary) << summary.error().describe();
   EXPECT_EQ(summary->maps_directory, temp / "scan" / "maps");
@@ -79,9 +79,9 @@ TEST(Pipeline, WritesEveryMapAndTheReport) {
 TEST(Pipeline, SeventyGlossyLightsWithRejection) {
   test::TempDir temp;
   const auto surface = test::sphere_surface({64, 48}, 20, 3);
-  const Scan scan = test::render_scan(surface, test::dome_lights(70, 55), CV_16U, 0.002, 3, {},
+  const formats::Scan scan = test::render_scan(surface, test::dome_lights(70, 55), CV_16U, 0.002, 3, {},
                                       {.strength = 0.5, .exponent = 40});
-  ASSERT_TRUE(capture::write_scan(scan, temp / "scan"));
+  ASSERT_TRUE(formats::write_scan(scan, temp / "scan"));
   ProcessOptions options;
   options.output = temp / "plain";
   auto plain = process_scan(temp / "scan", options);
@@ -123,10 +123,10 @@ class SyntheticSwatch : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(SyntheticSwatch, NoiseFreeNormalsAreExact) {
   test::TempDir temp;
-  capture::SyntheticScanParams params;
+  sim::SyntheticScanParams params;
   params.swatch.pattern = test::named_pattern(GetParam());
   params.swatch.size = {240, 180};
-  ASSERT_TRUE(capture::write_scan(test::made(capture::make_synthetic_scan(params)), temp / "scan"));
+  ASSERT_TRUE(formats::write_scan(test::made(sim::make_synthetic_scan(params)), temp / "scan"));
   auto summary = process_scan(temp / "scan");
   ASSERT_TRUE(summary) << summary.error().describe();
   const auto& truth = summary->report["ground_truth"];
@@ -141,15 +141,15 @@ TEST_P(SyntheticSwatch, NoiseFreeNormalsAreExact) {
 // mean predicted RMS.
 TEST_P(SyntheticSwatch, NoisyNormalsMatchTheDerivedBound) {
   const double sigma = 0.004;
-  capture::SyntheticScanParams params;
+  sim::SyntheticScanParams params;
   params.swatch.pattern = test::named_pattern(GetParam());
   params.swatch.size = {240, 180};
   params.noise = sigma;
-  const Scan scan = test::made(capture::make_synthetic_scan(params));
+  const formats::Scan scan = test::made(sim::make_synthetic_scan(params));
   const auto swatch = test::made(sim::make_swatch(params.swatch));
   auto result = solve(scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = encode_valid_mask(result->flags);
+  const cv::Mat valid = processing::encode_valid_mask(result->flags);
 
   std::vector<cv::Vec3d> lights;
   for (const auto& light : scan.description.lights)
@@ -191,7 +191,7 @@ TEST(Pipeline, AMaskedScanIsIntegratedOverItsMaskAndTheReportSaysHow) {
       test::render_scan(test::sphere_surface({w, h}, radius, 1), test::ring_lights(3, 45), CV_16U);
   scan.mask = cv::Mat(h, w, CV_8U, cv::Scalar(0));
   cv::circle(scan.mask, cv::Point(w / 2, h / 2), 34, cv::Scalar(255), cv::FILLED);
-  ASSERT_TRUE(capture::write_scan(scan, temp / "scan"));
+  ASSERT_TRUE(formats::write_scan(scan, temp / "scan"));
   ProcessOptions options;
   options.flatten = Flatten::off;
   auto summary = process_scan(temp / "scan", options);
@@ -230,10 +230,10 @@ TEST(Pipeline, AMaskedScanIsIntegratedOverItsMaskAndTheReportSaysHow) {
 
 TEST(Pipeline, SwatchScansAreFlattenedAndTheBendIsReported) {
   test::TempDir temp;
-  capture::SyntheticScanParams params;
+  sim::SyntheticScanParams params;
   params.swatch.pattern = test::named_pattern("jersey");
   params.swatch.size = {240, 180};
-  ASSERT_TRUE(capture::write_scan(test::made(capture::make_synthetic_scan(params)), temp / "scan"));
+  ASSERT_TRUE(formats::write_scan(test::made(sim::make_synthetic_scan(params)), temp / "scan"));
   auto summary = process_scan(temp / "scan");
   ASSERT_TRUE(summary) << summary.error().describe();
   const auto& r = summary->report;
@@ -307,7 +307,7 @@ void write_scan_with_black_flat(const fs::path& dir) {
       test::render_scan(test::sphere_surface({32, 24}, 8, 1), test::ring_lights(3, 45), CV_16U);
   for (int k = 0; k < 3; ++k)
     scan.flats.push_back(cv::Mat(scan.size(), CV_16U, cv::Scalar(k == 1 ? 0 : 30000)));
-  ASSERT_TRUE(capture::write_scan(scan, dir));
+  ASSERT_TRUE(formats::write_scan(scan, dir));
 }
 
 TEST(Pipeline, AFailureAfterStagingLeavesNothingBehind) {
@@ -368,8 +368,8 @@ TEST(Pipeline, StorageCompressionIsLosslessAndRecorded) {
   test::TempDir temp;
   auto scan =
       test::render_scan(test::sphere_surface({96, 80}, 30, 3), test::ring_lights(3, 45), CV_16U);
-  ASSERT_TRUE(capture::write_scan(scan, temp / "scan"));
-  const auto process_with = [&](ExrCompression exr, int png_level) {
+  ASSERT_TRUE(formats::write_scan(scan, temp / "scan"));
+  const auto process_with = [&](formats::ExrCompression exr, int png_level) {
     ProcessOptions options;
     options.storage = {exr, png_level};
     options.output = temp / (std::string(to_string(exr)) + std::to_string(png_level));
@@ -381,16 +381,16 @@ TEST(Pipeline, StorageCompressionIsLosslessAndRecorded) {
     }
     return options.output;
   };
-  const fs::path plain = process_with(ExrCompression::none, 0);
-  for (const auto& [exr, level] : {std::pair{ExrCompression::zip, 1},
-                                   {ExrCompression::piz, 9},
-                                   {ExrCompression::automatic, 1}}) {
+  const fs::path plain = process_with(formats::ExrCompression::none, 0);
+  for (const auto& [exr, level] : {std::pair{formats::ExrCompression::zip, 1},
+                                   {formats::ExrCompression::piz, 9},
+                                   {formats::ExrCompression::automatic, 1}}) {
     const fs::path packed = process_with(exr, level);
     for (const char* name : {"albedo.exr", "p.exr", "q.exr", "height.exr", "normal.png",
                              "height.png", "albedo.png", "mask.png"}) {
       SCOPED_TRACE(packed / name);
-      auto a = read_image(plain / name, name);
-      auto b = read_image(packed / name, name);
+      auto a = formats::read_image(plain / name, name);
+      auto b = formats::read_image(packed / name, name);
       ASSERT_TRUE(a && b);
       ASSERT_EQ(a->type(), b->type());
       ASSERT_EQ(a->size(), b->size());
@@ -420,12 +420,12 @@ TEST(Pipeline, StorageCompressionIsLosslessAndRecorded) {
 // maps take fewer bytes. report.json says which.
 TEST(Pipeline, HalfPrecisionMapsStayWithinTheirRoundingAndTakeLessSpace) {
   test::TempDir temp;
-  capture::SyntheticScanParams params;
+  sim::SyntheticScanParams params;
   params.swatch.pattern = test::named_pattern("jersey");
   params.swatch.size = {160, 120};
   params.noise = 0.002;
-  ASSERT_TRUE(capture::write_scan(test::made(capture::make_synthetic_scan(params)), temp / "scan"));
-  const auto process_with = [&](MapPrecision precision) {
+  ASSERT_TRUE(formats::write_scan(test::made(sim::make_synthetic_scan(params)), temp / "scan"));
+  const auto process_with = [&](formats::MapPrecision precision) {
     ProcessOptions options;
     options.storage.map_precision = precision;
     options.output = temp / to_string(precision);
@@ -436,13 +436,13 @@ TEST(Pipeline, HalfPrecisionMapsStayWithinTheirRoundingAndTakeLessSpace) {
     }
     return options.output;
   };
-  const fs::path full = process_with(MapPrecision::full);
-  const fs::path half = process_with(MapPrecision::half);
+  const fs::path full = process_with(formats::MapPrecision::full);
+  const fs::path half = process_with(formats::MapPrecision::half);
   std::uintmax_t full_bytes = 0, half_bytes = 0;
   for (const char* name : {"p.exr", "q.exr", "height.exr"}) {
     SCOPED_TRACE(name);
-    auto a = read_image(full / name, name);
-    auto b = read_image(half / name, name);
+    auto a = formats::read_image(full / name, name);
+    auto b = formats::read_image(half / name, name);
     ASSERT_TRUE(a && b);
     ASSERT_EQ(b->type(), CV_32FC1);  // read back as floats, as every reader wants
     for (int r = 0; r < a->rows; ++r)
@@ -460,8 +460,8 @@ TEST(Pipeline, HalfPrecisionMapsStayWithinTheirRoundingAndTakeLessSpace) {
   }
   EXPECT_LT(half_bytes, full_bytes * 6 / 10);
   // The surface angle between the two maps' normals.
-  auto p32 = read_image(full / "p.exr", "p"), q32 = read_image(full / "q.exr", "q");
-  auto p16 = read_image(half / "p.exr", "p"), q16 = read_image(half / "q.exr", "q");
+  auto p32 = formats::read_image(full / "p.exr", "p"), q32 = formats::read_image(full / "q.exr", "q");
+  auto p16 = formats::read_image(half / "p.exr", "p"), q16 = formats::read_image(half / "q.exr", "q");
   ASSERT_TRUE(p32 && q32 && p16 && q16);
   double worst_deg = 0;
   for (int r = 0; r < p32->rows; ++r)
@@ -473,7 +473,7 @@ TEST(Pipeline, HalfPrecisionMapsStayWithinTheirRoundingAndTakeLessSpace) {
     }
   EXPECT_LE(worst_deg, 180 / CV_PI / 2048);
   // The 16-bit normal.png is the same from either.
-  auto n32 = read_image(full / "normal.png", "n"), n16 = read_image(half / "normal.png", "n");
+  auto n32 = formats::read_image(full / "normal.png", "n"), n16 = formats::read_image(half / "normal.png", "n");
   ASSERT_TRUE(n32 && n16);
   EXPECT_EQ(cv::norm(*n32, *n16, cv::NORM_INF), 0);
 }

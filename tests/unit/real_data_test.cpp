@@ -13,8 +13,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/processing/evaluation.h"
-#include "psrig/processing/map_encoding.h"
-#include "psrig/processing/scan_reader.h"
+#include "psrig/formats/map_encoding.h"
+#include "psrig/formats/scan_reader.h"
 #include "psrig/processing/woodham.h"
 #include "synthetic_scene.h"
 #include "test_support.h"
@@ -22,7 +22,7 @@
 namespace psrig::processing {
 namespace {
 
-Scan with_y_flipped(Scan scan) {
+formats::Scan with_y_flipped(formats::Scan scan) {
   for (auto& light : scan.description.lights)
     light.direction[1] = -light.direction[1];
   return scan;
@@ -44,11 +44,11 @@ double mean_tilt_deg(const SolveResult& r, const cv::Mat& select) {
 TEST(RealData, BeethovenPlasterAlbedoIsNearlyFlatAndNormalsIntegrable) {
   const auto dir = test::real_dataset("beethoven");
   if (!dir) GTEST_SKIP() << "shared/data/beethoven not present";
-  auto scan = read_scan(*dir);
+  auto scan = formats::read_scan(*dir);
   ASSERT_TRUE(scan) << scan.error().describe();
   auto result = solve(*scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = encode_valid_mask(result->flags);
+  const cv::Mat valid = processing::encode_valid_mask(result->flags);
   // Measured: 96.7 % of the mask valid (the rest grazes a light).
   EXPECT_GT(cv::countNonZero(valid), 0.95 * cv::countNonZero(scan->mask));
 
@@ -77,14 +77,14 @@ TEST(RealData, BeethovenPlasterAlbedoIsNearlyFlatAndNormalsIntegrable) {
 TEST(RealData, ButterflyEightLightsWithAmbientFrame) {
   const auto dir = test::real_dataset("butterfly");
   if (!dir) GTEST_SKIP() << "shared/data/butterfly not present";
-  auto scan = read_scan(*dir);
+  auto scan = formats::read_scan(*dir);
   ASSERT_TRUE(scan) << scan.error().describe();
   ASSERT_EQ(scan->frames.size(), 8u);
   ASSERT_FALSE(scan->dark.empty());
 
   auto result = solve(*scan);
   auto rejecting = solve(*scan, {.reject_outliers = true});
-  Scan no_dark = *scan;
+  formats::Scan no_dark = *scan;
   no_dark.dark = cv::Mat();
   auto without_dark = solve(no_dark);
   auto flipped = solve(with_y_flipped(*scan));
@@ -96,9 +96,9 @@ TEST(RealData, ButterflyEightLightsWithAmbientFrame) {
   ASSERT_GT(object_pixels, 50000);
 
   // Measured: 99.6 % valid by least squares, 100 % with rejection.
-  EXPECT_GT(cv::countNonZero(encode_valid_mask(result->flags) & object), 0.99 * object_pixels);
-  EXPECT_GE(cv::countNonZero(encode_valid_mask(rejecting->flags) & object),
-            cv::countNonZero(encode_valid_mask(result->flags) & object));
+  EXPECT_GT(cv::countNonZero(processing::encode_valid_mask(result->flags) & object), 0.99 * object_pixels);
+  EXPECT_GE(cv::countNonZero(processing::encode_valid_mask(rejecting->flags) & object),
+            cv::countNonZero(processing::encode_valid_mask(result->flags) & object));
   // Eight lights leave a real misfit; measured mean 0.029 of full scale.
   EXPECT_LT(cv::mean(result->residual, object)[0], 0.04);
   // Ambient light adds the same to every frame and flattens the relief;
@@ -149,9 +149,9 @@ std::vector<cv::Vec3d> chrome_sphere_lights(const std::filesystem::path& dir) {
 }
 
 // An in-memory scan of one uw-cse455 object under the lights chosen.
-Scan uw_scan(const std::filesystem::path& dir, const std::string& name,
+formats::Scan uw_scan(const std::filesystem::path& dir, const std::string& name,
              const std::vector<cv::Vec3d>& all_lights, const std::vector<int>& chosen) {
-  Scan scan;
+  formats::Scan scan;
   auto& d = scan.description;
   for (int k : chosen) {
     const std::string file = name + "." + std::to_string(k) + ".png";
@@ -195,7 +195,7 @@ TEST(RealData, UwGreySphereRejectionBeatsTheNaiveRule) {
   }
   for (const auto& chosen : {std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11},
                              std::vector<int>{0, 1, 3, 4, 6, 7, 9, 10}}) {
-    const Scan scan = uw_scan(*dir, "gray", lights, chosen);
+    const formats::Scan scan = uw_scan(*dir, "gray", lights, chosen);
     auto plain = solve(scan);
     auto rejecting = solve(scan, {.reject_outliers = true});
     ASSERT_TRUE(plain && rejecting);
@@ -244,7 +244,7 @@ struct Curls {
   double plain = 0, naive = 0, reject = 0;
 };
 
-Curls curls(const Scan& scan, const cv::Mat& select) {
+Curls curls(const formats::Scan& scan, const cv::Mat& select) {
   auto plain = solve(scan);
   auto rejecting = solve(scan, {.reject_outliers = true});
   EXPECT_TRUE(plain && rejecting);
@@ -271,7 +271,7 @@ TEST(RealData, RejectionIsMoreIntegrableThanTheNaiveRuleOnGlossyObjects) {
     for (const char* name : {"buddha", "cat", "horse", "owl", "rock"}) {
       for (const auto& chosen : {std::vector<int>{0, 1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11},
                                  std::vector<int>{0, 1, 3, 4, 6, 7, 9, 10}}) {
-        const Scan scan = uw_scan(*uw, name, lights, chosen);
+        const formats::Scan scan = uw_scan(*uw, name, lights, chosen);
         cv::Mat select;
         cv::erode(scan.mask, select, cv::Mat::ones(5, 5, CV_8U));
         report(std::string("uw-cse455 ") + name, chosen.size(), curls(scan, select));
@@ -279,7 +279,7 @@ TEST(RealData, RejectionIsMoreIntegrableThanTheNaiveRuleOnGlossyObjects) {
     }
   }
   if (butterfly) {
-    auto scan = read_scan(*butterfly);
+    auto scan = formats::read_scan(*butterfly);
     ASSERT_TRUE(scan) << scan.error().describe();
     auto plain = solve(*scan);
     ASSERT_TRUE(plain);

@@ -42,7 +42,7 @@ struct Errors {
 };
 
 // Mean angular errors (degrees) of the three over the pixels all three solve.
-Errors compare(const Scan& scan, const cv::Mat& truth) {
+Errors compare(const formats::Scan& scan, const cv::Mat& truth) {
   auto plain = solve(scan);
   auto robust = solve(scan, {.reject_outliers = true});
   EXPECT_TRUE(plain && robust);
@@ -77,7 +77,7 @@ TEST_P(GlossyScenes, DomeWithCastShadows) {
   std::vector<cv::Mat> shadows;
   for (const auto& l : lights)
     shadows.push_back(test::dome_cast_shadow(size, radius, l));
-  const Scan scan = test::render_scan(surface, lights, CV_16U, 0.005, 21, shadows, kGlossy);
+  const formats::Scan scan = test::render_scan(surface, lights, CV_16U, 0.005, 21, shadows, kGlossy);
   const Errors e = compare(scan, surface.normal);
   print("glossy dome, cast shadows", count, e);
   EXPECT_LT(e.robust, e.naive);
@@ -94,7 +94,7 @@ TEST_P(GlossyScenes, BumpyPlaneWithCastShadows) {
   std::vector<cv::Mat> shadows;
   for (const auto& l : lights)
     shadows.push_back(test::height_cast_shadow(height, l));
-  const Scan scan = test::render_scan(surface, lights, CV_16U, 0.005, 22, shadows, kGlossy);
+  const formats::Scan scan = test::render_scan(surface, lights, CV_16U, 0.005, 22, shadows, kGlossy);
   const Errors e = compare(scan, surface.normal);
   print("glossy bumps, cast shadows", count, e);
   EXPECT_LT(e.robust, e.naive);

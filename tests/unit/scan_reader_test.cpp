@@ -1,13 +1,13 @@
 // Reading psrig-scan/1 directories, and every way one can be wrong.
 
-#include "psrig/processing/scan_reader.h"
+#include "psrig/formats/scan_reader.h"
 
 #include <fstream>
 
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "psrig/capture/scan_writer.h"
+#include "psrig/formats/scan_writer.h"
 #include "synthetic_scene.h"
 #include "test_support.h"
 
@@ -20,10 +20,10 @@ class ScanReader : public ::testing::Test {
  protected:
   void SetUp() override {
     const auto surface = test::sphere_surface({64, 48}, 20, 3);
-    Scan scan = test::render_scan(surface, test::ring_lights(3, 45), CV_16U);
+    formats::Scan scan = test::render_scan(surface, test::ring_lights(3, 45), CV_16U);
     scan.description.sample_id = "J-0042";
     scan.description.pixel_size_mm = 0.05;
-    ASSERT_TRUE(capture::write_scan(scan, dir_));
+    ASSERT_TRUE(formats::write_scan(scan, dir_));
   }
 
   nlohmann::json load_json() const {
@@ -35,7 +35,7 @@ class ScanReader : public ::testing::Test {
 
   // Reads the scan expecting a bad-input error about `key` in `file`.
   Error expect_error(const std::string& file, const std::string& key) const {
-    auto scan = read_scan(dir_);
+    auto scan = formats::read_scan(dir_);
     EXPECT_FALSE(scan) << "read a bad scan without complaint";
     if (scan) return {};
     const Error& e = scan.error();
@@ -50,7 +50,7 @@ class ScanReader : public ::testing::Test {
 };
 
 TEST_F(ScanReader, ReadsWhatTheWriterWrote) {
-  auto scan = read_scan(dir_);
+  auto scan = formats::read_scan(dir_);
   ASSERT_TRUE(scan) << scan.error().describe();
   EXPECT_EQ(scan->frames.size(), 3u);
   EXPECT_EQ(scan->size(), cv::Size(64, 48));
@@ -74,16 +74,16 @@ TEST_F(ScanReader, KeepsUnknownKeys) {
   doc["vendor"] = {{"rig_serial", "A17"}, {"temperature_c", 31.5}};
   doc["lights"][0]["wavelength_nm"] = 630;
   save_json(doc);
-  auto scan = read_scan(dir_);
+  auto scan = formats::read_scan(dir_);
   ASSERT_TRUE(scan) << scan.error().describe();
   EXPECT_EQ(scan->description.document["vendor"]["rig_serial"], "A17");
   EXPECT_EQ(scan->description.document["lights"][0]["wavelength_nm"], 630);
   // ...and writing the scan again keeps them.
-  EXPECT_EQ(capture::scan_json(*scan)["vendor"]["temperature_c"], 31.5);
+  EXPECT_EQ(formats::scan_json(*scan)["vendor"]["temperature_c"], 31.5);
 }
 
 TEST_F(ScanReader, MissingDirectoryAndScanJson) {
-  auto missing = read_scan(temp_ / "nowhere");
+  auto missing = formats::read_scan(temp_ / "nowhere");
   ASSERT_FALSE(missing);
   EXPECT_NE(missing.error().message.find("no such"), std::string::npos);
   fs::remove(dir_ / "scan.json");
@@ -240,9 +240,9 @@ TEST_F(ScanReader, NullMeansDefault) {
   doc["lights"][0]["intensity"] = nullptr;
   doc["pixel_size_mm"] = nullptr;
   save_json(doc);
-  auto scan = read_scan(dir_);
+  auto scan = formats::read_scan(dir_);
   ASSERT_TRUE(scan) << scan.error().describe();
-  EXPECT_EQ(scan->description.encoding, Encoding::linear);
+  EXPECT_EQ(scan->description.encoding, formats::Encoding::linear);
   EXPECT_EQ(scan->description.lights[0].intensity_bgr, cv::Vec3d(1, 1, 1));
   EXPECT_FALSE(scan->description.pixel_size_mm);
 }
@@ -253,7 +253,7 @@ TEST_F(ScanReader, NinetySixLightsAreRead) {
   while (doc["lights"].size() < 96)
     doc["lights"].push_back(doc["lights"][0]);
   save_json(doc);
-  auto scan = read_scan(dir_);
+  auto scan = formats::read_scan(dir_);
   ASSERT_TRUE(scan) << scan.error().describe();
   EXPECT_EQ(scan->frames.size(), 96u);
 }
@@ -266,7 +266,7 @@ TEST_F(ScanReader, AnyNonzeroMaskValueSelects) {
   auto doc = load_json();
   doc["mask"] = "mask.exr";
   save_json(doc);
-  auto scan = read_scan(dir_);
+  auto scan = formats::read_scan(dir_);
   ASSERT_TRUE(scan) << scan.error().describe();
   EXPECT_EQ(cv::countNonZero(scan->mask), 2);
   EXPECT_NE(scan->mask.at<std::uint8_t>(1, 1), 0);
@@ -288,12 +288,12 @@ TEST_F(ScanReader, MissingDarkFrame) {
 
 TEST_F(ScanReader, FloatExrFramesAndMaskAreRead) {
   const auto surface = test::sphere_surface({32, 24}, 10, 1);
-  Scan scan = test::render_scan(surface, test::ring_lights(4, 40), CV_32F);
+  formats::Scan scan = test::render_scan(surface, test::ring_lights(4, 40), CV_32F);
   scan.mask = cv::Mat(scan.size(), CV_8U, cv::Scalar(255));
   const fs::path dir = temp_ / "float";
-  ASSERT_TRUE(capture::write_scan(scan, dir));
+  ASSERT_TRUE(formats::write_scan(scan, dir));
   EXPECT_TRUE(fs::exists(dir / "led3.exr"));
-  auto read = read_scan(dir);
+  auto read = formats::read_scan(dir);
   ASSERT_TRUE(read) << read.error().describe();
   EXPECT_EQ(read->depth(), CV_32F);
   EXPECT_EQ(read->white_level, 1.0);
@@ -304,9 +304,9 @@ TEST_F(ScanReader, FloatExrFramesAndMaskAreRead) {
 TEST(ScanWriter, NeverOverwritesAndLeavesNothingHalfWritten) {
   test::TempDir temp;
   const auto surface = test::sphere_surface({16, 16}, 5, 1);
-  const Scan scan = test::render_scan(surface, test::ring_lights(3, 45), CV_8U);
-  ASSERT_TRUE(capture::write_scan(scan, temp / "a"));
-  auto again = capture::write_scan(scan, temp / "a");
+  const formats::Scan scan = test::render_scan(surface, test::ring_lights(3, 45), CV_8U);
+  ASSERT_TRUE(formats::write_scan(scan, temp / "a"));
+  auto again = formats::write_scan(scan, temp / "a");
   ASSERT_FALSE(again);
   EXPECT_EQ(again.error().kind, ErrorKind::bad_input);
   // Only the finished scan is there: no staging directories left behind.

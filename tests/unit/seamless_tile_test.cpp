@@ -3,7 +3,7 @@
 // percentile line), the same repeat measured on the 2x2, the physical size
 // kept; a non-periodic input gives the whole scan with a blended border.
 
-#include "psrig/processing/seamless_tile.h"
+#include "psrig/analysis/seamless_tile.h"
 
 #include <cmath>
 #include <string>
@@ -11,7 +11,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
-#include "psrig/processing/fabric_measure.h"
+#include "psrig/analysis/fabric_measure.h"
 #include "psrig/sim/swatch_model.h"
 #include "shipped_swatch.h"
 
@@ -23,11 +23,11 @@ struct Case {
   double rotation_deg;
 };
 
-Maps maps_of(const Case& c) {
+formats::Maps maps_of(const Case& c) {
   sim::SwatchParams params = test::swatch_params(c.pattern, {640, 480}, 0.025, 5);
   params.rotation_deg = c.rotation_deg;
   const sim::Swatch swatch = test::made(sim::make_swatch(params));
-  Maps maps;
+  formats::Maps maps;
   maps.albedo = swatch.albedo;
   maps.height = swatch.height_mm;
   maps.pixel_size_mm = 0.025;
@@ -43,10 +43,10 @@ Maps maps_of(const Case& c) {
 class SeamlessTile : public ::testing::TestWithParam<Case> {};
 
 TEST_P(SeamlessTile, RepeatsWithoutSeamAndKeepsItsPeriodAndSize) {
-  const Maps maps = maps_of(GetParam());
-  const auto lattice = find_repeat_lattice(maps.height, maps.albedo);
+  const formats::Maps maps = maps_of(GetParam());
+  const auto lattice = analysis::find_repeat_lattice(maps.height, maps.albedo);
   ASSERT_TRUE(lattice);
-  const auto tile = make_seamless_tile(maps, lattice);
+  const auto tile = analysis::make_seamless_tile(maps, lattice);
   ASSERT_TRUE(tile) << tile.error().describe();
   ASSERT_TRUE(tile->periodic);
   EXPECT_GE(tile->repeats_u, 2);
@@ -55,13 +55,13 @@ TEST_P(SeamlessTile, RepeatsWithoutSeamAndKeepsItsPeriodAndSize) {
   EXPECT_TRUE(tile->seam.passed()) << tile->seam.value << " > " << tile->seam.bound;
   cv::Mat grey;
   cv::transform(tile->maps.albedo, grey, cv::Matx<float, 1, 3>(1.0f / 3, 1.0f / 3, 1.0f / 3));
-  const SeamCheck albedo = check_seam(grey, "albedo");
+  const analysis::SeamCheck albedo = analysis::check_seam(grey, "albedo");
   EXPECT_TRUE(albedo.passed()) << albedo.value << " > " << albedo.bound;
   // The repeat measured on the 2x2 is the tile's: width / nu across, height / nv up.
   cv::Mat h2, a2;
   cv::repeat(tile->maps.height, 2, 2, h2);
   cv::repeat(tile->maps.albedo, 2, 2, a2);
-  const auto again = find_repeat_lattice(h2, a2);
+  const auto again = analysis::find_repeat_lattice(h2, a2);
   ASSERT_TRUE(again);
   const double period_u = static_cast<double>(tile->maps.p.cols) / tile->repeats_u;
   const double period_v = static_cast<double>(tile->maps.p.rows) / tile->repeats_v;
@@ -74,8 +74,8 @@ TEST_P(SeamlessTile, RepeatsWithoutSeamAndKeepsItsPeriodAndSize) {
   EXPECT_NEAR(tile->width / (tile->repeats_u * repeat_mm), 1.0, 1e-9);
   EXPECT_NEAR(*tile->pixel_size_mm * tile->maps.p.cols / tile->width, 1.0, 1e-9);
   EXPECT_NEAR(*tile->pixel_size_mm * tile->maps.p.rows / tile->height, 1.0, 0.003);
-  const nlohmann::json j = tile_json(*tile);
-  EXPECT_EQ(j["format"], kTileFormat);
+  const nlohmann::json j = analysis::tile_json(*tile);
+  EXPECT_EQ(j["format"], formats::tile_files::kFormat);
   EXPECT_EQ(j["repeats"][0], tile->repeats_u);
   EXPECT_TRUE(j["seam"]["passed"].get<bool>());
 }
@@ -98,11 +98,11 @@ TEST(SeamlessTileCheck, AHardSeamFails) {
   for (int r = 0; r < 64; ++r)
     for (int c = 0; c < 64; ++c)
       ramp.at<float>(r, c) = 0.1f * c + 0.05f * std::sin(r * 0.7f);
-  EXPECT_FALSE(check_seam(ramp, "height").passed());
+  EXPECT_FALSE(analysis::check_seam(ramp, "height").passed());
 }
 
 TEST(SeamlessTileCheck, NonPeriodicInputGivesTheWholeScanWithABlendedBorder) {
-  Maps maps;
+  formats::Maps maps;
   cv::Mat height(300, 400, CV_32F);
   cv::RNG rng(11);
   rng.fill(height, cv::RNG::NORMAL, 0, 1);
@@ -113,10 +113,10 @@ TEST(SeamlessTileCheck, NonPeriodicInputGivesTheWholeScanWithABlendedBorder) {
   cv::Sobel(height, maps.q, CV_32F, 0, 1, 1, -0.5);
   maps.mask = cv::Mat(height.size(), CV_8U, cv::Scalar(255));
   std::string why;
-  const auto lattice = find_repeat_lattice(maps.height, maps.albedo, &why);
+  const auto lattice = analysis::find_repeat_lattice(maps.height, maps.albedo, &why);
   ASSERT_FALSE(lattice);
   EXPECT_NE(why.find("no repeat found"), std::string::npos) << why;
-  const auto tile = make_seamless_tile(maps, lattice);
+  const auto tile = analysis::make_seamless_tile(maps, lattice);
   ASSERT_TRUE(tile) << tile.error().describe();
   EXPECT_FALSE(tile->periodic);
   EXPECT_NE(tile->message.find("whole scan"), std::string::npos) << tile->message;
@@ -124,18 +124,18 @@ TEST(SeamlessTileCheck, NonPeriodicInputGivesTheWholeScanWithABlendedBorder) {
   EXPECT_EQ(tile->maps.p.rows, 300 - tile->band_px);
   EXPECT_TRUE(tile->seam.passed()) << tile->seam.value << " > " << tile->seam.bound;
   EXPECT_FALSE(tile->pixel_size_mm);
-  EXPECT_EQ(tile_json(*tile)["units"], "px");
+  EXPECT_EQ(analysis::tile_json(*tile)["units"], "px");
 }
 
 TEST(SeamlessTileCheck, TooManyRepeatsIsBadInput) {
-  const Maps maps = maps_of({"jersey", 0});
-  const auto lattice = find_repeat_lattice(maps.height, maps.albedo);
+  const formats::Maps maps = maps_of({"jersey", 0});
+  const auto lattice = analysis::find_repeat_lattice(maps.height, maps.albedo);
   ASSERT_TRUE(lattice);
-  const auto tile = make_seamless_tile(maps, lattice, {.repeats = 40});
+  const auto tile = analysis::make_seamless_tile(maps, lattice, {.repeats = 40});
   ASSERT_FALSE(tile);
   EXPECT_EQ(tile.error().kind, ErrorKind::bad_input);
   EXPECT_NE(tile.error().describe().find("--repeats"), std::string::npos);
-  const auto two = make_seamless_tile(maps, lattice, {.repeats = 2});
+  const auto two = analysis::make_seamless_tile(maps, lattice, {.repeats = 2});
   ASSERT_TRUE(two);
   EXPECT_EQ(two->repeats_u, 2);
   EXPECT_EQ(two->repeats_v, 2);

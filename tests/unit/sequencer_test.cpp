@@ -3,25 +3,32 @@
 // off, says what failed and leaves no scan directory behind.
 
 #include <chrono>
+#include <cstdint>
+#include <fstream>
 #include <functional>
+#include <string>
 #include <thread>
 
 #include <gtest/gtest.h>
 
-#include "psrig/capture/rig.h"
-#include "psrig/capture/scan_sequencer.h"
+#include "psrig/rig/rig.h"
+#include "psrig/rig/scan_sequencer.h"
 #include "psrig/config/config_loader.h"
-#include "psrig/firmware_host/sim_lights.h"
-#include "psrig/processing/scan_reader.h"
+#include "psrig/sim/sim_lights.h"
+#include "psrig/formats/image_io.h"
+#include "psrig/formats/scan_layout.h"
+#include "psrig/formats/scan_reader.h"
+#include "psrig/processing/pipeline.h"
+#include "psrig/rig/storage_settings.h"
 #include "psrig/sim/world.h"
 #include "test_support.h"
 
-namespace psrig::capture {
+namespace psrig::rig {
 namespace {
 
 using namespace std::chrono;
 using namespace std::chrono_literals;
-using firmware_host::SafeLights;
+using lights::SafeLights;
 
 // config/sim.toml, at a size a unit test can afford.
 config::RigConfig small_sim_config() {
@@ -41,7 +48,7 @@ void expect_all_off_and_never_two_on(const SafeLights& lights) {
 TEST(ScanSequencer, SimulatedScanRecoversTheSwatchNormals) {
   test::TempDir dir;
   const auto config = small_sim_config();
-  auto rig = open_rig(config);
+  auto rig = rig::open_rig(config);
   ASSERT_TRUE(rig) << rig.error().describe();
   ScanSequencer sequencer(config, *rig->lights, *rig->camera);
   auto request = rig->request(config);
@@ -65,7 +72,7 @@ TEST(ScanSequencer, SimulatedScanRecoversTheSwatchNormals) {
   EXPECT_TRUE(rig->world->leds()->leds_on().empty());
 
   // The scan directory reads back with its capture record.
-  auto scan = processing::read_scan(request.directory);
+  auto scan = formats::read_scan(request.directory);
   ASSERT_TRUE(scan) << scan.error().describe();
   EXPECT_EQ(scan->frames.size(), 3U);
   EXPECT_FALSE(scan->dark.empty());
@@ -78,22 +85,22 @@ TEST(ScanSequencer, SimulatedScanRecoversTheSwatchNormals) {
 // kMixed when the lighting changed during it. It reads the lighting from
 // the light controller's switch log, so it sees what the LEDs did, not what
 // the sequencer meant them to do.
-class ScriptedCamera final : public Camera {
+class ScriptedCamera final : public cameras::Camera {
  public:
   static constexpr double kMixed = 4000;
 
   explicit ScriptedCamera(const SafeLights& lights) : lights_(lights) {}
 
-  Clock::duration period = 10ms;
-  Clock::duration exposure = 6ms;
-  std::function<Clock::duration(int frame)> jitter;  // shifts a frame's exposure
+  lights::Clock::duration period = 10ms;
+  lights::Clock::duration exposure = 6ms;
+  std::function<lights::Clock::duration(int frame)> jitter;  // shifts a frame's exposure
   int frames_before_silence = -1;                    // then every grab times out
   std::function<void(int grabbed)> on_grab;
   int stops = 0;
 
   Status configure(const config::CameraConfig&) override { return {}; }
   Status start() override {
-    t0_ = Clock::now();
+    t0_ = lights::Clock::now();
     next_ = 0;
     return {};
   }
@@ -103,14 +110,14 @@ class ScriptedCamera final : public Camera {
   }
   std::string describe() const override { return "scripted camera"; }
 
-  Result<Frame> grab(milliseconds timeout) override {
+  Result<cameras::Frame> grab(milliseconds timeout) override {
     const int n = next_++;
     if (on_grab) on_grab(n + 1);
     if (frames_before_silence >= 0 && n >= frames_before_silence)
       return std::unexpected(io_error(
           "scripted camera", "no frame within " + std::to_string(timeout.count()) + " ms"));
-    Frame frame;
-    frame.exposure_start = t0_ + n * period + (jitter ? jitter(n) : Clock::duration{});
+    cameras::Frame frame;
+    frame.exposure_start = t0_ + n * period + (jitter ? jitter(n) : lights::Clock::duration{});
     frame.exposure_end = frame.exposure_start + exposure;
     std::this_thread::sleep_until(t0_ + (n + 1) * period);  // read out
     frame.sequence = static_cast<std::uint64_t>(n);
@@ -122,7 +129,7 @@ class ScriptedCamera final : public Camera {
 
  private:
   // The LED lit at each switch, replayed over the exposure.
-  double lighting_value(const Frame& frame) const {
+  double lighting_value(const cameras::Frame& frame) const {
     int state = -1;
     bool changed_during = false;
     for (const auto& event : lights_.log().events()) {
@@ -137,7 +144,7 @@ class ScriptedCamera final : public Camera {
   }
 
   const SafeLights& lights_;
-  Clock::time_point t0_;
+  lights::Clock::time_point t0_;
   int next_ = 0;
 };
 
@@ -152,13 +159,13 @@ struct ScriptedRig {
     c.camera.timeout_ms = 50;
     return c;
   }();
-  SafeLights lights{firmware_host::open_sim_lights(config).value(), 5s};
+  SafeLights lights{sim::open_sim_lights(config).value(), 5s};
   ScriptedCamera camera{lights};
   ScanSequencer sequencer{config, lights, camera};
 };
 
 // Every stored frame holds only frames lit wholly by its own LED (or by none).
-void expect_pure_frames(const processing::Scan& scan) {
+void expect_pure_frames(const formats::Scan& scan) {
   const double scale = std::floor(65535.0 / 4095);
   const auto expect_value = [&](const cv::Mat& frame, double value, const std::string& what) {
     double lo = 0, hi = 0;
@@ -170,6 +177,68 @@ void expect_pure_frames(const processing::Scan& scan) {
   ASSERT_EQ(scan.frames.size(), 3U);
   for (int k = 0; k < 3; ++k)
     expect_value(scan.frames[k], 1000.0 * (k + 1), "LED " + std::to_string(k));
+}
+
+// Bytes this process has read (read(2) and its kin, every thread, page
+// cache hits included): /proc/self/io's rchar.
+std::uint64_t bytes_read() {
+  std::ifstream io("/proc/self/io");
+  std::string key;
+  std::uint64_t value = 0;
+  while (io >> key >> value)
+    if (key == "rchar:") return value;
+  ADD_FAILURE() << "no rchar in /proc/self/io";
+  return 0;
+}
+
+// The rig hands its frames to processing in memory: the scan is written
+// once and never read back, and its maps are the ones processing the
+// directory from the disk makes.
+TEST(ScanSequencer, AScanIsProcessedFromMemoryNotReadBack) {
+  test::TempDir dir;
+  auto config = small_sim_config();
+  config.sim.width = 480;
+  config.sim.height = 360;
+  auto rig = rig::open_rig(config);
+  ASSERT_TRUE(rig) << rig.error().describe();
+  ScanSequencer sequencer(config, *rig->lights, *rig->camera);
+  auto request = rig->request(config);
+  request.directory = dir / "scan";
+  const auto before = bytes_read();
+  auto outcome = sequencer.capture(request, {});
+  const auto captured_reads = bytes_read() - before;
+  ASSERT_TRUE(outcome) << outcome.error().describe();
+  ASSERT_TRUE(outcome->maps);
+
+  std::uint64_t frame_bytes = 0;
+  for (const auto& entry : std::filesystem::directory_iterator(request.directory))
+    if (entry.path().extension() == ".png" && entry.path().stem() != "mask")
+      frame_bytes += entry.file_size();
+  ASSERT_GT(frame_bytes, 300'000U);
+  EXPECT_LT(captured_reads, frame_bytes / 4)
+      << captured_reads << " bytes read while scanning; the frames are " << frame_bytes;
+
+  processing::ProcessOptions options;
+  options.output = dir / "maps-from-disk";
+  options.solve.reject_outliers = config.processing.reject;
+  options.storage = storage_options(config.storage);
+  const auto disk_before = bytes_read();
+  auto from_disk = processing::process_scan(request.directory, options);
+  ASSERT_TRUE(from_disk) << from_disk.error().describe();
+  EXPECT_GE(bytes_read() - disk_before, frame_bytes);  // the count sees a read back
+  for (const char* name : formats::map_files::kAll) {
+    const auto memory = outcome->maps->maps_directory / name;
+    const auto disk = options.output / name;
+    ASSERT_EQ(std::filesystem::exists(memory), std::filesystem::exists(disk)) << name;
+    if (!std::filesystem::exists(memory) || std::string(name).ends_with(".json")) continue;
+    auto a = formats::read_image(memory, name);
+    auto b = formats::read_image(disk, name);
+    ASSERT_TRUE(a && b) << name;
+    ASSERT_EQ(a->size(), b->size()) << name;
+    EXPECT_EQ(cv::norm(*a, *b, cv::NORM_INF), 0) << name;
+  }
+  for (const char* section : {"pixels", "ground_truth", "inputs", "fabric"})
+    EXPECT_EQ(outcome->maps->report[section], from_disk->report[section]) << section;
 }
 
 TEST(ScanSequencer, FramesExposedAcrossASwitchAreNeverUsed) {
@@ -250,7 +319,7 @@ TEST(ScanSequencer, StopRequestEndsTheScanWithAllLedsOff) {
 }
 
 // A backend that fails to switch one channel on.
-class FailingLights final : public firmware_host::LightController {
+class FailingLights final : public lights::LightController {
  public:
   int channel_count() const override { return 3; }
   Status turn_on(int channel) override {
@@ -283,7 +352,7 @@ TEST(ScanSequencer, LightFailureEndsTheScanWithAllLedsOff) {
 
 TEST(ScanSequencer, WatchdogCuttingAnExposureShortFailsTheScan) {
   ScriptedRig rig;
-  SafeLights short_fuse(firmware_host::open_sim_lights(rig.config).value(), 20ms);
+  SafeLights short_fuse(sim::open_sim_lights(rig.config).value(), 20ms);
   ScriptedCamera camera(short_fuse);
   camera.on_grab = [](int) { std::this_thread::sleep_for(15ms); };
   ScanSequencer sequencer(rig.config, short_fuse, camera);
@@ -300,14 +369,14 @@ TEST(ScanSequencer, DefaultDirectoryIsTimestampedAndSafe) {
   config::RigConfig config;
   test::TempDir dir;
   config.storage.root = dir.path();
-  const auto path = default_scan_directory(config, "J 0001/../x");
+  const auto path = rig::default_scan_directory(config, "J 0001/../x");
   EXPECT_EQ(path.parent_path(), dir.path());
   const std::string name = path.filename().string();
   EXPECT_EQ(name.size(), std::string("20261121-170500-J_0001_.._x").size()) << name;
   EXPECT_EQ(name.substr(15), "-J_0001_.._x");
   std::filesystem::create_directory(path);
-  EXPECT_NE(default_scan_directory(config, "J 0001/../x"), path);  // never reuses a name
+  EXPECT_NE(rig::default_scan_directory(config, "J 0001/../x"), path);  // never reuses a name
 }
 
 }  // namespace
-}  // namespace psrig::capture
+}  // namespace psrig::rig

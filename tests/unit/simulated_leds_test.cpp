@@ -1,19 +1,19 @@
 // The simulated rig's LEDs: their switch history answers how much each
 // shone over an exposure, and a configuration finds its rig's LEDs.
 
-#include "psrig/firmware_host/simulated_leds.h"
+#include "psrig/sim/simulated_leds.h"
 
 #include <chrono>
 
 #include <gtest/gtest.h>
 
-namespace psrig::firmware_host {
+namespace psrig::lights {
 namespace {
 
 using namespace std::chrono_literals;
 
 TEST(SimulatedLeds, ExposureWeightsFollowTheSwitches) {
-  SimulatedLeds leds(3);
+  sim::SimulatedLeds leds(3);
   const auto t0 = Clock::now();
   leds.set_led(1, true, 1.0, t0 + 10ms);
   leds.all_off(t0 + 20ms);
@@ -29,7 +29,7 @@ TEST(SimulatedLeds, ExposureWeightsFollowTheSwitches) {
 }
 
 TEST(SimulatedLeds, LongRunsDoNotGrowTheHistory) {
-  SimulatedLeds leds(3);
+  sim::SimulatedLeds leds(3);
   auto t = Clock::now();
   for (int i = 0; i < 20000; ++i) {
     leds.set_led(i % 3, true, 1.0, t);
@@ -45,26 +45,26 @@ TEST(SimulatedLeds, LongRunsDoNotGrowTheHistory) {
 
 TEST(SimulatedLeds, AttachFindsTheRigsLedsThroughTheConfiguration) {
   config::RigConfig config;
-  auto leds = SimulatedLeds::attach(config);
+  auto leds = sim::SimulatedLeds::attach(config);
   ASSERT_EQ(leds->channel_count(), 3);
-  EXPECT_EQ(SimulatedLeds::attach(config), leds);
+  EXPECT_EQ(sim::SimulatedLeds::attach(config), leds);
   // What the sim lights switch, any other holder of the rig sees.
-  SimulatedLeds::attach(config)->set_led(1, true);
+  sim::SimulatedLeds::attach(config)->set_led(1, true);
   EXPECT_EQ(leds->leds_on(), std::vector<int>{1});
 
   config::RigConfig other = config;
   other.lights.intensity = {0.5, 0.5, 0.5};  // not what makes the rig
-  EXPECT_EQ(SimulatedLeds::attach(other), leds);
+  EXPECT_EQ(sim::SimulatedLeds::attach(other), leds);
   other.geometry.slant_deg = 30;
-  EXPECT_NE(SimulatedLeds::attach(other), leds);
+  EXPECT_NE(sim::SimulatedLeds::attach(other), leds);
   other = config;
   other.lights.channels = 4;
-  EXPECT_EQ(SimulatedLeds::attach(other)->channel_count(), 4);
+  EXPECT_EQ(sim::SimulatedLeds::attach(other)->channel_count(), 4);
 
   // Released by every holder: the next one starts dark.
   leds.reset();
-  EXPECT_TRUE(SimulatedLeds::attach(config)->leds_on().empty());
+  EXPECT_TRUE(sim::SimulatedLeds::attach(config)->leds_on().empty());
 }
 
 }  // namespace
-}  // namespace psrig::firmware_host
+}  // namespace psrig::lights

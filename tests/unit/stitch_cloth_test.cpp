@@ -10,7 +10,7 @@
 
 #include "psrig/cloth/drape_scene.h"
 #include "psrig/cloth/stitch_cloth.h"
-#include "psrig/processing/parallel.h"
+#include "psrig/base/parallel.h"
 
 namespace psrig::cloth {
 namespace {
@@ -137,7 +137,7 @@ TEST(StitchCloth, NothingPassesThroughACollider) {
 
 TEST(StitchCloth, TheSameSceneOnAnyNumberOfThreads) {
   const auto simulate = [](int threads) {
-    processing::set_thread_count(threads);
+    psrig::set_thread_count(threads);
     StitchMesh mesh = make_stitch_mesh(32, 32, kWale, kCourse, ClothShape::flat);
     StitchCloth cloth(mesh, {});
     cloth.colliders = {SphereCollider{{0, 0, -15}, 10}};
@@ -145,7 +145,7 @@ TEST(StitchCloth, TheSameSceneOnAnyNumberOfThreads) {
     return cloth.mesh().vertices;
   };
   const auto one = simulate(1), two = simulate(2), many = simulate(0);
-  processing::set_thread_count(0);
+  psrig::set_thread_count(0);
   ASSERT_EQ(one.size(), two.size());
   for (std::size_t i = 0; i < one.size(); ++i) {
     EXPECT_EQ(one[i], two[i]) << i;
@@ -160,7 +160,7 @@ TEST(DrapeScene, TheSameYarnsOnAnyNumberOfThreads) {
                                        "config/patterns/stockinette.chart");
   ASSERT_TRUE(chart);
   const auto yarns_with = [&](int threads) {
-    processing::set_thread_count(threads);
+    psrig::set_thread_count(threads);
     auto fabric = KnitFabric::build(*chart, 16, 18, {});
     EXPECT_TRUE(fabric);
     DrapeAnimation scene(std::move(*fabric), DrapeScene::sphere);
@@ -170,7 +170,7 @@ TEST(DrapeScene, TheSameYarnsOnAnyNumberOfThreads) {
     return yarns;
   };
   const YarnSet one = yarns_with(1), two = yarns_with(2);
-  processing::set_thread_count(0);
+  psrig::set_thread_count(0);
   ASSERT_EQ(one.curves.size(), two.curves.size());
   for (std::size_t c = 0; c < one.curves.size(); ++c) EXPECT_EQ(one.curves[c].points, two.curves[c].points) << c;
   // And the ball is under the cloth, which lies on it.

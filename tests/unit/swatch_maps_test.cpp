@@ -11,7 +11,7 @@
 #include <opencv2/imgcodecs.hpp>
 
 #include "psrig/preview/newest_scan.h"
-#include "psrig/processing/map_encoding.h"
+#include "psrig/formats/map_encoding.h"
 #include "test_support.h"
 
 namespace psrig::preview {
@@ -25,7 +25,7 @@ void write_maps(const fs::path& dir, cv::Size size = {8, 6}) {
   fs::create_directories(dir);
   cv::imwrite((dir / "albedo.png").string(), cv::Mat(size, CV_8UC3, cv::Scalar(188, 188, 188)));
   const cv::Mat p(size, CV_32F, cv::Scalar(0.2)), q(size, CV_32F, cv::Scalar(-0.1));
-  cv::imwrite((dir / "normal.png").string(), processing::encode_normal16(p, q));
+  cv::imwrite((dir / "normal.png").string(), formats::encode_normal16(p, q));
   std::ofstream(dir / "report.json")
       << R"({"inputs": {"pixel_size_mm": 0.05, "sample": {"id": "J-7"}}, "height": {"units": "mm"}})";
 }

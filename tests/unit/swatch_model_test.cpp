@@ -16,7 +16,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/cloth/knit_fabric.h"
-#include "psrig/processing/light_matrix.h"
+#include "psrig/formats/light_matrix.h"
 #include "psrig/sim/lambertian_render.h"
 #include "shipped_swatch.h"
 
@@ -36,7 +36,7 @@ double radians(double degrees) {
   return degrees * std::numbers::pi / 180.0;
 }
 
-using processing::light_direction;
+using formats::light_direction;
 
 Swatch swatch_of(std::string_view pattern, cv::Size size = {640, 480}, double px = 0.025,
                  std::uint64_t seed = 1) {

@@ -1,7 +1,8 @@
 // The simulated lights' switch log file (lights.sim.switch_log): every
 // switch a line, from any number of processes, read back by the tests.
 
-#include "psrig/firmware_host/switch_log_file.h"
+#include "psrig/lights/switch_log_file.h"
+#include "psrig/rig/open_devices.h"
 
 #include <fstream>
 #include <iterator>
@@ -12,10 +13,10 @@
 #include <gtest/gtest.h>
 
 #include "psrig/config/config_loader.h"
-#include "psrig/firmware_host/light_controller.h"
+#include "psrig/lights/light_controller.h"
 #include "test_support.h"
 
-namespace psrig::firmware_host {
+namespace psrig::lights {
 namespace {
 
 namespace fs = std::filesystem;
@@ -36,18 +37,18 @@ TEST(SwitchLogFile, TheSimLightsAppendEverySwitchAsALine) {
   ASSERT_EQ(config.lights.sim.switch_log, temp / "switches.log");
   const auto before = Clock::now();
   {
-    auto lights = open_lights(config);
+    auto lights = psrig::rig::open_lights(config);
     ASSERT_TRUE(lights) << lights.error().describe();
     ASSERT_TRUE((*lights)->turn_on(1));
     // In the file as soon as the switch returns.
-    auto so_far = read_switch_log_file(temp / "switches.log");
+    auto so_far = lights::read_switch_log_file(temp / "switches.log");
     ASSERT_TRUE(so_far) << so_far.error().describe();
     ASSERT_EQ(so_far->size(), 1U);
     ASSERT_TRUE((*lights)->all_off());
     ASSERT_TRUE((*lights)->turn_on(2));
     ASSERT_TRUE((*lights)->all_off());
   }
-  auto read = read_switch_log_file(temp / "switches.log");
+  auto read = lights::read_switch_log_file(temp / "switches.log");
   ASSERT_TRUE(read) << read.error().describe();
   ASSERT_EQ(read->size(), 4U);
   const std::vector<std::pair<int, bool>> expected = {
@@ -64,7 +65,7 @@ TEST(SwitchLogFile, TheSimLightsAppendEverySwitchAsALine) {
     }
     EXPECT_LT(std::chrono::abs(s.wall - std::chrono::system_clock::now()), std::chrono::minutes(1));
   }
-  SwitchLog log;
+  lights::SwitchLog log;
   replay(*read, log);
   EXPECT_FALSE(log.overlap());
   EXPECT_TRUE(log.on_now().empty());
@@ -81,7 +82,7 @@ TEST(SwitchLogFile, SeveralProcessesAppendWholeLines) {
   const auto config = sim_rig(temp / "rig.toml", (temp / "switches.log").string());
   constexpr int kSwitches = 500;
   const auto cycle = [&] {
-    auto lights = open_lights(config);
+    auto lights = psrig::rig::open_lights(config);
     if (!lights) return false;
     for (int i = 0; i < kSwitches; ++i)
       if (!(*lights)->turn_on(i % 3) || !(*lights)->all_off()) return false;
@@ -95,7 +96,7 @@ TEST(SwitchLogFile, SeveralProcessesAppendWholeLines) {
   ASSERT_EQ(::waitpid(child, &status, 0), child);
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
 
-  auto read = read_switch_log_file(temp / "switches.log");
+  auto read = lights::read_switch_log_file(temp / "switches.log");
   ASSERT_TRUE(read) << read.error().describe();
   ASSERT_EQ(read->size(), 4U * kSwitches);
   int mine = 0, theirs = 0;
@@ -109,21 +110,21 @@ TEST(SwitchLogFile, SeveralProcessesAppendWholeLines) {
 
 TEST(SwitchLogFile, AMissingFileIsNoSwitchesAndAMalformedLineIsNamed) {
   TempDir temp;
-  auto none = read_switch_log_file(temp / "absent.log");
+  auto none = lights::read_switch_log_file(temp / "absent.log");
   ASSERT_TRUE(none);
   EXPECT_TRUE(none->empty());
   std::ofstream(temp / "bad.log") << "1 2 3 0 on\n1 2 3 all on\n";
-  auto bad = read_switch_log_file(temp / "bad.log");
+  auto bad = lights::read_switch_log_file(temp / "bad.log");
   ASSERT_FALSE(bad);
   EXPECT_EQ(bad.error().line, 2) << bad.error().describe();
   std::ofstream(temp / "worse.log") << "1 2 3 x on\n";
-  EXPECT_FALSE(read_switch_log_file(temp / "worse.log"));
+  EXPECT_FALSE(lights::read_switch_log_file(temp / "worse.log"));
 }
 
 TEST(SwitchLogFile, AFileThatCannotBeOpenedFailsTheBackendNamingIt) {
   TempDir temp;
   const auto config = sim_rig(temp / "rig.toml", "no/such/dir/switches.log");
-  auto lights = open_lights(config);
+  auto lights = psrig::rig::open_lights(config);
   ASSERT_FALSE(lights);
   EXPECT_NE(lights.error().describe().find("no/such/dir/switches.log"), std::string::npos)
       << lights.error().describe();
@@ -132,4 +133,4 @@ TEST(SwitchLogFile, AFileThatCannotBeOpenedFailsTheBackendNamingIt) {
 }
 
 }  // namespace
-}  // namespace psrig::firmware_host
+}  // namespace psrig::lights

@@ -20,7 +20,7 @@
 #include "export_fixture.h"
 #include "psrig/export/export_format.h"
 #include "psrig/export/material_source.h"
-#include "psrig/processing/map_encoding.h"
+#include "psrig/formats/map_encoding.h"
 #include "test_support.h"
 
 namespace psrig::test {
@@ -218,7 +218,7 @@ TEST(U3mExport, ArchiveKeepsTheContainerRestrictions) {
   check_document(doc, files, maps);
   // DirectX's normal map: green mirrored.
   EXPECT_EQ(cv::norm(decode(files.at("normal_directx.png")),
-                     processing::flip_normal_green(maps.normal), cv::NORM_INF),
+                     formats::flip_normal_green(maps.normal), cv::NORM_INF),
             0.0);
   std::ofstream(dir / "from-archive.u3m", std::ios::binary)
       .write(reinterpret_cast<const char*>(text.data()), static_cast<std::streamsize>(text.size()));

@@ -1,6 +1,6 @@
 // V4L2 pixel formats: each conversion against a frame made by hand.
 
-#include "psrig/capture/v4l2_formats.h"
+#include "psrig/cameras/v4l2_formats.h"
 
 #include <cstdint>
 #include <linux/videodev2.h>
@@ -10,7 +10,7 @@
 
 #include <gtest/gtest.h>
 
-namespace psrig::capture {
+namespace psrig::cameras {
 namespace {
 
 using Bytes = std::vector<std::uint8_t>;
@@ -327,4 +327,4 @@ TEST(V4l2Formats, ShortBuffersAndNarrowLinesAreErrorsNotCrashes) {
 }
 
 }  // namespace
-}  // namespace psrig::capture
+}  // namespace psrig::cameras

@@ -8,8 +8,8 @@
 
 #include <gtest/gtest.h>
 
-#include "psrig/processing/map_encoding.h"
-#include "psrig/processing/parallel.h"
+#include "psrig/formats/map_encoding.h"
+#include "psrig/base/parallel.h"
 #include "synthetic_scene.h"
 
 namespace psrig::processing {
@@ -21,16 +21,16 @@ using test::ring_lights;
 using test::sphere_surface;
 
 double valid_fraction(const cv::Mat& flags) {
-  return cv::countNonZero(encode_valid_mask(flags)) / static_cast<double>(flags.total());
+  return cv::countNonZero(processing::encode_valid_mask(flags)) / static_cast<double>(flags.total());
 }
 
 TEST(Woodham, SphereColour16BitNoiseFreeIsExact) {
   const auto surface = sphere_surface({160, 120}, 50, 3);
-  const Scan scan = render_scan(surface, ring_lights(3, 45), CV_16U);
+  const formats::Scan scan = render_scan(surface, ring_lights(3, 45), CV_16U);
   auto result = solve(scan);
   ASSERT_TRUE(result) << result.error().describe();
   const cv::Mat normals = normals_from_gradients(result->p, result->q);
-  const cv::Mat valid = encode_valid_mask(result->flags);
+  const cv::Mat valid = processing::encode_valid_mask(result->flags);
   EXPECT_GT(cv::countNonZero(valid), 0.8 * valid.total());
   EXPECT_LT(mean_angular_error_deg(normals, surface.normal, valid), 0.05);
 
@@ -48,10 +48,10 @@ TEST(Woodham, SphereColour16BitNoiseFreeIsExact) {
 
 TEST(Woodham, SphereGreyFloatNoiseFree) {
   const auto surface = sphere_surface({101, 101}, 40, 1);
-  const Scan scan = render_scan(surface, ring_lights(3, 30, 15), CV_32F);
+  const formats::Scan scan = render_scan(surface, ring_lights(3, 30, 15), CV_32F);
   auto result = solve(scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = encode_valid_mask(result->flags);
+  const cv::Mat valid = processing::encode_valid_mask(result->flags);
   EXPECT_LT(
       mean_angular_error_deg(normals_from_gradients(result->p, result->q), surface.normal, valid),
       0.01);
@@ -72,10 +72,10 @@ TEST(Woodham, NoiseErrorMatchesDerivedBound) {
   const int channels = 3;
   const auto lights = ring_lights(3, 45);
   const auto surface = sphere_surface({200, 160}, 70, channels);
-  const Scan scan = render_scan(surface, lights, CV_16U, sigma, 7);
+  const formats::Scan scan = render_scan(surface, lights, CV_16U, sigma, 7);
   auto result = solve(scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = encode_valid_mask(result->flags);
+  const cv::Mat valid = processing::encode_valid_mask(result->flags);
   const double measured =
       mean_angular_error_deg(normals_from_gradients(result->p, result->q), surface.normal, valid);
 
@@ -97,13 +97,13 @@ TEST(Woodham, NoiseErrorMatchesDerivedBound) {
 
 TEST(Woodham, LeastSquaresWithThreeLightsEqualsExactInverse) {
   const auto surface = sphere_surface({120, 90}, 35, 3);
-  const Scan scan = render_scan(surface, ring_lights(3, 40, 10), CV_16U, 0.01, 3);
+  const formats::Scan scan = render_scan(surface, ring_lights(3, 40, 10), CV_16U, 0.01, 3);
   auto exact = solve(scan);
   SolveOptions options;
   options.force_least_squares = true;
   auto least_squares = solve(scan, options);
   ASSERT_TRUE(exact && least_squares);
-  const cv::Mat valid = encode_valid_mask(exact->flags);
+  const cv::Mat valid = processing::encode_valid_mask(exact->flags);
   EXPECT_EQ(cv::norm(exact->flags, least_squares->flags, cv::NORM_INF), 0);
   EXPECT_LT(cv::norm(exact->p, least_squares->p, cv::NORM_INF, valid), 1e-4);
   EXPECT_LT(cv::norm(exact->q, least_squares->q, cv::NORM_INF, valid), 1e-4);
@@ -137,7 +137,7 @@ TEST(Woodham, SaturatedAndDarkPixelsAreFlaggedAndNotValid) {
   auto surface = sphere_surface({80, 60}, 25, 1);
   surface.albedo(cv::Rect(0, 0, 10, 10)).setTo(3.0);      // far above white
   surface.albedo(cv::Rect(70, 50, 10, 10)).setTo(0.002);  // barely any signal
-  const Scan scan = render_scan(surface, ring_lights(3, 45), CV_16U);
+  const formats::Scan scan = render_scan(surface, ring_lights(3, 45), CV_16U);
   auto result = solve(scan);
   ASSERT_TRUE(result);
   EXPECT_TRUE(result->flags.at<std::uint8_t>(5, 5) & kSaturated);
@@ -149,7 +149,7 @@ TEST(Woodham, SaturatedAndDarkPixelsAreFlaggedAndNotValid) {
 
 TEST(Woodham, MaskedPixelsAreNotSolved) {
   const auto surface = sphere_surface({80, 60}, 25, 3);
-  Scan scan = render_scan(surface, ring_lights(3, 45), CV_8U);
+  formats::Scan scan = render_scan(surface, ring_lights(3, 45), CV_8U);
   scan.mask = cv::Mat(scan.size(), CV_8U, cv::Scalar(255));
   scan.mask(cv::Rect(0, 0, 40, 60)).setTo(0);
   auto result = solve(scan);
@@ -162,7 +162,7 @@ TEST(Woodham, MaskedPixelsAreNotSolved) {
 
 TEST(Woodham, PerLightRgbIntensityIsDividedOut) {
   const auto surface = sphere_surface({80, 60}, 25, 3);
-  Scan scan = render_scan(surface, ring_lights(3, 45), CV_32F);
+  formats::Scan scan = render_scan(surface, ring_lights(3, 45), CV_32F);
   // Light 1 is twice as bright in red: its frame shows it, scan.json says it.
   std::vector<cv::Mat> planes;
   cv::split(scan.frames[1], planes);
@@ -171,7 +171,7 @@ TEST(Woodham, PerLightRgbIntensityIsDividedOut) {
   scan.description.lights[1].intensity_bgr = {1, 1, 2};
   auto result = solve(scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = encode_valid_mask(result->flags);
+  const cv::Mat valid = processing::encode_valid_mask(result->flags);
   EXPECT_LT(
       mean_angular_error_deg(normals_from_gradients(result->p, result->q), surface.normal, valid),
       0.01);
@@ -190,7 +190,7 @@ TEST(Woodham, RejectionBeatsLeastSquaresUnderCastShadows) {
     any_shadow |= shadows.back();
   }
   ASSERT_GT(cv::countNonZero(any_shadow), 3000);
-  const Scan scan = render_scan(surface, lights, CV_16U, 0.0005, 11, shadows);
+  const formats::Scan scan = render_scan(surface, lights, CV_16U, 0.0005, 11, shadows);
 
   auto plain = solve(scan);
   SolveOptions options;
@@ -221,7 +221,7 @@ TEST(Woodham, RejectionDoesNotVouchForADoubtfulRemainder) {
   const auto lights = ring_lights(4, 45);
   const test::Surface plane{cv::Mat(8, 8, CV_32FC3, cv::Scalar(0, 0, 1)),
                             cv::Mat(8, 8, CV_32F, cv::Scalar(0.5))};
-  Scan scan = render_scan(plane, lights, CV_32F);
+  formats::Scan scan = render_scan(plane, lights, CV_32F);
   scan.frames[0].setTo(2.0);  // above white (1.0): saturated
   scan.frames[1].setTo(0.0);  // blocked: shadowed
   auto result = solve(scan, {.reject_outliers = true});
@@ -231,7 +231,7 @@ TEST(Woodham, RejectionDoesNotVouchForADoubtfulRemainder) {
   EXPECT_TRUE(flags & kShadowed);
   EXPECT_FALSE(is_valid(flags));
   // With only the shadowed light gone, the other three are sound: valid.
-  Scan shadowed_only = render_scan(plane, lights, CV_32F);
+  formats::Scan shadowed_only = render_scan(plane, lights, CV_32F);
   shadowed_only.frames[1].setTo(0.0);
   auto recovered = solve(shadowed_only, {.reject_outliers = true});
   ASSERT_TRUE(recovered);
@@ -244,7 +244,7 @@ TEST(Woodham, RejectionDoesNotVouchForADoubtfulRemainder) {
 TEST(Woodham, NonFiniteMeasurementsGiveFiniteOutputs) {
   for (int lights : {3, 5}) {
     const auto surface = sphere_surface({20, 10}, 6, 3);
-    Scan scan = render_scan(surface, ring_lights(lights, 45), CV_32F);
+    formats::Scan scan = render_scan(surface, ring_lights(lights, 45), CV_32F);
     scan.frames[1].at<cv::Vec3f>(5, 5) = cv::Vec3f(std::nanf(""), 0.3f, 0.3f);
     scan.frames[0].at<cv::Vec3f>(2, 2) = cv::Vec3f(INFINITY, INFINITY, INFINITY);
     scan.mask = cv::Mat(scan.size(), CV_8U, cv::Scalar(255));
@@ -267,7 +267,7 @@ TEST(Woodham, ResultsDoNotDependOnThreadCount) {
   const auto surface = sphere_surface({333, 97}, 40, 3);
   // Three lights (the exact inverse), five with rejection (ranks by
   // passes), seventy glossy ones with rejection (ranks by sorting).
-  const std::vector<std::pair<Scan, SolveOptions>> cases = {
+  const std::vector<std::pair<formats::Scan, SolveOptions>> cases = {
       {render_scan(surface, ring_lights(3, 45), CV_16U, 0.01, 5), {}},
       {render_scan(surface, ring_lights(5, 50), CV_16U, 0.01, 5), {.reject_outliers = true}},
       {render_scan(surface, test::dome_lights(70, 55), CV_16U, 0.01, 5, {},

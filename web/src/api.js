@@ -1,4 +1,4 @@
-// The page's only way to psrigd: the documented HTTP API (capture/README.md).
+// The page's only way to psrigd: the documented HTTP API (daemon/README.md).
 // The bearer token, when psrigd wants one, is asked for once, kept for the
 // browser tab (sessionStorage) and sent as a header, never in a URL.
 

@@ -1,5 +1,5 @@
 // Writes the corpus/png/psrig-*.png seeds with psrig's own PNG writer
-// (processing::write_image: ISA-L deflate at levels 1 and 9, stored at 0).
+// (formats::write_image: ISA-L deflate at levels 1 and 9, stored at 0).
 // Not built by CMake; by hand, after a normal build (W = repository root):
 //   g++ -std=c++23 tests/fuzz/tools/write_psrig_png_seeds.cpp -I$W/processing/include \
 //     -I$W/base/include -isystem /usr/include/opencv4 -DSPDLOG_COMPILED_LIB -DSPDLOG_FMT_EXTERNAL \
@@ -10,7 +10,7 @@
 #include <vector>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/core.hpp>
-#include "psrig/processing/image_io.h"
+#include "psrig/formats/image_io.h"
 int main(int, char** argv) {
   namespace p = psrig::processing;
   const std::string out = argv[1];

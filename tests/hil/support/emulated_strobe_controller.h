@@ -1,7 +1,7 @@
 #pragma once
 // The rig's USB strobe controller as the hardware-in-the-loop tests plug
 // it in: the simulated firmware (strobe_firmware.h) behind an emulated
-// usbfs device with the descriptors of firmware_host/PROTOCOL.md, so that
+// usbfs device with the descriptors of lights/PROTOCOL.md, so that
 // the real libusb backend talks to it through the kernel's interface.
 
 #include <functional>
@@ -11,7 +11,7 @@
 #include <string>
 #include <vector>
 
-#include "psrig/firmware_host/strobe_protocol.h"
+#include "psrig/lights/strobe_protocol.h"
 #include "strobe_firmware.h"
 #include "usbfs_device.h"
 
@@ -28,8 +28,8 @@ class EmulatedStrobeController {
   // The wire, for tests that meddle with it: sees each command and the
   // firmware's answer (on the bed's thread) and returns what to send back,
   // or nothing for an answer lost.
-  using Wire = std::function<std::optional<firmware_host::strobe::Frame>(
-      std::span<const std::uint8_t> command, firmware_host::strobe::Frame answer)>;
+  using Wire = std::function<std::optional<lights::strobe::Frame>(
+      std::span<const std::uint8_t> command, lights::strobe::Frame answer)>;
 
   EmulatedStrobeController(UmockdevBed& bed, const Options& options)
       : firmware_(options.firmware),
@@ -54,7 +54,7 @@ class EmulatedStrobeController {
 
  private:
   static UsbfsDevice::Description describe(const Options& options) {
-    using namespace firmware_host::strobe;
+    using namespace lights::strobe;
     const auto& version = options.firmware.firmware;
     return {.vendor_id = 0x1209,
             .product_id = 0x5053,
@@ -73,12 +73,12 @@ class EmulatedStrobeController {
   void deliver(const std::vector<std::uint8_t>& command) {
     auto answer = firmware_.receive(command);
     if (answer.empty()) return;  // a zero-length packet gets none
-    std::optional<firmware_host::strobe::Frame> sent = std::move(answer);
+    std::optional<lights::strobe::Frame> sent = std::move(answer);
     {
       const std::scoped_lock lock(wire_mutex_);
       if (wire_) sent = wire_(command, std::move(*sent));
     }
-    if (sent) device_.queue_in(firmware_host::strobe::endpoint_in, std::move(*sent));
+    if (sent) device_.queue_in(lights::strobe::endpoint_in, std::move(*sent));
   }
 
   StrobeFirmware firmware_;

@@ -10,7 +10,7 @@
 #include <vector>
 
 #include "emulated_gpio_chip.h"
-#include "psrig/firmware_host/simulated_leds.h"
+#include "psrig/sim/simulated_leds.h"
 
 namespace psrig::test {
 
@@ -57,7 +57,7 @@ struct GpioLedWiring {
   // Switches the simulated rig's LEDs (SimulatedLeds::attach with the
   // test's configuration, as the sim camera finds them), at full level:
   // GPIO is on or off.
-  [[nodiscard]] static LedSwitch to_leds(std::shared_ptr<firmware_host::SimulatedLeds> leds) {
+  [[nodiscard]] static LedSwitch to_leds(std::shared_ptr<sim::SimulatedLeds> leds) {
     return [leds = std::move(leds)](int channel, bool lit) { leds->set_led(channel, lit); };
   }
 };

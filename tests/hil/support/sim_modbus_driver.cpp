@@ -16,11 +16,11 @@
 #include <unistd.h>
 #include <utility>
 
-#include "psrig/firmware_host/modbus_reply_capture.h"
+#include "psrig/lights/modbus_reply_capture.h"
 
 namespace psrig::test {
 
-using firmware_host::Clock;
+using lights::Clock;
 
 // Everything the server thread owns at the C level.
 struct SimModbusDriver::Link {
@@ -33,7 +33,7 @@ struct SimModbusDriver::Link {
   int slave = -1;   // RTU: kept open so the master never sees a hang-up
                     // when the host closes and reopens its end
   // libmodbus answers into it; we decide what reaches the host.
-  std::optional<firmware_host::ModbusReplyCapture> capture;
+  std::optional<lights::ModbusReplyCapture> capture;
   std::vector<int> clients;  // TCP connections
 
   ~Link() {
@@ -104,7 +104,7 @@ Status SimModbusDriver::open() {
   link.tcp = options_.transport == "tcp";
   link.wake = ::eventfd(0, EFD_CLOEXEC | EFD_NONBLOCK);
   if (link.wake < 0) return std::unexpected(internal_error(system_error("eventfd")));
-  auto captured = firmware_host::ModbusReplyCapture::create();
+  auto captured = lights::ModbusReplyCapture::create();
   if (!captured) return std::unexpected(captured.error());
   link.capture.emplace(std::move(*captured));
 

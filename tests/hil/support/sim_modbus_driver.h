@@ -1,7 +1,7 @@
 #pragma once
 // A simulated Modbus LED driver: a real libmodbus server on its own thread,
 // over loopback TCP or Modbus RTU on a pseudo-terminal pair, serving the
-// register map of config::ModbusRegisters (firmware_host/README.md). The
+// register map of config::ModbusRegisters (lights/README.md). The
 // real modbus backend talks to it exactly as to a driver on the bench, and
 // tests inject faults into it to see the backend fail safely.
 //
@@ -21,8 +21,8 @@
 #include <vector>
 
 #include "psrig/config/rig_config.h"
-#include "psrig/firmware_host/light_controller.h"
-#include "psrig/firmware_host/switch_log.h"
+#include "psrig/lights/light_controller.h"
+#include "psrig/lights/switch_log.h"
 
 namespace psrig::test {
 
@@ -52,9 +52,9 @@ class SimModbusDriver {
  public:
   // Called from the server thread for every LED change, in order (offs
   // before ons), before the reply leaves: `level` is the LED's intensity
-  // register over the full scale. Shaped for firmware_host::SimulatedLeds::set_led.
+  // register over the full scale. Shaped for sim::SimulatedLeds::set_led.
   using SwitchCallback = std::function<void(int channel, bool on, double level,
-                                            firmware_host::Clock::time_point time)>;
+                                            lights::Clock::time_point time)>;
 
   [[nodiscard]] static Result<std::unique_ptr<SimModbusDriver>> start(
       const SimModbusDriverOptions& options, SwitchCallback on_switch = {});
@@ -74,7 +74,7 @@ class SimModbusDriver {
   [[nodiscard]] std::uint16_t status() const;
   void set_status(std::uint16_t status);  // e.g. kModbusStatusDriverFault
   // Every LED switch the driver made (its record of "never two on").
-  [[nodiscard]] const firmware_host::SwitchLog& log() const { return log_; }
+  [[nodiscard]] const lights::SwitchLog& log() const { return log_; }
 
   // The next `requests` requests addressed to this driver (-1: all, until
   // cleared) meet `fault`; `exception_code` for ModbusFault::exception
@@ -126,7 +126,7 @@ class SimModbusDriver {
   std::vector<int> requests_by_function_ = std::vector<int>(256, 0);
   int interlock_refusals_ = 0;
   int connections_ = 0;
-  firmware_host::SwitchLog log_;
+  lights::SwitchLog log_;
 };
 
 }  // namespace psrig::test

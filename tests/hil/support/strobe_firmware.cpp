@@ -6,9 +6,9 @@
 
 namespace psrig::test {
 
-namespace strobe = firmware_host::strobe;
-using firmware_host::Clock;
-using firmware_host::SwitchEvent;
+namespace strobe = lights::strobe;
+using lights::Clock;
+using lights::SwitchEvent;
 
 namespace fault = strobe::fault;
 using strobe::AllOff, strobe::ChannelOn, strobe::ClearFaults, strobe::Command, strobe::DeviceInfo,

@@ -1,6 +1,6 @@
 #pragma once
 // The USB strobe controller's firmware, simulated: the device side of
-// firmware_host/PROTOCOL.md with the same safety rules as the real one
+// lights/PROTOCOL.md with the same safety rules as the real one
 // (never two channels on, a watchdog, hardware-timed strobes, latched
 // faults). It sees frames, not USB: the hardware-in-the-loop tests put it
 // behind an emulated usbdevfs device; unit tests call it directly.
@@ -20,15 +20,15 @@
 #include <thread>
 #include <vector>
 
-#include "psrig/firmware_host/strobe_protocol.h"
-#include "psrig/firmware_host/switch_log.h"
+#include "psrig/lights/strobe_protocol.h"
+#include "psrig/lights/switch_log.h"
 
 namespace psrig::test {
 
 // What the controller is: its channels, version and limits.
 struct StrobeFirmwareOptions {
   int channels = 3;
-  firmware_host::strobe::Version firmware{1, 2, 0};
+  lights::strobe::Version firmware{1, 2, 0};
   std::uint16_t default_watchdog_ms = 1000;
   std::uint16_t watchdog_min_ms = 50;
   std::uint16_t watchdog_max_ms = 10000;
@@ -40,10 +40,10 @@ class StrobeFirmware {
  public:
   using Options = StrobeFirmwareOptions;
   // A channel's output changed at `at` (level 0..1 when on): drives the
-  // simulated rig's LEDs (firmware_host::SimulatedLeds::set_led). Called with the firmware's lock
+  // simulated rig's LEDs (sim::SimulatedLeds::set_led). Called with the firmware's lock
   // held: it must not call back into the firmware.
   using OnSwitch =
-      std::function<void(int channel, bool on, double level, firmware_host::Clock::time_point at)>;
+      std::function<void(int channel, bool on, double level, lights::Clock::time_point at)>;
   enum class LedFault { none, open, shorted };
 
   explicit StrobeFirmware(Options options = {}, OnSwitch on_switch = {});
@@ -53,11 +53,11 @@ class StrobeFirmware {
 
   // One bulk OUT transfer, received at `now`; returns the bulk IN response
   // (empty for a zero-length transfer, which gets none).
-  [[nodiscard]] firmware_host::strobe::Frame receive(
+  [[nodiscard]] lights::strobe::Frame receive(
       std::span<const std::uint8_t> bytes,
-      firmware_host::Clock::time_point now = firmware_host::Clock::now());
+      lights::Clock::time_point now = lights::Clock::now());
   // Runs the timers up to `now`: strobes end, the watchdog trips.
-  void advance(firmware_host::Clock::time_point now);
+  void advance(lights::Clock::time_point now);
   // Runs the timers on a thread of their own, in real time, until
   // stop_timer() or destruction.
   void start_timer();
@@ -65,39 +65,39 @@ class StrobeFirmware {
 
   // What the world does to the controller.
   void set_temperature(double celsius,
-                       firmware_host::Clock::time_point now = firmware_host::Clock::now());
+                       lights::Clock::time_point now = lights::Clock::now());
   // A broken LED, found (and latched) whenever its channel is driven on.
   void set_led_fault(int channel, LedFault fault);
   // USB reset, suspend or VBUS lost (unplugged): all off, watchdog idle.
-  void usb_disconnect(firmware_host::Clock::time_point now = firmware_host::Clock::now());
+  void usb_disconnect(lights::Clock::time_point now = lights::Clock::now());
 
   // What the firmware did and is doing.
-  [[nodiscard]] firmware_host::strobe::DeviceStatus status() const;
+  [[nodiscard]] lights::strobe::DeviceStatus status() const;
   [[nodiscard]] std::vector<int> channels_on() const;
   [[nodiscard]] double level(int channel) const;  // intensity set, 0..1
   // Every output change in time order (channel -1 never appears: each
   // channel switches on its own).
-  [[nodiscard]] std::vector<firmware_host::SwitchEvent> history() const;
+  [[nodiscard]] std::vector<lights::SwitchEvent> history() const;
   // How many commands with this opcode were answered ok.
-  [[nodiscard]] int handled(firmware_host::strobe::Opcode opcode) const;
+  [[nodiscard]] int handled(lights::strobe::Opcode opcode) const;
   [[nodiscard]] const Options& options() const { return options_; }
 
  private:
   struct Output {
     bool on = false;
-    std::uint16_t permille = firmware_host::strobe::intensity_full_scale;
+    std::uint16_t permille = lights::strobe::intensity_full_scale;
     LedFault fault = LedFault::none;
   };
 
-  firmware_host::strobe::Response execute(const firmware_host::strobe::Command& command,
-                                          firmware_host::Clock::time_point now);
-  void advance_locked(firmware_host::Clock::time_point now);
-  [[nodiscard]] std::optional<firmware_host::Clock::time_point> next_deadline_locked() const;
-  void drive(int channel, bool on, firmware_host::Clock::time_point at);
-  void turn_on(int channel, firmware_host::Clock::time_point at);  // break before make
-  void all_off(firmware_host::Clock::time_point at);
-  void latch(std::uint16_t faults, firmware_host::Clock::time_point at);
-  [[nodiscard]] firmware_host::strobe::DeviceStatus status_locked() const;
+  lights::strobe::Response execute(const lights::strobe::Command& command,
+                                          lights::Clock::time_point now);
+  void advance_locked(lights::Clock::time_point now);
+  [[nodiscard]] std::optional<lights::Clock::time_point> next_deadline_locked() const;
+  void drive(int channel, bool on, lights::Clock::time_point at);
+  void turn_on(int channel, lights::Clock::time_point at);  // break before make
+  void all_off(lights::Clock::time_point at);
+  void latch(std::uint16_t faults, lights::Clock::time_point at);
+  [[nodiscard]] lights::strobe::DeviceStatus status_locked() const;
 
   const Options options_;
   const OnSwitch on_switch_;
@@ -109,16 +109,16 @@ class StrobeFirmware {
   std::vector<Output> outputs_;
   int on_channel_ = -1;
   bool strobing_ = false;
-  firmware_host::Clock::time_point strobe_end_{};
+  lights::Clock::time_point strobe_end_{};
   bool watchdog_armed_ = false;
-  firmware_host::Clock::time_point last_feed_{};
+  lights::Clock::time_point last_feed_{};
   std::uint16_t watchdog_ms_;
   std::uint16_t faults_ = 0;
   std::uint8_t led_fault_channels_ = 0;
   double temperature_c_ = 25;
-  firmware_host::Clock::time_point latest_{};  // time never runs backwards, whoever calls
-  std::vector<firmware_host::SwitchEvent> history_;
-  std::map<firmware_host::strobe::Opcode, int> handled_;
+  lights::Clock::time_point latest_{};  // time never runs backwards, whoever calls
+  std::vector<lights::SwitchEvent> history_;
+  std::map<lights::strobe::Opcode, int> handled_;
 };
 
 }  // namespace psrig::test

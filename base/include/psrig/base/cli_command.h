@@ -38,9 +38,11 @@ int report_error(std::string_view program, std::string_view command, const Error
 // --threads: a whole number, 0 (one per core) or more.
 [[nodiscard]] CLI::Validator thread_count();
 
-// A program of subcommands, exactly one of which runs. -v/--verbose logs at
-// debug level, else at quiet_level; --version prints "NAME VERSION" and
-// exits 0.
+// A program of subcommands, exactly one of which runs. The common flags go
+// before or after the subcommand, as a user types them: -v/--verbose logs at
+// debug level, else at quiet_level; -q/--quiet is the subcommand's own where
+// it has one (print nothing on success), else logs warnings and errors only;
+// --version prints "NAME VERSION" and exits 0.
 class SubcommandProgram {
  public:
   SubcommandProgram(std::string name, std::string_view version, std::string description,
@@ -58,6 +60,7 @@ class SubcommandProgram {
   spdlog::level::level_enum quiet_level_;
   CLI::App app_;
   bool verbose_ = false;
+  bool quiet_ = false;
 };
 
 }  // namespace psrig::cli

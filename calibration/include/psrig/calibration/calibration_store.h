@@ -18,7 +18,7 @@
 
 #include "psrig/base/error.h"
 #include "psrig/calibration/light_calibration.h"
-#include "psrig/processing/atomic_directory.h"
+#include "psrig/formats/atomic_directory.h"
 
 namespace psrig::calibration {
 
@@ -106,7 +106,7 @@ class CalibrationStore {
   // A staging directory for the next version (creating the store's
   // directory when needed): write calibration.json and captures/ into its
   // path(), then commit(Existing::refuse, true).
-  [[nodiscard]] Result<processing::AtomicDirectory> begin_next() const;
+  [[nodiscard]] Result<formats::AtomicDirectory> begin_next() const;
 
  private:
   std::filesystem::path directory_;

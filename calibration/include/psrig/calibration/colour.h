@@ -13,7 +13,7 @@
 #include <opencv2/core.hpp>
 
 #include "psrig/base/error.h"
-#include "psrig/processing/scan.h"
+#include "psrig/formats/scan.h"
 
 namespace psrig::calibration {
 
@@ -100,6 +100,6 @@ struct LinearColourImage {
   cv::Mat saturated;
 };
 [[nodiscard]] Result<LinearColourImage> read_linear_colour(const std::filesystem::path& file,
-                                                           processing::Encoding encoding);
+                                                           formats::Encoding encoding);
 
 }  // namespace psrig::calibration

@@ -9,7 +9,7 @@
 #include <opencv2/core.hpp>
 
 #include "psrig/base/error.h"
-#include "psrig/processing/scan.h"
+#include "psrig/formats/scan.h"
 
 namespace psrig::calibration {
 
@@ -30,7 +30,7 @@ struct ImageFolder {
 // An image as linear grey, CV_32F, 0..1 of full scale (the mean of its
 // colour channels after decoding `encoding`).
 [[nodiscard]] Result<cv::Mat> read_linear_grey(const std::filesystem::path& file,
-                                               processing::Encoding encoding);
+                                               formats::Encoding encoding);
 
 // A mask file as CV_8U, nonzero = use: grey of any depth, or colour (RGB,
 // RGBA or a palette PNG, which OpenCV expands) whose colour channels are

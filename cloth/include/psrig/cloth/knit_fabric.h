@@ -75,7 +75,6 @@ class KnitFabric {
   // The relaxed repeat of the last update, and how its relaxation went.
   // How the repeat's relaxations went: the worst clearance and strain of
   // every deformation relaxed so far.
-  [[nodiscard]] RelaxReport relax_report() const { return repeats_->report(); }
 
  private:
   StitchChart chart_;

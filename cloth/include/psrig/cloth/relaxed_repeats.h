@@ -57,7 +57,6 @@ class RelaxedRepeats {
 
   // The worst clearance and strain of the nodes relaxed so far, and how many.
   [[nodiscard]] RelaxReport report() const;
-  [[nodiscard]] int nodes_relaxed() const { return relaxed_; }
   [[nodiscard]] const YarnCell& rest() const { return rest_; }
   // Where each yarn's points start in the flattened numbering.
   [[nodiscard]] std::size_t first_point(std::size_t yarn) const { return first_[yarn]; }
@@ -71,7 +70,6 @@ class RelaxedRepeats {
   std::vector<std::size_t> first_;
   std::array<int, 3> low_{}, size_{};           // the table's index range
   std::vector<std::unique_ptr<Node>> nodes_;  // dense over the range
-  int relaxed_ = 0;
 };
 
 }  // namespace psrig::cloth

@@ -90,7 +90,6 @@ class StitchCloth {
   [[nodiscard]] const StitchMesh& mesh() const { return mesh_; }
   [[nodiscard]] std::span<const Eigen::Vector3f> velocities() const { return velocity_; }
   [[nodiscard]] ClothEnergy energy() const;
-  [[nodiscard]] float vertex_mass_g() const { return mass_; }
   // Deepest any vertex is inside a collider, less the half-thickness (0: none).
   [[nodiscard]] float deepest_penetration() const;
 

@@ -57,7 +57,6 @@ class WovenFabric {
   [[nodiscard]] const YarnSection& section() const { return rest_.section; }
   // How the repeat's relaxations went: the worst clearance and strain of
   // every deformation relaxed so far.
-  [[nodiscard]] RelaxReport relax_report() const { return repeats_->report(); }
 
  private:
   WeaveMatrix weave_;

@@ -45,7 +45,7 @@ struct GpiodLights {
   std::string consumer = "psrig";
 };
 
-// The rig's USB strobe controller (firmware_host/PROTOCOL.md).
+// The rig's USB strobe controller (lights/PROTOCOL.md).
 struct UsbLights {
   std::uint16_t vendor_id = 0x1209;
   std::uint16_t product_id = 0x5053;
@@ -84,7 +84,7 @@ struct ModbusLights {
 // The simulated rig's LEDs (backend "sim").
 struct SimLights {
   // Every switch appended to this file, one line each
-  // (firmware_host/switch_log_file.h), for tests to read from outside the
+  // (lights/switch_log_file.h), for tests to read from outside the
   // process; relative to the configuration file. Empty: none.
   std::filesystem::path switch_log;
 };

@@ -58,7 +58,7 @@ struct MaterialSource {
 
 // What an export of `directory` is made from: the tile directory itself
 // when given one; for a maps directory its seamless tile (made once into
-// `directory/tile`, processing::ensure_tile), so the material repeats
+// `directory/tile`, analysis::ensure_tile), so the material repeats
 // without a seam, or the whole scan when `whole_scan` or when no tile can
 // be cut from the maps (a warning says why).
 [[nodiscard]] Result<MaterialSource> material_for_export(const std::filesystem::path& directory,

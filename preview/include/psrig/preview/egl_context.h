@@ -23,7 +23,6 @@ class EglContext {
   // "llvmpipe (LLVM 15.0.6, 256 bits), OpenGL ES 3.2 Mesa 22.3.6" and the like.
   [[nodiscard]] std::string describe() const;
   [[nodiscard]] int gles_major() const { return major_; }
-  [[nodiscard]] int gles_minor() const { return minor_; }
   // A GL extension the context offers: detected, never assumed.
   [[nodiscard]] bool has_extension(std::string_view name) const;
 

@@ -16,26 +16,26 @@
 #include <opencv2/core.hpp>
 
 #include "psrig/base/error.h"
-#include "psrig/processing/scan.h"
+#include "psrig/formats/scan.h"
 
 namespace psrig::processing {
 
 // Stored code value -> linear fraction of full scale, for one scan's encoding.
 class CodeLineariser {
  public:
-  CodeLineariser(Encoding encoding, double black_level, double white_level, int depth);
+  CodeLineariser(formats::Encoding encoding, double black_level, double white_level, int depth);
 
   // `count` stored values of the construction depth -> linear floats,
   // multiplied by `factor`.
   void convert(const void* stored, int count, float* linear, float factor = 1.0f) const;
   [[nodiscard]] float operator()(double stored) const;
   // Linear encoding is x * scale() + offset().
-  [[nodiscard]] bool is_linear() const { return encoding_ == Encoding::linear; }
+  [[nodiscard]] bool is_linear() const { return encoding_ == formats::Encoding::linear; }
   [[nodiscard]] float scale() const { return scale_; }
   [[nodiscard]] float offset() const { return offset_; }
 
  private:
-  Encoding encoding_;
+  formats::Encoding encoding_;
   double black_;
   double white_;
   int depth_;
@@ -48,7 +48,7 @@ class CodeLineariser {
 class ScanLineariser {
  public:
   // Precomputes the linear dark frame and the flat-field gains.
-  [[nodiscard]] static Result<ScanLineariser> create(const Scan& scan);
+  [[nodiscard]] static Result<ScanLineariser> create(const formats::Scan& scan);
 
   // Row `row` of light `light`: channel c goes to planes[c][0..cols) (BGR
   // order for colour), and saturated[i] is set to 1 where any channel of
@@ -63,9 +63,9 @@ class ScanLineariser {
   [[nodiscard]] int rows() const { return rows_; }
 
  private:
-  ScanLineariser(const Scan& scan, CodeLineariser codes);
+  ScanLineariser(const formats::Scan& scan, CodeLineariser codes);
 
-  const Scan* scan_;
+  const formats::Scan* scan_;
   CodeLineariser codes_;
   int channels_ = 1;
   int cols_ = 0;

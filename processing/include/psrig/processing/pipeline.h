@@ -11,7 +11,8 @@
 #include "psrig/base/error.h"
 #include "psrig/processing/flatten.h"
 #include "psrig/processing/integration.h"
-#include "psrig/processing/storage_options.h"
+#include "psrig/formats/scan.h"
+#include "psrig/formats/storage_options.h"
 #include "psrig/processing/woodham.h"
 
 namespace psrig::processing {
@@ -41,7 +42,7 @@ struct ProcessOptions {
   // preview); directx adds normal_directx.png (+Y down) beside it.
   bool directx_normal = false;
   SolveOptions solve;
-  StorageOptions storage;  // the maps' lossless compression
+  formats::StorageOptions storage;  // the maps' lossless compression
 };
 
 struct ProcessSummary {
@@ -54,6 +55,11 @@ struct ProcessSummary {
 // directory (one holding a psrig report) is replaced; any other existing
 // path is refused.
 [[nodiscard]] Result<ProcessSummary> process_scan(const std::filesystem::path& scan_directory,
+                                                  const ProcessOptions& options = {});
+// The same for a scan already in memory as it is stored in `scan_directory`
+// (formats::as_stored): its frames are not read back from the disk.
+[[nodiscard]] Result<ProcessSummary> process_scan(formats::Scan scan,
+                                                  const std::filesystem::path& scan_directory,
                                                   const ProcessOptions& options = {});
 
 }  // namespace psrig::processing

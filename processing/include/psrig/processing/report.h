@@ -12,7 +12,7 @@
 
 #include "psrig/processing/evaluation.h"
 #include "psrig/processing/pipeline.h"
-#include "psrig/processing/scan.h"
+#include "psrig/formats/scan.h"
 #include "psrig/processing/woodham.h"
 
 namespace psrig::processing {
@@ -43,7 +43,7 @@ struct GroundTruthSummary {
 };
 
 struct ReportInputs {
-  const Scan* scan = nullptr;  // its frames may already be released
+  const formats::Scan* scan = nullptr;  // its frames may already be released
   cv::Size size;               // of the frames
   int channels = 0;
   int depth = -1;

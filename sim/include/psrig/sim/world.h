@@ -1,6 +1,6 @@
 #pragma once
 // The simulated rig's world: a procedural swatch under the rig's LEDs and a
-// little room light. The LEDs are the rig's SimulatedLeds (firmware_host),
+// little room light. The LEDs are the rig's SimulatedLeds (sim/simulated_leds.h),
 // switched by the sim light backend or by a test's emulated driver; the
 // simulated sensor asks the world what the swatch looked like over an
 // exposure. Thread-safe.
@@ -14,12 +14,12 @@
 
 #include "psrig/base/error.h"
 #include "psrig/config/rig_config.h"
-#include "psrig/firmware_host/simulated_leds.h"
+#include "psrig/sim/simulated_leds.h"
 #include "psrig/sim/swatch_model.h"
 
 namespace psrig::sim {
 
-using Clock = firmware_host::Clock;
+using Clock = lights::Clock;
 
 class World {
  public:
@@ -28,11 +28,11 @@ class World {
   // naming sim.pattern, when the swatch's pattern cannot be read or made.
   [[nodiscard]] static Result<World> make(
       const config::RigConfig& config,
-      std::shared_ptr<firmware_host::SimulatedLeds> leds = nullptr);
+      std::shared_ptr<sim::SimulatedLeds> leds = nullptr);
 
   // The world of the simulated rig `config` describes, lit by its LEDs
   // (SimulatedLeds::attach): the same instance for every holder of an
-  // equivalent configuration (firmware_host/simulated_rig.h).
+  // equivalent configuration (sim/simulated_rig.h).
   [[nodiscard]] static Result<std::shared_ptr<World>> attach(const config::RigConfig& config);
 
   [[nodiscard]] int channel_count() const { return static_cast<int>(directions_.size()); }
@@ -45,7 +45,7 @@ class World {
   [[nodiscard]] const Swatch& swatch() const { return swatch_; }
   // What the swatch is made of ([sim] pattern); none for calibration targets.
   [[nodiscard]] const std::optional<SwatchPattern>& pattern() const { return pattern_; }
-  [[nodiscard]] const std::shared_ptr<firmware_host::SimulatedLeds>& leds() const { return leds_; }
+  [[nodiscard]] const std::shared_ptr<sim::SimulatedLeds>& leds() const { return leds_; }
 
   // How much of [begin, end) each LED shone (SimulatedLeds::exposure_weights).
   [[nodiscard]] std::vector<double> exposure_weights(Clock::time_point begin,
@@ -61,7 +61,7 @@ class World {
 
  private:
   World(const config::RigConfig& config, Swatch scene, std::optional<SwatchPattern> pattern,
-        std::shared_ptr<firmware_host::SimulatedLeds> leds);
+        std::shared_ptr<sim::SimulatedLeds> leds);
 
   std::vector<cv::Vec3d> directions_;
   std::vector<cv::Vec3d> positions_;
@@ -69,7 +69,7 @@ class World {
   std::optional<SwatchPattern> pattern_;
   std::vector<cv::Mat> radiance_;
   cv::Mat ambient_;
-  std::shared_ptr<firmware_host::SimulatedLeds> leds_;
+  std::shared_ptr<sim::SimulatedLeds> leds_;
 };
 
 }  // namespace psrig::sim

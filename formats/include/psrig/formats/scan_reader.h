@@ -1,0 +1,28 @@
+#pragma once
+// Reads and validates a psrig-scan/1 directory. Every problem comes back as
+// a bad_input Error naming the file and the scan.json key.
+
+#include <filesystem>
+
+#include "psrig/base/error.h"
+#include "psrig/formats/scan.h"
+
+namespace psrig::formats {
+
+// Lights whose matrix is worse conditioned than this are refused: noise
+// would be amplified that many times into the normals.
+inline constexpr double kMaxLightConditionNumber = 1000.0;
+
+// Parses and checks scan.json only (no images are opened).
+[[nodiscard]] Result<ScanDescription> read_scan_description(const std::filesystem::path& directory);
+
+// scan.json plus every image it names, read in parallel and cross-checked.
+[[nodiscard]] Result<Scan> read_scan(const std::filesystem::path& directory);
+
+// The scan write_scan has just stored in `directory`, as read_scan would
+// read it back, without reading it: scan.json's description parsed from the
+// document written, the images kept in memory (write_scan stores them
+// losslessly), the same checks. What the rig hands to processing.
+[[nodiscard]] Result<Scan> as_stored(Scan scan, const std::filesystem::path& directory);
+
+}  // namespace psrig::formats

@@ -1,0 +1,133 @@
+#include "psrig/formats/image_io.h"
+
+#include <algorithm>
+#include <cctype>
+#include <system_error>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "exr_codec.h"
+#include "png_codec.h"
+
+namespace psrig::formats {
+namespace {
+
+bool has_extension(const std::filesystem::path& file, const std::string& wanted) {
+  std::string extension = file.extension().string();
+  std::transform(extension.begin(), extension.end(), extension.begin(),
+                 [](unsigned char c) { return std::tolower(c); });
+  return extension == wanted;
+}
+bool is_png(const std::filesystem::path& file) {
+  return has_extension(file, ".png");
+}
+
+// OpenCV's PNG compression parameter, if given; psrig's default is the
+// fastest level that still compresses.
+int png_level(const std::vector<int>& params) {
+  for (std::size_t i = 0; i + 1 < params.size(); i += 2)
+    if (params[i] == cv::IMWRITE_PNG_COMPRESSION) return params[i + 1];
+  return 1;
+}
+
+bool is_exr(const std::filesystem::path& file) {
+  return has_extension(file, ".exr");
+}
+
+// The caller's EXR compression, else image_io's default (none, as below).
+int exr_compression(const std::vector<int>& params) {
+  for (std::size_t i = 0; i + 1 < params.size(); i += 2)
+    if (params[i] == cv::IMWRITE_EXR_COMPRESSION) return params[i + 1];
+  return cv::IMWRITE_EXR_COMPRESSION_NO;
+}
+
+bool exr_half(const std::vector<int>& params) {
+  for (std::size_t i = 0; i + 1 < params.size(); i += 2)
+    if (params[i] == cv::IMWRITE_EXR_TYPE) return params[i + 1] == cv::IMWRITE_EXR_TYPE_HALF;
+  return false;
+}
+
+// Float maps barely compress (ZIP saves ~3 % on 12 MP gradients and costs
+// ~1 s), so EXR files are written as 32-bit float, uncompressed, unless the
+// caller says otherwise.
+std::vector<int> with_exr_defaults(std::vector<int> params) {
+  const auto has = [&](int key) {
+    for (std::size_t i = 0; i + 1 < params.size(); i += 2)
+      if (params[i] == key) return true;
+    return false;
+  };
+  if (!has(cv::IMWRITE_EXR_TYPE))
+    params.insert(params.end(), {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_FLOAT});
+  if (!has(cv::IMWRITE_EXR_COMPRESSION))
+    params.insert(params.end(), {cv::IMWRITE_EXR_COMPRESSION, cv::IMWRITE_EXR_COMPRESSION_NO});
+  return params;
+}
+
+}  // namespace
+
+Result<cv::Mat> read_image(const std::filesystem::path& file, const std::string& key) {
+  std::error_code ec;
+  const auto status = std::filesystem::status(file, ec);
+  if (!std::filesystem::exists(status))
+    return std::unexpected(bad_input(file, key, "no such file"));
+  if (!std::filesystem::is_regular_file(status))
+    return std::unexpected(bad_input(file, key, "not a regular file"));
+  cv::Mat image;
+  try {
+    if (is_png(file)) {
+      if (auto fast = png::read(file)) return std::move(*fast);
+      if (const auto damage = png::chunk_past_end(file))
+        return std::unexpected(bad_input(file, key, "damaged PNG: " + *damage));
+    }
+    image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
+  } catch (const cv::Exception& e) {
+    return std::unexpected(bad_input(file, key, std::string("cannot decode: ") + e.what()));
+  } catch (const std::exception& e) {  // out of memory
+    return std::unexpected(internal_error(file.string() + ": cannot read: " + e.what()));
+  }
+  if (image.empty())
+    return std::unexpected(
+        bad_input(file, key, "cannot read: not a PNG, TIFF or EXR image, unreadable, or corrupt"));
+  return image;
+}
+
+Status write_image(const std::filesystem::path& file, const cv::Mat& image,
+                   const std::vector<int>& params) {
+  return write_image(file, image, params, ImageMetadata{});
+}
+
+Status write_image(const std::filesystem::path& file, const cv::Mat& image,
+                   const std::vector<int>& params, const ImageMetadata& metadata) {
+  try {
+    if (is_png(file) && png::can_write(image))
+      return png::write(file, image, png_level(params), metadata);
+    if (is_exr(file) && !metadata.empty() && exr::can_write(image))
+      return exr::write(file, image, exr_half(params), exr_compression(params), metadata);
+    if (!cv::imwrite(file.string(), image, is_exr(file) ? with_exr_defaults(params) : params))
+      return std::unexpected(io_error(file, "cannot write image"));
+  } catch (const std::exception& e) {
+    return std::unexpected(io_error(file, std::string("cannot write image: ") + e.what()));
+  }
+  return {};
+}
+
+Status write_vector_exr(const std::filesystem::path& file, const cv::Mat& xyz) {
+  if (xyz.type() != CV_32FC3)
+    return std::unexpected(internal_error("write_vector_exr: expected CV_32FC3"));
+  cv::Mat zyx;
+  cv::cvtColor(xyz, zyx, cv::COLOR_RGB2BGR);  // cannot throw for CV_32FC3
+  return write_image(file, zyx);
+}
+
+Result<cv::Mat> read_vector_exr(const std::filesystem::path& file, const std::string& key) {
+  auto image = read_image(file, key);
+  if (!image) return image;
+  if (image->type() != CV_32FC3)
+    return std::unexpected(bad_input(file, key, "expected a 3-channel 32-bit float image"));
+  cv::Mat xyz;
+  cv::cvtColor(*image, xyz, cv::COLOR_BGR2RGB);  // cannot throw for CV_32FC3
+  return xyz;
+}
+
+}  // namespace psrig::formats

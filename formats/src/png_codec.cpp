@@ -1,0 +1,560 @@
+#include "png_codec.h"
+
+#include <algorithm>
+#include <array>
+#include <cctype>
+#include <cmath>
+#include <cstdio>
+#include <cstdlib>
+#include <cstring>
+#include <fcntl.h>
+#include <isa-l/crc.h>
+#include <isa-l/igzip_lib.h>
+#include <memory>
+#include <sys/mman.h>
+#include <sys/stat.h>
+#include <unistd.h>
+#include <vector>
+
+#include "psrig/base/parallel.h"
+#include "psrig/base/vector_clones.h"
+
+namespace psrig::formats::png {
+namespace {
+
+namespace fs = std::filesystem;
+
+// As cv::imread: larger images are refused (2^30 pixels).
+constexpr std::uint64_t kMaxPixels = std::uint64_t{1} << 30;
+// PNG chunk lengths are 31-bit.
+constexpr std::size_t kMaxChunk = 0x7FFFFFFF;
+constexpr std::array<std::uint8_t, 8> kSignature = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
+constexpr int kRowsPerChunk = 32;
+
+std::uint32_t load_be32(const std::uint8_t* p) {
+  return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) |
+         p[3];
+}
+void store_be32(std::uint8_t* p, std::uint32_t v) {
+  p[0] = static_cast<std::uint8_t>(v >> 24);
+  p[1] = static_cast<std::uint8_t>(v >> 16);
+  p[2] = static_cast<std::uint8_t>(v >> 8);
+  p[3] = static_cast<std::uint8_t>(v);
+}
+
+struct FileCloser {
+  void operator()(std::FILE* f) const { std::fclose(f); }
+};
+using File = std::unique_ptr<std::FILE, FileCloser>;
+
+// A file mapped read-only: decoding reads it straight from the page cache,
+// with no buffer to allocate and fill.
+class MappedFile {
+ public:
+  explicit MappedFile(const fs::path& file) {
+    const int fd = ::open(file.c_str(), O_RDONLY | O_CLOEXEC);
+    if (fd < 0) return;
+    struct stat info {};
+    if (::fstat(fd, &info) == 0 && info.st_size > 0) {
+      void* map =
+          ::mmap(nullptr, static_cast<std::size_t>(info.st_size), PROT_READ, MAP_PRIVATE, fd, 0);
+      if (map != MAP_FAILED) {
+        data_ = static_cast<const std::uint8_t*>(map);
+        size_ = static_cast<std::size_t>(info.st_size);
+        ::madvise(map, size_, MADV_SEQUENTIAL);
+      }
+    }
+    ::close(fd);
+  }
+  ~MappedFile() {
+    if (data_) ::munmap(const_cast<std::uint8_t*>(data_), size_);
+  }
+  MappedFile(const MappedFile&) = delete;
+  MappedFile& operator=(const MappedFile&) = delete;
+  [[nodiscard]] const std::uint8_t* data() const { return data_; }
+  [[nodiscard]] std::size_t size() const { return size_; }
+
+ private:
+  const std::uint8_t* data_ = nullptr;
+  std::size_t size_ = 0;
+};
+
+// PNG's Paeth predictor (PNG specification, section 9.4).
+std::uint8_t paeth(int a, int b, int c) {
+  const int p = a + b - c;
+  const int pa = std::abs(p - a), pb = std::abs(p - b), pc = std::abs(p - c);
+  return static_cast<std::uint8_t>(pa <= pb && pa <= pc ? a : pb <= pc ? b : c);
+}
+
+// Undoes one row's filter in place; `previous` is the unfiltered row above
+// (zeros for the first row), `bpp` bytes per pixel.
+bool unfilter_row(std::uint8_t type, std::uint8_t* row, const std::uint8_t* previous, std::size_t n,
+                  std::size_t bpp) {
+  switch (type) {
+    case 0:
+      return true;
+    case 1:
+      for (std::size_t i = bpp; i < n; ++i)
+        row[i] = static_cast<std::uint8_t>(row[i] + row[i - bpp]);
+      return true;
+    case 2:
+      for (std::size_t i = 0; i < n; ++i)
+        row[i] = static_cast<std::uint8_t>(row[i] + previous[i]);
+      return true;
+    case 3:
+      for (std::size_t i = 0; i < n; ++i) {
+        const int left = i >= bpp ? row[i - bpp] : 0;
+        row[i] = static_cast<std::uint8_t>(row[i] + ((left + previous[i]) >> 1));
+      }
+      return true;
+    case 4:
+      for (std::size_t i = 0; i < n; ++i) {
+        const int left = i >= bpp ? row[i - bpp] : 0;
+        const int upper_left = i >= bpp ? previous[i - bpp] : 0;
+        row[i] = static_cast<std::uint8_t>(row[i] + paeth(left, previous[i], upper_left));
+      }
+      return true;
+    default:
+      return false;
+  }
+}
+
+// PNG byte order (RGB, big-endian samples) to OpenCV's (BGR, native), and back.
+PSRIG_VECTOR_CLONES
+void rgb16_to_bgr(const std::uint8_t* __restrict in, std::uint16_t* __restrict out, int pixels) {
+  for (int i = 0; i < pixels; ++i) {
+    out[3 * i] = static_cast<std::uint16_t>(in[6 * i + 4] << 8 | in[6 * i + 5]);
+    out[3 * i + 1] = static_cast<std::uint16_t>(in[6 * i + 2] << 8 | in[6 * i + 3]);
+    out[3 * i + 2] = static_cast<std::uint16_t>(in[6 * i] << 8 | in[6 * i + 1]);
+  }
+}
+PSRIG_VECTOR_CLONES
+void grey16_from_be(const std::uint8_t* __restrict in, std::uint16_t* __restrict out, int samples) {
+  for (int i = 0; i < samples; ++i)
+    out[i] = static_cast<std::uint16_t>(in[2 * i] << 8 | in[2 * i + 1]);
+}
+PSRIG_VECTOR_CLONES
+void rgb8_to_bgr(const std::uint8_t* __restrict in, std::uint8_t* __restrict out, int pixels) {
+  for (int i = 0; i < pixels; ++i) {
+    out[3 * i] = in[3 * i + 2];
+    out[3 * i + 1] = in[3 * i + 1];
+    out[3 * i + 2] = in[3 * i];
+  }
+}
+PSRIG_VECTOR_CLONES
+void bgr16_to_rgb_be(const std::uint16_t* __restrict in, std::uint8_t* __restrict out, int pixels) {
+  for (int i = 0; i < pixels; ++i) {
+    const std::uint16_t b = in[3 * i], g = in[3 * i + 1], r = in[3 * i + 2];
+    out[6 * i] = static_cast<std::uint8_t>(r >> 8);
+    out[6 * i + 1] = static_cast<std::uint8_t>(r);
+    out[6 * i + 2] = static_cast<std::uint8_t>(g >> 8);
+    out[6 * i + 3] = static_cast<std::uint8_t>(g);
+    out[6 * i + 4] = static_cast<std::uint8_t>(b >> 8);
+    out[6 * i + 5] = static_cast<std::uint8_t>(b);
+  }
+}
+PSRIG_VECTOR_CLONES
+void grey16_to_be(const std::uint16_t* __restrict in, std::uint8_t* __restrict out, int samples) {
+  for (int i = 0; i < samples; ++i) {
+    out[2 * i] = static_cast<std::uint8_t>(in[i] >> 8);
+    out[2 * i + 1] = static_cast<std::uint8_t>(in[i]);
+  }
+}
+PSRIG_VECTOR_CLONES
+void subtract_row(std::uint8_t* __restrict row, const std::uint8_t* __restrict above,
+                  std::size_t n) {
+  for (std::size_t i = 0; i < n; ++i)
+    row[i] = static_cast<std::uint8_t>(row[i] - above[i]);
+}
+
+}  // namespace
+
+std::optional<cv::Mat> read(const fs::path& file) {
+  const MappedFile mapped(file);
+  const std::uint8_t* data = mapped.data();
+  const std::size_t size = mapped.size();
+  if (!data || size < kSignature.size() + 12 + 13 ||
+      !std::equal(kSignature.begin(), kSignature.end(), data))
+    return std::nullopt;
+
+  std::vector<std::pair<const std::uint8_t*, std::size_t>> idat;  // the zlib stream, in pieces
+  std::size_t at = kSignature.size(), compressed = 0;
+  std::uint32_t width = 0, height = 0;
+  int bit_depth = 0, colour_type = -1;
+  bool seen_header = false, seen_end = false;
+  while (at + 12 <= size) {
+    const std::uint32_t length = load_be32(data + at);
+    const std::uint8_t* type = data + at + 4;
+    if (length > size - at - 12) return std::nullopt;
+    const std::uint8_t* payload = data + at + 8;
+    const bool critical = !(type[0] & 0x20);
+    if (critical && crc32_gzip_refl(0, type, length + 4) != load_be32(payload + length))
+      return std::nullopt;
+    if (std::memcmp(type, "IHDR", 4) == 0) {
+      if (length != 13) return std::nullopt;
+      width = load_be32(payload);
+      height = load_be32(payload + 4);
+      bit_depth = payload[8];
+      colour_type = payload[9];
+      if (payload[10] != 0 || payload[11] != 0 || payload[12] != 0)
+        return std::nullopt;  // interlaced or unknown
+      seen_header = true;
+    } else if (std::memcmp(type, "IDAT", 4) == 0) {
+      idat.emplace_back(payload, length);
+      compressed += length;
+    } else if (std::memcmp(type, "tRNS", 4) == 0 || std::memcmp(type, "PLTE", 4) == 0) {
+      return std::nullopt;  // transparency or palette: OpenCV's job
+    } else if (std::memcmp(type, "IEND", 4) == 0) {
+      seen_end = true;
+      break;
+    } else if (critical) {
+      return std::nullopt;
+    }
+    at += 12 + length;
+  }
+  if (!seen_header || !seen_end || idat.empty() || (bit_depth != 8 && bit_depth != 16) ||
+      (colour_type != 0 && colour_type != 2) || width == 0 || height == 0 ||
+      std::uint64_t{width} * height > kMaxPixels)
+    return std::nullopt;
+  const int channels = colour_type == 2 ? 3 : 1;
+  const std::size_t bpp = static_cast<std::size_t>(channels) * (bit_depth / 8);
+  const std::size_t row_bytes = bpp * width;
+  const std::size_t raw_size = height * (row_bytes + 1);
+  // Deflate expands at most 1032:1; a tiny file claiming a huge image is
+  // damaged or hostile and must not get a huge buffer.
+  if (compressed * 1032 < raw_size) return std::nullopt;
+  // Not zero-filled: inflation writes every byte.
+  const auto raw_buffer = std::make_unique_for_overwrite<std::uint8_t[]>(raw_size);
+  std::uint8_t* const raw = raw_buffer.get();
+  // The IDAT payloads are one zlib stream split across chunks; ISA-L
+  // inflates it piece by piece, checking the Adler-32 at the end.
+  inflate_state inflater;
+  isal_inflate_init(&inflater);
+  inflater.crc_flag = ISAL_ZLIB;
+  inflater.next_out = raw;
+  inflater.avail_out = static_cast<std::uint32_t>(raw_size);
+  for (const auto& [piece, length] : idat) {
+    inflater.next_in = const_cast<std::uint8_t*>(piece);  // ISA-L's API is not const-correct
+    inflater.avail_in = static_cast<std::uint32_t>(length);
+    if (isal_inflate(&inflater) != ISAL_DECOMP_OK) return std::nullopt;
+    if (inflater.block_state == ISAL_BLOCK_FINISH) break;
+  }
+  if (inflater.block_state != ISAL_BLOCK_FINISH || inflater.avail_out != 0) return std::nullopt;
+
+  // Rows depend on the row above, so unfiltering runs in order.
+  std::vector<std::uint8_t> zeros(row_bytes, 0);
+  for (std::uint32_t r = 0; r < height; ++r) {
+    std::uint8_t* row = raw + r * (row_bytes + 1);
+    const std::uint8_t* previous = r ? row - row_bytes : zeros.data();
+    if (!unfilter_row(row[0], row + 1, previous, row_bytes, bpp)) return std::nullopt;
+  }
+
+  cv::Mat image(static_cast<int>(height), static_cast<int>(width),
+                CV_MAKETYPE(bit_depth == 8 ? CV_8U : CV_16U, channels));
+  parallel_chunks(image.rows, kRowsPerChunk, [&](int begin, int end) {
+    for (int r = begin; r < end; ++r) {
+      const std::uint8_t* in = raw + static_cast<std::size_t>(r) * (row_bytes + 1) + 1;
+      if (bit_depth == 16 && channels == 3)
+        rgb16_to_bgr(in, image.ptr<std::uint16_t>(r), image.cols);
+      else if (bit_depth == 16)
+        grey16_from_be(in, image.ptr<std::uint16_t>(r), image.cols);
+      else if (channels == 3)
+        rgb8_to_bgr(in, image.ptr<std::uint8_t>(r), image.cols);
+      else
+        std::memcpy(image.ptr(r), in, row_bytes);
+    }
+  });
+  return image;
+}
+
+bool can_write(const cv::Mat& image) {
+  return !image.empty() && (image.depth() == CV_8U || image.depth() == CV_16U) &&
+         (image.channels() == 1 || image.channels() == 3);
+}
+
+namespace {
+
+// Writes chunks to a file, computing each chunk's CRC as its bytes go by.
+class ChunkWriter {
+ public:
+  explicit ChunkWriter(const fs::path& file) : file_(std::fopen(file.c_str(), "wb")) {
+    if (file_) {
+      std::setvbuf(file_.get(), nullptr, _IOFBF, 1 << 20);
+      put(kSignature.data(), kSignature.size());
+    }
+  }
+  [[nodiscard]] bool ok() const { return file_ && ok_; }
+
+  void begin(const char* type, std::size_t length) {
+    if (length > kMaxChunk) ok_ = false;  // too large for one PNG chunk
+    std::uint8_t header[8];
+    store_be32(header, static_cast<std::uint32_t>(length));
+    std::memcpy(header + 4, type, 4);
+    put(header, 8);
+    crc_ = crc32_gzip_refl(0, reinterpret_cast<const std::uint8_t*>(type), 4);
+  }
+  void data(const std::uint8_t* bytes, std::size_t n) {
+    if (n == 0) return;
+    crc_ = crc32_gzip_refl(crc_, bytes, n);
+    put(bytes, n);
+  }
+  void end() {
+    std::uint8_t crc[4];
+    store_be32(crc, crc_);
+    put(crc, 4);
+  }
+  void chunk(const char* type, const std::uint8_t* bytes, std::size_t n) {
+    begin(type, n);
+    data(bytes, n);
+    end();
+  }
+  bool close() {
+    if (!file_) return false;
+    ok_ = std::fflush(file_.get()) == 0 && ok_;
+    ok_ = std::fclose(file_.release()) == 0 && ok_;
+    return ok_;
+  }
+
+ private:
+  void put(const std::uint8_t* bytes, std::size_t n) {
+    ok_ = ok_ && file_ && std::fwrite(bytes, 1, n, file_.get()) == n;
+  }
+  File file_;
+  bool ok_ = true;
+  std::uint32_t crc_ = 0;
+};
+
+// One image row in PNG byte order (RGB, big-endian samples), filter byte first.
+void png_row(const cv::Mat& image, int r, std::uint8_t* out) {
+  const bool sixteen = image.depth() == CV_16U;
+  const int channels = image.channels();
+  if (sixteen && channels == 3)
+    bgr16_to_rgb_be(image.ptr<std::uint16_t>(r), out, image.cols);
+  else if (sixteen)
+    grey16_to_be(image.ptr<std::uint16_t>(r), out, image.cols);
+  else if (channels == 3)
+    rgb8_to_bgr(image.ptr<std::uint8_t>(r), out, image.cols);  // the swap is symmetric
+  else
+    std::memcpy(out, image.ptr(r), image.cols * image.elemSize());
+}
+
+// Level 0: a zlib stream of stored blocks, produced row by row straight
+// into one IDAT chunk, so no image-sized buffer is ever allocated.
+void write_stored(ChunkWriter& out, const cv::Mat& image) {
+  constexpr std::size_t kBlock = 65535;  // the most a stored block holds
+  const std::size_t row_bytes = image.cols * image.elemSize();
+  const std::size_t raw = static_cast<std::size_t>(image.rows) * (row_bytes + 1);
+  const std::size_t blocks = std::max<std::size_t>(1, (raw + kBlock - 1) / kBlock);
+  out.begin("IDAT", 2 + raw + 5 * blocks + 4);
+  const std::uint8_t zlib_header[2] = {0x78, 0x01};
+  out.data(zlib_header, 2);
+
+  std::vector<std::uint8_t> block(5 + kBlock);
+  std::size_t filled = 0, emitted = 0;
+  std::uint32_t adler = 1;
+  const auto flush = [&] {
+    emitted += filled;
+    block[0] = emitted == raw ? 1 : 0;  // BFINAL on the last block, type 00 (stored)
+    block[1] = static_cast<std::uint8_t>(filled);
+    block[2] = static_cast<std::uint8_t>(filled >> 8);
+    block[3] = static_cast<std::uint8_t>(~filled);
+    block[4] = static_cast<std::uint8_t>(~filled >> 8);
+    adler = isal_adler32(adler, block.data() + 5, filled);
+    out.data(block.data(), 5 + filled);
+    filled = 0;
+  };
+  std::vector<std::uint8_t> row(row_bytes + 1,
+                                0);  // filter type 0 (none): stored data gains nothing from one
+  for (int r = 0; r < image.rows; ++r) {
+    png_row(image, r, row.data() + 1);
+    for (std::size_t taken = 0; taken < row.size();) {
+      const std::size_t n = std::min(row.size() - taken, kBlock - filled);
+      std::memcpy(block.data() + 5 + filled, row.data() + taken, n);
+      filled += n;
+      taken += n;
+      if (filled == kBlock) flush();
+    }
+  }
+  if (filled > 0 || emitted < raw || raw == 0) flush();
+  std::uint8_t trailer[4];
+  store_be32(trailer, adler);
+  out.data(trailer, 4);
+  out.end();
+}
+
+// Level 1 and up: ISA-L's deflate (4x faster than zlib or libdeflate at
+// level 1, for the same size), fed rows filtered with "Up" (the cheap filter
+// that helps most) and emptied into IDAT chunks as it goes, so neither the
+// filtered image nor the compressed one is ever held whole.
+Status write_compressed(ChunkWriter& out, const cv::Mat& image, int level) {
+  constexpr std::size_t kChunk = 1 << 20;   // IDAT payload size
+  constexpr std::size_t kBatch = 1 << 18;   // filtered bytes handed to the compressor at a time
+  const std::size_t row_bytes = image.cols * image.elemSize();
+  // zlib-scale levels onto ISA-L's 1 (fastest) to 3.
+  const int isal_level = level <= 3 ? 1 : level <= 6 ? 2 : 3;
+  const std::size_t level_buffer_size =
+      isal_level == 1 ? ISAL_DEF_LVL1_DEFAULT : isal_level == 2 ? ISAL_DEF_LVL2_DEFAULT : ISAL_DEF_LVL3_DEFAULT;
+  std::vector<std::uint8_t> level_buffer(level_buffer_size), chunk(kChunk), batch, above(row_bytes, 0), row(row_bytes);
+  batch.reserve(kBatch + row_bytes + 1);
+
+  isal_zstream stream;
+  isal_deflate_init(&stream);
+  stream.level = static_cast<std::uint32_t>(isal_level);
+  stream.level_buf = level_buffer.data();
+  stream.level_buf_size = static_cast<std::uint32_t>(level_buffer.size());
+  stream.gzip_flag = IGZIP_ZLIB;
+  stream.flush = NO_FLUSH;
+  stream.next_out = chunk.data();
+  stream.avail_out = static_cast<std::uint32_t>(kChunk);
+  const auto compress = [&](bool last) -> bool {
+    stream.next_in = batch.data();
+    stream.avail_in = static_cast<std::uint32_t>(batch.size());
+    stream.end_of_stream = last ? 1 : 0;
+    do {
+      if (isal_deflate(&stream) != COMP_OK) return false;
+      const bool full = stream.avail_out == 0;
+      const bool done = last && stream.internal_state.state == ZSTATE_END;
+      if (full || done) {
+        out.chunk("IDAT", chunk.data(), kChunk - stream.avail_out);
+        stream.next_out = chunk.data();
+        stream.avail_out = static_cast<std::uint32_t>(kChunk);
+      }
+      if (done) break;
+    } while (stream.avail_in > 0 || (last && stream.internal_state.state != ZSTATE_END));
+    batch.clear();
+    return true;
+  };
+  for (int r = 0; r < image.rows; ++r) {
+    png_row(image, r, row.data());
+    batch.push_back(2);  // filter type: Up
+    const std::size_t at = batch.size();
+    batch.insert(batch.end(), row.begin(), row.end());
+    subtract_row(batch.data() + at, above.data(), row_bytes);
+    std::swap(above, row);
+    if (batch.size() >= kBatch && !compress(false))
+      return std::unexpected(internal_error("png::write: compression failed"));
+  }
+  if (!compress(true)) return std::unexpected(internal_error("png::write: compression failed"));
+  return {};
+}
+
+void put_be32(std::vector<std::uint8_t>& bytes, std::uint32_t v) {
+  std::uint8_t b[4];
+  store_be32(b, v);
+  bytes.insert(bytes.end(), b, b + 4);
+}
+
+// A keyword PNG accepts: 1-79 printable Latin-1 characters (ASCII here).
+std::string png_keyword(const std::string& keyword) {
+  std::string k;
+  for (char c : keyword)
+    if (c >= 32 && c <= 126) k += c;
+  if (k.empty()) k = "Comment";
+  return k.substr(0, 79);
+}
+bool is_printable_ascii(const std::string& text) {
+  return std::all_of(text.begin(), text.end(),
+                     [](char c) { return c == '\n' || (c >= 32 && c <= 126); });
+}
+
+// The ancillary chunks before IDAT (PNG 1.2 / ISO 15948 section 11.3):
+// colour space first, then physical size, then text.
+void write_metadata(ChunkWriter& out, const ImageMetadata& metadata) {
+  using Space = ImageMetadata::ColourSpace;
+  std::vector<std::uint8_t> bytes;
+  if (metadata.colour_space == Space::colour) {
+    // sRGB, with the gAMA and cHRM that section 11.3.3.5 recommends beside
+    // it for decoders that do not know sRGB.
+    const std::uint8_t perceptual = 0;
+    out.chunk("sRGB", &perceptual, 1);
+    put_be32(bytes, 45455);
+    out.chunk("gAMA", bytes.data(), bytes.size());
+    bytes.clear();
+    for (std::uint32_t v : {31270u, 32900u, 64000u, 33000u, 30000u, 60000u, 15000u, 6000u})
+      put_be32(bytes, v);
+    out.chunk("cHRM", bytes.data(), bytes.size());
+    bytes.clear();
+  } else if (metadata.colour_space == Space::data) {
+    put_be32(bytes, 100000);  // gamma 1.0: the samples are numbers, not light
+    out.chunk("gAMA", bytes.data(), bytes.size());
+    bytes.clear();
+  }
+  if (metadata.pixel_size_mm && *metadata.pixel_size_mm > 0) {
+    const auto per_metre =
+        static_cast<std::uint32_t>(std::lround(1000.0 / *metadata.pixel_size_mm));
+    put_be32(bytes, per_metre);
+    put_be32(bytes, per_metre);
+    bytes.push_back(1);  // unit: the metre
+    out.chunk("pHYs", bytes.data(), bytes.size());
+    bytes.clear();
+  }
+  for (const auto& [keyword, text] : metadata.text) {
+    const std::string k = png_keyword(keyword);
+    bytes.assign(k.begin(), k.end());
+    bytes.push_back(0);
+    if (is_printable_ascii(text)) {
+      bytes.insert(bytes.end(), text.begin(), text.end());
+      out.chunk("tEXt", bytes.data(), bytes.size());
+    } else {  // UTF-8: iTXt, uncompressed, no language tag
+      bytes.insert(bytes.end(), {0, 0, 0, 0});
+      bytes.insert(bytes.end(), text.begin(), text.end());
+      out.chunk("iTXt", bytes.data(), bytes.size());
+    }
+    bytes.clear();
+  }
+}
+
+}  // namespace
+
+Status write(const fs::path& file, const cv::Mat& image, int level, const ImageMetadata& metadata) {
+  if (!can_write(image))
+    return std::unexpected(internal_error("png::write: unsupported image type"));
+  ChunkWriter out(file);
+  if (!out.ok())
+    return std::unexpected(io_error(file, std::string("cannot create: ") + std::strerror(errno)));
+  std::uint8_t header[13];
+  store_be32(header, static_cast<std::uint32_t>(image.cols));
+  store_be32(header + 4, static_cast<std::uint32_t>(image.rows));
+  header[8] = image.depth() == CV_16U ? 16 : 8;
+  header[9] = image.channels() == 3 ? 2 : 0;
+  header[10] = header[11] = header[12] = 0;
+  out.chunk("IHDR", header, sizeof header);
+  write_metadata(out, metadata);
+  if (level <= 0) {
+    write_stored(out, image);
+  } else if (auto ok = write_compressed(out, image, level); !ok) {
+    return ok;
+  }
+  out.chunk("IEND", nullptr, 0);
+  if (!out.close())
+    return std::unexpected(io_error(file, std::string("cannot write: ") + std::strerror(errno)));
+  return {};
+}
+
+}  // namespace psrig::formats::png
+
+namespace psrig::formats::png {
+
+std::optional<std::string> chunk_past_end(const fs::path& file) {
+  const MappedFile mapped(file);
+  const std::uint8_t* data = mapped.data();
+  const std::size_t size = mapped.size();
+  if (!data || size < kSignature.size() ||
+      !std::equal(kSignature.begin(), kSignature.end(), data))
+    return std::nullopt;
+  for (std::size_t at = kSignature.size(); at + 8 <= size;) {
+    const std::uint32_t length = load_be32(data + at);
+    if (length > size - at - 8) {
+      std::string type(reinterpret_cast<const char*>(data + at + 4), 4);
+      for (char& c : type)
+        if (!std::isalpha(static_cast<unsigned char>(c))) c = '?';
+      return "chunk '" + type + "' at byte " + std::to_string(at) + " declares " +
+             std::to_string(length) + " bytes, but the file ends " +
+             std::to_string(size - at - 8) + " bytes later (truncated or corrupt)";
+    }
+    at += std::size_t{12} + length;
+  }
+  return std::nullopt;
+}
+
+}  // namespace psrig::formats::png

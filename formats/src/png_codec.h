@@ -1,0 +1,39 @@
+#pragma once
+// A fast path for the PNGs psrig moves most: 12 MP 16-bit frames and maps.
+// libpng inflates with zlib and filters adaptively; this path keeps the
+// whole image in one buffer and (de)compresses it with libdeflate, 2-3x
+// faster, with OpenCV's libpng path kept for everything outside the subset
+// handled here: 8- or 16-bit grey or RGB, not interlaced, no transparency.
+
+#include <filesystem>
+#include <optional>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "psrig/base/error.h"
+#include "psrig/formats/image_metadata.h"
+
+namespace psrig::formats::png {
+
+// The image, in OpenCV's layout (BGR, native-endian 16-bit), or nothing when
+// the file is not a PNG this path handles, including one it finds damaged:
+// then cv::imread decides, so every PNG is judged as OpenCV would.
+[[nodiscard]] std::optional<cv::Mat> read(const std::filesystem::path& file);
+
+// Where a chunk of the PNG `file` declares more bytes than the file holds
+// after it, which chunk and how much; nothing when every chunk fits (or the
+// file is no PNG). libpng would first allocate the declared length, up to
+// 2 GiB, before finding the file short.
+[[nodiscard]] std::optional<std::string> chunk_past_end(const std::filesystem::path& file);
+
+// Whether write() takes this image: CV_8U or CV_16U, one or three channels.
+[[nodiscard]] bool can_write(const cv::Mat& image);
+
+// Writes with zlib-scale compression `level` (0 stores, 1 fastest … 9),
+// with `metadata`'s chunks (pHYs, sRGB+gAMA+cHRM or gAMA 1.0, tEXt/iTXt)
+// before the image data.
+[[nodiscard]] Status write(const std::filesystem::path& file, const cv::Mat& image, int level,
+                           const ImageMetadata& metadata = {});
+
+}  // namespace psrig::formats::png
