@@ -71,6 +71,106 @@ bool use_flats(const std::optional<AppliedCalibration>& calibration, const cv::M
   return true;
 }
 
+// The scan's light for `channel` (its frame `stored`): direction and
+// intensity as calibrated, else from rig.toml; near-field LEDs with their
+// position, relative to the swatch's top (swatch_height_mm above the plane
+// they were measured from).
+formats::ScanLight scan_light(const config::RigConfig& config, const ScanRequest& request,
+                              int phase_channel, const cv::Mat& stored,
+                              const std::vector<double>& intensity) {
+  const auto channel = static_cast<std::size_t>(phase_channel);
+  const auto& calibrated = request.calibration;
+  const bool use_calibration = calibrated && channel < calibrated->directions.size() &&
+                               channel < calibrated->intensities.size();
+  const bool flat_fielded = use_flats(calibrated, stored);
+  formats::ScanLight light{
+      formats::scan_files::led_frame(phase_channel, stored.depth()),
+      use_calibration ? calibrated->directions[channel]
+                      : formats::light_direction(config.geometry.tilts_deg.at(channel),
+                                                 config.geometry.slant_deg),
+      cv::Vec3d::all(flat_fielded      ? 1.0
+                     : use_calibration ? calibrated->intensities[channel]
+                                       : intensity[phase_channel]),
+      false, std::nullopt};
+  const auto positions = config::led_positions_mm(config.geometry);
+  const bool measured = calibrated &&
+                        calibrated->led_positions_mm.size() ==
+                            static_cast<std::size_t>(config.lights.channels) &&
+                        channel < calibrated->led_positions_mm.size();
+  std::optional<cv::Vec3d> position;
+  if (measured)
+    position = calibrated->led_positions_mm[channel];
+  else if (channel < positions.size())
+    position = cv::Vec3d(positions[channel][0], positions[channel][1], positions[channel][2]);
+  if (position) {
+    (*position)[2] -= config.geometry.swatch_height_mm;
+    light.position_mm = position;
+  }
+  return light;
+}
+
+// What the rig's calibration brings to the scan: the flats as frames, the
+// colour matrix for colour frames, and scan.json's `calibration` saying
+// which parts were applied.
+void apply_calibration(const config::RigConfig& config, const ScanRequest& request, bool scaled,
+                       formats::Scan& scan) {
+  auto& d = scan.description;
+  // The calibration's flats, as frames of this scan: its dark (or black
+  // level) plus the card's signal, so processing's dark subtraction leaves
+  // the signal; 0.9 of the range at full scale.
+  const bool flat_fielded =
+      !scan.frames.empty() && use_flats(request.calibration, scan.frames.front());
+  if (flat_fielded) {
+    const double range = 0.9 * (*d.white_level - d.black_level) / 65535.0;
+    for (const auto& flat : request.calibration->flats) {
+      cv::Mat code;
+      flat.convertTo(code, CV_32F, range);
+      if (!scan.dark.empty()) {
+        cv::Mat dark;
+        scan.dark.convertTo(dark, CV_32F);
+        code += dark;
+      } else {
+        code += d.black_level;
+      }
+      cv::Mat stored;
+      code.convertTo(stored, CV_16U);
+      scan.flats.push_back(stored);
+      d.flats.push_back(formats::scan_files::flat_frame(static_cast<int>(scan.flats.size() - 1),
+                                                           stored.depth()));
+    }
+  } else if (request.calibration && !request.calibration->flats.empty()) {
+    logger("capture")->warn(
+        "the flat field of {} does not fit this camera's frames (size or channels), so this "
+        "scan goes without flats: run psrig calibrate flat again",
+        request.calibration->file.string());
+  }
+  nlohmann::json applied = nlohmann::json::array({"lights"});
+  if (flat_fielded) applied.push_back("flat");
+  if (scaled) applied.push_back("scale");
+  if (request.calibration &&
+      request.calibration->led_positions_mm.size() ==
+          static_cast<std::size_t>(config.lights.channels) &&
+      d.near_field())
+    applied.push_back("led_positions_mm");
+  // The colour matrix goes with colour frames only; processing applies it.
+  const bool coloured = request.calibration && request.calibration->colour_matrix &&
+                        !scan.frames.empty() && scan.frames.front().channels() == 3;
+  if (coloured) {
+    const cv::Matx33d& m = *request.calibration->colour_matrix;
+    d.document["colour_correction"] = {
+        {"matrix",
+         {{m(0, 0), m(0, 1), m(0, 2)}, {m(1, 0), m(1, 1), m(1, 2)}, {m(2, 0), m(2, 1), m(2, 2)}}},
+        {"space", "sRGB D65"},
+        {"calibration", request.calibration->colour_version}};
+    applied.push_back("colour");
+  }
+  d.document["calibration"] = request.calibration
+                                  ? nlohmann::json{{"file", request.calibration->file.string()},
+                                                   {"created", request.calibration->created},
+                                                   {"applied", applied}}
+                                  : nlohmann::json(nullptr);
+}
+
 }  // namespace
 
 // What the LEDs did over a stretch of time: `channel` (-1: all off) was
@@ -239,21 +339,9 @@ Result<formats::Scan> ScanSequencer::acquire(
   period_.reset();
   std::vector<double> intensity = config_.lights.intensity;
   intensity.resize(static_cast<std::size_t>(lights), 1.0);
-  for (int k = 0; k < lights; ++k)
-    if (auto ok = lights_.set_intensity(k, intensity[k]); !ok) return std::unexpected(ok.error());
-  Lighting lighting;
-  {
-    auto off = switch_lights(-1, lighting);
-    if (!off) return std::unexpected(off.error());
-    lighting = *off;
-  }
-  // Start with the first phase lit and settled, so the first frame counts.
-  if (phases.front().channel >= 0) {
-    auto on = switch_lights(phases.front().channel, lighting);
-    if (!on) return std::unexpected(on.error());
-    lighting = *on;
-  }
-  std::this_thread::sleep_until(lighting.since + milliseconds(config_.capture.settle_ms));
+  auto lit = light_first_phase(phases.front(), intensity);
+  if (!lit) return std::unexpected(lit.error());
+  Lighting lighting = *lit;
   const auto start = lights::Clock::now();
   if (auto ok = camera_.start(); !ok) return std::unexpected(ok.error());
 
@@ -286,42 +374,39 @@ Result<formats::Scan> ScanSequencer::acquire(
       scan.dark = stored;
     } else {
       scan.frames.push_back(stored);
-      const auto channel = static_cast<std::size_t>(phase.channel);
-      const auto& calibrated = request.calibration;
-      const bool use_calibration = calibrated && channel < calibrated->directions.size() &&
-                                   channel < calibrated->intensities.size();
-      const bool flat_fielded = use_flats(calibrated, stored);
       scan.description.lights.push_back(
-          {formats::scan_files::led_frame(phase.channel, stored.depth()),
-           use_calibration ? calibrated->directions[channel]
-                           : formats::light_direction(config_.geometry.tilts_deg.at(channel),
-                                                         config_.geometry.slant_deg),
-           cv::Vec3d::all(flat_fielded      ? 1.0
-                          : use_calibration ? calibrated->intensities[channel]
-                                            : intensity[phase.channel]),
-           false, std::nullopt});
-      // Near-field LEDs: each light's position as calibrated, else from the
-      // rig's geometry; relative to the swatch's top (swatch_height_mm
-      // above the plane they were measured from).
-      const auto positions = config::led_positions_mm(config_.geometry);
-      const bool measured = calibrated &&
-                            calibrated->led_positions_mm.size() ==
-                                static_cast<std::size_t>(config_.lights.channels) &&
-                            channel < calibrated->led_positions_mm.size();
-      std::optional<cv::Vec3d> position;
-      if (measured)
-        position = calibrated->led_positions_mm[channel];
-      else if (channel < positions.size())
-        position = cv::Vec3d(positions[channel][0], positions[channel][1], positions[channel][2]);
-      if (position) {
-        (*position)[2] -= config_.geometry.swatch_height_mm;
-        scan.description.lights.back().position_mm = position;
-      }
+          scan_light(config_, request, phase.channel, stored, intensity));
     }
   }
   if (auto ok = lights_.all_off(); !ok) return std::unexpected(ok.error());
   timing.total = lights::Clock::now() - start;
+  describe_scan(request, reference, scale, timing, static_cast<int>(phases.size()), started, scan);
+  return scan;
+}
 
+Result<ScanSequencer::Lighting> ScanSequencer::light_first_phase(
+    const Phase& first, const std::vector<double>& intensity) {
+  for (int k = 0; k < static_cast<int>(intensity.size()); ++k)
+    if (auto ok = lights_.set_intensity(k, intensity[k]); !ok) return std::unexpected(ok.error());
+  Lighting lighting;
+  {
+    auto off = switch_lights(-1, lighting);
+    if (!off) return std::unexpected(off.error());
+    lighting = *off;
+  }
+  // Start with the first phase lit and settled, so the first frame counts.
+  if (first.channel >= 0) {
+    auto on = switch_lights(first.channel, lighting);
+    if (!on) return std::unexpected(on.error());
+    lighting = *on;
+  }
+  std::this_thread::sleep_until(lighting.since + milliseconds(config_.capture.settle_ms));
+  return lighting;
+}
+
+void ScanSequencer::describe_scan(const ScanRequest& request, const cameras::Frame& reference,
+                                  double scale, const CaptureTiming& timing, int phases,
+                                  const std::string& started, formats::Scan& scan) const {
   scan.ground_truth_normal = request.ground_truth_normal;
   scan.ground_truth_height = request.ground_truth_height;
   auto& d = scan.description;
@@ -348,7 +433,7 @@ Result<formats::Scan> ScanSequencer::acquire(
         {"frames_averaged", config_.camera.frames_average},
         {"frames_discarded", config_.camera.frames_discard},
         {"frames_skipped_stale",
-         timing.frames_skipped - config_.camera.frames_discard * static_cast<int>(phases.size())},
+         timing.frames_skipped - config_.camera.frames_discard * phases},
         {"frames_kept", timing.frames_kept},
         {"frames_skipped", timing.frames_skipped},
         {"capture_ms", std::round(timing.total.count() * 10) / 10},
@@ -356,63 +441,9 @@ Result<formats::Scan> ScanSequencer::acquire(
         {"stored_scale", scale},
         {"started", started},
         {"finished", iso_time()}}}};
-  // The calibration's flats, as frames of this scan: its dark (or black
-  // level) plus the card's signal, so processing's dark subtraction leaves
-  // the signal; 0.9 of the range at full scale.
-  const bool flat_fielded =
-      !scan.frames.empty() && use_flats(request.calibration, scan.frames.front());
-  if (flat_fielded) {
-    const double range = 0.9 * (*d.white_level - d.black_level) / 65535.0;
-    for (const auto& flat : request.calibration->flats) {
-      cv::Mat code;
-      flat.convertTo(code, CV_32F, range);
-      if (!scan.dark.empty()) {
-        cv::Mat dark;
-        scan.dark.convertTo(dark, CV_32F);
-        code += dark;
-      } else {
-        code += d.black_level;
-      }
-      cv::Mat stored;
-      code.convertTo(stored, CV_16U);
-      scan.flats.push_back(stored);
-      d.flats.push_back(formats::scan_files::flat_frame(static_cast<int>(scan.flats.size() - 1),
-                                                           stored.depth()));
-    }
-  } else if (request.calibration && !request.calibration->flats.empty()) {
-    logger("capture")->warn(
-        "the flat field of {} does not fit this camera's frames (size or channels), so this "
-        "scan goes without flats: run psrig calibrate flat again",
-        request.calibration->file.string());
-  }
-  nlohmann::json applied = nlohmann::json::array({"lights"});
-  if (flat_fielded) applied.push_back("flat");
-  if (scaled) applied.push_back("scale");
-  if (request.calibration &&
-      request.calibration->led_positions_mm.size() ==
-          static_cast<std::size_t>(config_.lights.channels) &&
-      d.near_field())
-    applied.push_back("led_positions_mm");
-  // The colour matrix goes with colour frames only; processing applies it.
-  const bool coloured = request.calibration && request.calibration->colour_matrix &&
-                        !scan.frames.empty() && scan.frames.front().channels() == 3;
-  if (coloured) {
-    const cv::Matx33d& m = *request.calibration->colour_matrix;
-    d.document["colour_correction"] = {
-        {"matrix",
-         {{m(0, 0), m(0, 1), m(0, 2)}, {m(1, 0), m(1, 1), m(1, 2)}, {m(2, 0), m(2, 1), m(2, 2)}}},
-        {"space", "sRGB D65"},
-        {"calibration", request.calibration->colour_version}};
-    applied.push_back("colour");
-  }
-  d.document["calibration"] = request.calibration
-                                  ? nlohmann::json{{"file", request.calibration->file.string()},
-                                                   {"created", request.calibration->created},
-                                                   {"applied", applied}}
-                                  : nlohmann::json(nullptr);
+  apply_calibration(config_, request, scaled, scan);
   if (!request.ground_truth_fabric.is_null())
     d.document["ground_truth"]["fabric"] = request.ground_truth_fabric;
-  return scan;
 }
 
 Result<ScanOutcome> ScanSequencer::capture(

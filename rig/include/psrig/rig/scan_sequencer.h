@@ -121,6 +121,13 @@ class ScanSequencer {
   Result<cv::Mat> collect(const Phase& phase, const Phase* next, Lighting& lighting,
                           CaptureTiming& timing, cameras::Frame& first);
   Result<cameras::Frame> grab();
+  // Intensities set, every LED off, then the first phase's LED on and settled.
+  Result<Lighting> light_first_phase(const Phase& first, const std::vector<double>& intensity);
+  // scan.json's description of an acquired scan: sample, levels, pixel size,
+  // the capture record and what the calibration applied.
+  void describe_scan(const ScanRequest& request, const cameras::Frame& reference, double scale,
+                     const CaptureTiming& timing, int phases, const std::string& started,
+                     formats::Scan& scan) const;
   [[nodiscard]] std::optional<lights::Clock::time_point> switch_time_in_readout_gap(
       const Lighting& lighting) const;
 
