@@ -366,7 +366,7 @@ bool solve_symmetric3(const double a[6], const double b[3], double t[3]) {
 //     are never quite calibrated nor its surfaces quite Lambertian: 0.04 of
 //     the albedo lies between what the synthetic glossy scenes prefer
 //     (lower) and what the real grey sphere and butterfly prefer (higher);
-//     tests/unit/robust_solve_test.cpp and real_data_test.cpp.
+//     processing/tests/robust_solve_test.cpp and real_data_test.cpp.
 // Cost: with eight lights a few passes over the values instead of sorts,
 // and three 3x3 solves (mostly from the candidates' sums less a few lights)
 // where plain least squares has one; about 2.7 times plain least squares'

@@ -1,5 +1,5 @@
 // The yarn shading's CPU maths (the GLSL twins are held to it in
-// tests/gl/yarn_renderer_test.cpp): the elliptical section's silhouette and
+// preview/tests/yarn_renderer_test.cpp): the elliptical section's silhouette and
 // normals against brute force, the shadows, multiple scattering, the
 // environment's interpolation, the lobes where they should be.
 

@@ -5,7 +5,7 @@
 
 #include <gtest/gtest.h>
 
-#include "../unit/export_fixture.h"
+#include "export_fixture.h"
 #include "test_support.h"
 
 namespace psrig::test {
