@@ -42,8 +42,8 @@ Status read_daemon(Section& daemon, RigConfig& c) {
   if (auto problem = rig_name_problem(d.rig_name))
     return std::unexpected(daemon.error_at(
         daemon.find("rig_name"), "rig_name",
-        (daemon.find("rig_name") ? "\"" + d.rig_name + "\" " : "the hostname \"" + d.rig_name +
-                                                                     "\" ") +
+        (daemon.find("rig_name") ? "\"" + d.rig_name + "\" "
+                                 : "the hostname \"" + d.rig_name + "\" ") +
             *problem + "; set rig_name to letters, digits, '.', '-' or '_' (e.g. \"rig-1\")"));
   if (d.public_url.empty()) {
     const bool everywhere = d.listen_address == "0.0.0.0" || d.listen_address == "::";
@@ -71,16 +71,16 @@ Status read_daemon(Section& daemon, RigConfig& c) {
     if (::inet_pton(AF_INET, d.modbus_allow[i].c_str(), &parsed) != 1)
       return std::unexpected(
           daemon.error_at(daemon.find("modbus_allow")->as_array()->get(i), "modbus_allow",
-                           "\"" + d.modbus_allow[i] +
-                               "\" is not an IPv4 address; list the PLCs that may connect, e.g. "
-                               "[\"192.0.2.10\"]"));
+                          "\"" + d.modbus_allow[i] +
+                              "\" is not an IPv4 address; list the PLCs that may connect, e.g. "
+                              "[\"192.0.2.10\"]"));
   }
   for (const auto& [key, value] :
        {std::pair<const char*, const std::string&>{"listen_address", d.listen_address},
         {"modbus_address", d.modbus_address}})
     if (value.empty())
       return std::unexpected(daemon.error_at(daemon.find(key), key,
-                                              "is empty; give an address such as \"127.0.0.1\""));
+                                             "is empty; give an address such as \"127.0.0.1\""));
   // Anyone who can reach the port could drive the rig: off this machine,
   // only with a token worth guessing.
   constexpr std::size_t kMinTokenLength = 16;
@@ -99,13 +99,13 @@ Status read_daemon(Section& daemon, RigConfig& c) {
   // trigger scans and turn the lights off.
   if (d.modbus_port != 0 && d.modbus_allow.empty() && !is_loopback_address(d.modbus_address))
     daemon.warn("modbus_address",
-                 "is \"" + d.modbus_address +
-                     "\", reachable from other machines, and daemon.modbus_allow is empty: "
-                     "anyone who can reach port " +
-                     std::to_string(d.modbus_port) +
-                     " can trigger scans and turn the lights off (Modbus has no "
-                     "authentication); list the PLC in daemon.modbus_allow (e.g. "
-                     "modbus_allow = [\"192.0.2.10\"]) or listen on 127.0.0.1");
+                "is \"" + d.modbus_address +
+                    "\", reachable from other machines, and daemon.modbus_allow is empty: "
+                    "anyone who can reach port " +
+                    std::to_string(d.modbus_port) +
+                    " can trigger scans and turn the lights off (Modbus has no "
+                    "authentication); list the PLC in daemon.modbus_allow (e.g. "
+                    "modbus_allow = [\"192.0.2.10\"]) or listen on 127.0.0.1");
   return {};
 }
 

@@ -24,7 +24,7 @@ Status read_geometry(Section& geometry, RigConfig& c) {
     if (geometry.find("led_positions_mm"))
       return std::unexpected(
           geometry.error_at(geometry.find("led_distance_mm"), "led_distance_mm",
-                             "give either led_positions_mm or led_distance_mm, not both"));
+                            "give either led_positions_mm or led_distance_mm, not both"));
   } else {
     geometry.node("led_distance_mm");
   }

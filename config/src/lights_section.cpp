@@ -88,15 +88,15 @@ Status check_lights_against_geometry(const Section& lights, const Section& geome
   if (!c.lights.intensity.empty() &&
       c.lights.intensity.size() != static_cast<std::size_t>(c.lights.channels))
     return std::unexpected(lights.error_at(lights.find("intensity"), "intensity",
-                                            "gives " + std::to_string(c.lights.intensity.size()) +
-                                                " values for " + std::to_string(c.lights.channels) +
-                                                " channels"));
+                                           "gives " + std::to_string(c.lights.intensity.size()) +
+                                               " values for " + std::to_string(c.lights.channels) +
+                                               " channels"));
   if (geometry.find("tilts_deg") &&
       c.geometry.tilts_deg.size() != static_cast<std::size_t>(c.lights.channels))
     return std::unexpected(
         geometry.error_at(geometry.find("tilts_deg"), "tilts_deg",
-                           "gives " + std::to_string(c.geometry.tilts_deg.size()) + " tilts for " +
-                               std::to_string(c.lights.channels) + " lights (lights.channels)"));
+                          "gives " + std::to_string(c.geometry.tilts_deg.size()) + " tilts for " +
+                              std::to_string(c.lights.channels) + " lights (lights.channels)"));
   if (geometry.find("led_positions_mm") &&
       c.geometry.led_positions_mm.size() != static_cast<std::size_t>(c.lights.channels))
     return std::unexpected(geometry.error_at(

@@ -14,8 +14,8 @@ Status read_sim(Section& sim, RigConfig& c) {
   const fs::path& section_file = sim.file();
   auto& s = c.sim;
   PSRIG_TRY(sim.get("target", s.target,
-                     {"swatch", "flat", "chrome_sphere", "matte_sphere", "white_card",
-                      "charuco_board", "colour_chart"}));
+                    {"swatch", "flat", "chrome_sphere", "matte_sphere", "white_card",
+                     "charuco_board", "colour_chart"}));
   // "flat", the older name of a grey card: the white card at albedo 0.6.
   if (s.target == "flat") {
     s.target = "white_card";
@@ -29,26 +29,24 @@ Status read_sim(Section& sim, RigConfig& c) {
     PSRIG_TRY(sim.get("sphere_centre_mm", centre, -1e4, 1e4));
     if (sim.find("sphere_centre_mm")) {
       if (centre.size() != 2)
-        return std::unexpected(
-            sim.error_at(sim.find("sphere_centre_mm"), "sphere_centre_mm",
-                          "expected [x, y] in millimetres from the camera axis"));
+        return std::unexpected(sim.error_at(sim.find("sphere_centre_mm"), "sphere_centre_mm",
+                                            "expected [x, y] in millimetres from the camera axis"));
       s.sphere_centre_mm = std::array<double, 2>{centre[0], centre[1]};
     }
   }
   if (const toml::node* places = sim.node("sphere_places_mm")) {
     const toml::array* array = places->as_array();
     if (!array || array->empty())
-      return std::unexpected(
-          sim.error_at(places, "sphere_places_mm",
-                        "expected a list of [x, y] places in millimetres "
-                        "from the camera axis, e.g. [[-8, 5], [8, 5], [0, -7]]"));
+      return std::unexpected(sim.error_at(places, "sphere_places_mm",
+                                          "expected a list of [x, y] places in millimetres "
+                                          "from the camera axis, e.g. [[-8, 5], [8, 5], [0, -7]]"));
     for (const auto& element : *array) {
       const toml::array* pair = element.as_array();
       std::optional<double> x, y;
       if (pair && pair->size() == 2) x = (*pair)[0].value<double>(), y = (*pair)[1].value<double>();
       if (!x || !y || std::abs(*x) > 1e4 || std::abs(*y) > 1e4)
-        return std::unexpected(sim.error_at(
-            &element, "sphere_places_mm", "expected [x, y] in millimetres from the camera axis"));
+        return std::unexpected(sim.error_at(&element, "sphere_places_mm",
+                                            "expected [x, y] in millimetres from the camera axis"));
       s.sphere_places_mm.push_back({*x, *y});
     }
   }
@@ -81,8 +79,8 @@ Status read_sim(Section& sim, RigConfig& c) {
     if (s.pattern.empty())
       return std::unexpected(
           sim.error_at(sim.find("pattern"), "pattern",
-                        "is empty; give a .chart or .weave file or a shipped pattern's name, e.g. "
-                        "\"stockinette\""));
+                       "is empty; give a .chart or .weave file or a shipped pattern's name, e.g. "
+                       "\"stockinette\""));
     if (s.pattern.find('/') != std::string::npos || given.extension() == ".chart" ||
         given.extension() == ".weave") {
       s.pattern = relative_to_file(section_file, s.pattern).string();
@@ -124,9 +122,9 @@ Status read_sim(Section& sim, RigConfig& c) {
   sim.finish();
   if (s.black_level >= (1 << s.bit_depth) - 1)
     return std::unexpected(sim.error_at(sim.find("black_level"), "black_level",
-                                         "must be below the " + std::to_string(s.bit_depth) +
-                                             "-bit full scale (" +
-                                             std::to_string((1 << s.bit_depth) - 1) + ")"));
+                                        "must be below the " + std::to_string(s.bit_depth) +
+                                            "-bit full scale (" +
+                                            std::to_string((1 << s.bit_depth) - 1) + ")"));
   if (c.camera.backend == "sim" && c.geometry.pixel_size_mm == std::nullopt)
     c.geometry.pixel_size_mm = s.pixel_size_mm;
   return {};

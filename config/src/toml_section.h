@@ -13,9 +13,8 @@
 #include <set>
 #include <sstream>
 #include <string>
-#include <vector>
-
 #include <toml++/toml.h>
+#include <vector>
 
 #include "psrig/base/error.h"
 
