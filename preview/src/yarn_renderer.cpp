@@ -8,6 +8,7 @@
 #include <limits>
 #include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "gl_program.h"
@@ -422,63 +423,166 @@ void draw_strips(GLenum mode, const std::array<GLsizei, kLayers>& count,
   }
 }
 
-}  // namespace
-
-void YarnRenderer::render(const KnitView& view, cv::Size viewport,
-                          const std::function<void(const KnitFrame&)>& beneath) {
-  GLint target = 0;
-  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &target);
-  const Gl& gl = *gl_;
-  const KnitFrame frame = knit_frame(bounds_, view, viewport);
-  const float radius = style_.radius_mm;
-  const float flatness = std::clamp(style_.flatness, 0.05f, 1.0f);
-  const float pixels_per_mm = frame.focal_px / frame.distance;
-  last_width_px_ = 2 * radius * pixels_per_mm;
-  const bool drawing = !packed_->curves.empty();
-  const YarnRendererOptions& options = options_;
-
-  // The widest a yarn can look (at the bounds' nearest depth) decides the
-  // halo pass, the narrowest (head on, at the farthest) the blending.
+// The nearest and farthest the bounds lie from the eye along its axis,
+// the nearest no closer than a hundredth of the camera's distance.
+std::pair<float, float> depth_range(const Eigen::AlignedBox3f& bounds, const KnitFrame& frame) {
   float nearest = std::numeric_limits<float>::max(), farthest = 0;
-  if (!bounds_.isEmpty())
+  if (!bounds.isEmpty())
     for (int corner = 0; corner < 8; ++corner) {
-      const float depth = (frame.view * bounds_.corner(static_cast<Eigen::AlignedBox3f::CornerType>(corner))
-                                            .homogeneous())
-                              .z();
+      const float depth =
+          (frame.view *
+           bounds.corner(static_cast<Eigen::AlignedBox3f::CornerType>(corner)).homogeneous())
+              .z();
       nearest = std::min(nearest, -depth);
       farthest = std::max(farthest, -depth);
     }
   nearest = std::max(nearest, 0.01f * frame.distance);
   farthest = std::max(farthest, nearest);
-  const float widest_px = 2 * radius * frame.focal_px / nearest;
-  const float narrowest_px = 2 * radius * frame.focal_px / farthest;
-  last_halo_ = drawing && view.fibre_detail && widest_px > options.halo_from_px;
-  last_far_ = widest_px <= options.detail_from_px;
-  // The far view's widening at its narrowest yarn (yarn.vert's `prefilter`).
-  const float widest_prefilter_px =
-      options.prefilter_px *
-      (1 - smoothstep(options.prefilter_from_px, options.prefilter_until_px, narrowest_px));
-  const bool blending = last_far_ ? widest_prefilter_px > 0 : narrowest_px < options.min_strip_px;
+  return {nearest, farthest};
+}
 
-  // The map need be no finer than the screen: as many texels across the
-  // bounds as pixels would cover them at the centre's distance.
-  const int shadow_extent = std::clamp(
-      static_cast<int>(std::ceil(frame.shadow_depth_range * pixels_per_mm)), 256, gl.shadow_size);
-  const float texels_per_mm = static_cast<float>(shadow_extent) / frame.shadow_depth_range;
-  const float map_strength =
-      smoothstep(options.map_from_texels, options.map_full_texels, 2 * radius * texels_per_mm);
-  const bool shadows = view.shadows && drawing && map_strength > 0;
-  last_shadow_map_ = shadows;
-
+// The state the yarns draw in: depth tested and written, opaque, no culling.
+void yarn_state() {
   glDisable(GL_CULL_FACE);  // strips face the eye either way round
   glDisable(GL_BLEND);
   glEnable(GL_DEPTH_TEST);
   glDepthFunc(GL_LEQUAL);
   glDepthMask(GL_TRUE);
-  glEnable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
-  glBindVertexArray(gl.array);
-  glBindBuffer(GL_ARRAY_BUFFER, gl.buffer);
-  point_attributes();
+}
+
+// What every yarn program of a frame is told (yarn.vert, yarn.frag).
+struct YarnUniforms {
+  const KnitFrame& frame;
+  const KnitView& view;
+  const YarnRendererOptions& options;
+  const cloth::YarnStyle& style;
+  const YarnSlice& slice;
+  Eigen::Matrix4f view_projection;
+  Eigen::Vector4f eye;  // position, w = 1
+  float radius = 0, flatness = 1;
+  bool blending = false;
+  GLuint shadow_map = 0, slice_texture = 0;
+  int shadow_extent = 0, shadow_size = 1;  // texels a side: in use, and of the map
+  float map_strength = 0;
+};
+
+void use_yarn_program(const GlProgram& program, const YarnUniforms& u) {
+  const KnitFrame& frame = u.frame;
+  const YarnRendererOptions& options = u.options;
+  const FibreShading& shading = options.shading;
+  const auto& environment = options.environment.coefficients();
+  const float turn_scale =
+      u.style.twist_pitch_mm > 0 ? u.style.twist_pitch_mm / u.slice.period_mm : 0.0f;
+  program.use();
+  set_matrix(program.uniform("u_view_projection"), u.view_projection);
+  glUniform4fv(program.uniform("u_eye"), 1, u.eye.data());
+  glUniform1f(program.uniform("u_radius"), u.radius);
+  glUniform1f(program.uniform("u_flatness"), u.flatness);
+  glUniform1f(program.uniform("u_focal_px"), frame.focal_px);
+  // Widened only where it will be blended as transparent as it is thin.
+  glUniform1f(program.uniform("u_min_half_px"), u.blending ? options.min_strip_px / 2 : 0.0f);
+  glUniform1f(program.uniform("u_halo"), u.slice.halo);
+  glUniform2f(program.uniform("u_halo_fade_px"), options.halo_from_px, options.halo_full_px);
+  glUniform1f(program.uniform("u_period"), u.slice.period_mm);
+  glUniform1f(program.uniform("u_turn_scale"), turn_scale);
+  glUniform1f(program.uniform("u_ply_slant_sin"), u.slice.ply_slant_sin);
+  glUniform4fv(program.uniform("u_light"), 1, frame.light.data());
+  glUniform1f(program.uniform("u_reference_distance"), frame.light_reference_distance);
+  glUniform3fv(program.uniform("u_environment[0]"), 9, environment[0].data());
+  glUniform1f(program.uniform("u_environment_scale"), shading.environment);
+  glUniform1f(program.uniform("u_environment_fibre"), shading.environment_fibre);
+  glUniform1f(program.uniform("u_environment_sheen"), shading.environment_sheen);
+  glUniform1f(program.uniform("u_local_scattering"), shading.local_scattering);
+  glUniform1f(program.uniform("u_global_scattering"), shading.global_scattering);
+  glUniform1f(program.uniform("u_crossing_occlusion"), shading.crossing_occlusion);
+  // No yarn shadows asked for: none, statistical or mapped.
+  glUniform1f(program.uniform("u_shadow_density"), u.view.shadows ? shading.shadow_density : 0.0f);
+  glUniform3fv(program.uniform("u_light_colour"), 1, shading.light_colour.data());
+  glUniform1f(program.uniform("u_diffuse"), shading.diffuse);
+  glUniform1f(program.uniform("u_wrap"), shading.wrap);
+  glUniform3f(program.uniform("u_reflection"), shading.r_weight, shading.r_shift, shading.r_width);
+  glUniform3f(program.uniform("u_transmission"), shading.tt_weight, shading.tt_shift,
+              shading.tt_width);
+  glUniform1f(program.uniform("u_ply_relief"), shading.ply_relief);
+  glUniform1f(program.uniform("u_helix_sin"), std::sin(ply_helix_angle(u.style)));
+  const FibreSurface mean =
+      u.view.fibre_detail ? slice_surface(u.slice.core_mean) : plain_surface(u.style);
+  glUniform3f(program.uniform("u_mean_surface"), mean.ply_offset, mean.tilt_sin, mean.light);
+  glUniform2f(program.uniform("u_far_px"), options.detail_from_px, options.detail_full_px);
+  glUniform1f(program.uniform("u_prefilter_px"), options.prefilter_px);
+  glUniform2f(program.uniform("u_prefilter_fade_px"), options.prefilter_from_px,
+              options.prefilter_until_px);
+  glActiveTexture(GL_TEXTURE0 + kShadowUnit);
+  glBindTexture(GL_TEXTURE_2D, u.shadow_map);
+  glUniform1i(program.uniform("u_shadow_map"), kShadowUnit);
+  glActiveTexture(GL_TEXTURE0 + kSliceUnit);
+  glBindTexture(GL_TEXTURE_2D, u.slice_texture);
+  glUniform1i(program.uniform("u_slice"), kSliceUnit);
+  glActiveTexture(GL_TEXTURE0);
+  set_matrix(program.uniform("u_shadow_view_projection"), frame.shadow_view_projection);
+  // Half a radius: a yarn's lit half never shadows itself.
+  glUniform1f(program.uniform("u_shadow_bias"), 0.5f * u.radius / frame.shadow_depth_range);
+  glUniform1f(program.uniform("u_shadow_extent"),
+              static_cast<float>(u.shadow_extent) / static_cast<float>(u.shadow_size));
+  glUniform1f(program.uniform("u_shadow_strength"), u.map_strength);
+}
+
+}  // namespace
+
+// What a frame draws, decided by how wide its yarns look.
+struct YarnRenderer::FramePlan {
+  float radius = 0;
+  float flatness = 1;
+  float pixels_per_mm = 0;  // at the bounds centre
+  bool drawing = false;     // there are yarns to draw
+  bool blending = false;    // strips blended, as transparent as they are thin
+  // The shadow map: drawn at all, its extent in use (texels a side), its
+  // scale, and how far it has taken over from the statistical shadows.
+  bool shadows = false;
+  int shadow_extent = 0;
+  float texels_per_mm = 0;
+  float map_strength = 0;
+};
+
+YarnRenderer::FramePlan YarnRenderer::plan_frame(const KnitFrame& frame, const KnitView& view) {
+  const YarnRendererOptions& options = options_;
+  FramePlan plan;
+  plan.radius = style_.radius_mm;
+  plan.flatness = std::clamp(style_.flatness, 0.05f, 1.0f);
+  plan.pixels_per_mm = frame.focal_px / frame.distance;
+  last_width_px_ = 2 * plan.radius * plan.pixels_per_mm;
+  plan.drawing = !packed_->curves.empty();
+
+  // The widest a yarn can look (at the bounds' nearest depth) decides the
+  // halo pass, the narrowest (head on, at the farthest) the blending.
+  const auto [nearest, farthest] = depth_range(bounds_, frame);
+  const float widest_px = 2 * plan.radius * frame.focal_px / nearest;
+  const float narrowest_px = 2 * plan.radius * frame.focal_px / farthest;
+  last_halo_ = plan.drawing && view.fibre_detail && widest_px > options.halo_from_px;
+  last_far_ = widest_px <= options.detail_from_px;
+  // The far view's widening at its narrowest yarn (yarn.vert's `prefilter`).
+  const float widest_prefilter_px =
+      options.prefilter_px *
+      (1 - smoothstep(options.prefilter_from_px, options.prefilter_until_px, narrowest_px));
+  plan.blending = last_far_ ? widest_prefilter_px > 0 : narrowest_px < options.min_strip_px;
+
+  // The map need be no finer than the screen: as many texels across the
+  // bounds as pixels would cover them at the centre's distance.
+  plan.shadow_extent =
+      std::clamp(static_cast<int>(std::ceil(frame.shadow_depth_range * plan.pixels_per_mm)), 256,
+                 gl_->shadow_size);
+  plan.texels_per_mm = static_cast<float>(plan.shadow_extent) / frame.shadow_depth_range;
+  plan.map_strength = smoothstep(options.map_from_texels, options.map_full_texels,
+                                 2 * plan.radius * plan.texels_per_mm);
+  plan.shadows = view.shadows && plan.drawing && plan.map_strength > 0;
+  last_shadow_map_ = plan.shadows;
+  return plan;
+}
+
+// Which centreline points this frame draws (strip_points.h), for its yarns'
+// width and whether the shadow map is in use.
+PieceLimits YarnRenderer::piece_limits(const FramePlan& plan) const {
+  const YarnRendererOptions& options = options_;
   // Shadows need vertices close enough to show where a crossing's falls.
   PieceLimits limits = options.pieces;
   // A piece shorter than the yarn is wide shows nothing a longer one would
@@ -492,128 +596,79 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport,
   const float cap = options.min_piece_cap_px + (1.0f - options.min_piece_cap_px) * fine;
   limits.min_px = std::clamp(options.min_piece_widths * last_width_px_, limits.min_px,
                              std::max(limits.min_px, cap));
-  limits.tolerance_px =
-      std::min(limits.tolerance_px, options.tolerance_widths * last_width_px_);
+  limits.tolerance_px = std::min(limits.tolerance_px, options.tolerance_widths * last_width_px_);
   limits.half_width_px = last_width_px_ / 2;
   // Where the points kept change the loops' look (under a pixel the
   // prefilter hides it, and there dithering only adds noise).
   limits.dither = options.piece_dither * smoothstep(1.5f, 3.0f, last_width_px_);
   // As the map takes over, shorter pieces (continuously: a jump in the
   // points drawn would show).
-  if (shadows)
-    limits.max_px += (std::min(limits.max_px, options.shadowed_piece_px) - limits.max_px) * map_strength;
-  if (shadows) {
-    const Strips map_strips =
-        choose_points(texels_per_mm, limits, Eigen::Vector4f::Zero(), false, 1);
-    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, gl.shadow_framebuffer);
-    glViewport(0, 0, shadow_extent, shadow_extent);
-    glEnable(GL_SCISSOR_TEST);
-    glScissor(0, 0, shadow_extent, shadow_extent);
-    glClear(GL_DEPTH_BUFFER_BIT);
-    glDisable(GL_SCISSOR_TEST);
-    const GlProgram& depth = *gl.depth;
-    depth.use();
-    set_matrix(depth.uniform("u_view_projection"), frame.shadow_view_projection);
-    const Eigen::Vector4f toward_light(frame.toward_shadow_light.x(), frame.toward_shadow_light.y(),
-                                       frame.toward_shadow_light.z(), 0);
-    glUniform4fv(depth.uniform("u_eye"), 1, toward_light.data());
-    glUniform1f(depth.uniform("u_radius"), radius);
-    glUniform1f(depth.uniform("u_flatness"), flatness);
-    draw_strips(map_strips.mode, map_strips.count, map_strips.offset);
-    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(target));
-  }
+  if (plan.shadows)
+    limits.max_px +=
+        (std::min(limits.max_px, options.shadowed_piece_px) - limits.max_px) * plan.map_strength;
+  return limits;
+}
 
-  clear_frame(view.background, options.encode_srgb, viewport);
-  if (beneath) {
-    beneath(frame);
-    glDisable(GL_CULL_FACE);
-    glDisable(GL_BLEND);
-    glEnable(GL_DEPTH_TEST);
-    glDepthFunc(GL_LEQUAL);
-    glDepthMask(GL_TRUE);
-    glBindVertexArray(gl.array);
-    glBindBuffer(GL_ARRAY_BUFFER, gl.buffer);
-  }
-  if (!drawing) {
-    glDisable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
-    glBindVertexArray(0);
-    glBindBuffer(GL_ARRAY_BUFFER, 0);
-    return;
-  }
+// The shadow pass: the yarns' depth seen from the light into the shadow
+// map's framebuffer, then the caller's `target` bound again.
+void YarnRenderer::draw_shadow_map(const KnitFrame& frame, const FramePlan& plan,
+                                   const PieceLimits& limits, unsigned target) {
+  const Gl& gl = *gl_;
+  const Strips map_strips =
+      choose_points(plan.texels_per_mm, limits, Eigen::Vector4f::Zero(), false, 1);
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, gl.shadow_framebuffer);
+  glViewport(0, 0, plan.shadow_extent, plan.shadow_extent);
+  glEnable(GL_SCISSOR_TEST);
+  glScissor(0, 0, plan.shadow_extent, plan.shadow_extent);
+  glClear(GL_DEPTH_BUFFER_BIT);
+  glDisable(GL_SCISSOR_TEST);
+  const GlProgram& depth = *gl.depth;
+  depth.use();
+  set_matrix(depth.uniform("u_view_projection"), frame.shadow_view_projection);
+  const Eigen::Vector4f toward_light(frame.toward_shadow_light.x(), frame.toward_shadow_light.y(),
+                                     frame.toward_shadow_light.z(), 0);
+  glUniform4fv(depth.uniform("u_eye"), 1, toward_light.data());
+  glUniform1f(depth.uniform("u_radius"), plan.radius);
+  glUniform1f(depth.uniform("u_flatness"), plan.flatness);
+  draw_strips(map_strips.mode, map_strips.count, map_strips.offset);
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(target));
+}
 
-  const Eigen::Matrix4f view_projection = frame.projection * frame.view;
+// The yarn pass (the far view's, or the near view's with its fibre
+// detail), then the halo pass over it.
+void YarnRenderer::draw_yarns(const KnitFrame& frame, const KnitView& view, const FramePlan& plan,
+                              const PieceLimits& limits) {
+  const Gl& gl = *gl_;
+  const bool shadows = plan.shadows, blending = plan.blending;
   const Eigen::Vector4f eye(frame.eye.x(), frame.eye.y(), frame.eye.z(), 1);
-  const FibreShading& shading = options.shading;
-  const auto& environment = options.environment.coefficients();
-  const float turn_scale =
-      style_.twist_pitch_mm > 0 ? style_.twist_pitch_mm / slice_.period_mm : 0.0f;
-  const auto use = [&](const GlProgram& program) {
-    program.use();
-    set_matrix(program.uniform("u_view_projection"), view_projection);
-    glUniform4fv(program.uniform("u_eye"), 1, eye.data());
-    glUniform1f(program.uniform("u_radius"), radius);
-    glUniform1f(program.uniform("u_flatness"), flatness);
-    glUniform1f(program.uniform("u_focal_px"), frame.focal_px);
-    // Widened only where it will be blended as transparent as it is thin.
-    glUniform1f(program.uniform("u_min_half_px"), blending ? options.min_strip_px / 2 : 0.0f);
-    glUniform1f(program.uniform("u_halo"), slice_.halo);
-    glUniform2f(program.uniform("u_halo_fade_px"), options.halo_from_px, options.halo_full_px);
-    glUniform1f(program.uniform("u_period"), slice_.period_mm);
-    glUniform1f(program.uniform("u_turn_scale"), turn_scale);
-    glUniform1f(program.uniform("u_ply_slant_sin"), slice_.ply_slant_sin);
-    glUniform4fv(program.uniform("u_light"), 1, frame.light.data());
-    glUniform1f(program.uniform("u_reference_distance"), frame.light_reference_distance);
-    glUniform3fv(program.uniform("u_environment[0]"), 9, environment[0].data());
-    glUniform1f(program.uniform("u_environment_scale"), shading.environment);
-    glUniform1f(program.uniform("u_environment_fibre"), shading.environment_fibre);
-    glUniform1f(program.uniform("u_environment_sheen"), shading.environment_sheen);
-    glUniform1f(program.uniform("u_local_scattering"), shading.local_scattering);
-    glUniform1f(program.uniform("u_global_scattering"), shading.global_scattering);
-    glUniform1f(program.uniform("u_crossing_occlusion"), shading.crossing_occlusion);
-    // No yarn shadows asked for: none, statistical or mapped.
-    glUniform1f(program.uniform("u_shadow_density"), view.shadows ? shading.shadow_density : 0.0f);
-    glUniform3fv(program.uniform("u_light_colour"), 1, shading.light_colour.data());
-    glUniform1f(program.uniform("u_diffuse"), shading.diffuse);
-    glUniform1f(program.uniform("u_wrap"), shading.wrap);
-    glUniform3f(program.uniform("u_reflection"), shading.r_weight, shading.r_shift,
-                shading.r_width);
-    glUniform3f(program.uniform("u_transmission"), shading.tt_weight, shading.tt_shift,
-                shading.tt_width);
-    glUniform1f(program.uniform("u_ply_relief"), shading.ply_relief);
-    glUniform1f(program.uniform("u_helix_sin"), std::sin(ply_helix_angle(style_)));
-    const FibreSurface mean = view.fibre_detail ? slice_surface(slice_.core_mean)
-                                                : plain_surface(style_);
-    glUniform3f(program.uniform("u_mean_surface"), mean.ply_offset, mean.tilt_sin, mean.light);
-    glUniform2f(program.uniform("u_far_px"), options.detail_from_px, options.detail_full_px);
-    glUniform1f(program.uniform("u_prefilter_px"), options.prefilter_px);
-    glUniform2f(program.uniform("u_prefilter_fade_px"), options.prefilter_from_px,
-                options.prefilter_until_px);
-    glActiveTexture(GL_TEXTURE0 + kShadowUnit);
-    glBindTexture(GL_TEXTURE_2D, gl.shadow_map);
-    glUniform1i(program.uniform("u_shadow_map"), kShadowUnit);
-    glActiveTexture(GL_TEXTURE0 + kSliceUnit);
-    glBindTexture(GL_TEXTURE_2D, gl.slice);
-    glUniform1i(program.uniform("u_slice"), kSliceUnit);
-    glActiveTexture(GL_TEXTURE0);
-    set_matrix(program.uniform("u_shadow_view_projection"), frame.shadow_view_projection);
-    // Half a radius: a yarn's lit half never shadows itself.
-    glUniform1f(program.uniform("u_shadow_bias"), 0.5f * radius / frame.shadow_depth_range);
-    glUniform1f(program.uniform("u_shadow_extent"),
-                static_cast<float>(shadow_extent) / static_cast<float>(gl.shadow_size));
-    glUniform1f(program.uniform("u_shadow_strength"), map_strength);
-  };
+  const YarnUniforms uniforms{.frame = frame,
+                              .view = view,
+                              .options = options_,
+                              .style = style_,
+                              .slice = slice_,
+                              .view_projection = frame.projection * frame.view,
+                              .eye = eye,
+                              .radius = plan.radius,
+                              .flatness = plan.flatness,
+                              .blending = blending,
+                              .shadow_map = gl.shadow_map,
+                              .slice_texture = gl.slice,
+                              .shadow_extent = plan.shadow_extent,
+                              .shadow_size = gl.shadow_size,
+                              .map_strength = plan.map_strength};
 
   // Layers order only blended far frames; the depth test orders the rest.
-  const Strips strips = choose_points(pixels_per_mm, limits, eye, last_far_ && blending, 0);
+  const Strips strips = choose_points(plan.pixels_per_mm, limits, eye, last_far_ && blending, 0);
   last_strip_vertices_ = 0;
-  for (const GLsizei count : strips.count) last_strip_vertices_ += count;
+  for (const GLsizei count : strips.count)
+    last_strip_vertices_ += count;
   if (last_far_) {
     // Yarns thinner than their prefiltered strips: blended back to front
     // through the cloth's layers, no depth test (the samples cannot tell
     // such depths apart, and a strip's soft edge must not hide what lies
     // behind it). "Over" makes a pixel's coverage 1 - prod(1 - alpha), the
     // union of yarns that overlap at random; the nearer's colour on top.
-    use(*gl.far[shadows]);
+    use_yarn_program(*gl.far[shadows], uniforms);
     glUniform1f(gl.far[shadows]->uniform("u_soft_edges"), blending ? 1.0f : 0.0f);
     if (blending) {
       glDisable(GL_DEPTH_TEST);
@@ -623,7 +678,7 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport,
     draw_strips(strips.mode, strips.count, strips.offset);
     glEnable(GL_DEPTH_TEST);
   } else {
-    use(*gl.shading[view.fibre_detail][shadows]);
+    use_yarn_program(*gl.shading[view.fibre_detail][shadows], uniforms);
     if (blending) {
       glEnable(GL_BLEND);
       glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
@@ -633,7 +688,7 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport,
   if (last_halo_) {
     // Over the cores, hidden by nearer ones, writing no depth: the halo of
     // one yarn must not hide another behind it.
-    use(*gl.halo[shadows]);
+    use_yarn_program(*gl.halo[shadows], uniforms);
     glEnable(GL_BLEND);
     glBlendFunc(GL_SRC_ALPHA, GL_ONE_MINUS_SRC_ALPHA);
     glDepthMask(GL_FALSE);
@@ -641,6 +696,32 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport,
     glDepthMask(GL_TRUE);
   }
   glDisable(GL_BLEND);
+}
+
+void YarnRenderer::render(const KnitView& view, cv::Size viewport,
+                          const std::function<void(const KnitFrame&)>& beneath) {
+  GLint target = 0;
+  glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &target);
+  const Gl& gl = *gl_;
+  const KnitFrame frame = knit_frame(bounds_, view, viewport);
+  const FramePlan plan = plan_frame(frame, view);
+
+  yarn_state();
+  glEnable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
+  glBindVertexArray(gl.array);
+  glBindBuffer(GL_ARRAY_BUFFER, gl.buffer);
+  point_attributes();
+  const PieceLimits limits = piece_limits(plan);
+  if (plan.shadows) draw_shadow_map(frame, plan, limits, static_cast<GLuint>(target));
+
+  clear_frame(view.background, options_.encode_srgb, viewport);
+  if (beneath) {
+    beneath(frame);
+    yarn_state();
+    glBindVertexArray(gl.array);
+    glBindBuffer(GL_ARRAY_BUFFER, gl.buffer);
+  }
+  if (plan.drawing) draw_yarns(frame, view, plan, limits);
   glDisable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
   glBindVertexArray(0);
   glBindBuffer(GL_ARRAY_BUFFER, 0);

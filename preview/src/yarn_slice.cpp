@@ -116,21 +116,9 @@ YarnSliceLevel halve(const YarnSliceLevel& level) {
   return next;
 }
 
-}  // namespace
-
-bool same_slice(const cloth::YarnStyle& a, const cloth::YarnStyle& b) {
-  return a.radius_mm == b.radius_mm && a.flatness == b.flatness && a.plies == b.plies &&
-         a.twist_pitch_mm == b.twist_pitch_mm && a.hairiness == b.hairiness;
-}
-
-YarnSlice bake_yarn_slice(const cloth::YarnStyle& style, const YarnSliceOptions& options) {
-  YarnSlice slice;
-  slice.style = style;
-  slice.halo = options.halo;
-  const float radius = std::max(style.radius_mm, 1e-3f);
-  const float pitch = style.twist_pitch_mm > 0 ? style.twist_pitch_mm : 0;
-  slice.period_mm = static_cast<float>(std::max(options.turns, 1)) * (pitch > 0 ? pitch : 4 * radius);
-
+// The plies' layout across the section: `plies` round tubes touching
+// their neighbours about the axis (one filling the section when single).
+PlyGeometry ply_geometry(const cloth::YarnStyle& style, float radius, float pitch) {
   PlyGeometry plies;
   plies.plies = std::max(style.plies, 1);
   plies.flatness = std::clamp(style.flatness, 0.1f, 1.0f);
@@ -141,37 +129,44 @@ YarnSlice bake_yarn_slice(const cloth::YarnStyle& style, const YarnSliceOptions&
     plies.ply_radius = s / (1 + s);
     plies.centre_radius = 1 - plies.ply_radius;
   }
-  // The fibres on a ply's face wind about the ply's axis against its lean.
-  const float ply_radius_mm = plies.ply_radius * radius;
-  const float fibre_twist =
-      pitch > 0 ? std::atan(kTwoPi * (plies.plies > 1 ? ply_radius_mm : radius) / pitch) : 0;
-  slice.ply_slant_sin =
-      pitch > 0 ? std::sin(std::atan(-plies.centre_radius * radius * kTwoPi / pitch)) : 0;
+  return plies;
+}
 
-  const int width = std::max(options.width, 4), height = std::max(options.height, 4);
-  const float extent = 1 + options.halo;  // across, yarn radii either side
-  const auto across_of = [&](float i) { return ((i + 0.5f) / width * 2 - 1) * extent; };
-  const auto along_of = [&](float j) { return (j + 0.5f) / height * slice.period_mm; };
-  std::vector<Texel> texels(static_cast<std::size_t>(width * height));
+// The slice's texels: `width` across the strip (`extent` yarn radii either
+// side), `height` along the period.
+struct SliceGrid {
+  int width = 4, height = 4;
+  float extent = 1;  // across, yarn radii either side
+  float period_mm = 1;
 
-  // The core: the plies, the grooves between them, the fibres' stripes.
-  // Light reaching a point falls with how far it lies below the ply crests
-  // either side of it (a groove has higher neighbours on both sides; a
-  // crest or the yarn's silhouette has none on one).
+  [[nodiscard]] float across_of(float i) const { return ((i + 0.5f) / width * 2 - 1) * extent; }
+  [[nodiscard]] float along_of(float j) const { return (j + 0.5f) / height * period_mm; }
+  [[nodiscard]] std::size_t size() const { return static_cast<std::size_t>(width * height); }
+};
+
+// The core: the plies, the grooves between them, the fibres' stripes.
+// Light reaching a point falls with how far it lies below the ply crests
+// either side of it (a groove has higher neighbours on both sides; a
+// crest or the yarn's silhouette has none on one).
+void shade_core(const SliceGrid& grid, const PlyGeometry& plies, float fibre_twist,
+                const YarnSliceOptions& options, std::vector<Texel>& texels) {
+  const int width = grid.width, height = grid.height;
+  const float pitch = plies.pitch_mm;
   const int stripes = std::max(options.fibres_per_ply, 1);
-  const int neighbourhood = std::max(1, static_cast<int>(std::lround(
-                                    plies.ply_radius / (2 * extent) * static_cast<float>(width))));
+  const int neighbourhood =
+      std::max(1, static_cast<int>(std::lround(plies.ply_radius / (2 * grid.extent) *
+                                               static_cast<float>(width))));
   std::vector<PlyHit> row(static_cast<std::size_t>(width));
   std::vector<float> crest(static_cast<std::size_t>(width));
   for (int j = 0; j < height; ++j) {
-    const float z = along_of(static_cast<float>(j));
+    const float z = grid.along_of(static_cast<float>(j));
     for (int i = 0; i < width; ++i) {
-      const float x = across_of(static_cast<float>(i));
+      const float x = grid.across_of(static_cast<float>(i));
       row[i] = std::abs(x) <= 1 ? plies.front(x, z) : PlyHit{};
       crest[i] = row[i].hit ? row[i].depth : -std::numeric_limits<float>::infinity();
     }
     for (int i = 0; i < width; ++i) {
-      const float x = across_of(static_cast<float>(i));
+      const float x = grid.across_of(static_cast<float>(i));
       if (std::abs(x) > 1) continue;
       Texel& texel = texels[static_cast<std::size_t>(j * width + i)];
       texel.density = 1;
@@ -200,20 +195,52 @@ YarnSlice bake_yarn_slice(const cloth::YarnStyle& style, const YarnSliceOptions&
       texel.light = std::exp(-options.groove_shadow * below) * (1 + options.striation * noise);
     }
   }
+}
 
-  // Flyaways (huang2025 eq. 12, 13): R(t) = R0 + Re (1 - (1 - t)^alpha),
-  // theta(t) = theta0 + theta_e t, z(t) = z0 + z_e t, wrapped round the
-  // period; kept where they pass in front of the core or outside it.
-  std::vector<float> coverage(texels.size(), 0.0f), tilt_sum(texels.size(), 0.0f);
+// The flyaway fibres' coverage of each texel, and their tilt summed
+// weighted by it.
+struct FlyawayCoverage {
+  std::vector<float> coverage, tilt_sum;
+};
+
+// One segment of a fibre, `segment` mm long leaning `dx` across, at texel
+// coordinates (fi, fj): its coverage splatted bilinearly, one segment's
+// worth of fibre length (`share` of a texel), wrapped round the period.
+void splat_segment(const SliceGrid& grid, float fi, float fj, float share, float segment, float dx,
+                   FlyawayCoverage& fibres) {
+  const int width = grid.width, height = grid.height;
+  const int i0 = static_cast<int>(std::floor(fi)), j0 = static_cast<int>(std::floor(fj));
+  for (int dj = 0; dj < 2; ++dj)
+    for (int di = 0; di < 2; ++di) {
+      const int i = i0 + di;
+      if (i < 0 || i >= width) continue;
+      const int j = (((j0 + dj) % height) + height) % height;
+      const float w = (di ? fi - static_cast<float>(i0) : 1 - (fi - static_cast<float>(i0))) *
+                      (dj ? fj - static_cast<float>(j0) : 1 - (fj - static_cast<float>(j0)));
+      const auto index = static_cast<std::size_t>(j * width + i);
+      const float add = std::min(w * share, 1.0f);
+      fibres.coverage[index] = 1 - (1 - fibres.coverage[index]) * (1 - add);
+      fibres.tilt_sum[index] += add * (segment > 0 ? dx / segment : 0);
+    }
+}
+
+// Flyaways (huang2025 eq. 12, 13): R(t) = R0 + Re (1 - (1 - t)^alpha),
+// theta(t) = theta0 + theta_e t, z(t) = z0 + z_e t, wrapped round the
+// period; kept where they pass in front of the core or outside it.
+FlyawayCoverage trace_flyaways(const SliceGrid& grid, const PlyGeometry& plies, float hairiness,
+                               const YarnSliceOptions& options) {
+  FlyawayCoverage fibres{std::vector<float>(grid.size(), 0.0f),
+                         std::vector<float>(grid.size(), 0.0f)};
+  const float radius = plies.radius_mm, extent = grid.extent;
   std::mt19937 random(options.seed);
   std::uniform_real_distribution<float> unit(0.0f, 1.0f);
   const int flyaways = static_cast<int>(
-      std::lround(options.flyaways_per_mm * std::max(style.hairiness, 0.0f) * slice.period_mm));
-  const float texel_across = 2 * extent / static_cast<float>(width);  // yarn radii
-  const float texel_along = slice.period_mm / static_cast<float>(height);  // mm
+      std::lround(options.flyaways_per_mm * std::max(hairiness, 0.0f) * grid.period_mm));
+  const float texel_across = 2 * extent / static_cast<float>(grid.width);      // yarn radii
+  const float texel_along = grid.period_mm / static_cast<float>(grid.height);  // mm
   const float width_texels = std::min(options.fibre_diameter / texel_across, 1.0f);
   for (int f = 0; f < flyaways; ++f) {
-    const float z0 = unit(random) * slice.period_mm;
+    const float z0 = unit(random) * grid.period_mm;
     const float theta0 = unit(random) * kTwoPi;
     const float start = 0.85f;
     const float reach = options.halo * (0.25f + 0.85f * unit(random));
@@ -237,30 +264,22 @@ YarnSlice bake_yarn_slice(const cloth::YarnStyle& style, const YarnSliceOptions&
       if (std::abs(x) < 1 && depth < front) continue;  // behind the core
       if (std::abs(x) >= extent) continue;
       const float segment = std::hypot(dx, dz);
-      const float fi = ((x / extent + 1) / 2) * static_cast<float>(width) - 0.5f;
+      const float fi = ((x / extent + 1) / 2) * static_cast<float>(grid.width) - 0.5f;
       const float fj = z / texel_along - 0.5f;
-      // Coverage splatted bilinearly, one segment's worth of fibre length.
       const float share = width_texels * std::min(segment / texel_along, 1.5f);
-      const int i0 = static_cast<int>(std::floor(fi)), j0 = static_cast<int>(std::floor(fj));
-      for (int dj = 0; dj < 2; ++dj)
-        for (int di = 0; di < 2; ++di) {
-          const int i = i0 + di;
-          if (i < 0 || i >= width) continue;
-          const int j = (((j0 + dj) % height) + height) % height;
-          const float w = (di ? fi - static_cast<float>(i0) : 1 - (fi - static_cast<float>(i0))) *
-                          (dj ? fj - static_cast<float>(j0) : 1 - (fj - static_cast<float>(j0)));
-          const auto index = static_cast<std::size_t>(j * width + i);
-          const float add = std::min(w * share, 1.0f);
-          coverage[index] = 1 - (1 - coverage[index]) * (1 - add);
-          tilt_sum[index] += add * (segment > 0 ? dx / segment : 0);
-        }
+      splat_segment(grid, fi, fj, share, segment, dx, fibres);
     }
   }
+  return fibres;
+}
+
+// The flyaways over the core where they cross it, the halo beside it.
+void draw_flyaways(const FlyawayCoverage& fibres, std::vector<Texel>& texels) {
   for (std::size_t index = 0; index < texels.size(); ++index) {
-    const float c = std::min(coverage[index], 1.0f);
+    const float c = std::min(fibres.coverage[index], 1.0f);
     if (c <= 0) continue;
     Texel& texel = texels[index];
-    const float fly_tilt = std::clamp(tilt_sum[index] / std::max(c, 1e-3f), -1.0f, 1.0f);
+    const float fly_tilt = std::clamp(fibres.tilt_sum[index] / std::max(c, 1e-3f), -1.0f, 1.0f);
     if (texel.density >= 1) {  // over the core: seen in front of it
       texel.ply *= 1 - c;
       texel.tilt += (fly_tilt - texel.tilt) * c;
@@ -269,8 +288,11 @@ YarnSlice bake_yarn_slice(const cloth::YarnStyle& style, const YarnSliceOptions&
       texel = {0, fly_tilt, 1, c};
     }
   }
+}
 
-  // The core's mean, as the coarsest mipmap would give it without the halo.
+// The core's mean, as the coarsest mipmap would give it without the halo
+// (the default sample when no texel is core).
+SliceSample core_mean(const std::vector<Texel>& texels) {
   double sums[4] = {};
   for (std::size_t index = 0; index < texels.size(); ++index) {
     const Texel& texel = texels[index];
@@ -280,17 +302,55 @@ YarnSlice bake_yarn_slice(const cloth::YarnStyle& style, const YarnSliceOptions&
     sums[2] += texel.light;
     sums[3] += 1;
   }
-  if (sums[3] > 0)
-    slice.core_mean = {static_cast<float>(sums[0] / sums[3]), static_cast<float>(sums[1] / sums[3]),
-                       static_cast<float>(sums[2] / sums[3]), 1};
+  if (sums[3] <= 0) return {};
+  return {static_cast<float>(sums[0] / sums[3]), static_cast<float>(sums[1] / sums[3]),
+          static_cast<float>(sums[2] / sums[3]), 1};
+}
 
-  YarnSliceLevel level{width, height, {}};
+// The texels encoded as level 0, then halved down to 1x1.
+std::vector<YarnSliceLevel> mipmaps(const SliceGrid& grid, const std::vector<Texel>& texels) {
+  std::vector<YarnSliceLevel> levels;
+  YarnSliceLevel level{grid.width, grid.height, {}};
   level.texels.reserve(texels.size());
   for (const Texel& texel : texels)
     level.texels.push_back(encode(texel));
-  slice.levels.push_back(std::move(level));
-  while (slice.levels.back().width > 1 || slice.levels.back().height > 1)
-    slice.levels.push_back(halve(slice.levels.back()));
+  levels.push_back(std::move(level));
+  while (levels.back().width > 1 || levels.back().height > 1)
+    levels.push_back(halve(levels.back()));
+  return levels;
+}
+
+}  // namespace
+
+bool same_slice(const cloth::YarnStyle& a, const cloth::YarnStyle& b) {
+  return a.radius_mm == b.radius_mm && a.flatness == b.flatness && a.plies == b.plies &&
+         a.twist_pitch_mm == b.twist_pitch_mm && a.hairiness == b.hairiness;
+}
+
+YarnSlice bake_yarn_slice(const cloth::YarnStyle& style, const YarnSliceOptions& options) {
+  YarnSlice slice;
+  slice.style = style;
+  slice.halo = options.halo;
+  const float radius = std::max(style.radius_mm, 1e-3f);
+  const float pitch = style.twist_pitch_mm > 0 ? style.twist_pitch_mm : 0;
+  slice.period_mm =
+      static_cast<float>(std::max(options.turns, 1)) * (pitch > 0 ? pitch : 4 * radius);
+
+  const PlyGeometry plies = ply_geometry(style, radius, pitch);
+  // The fibres on a ply's face wind about the ply's axis against its lean.
+  const float ply_radius_mm = plies.ply_radius * radius;
+  const float fibre_twist =
+      pitch > 0 ? std::atan(kTwoPi * (plies.plies > 1 ? ply_radius_mm : radius) / pitch) : 0;
+  slice.ply_slant_sin =
+      pitch > 0 ? std::sin(std::atan(-plies.centre_radius * radius * kTwoPi / pitch)) : 0;
+
+  const SliceGrid grid{std::max(options.width, 4), std::max(options.height, 4), 1 + options.halo,
+                       slice.period_mm};
+  std::vector<Texel> texels(grid.size());
+  shade_core(grid, plies, fibre_twist, options, texels);
+  draw_flyaways(trace_flyaways(grid, plies, style.hairiness, options), texels);
+  slice.core_mean = core_mean(texels);
+  slice.levels = mipmaps(grid, texels);
   return slice;
 }
 

@@ -132,6 +132,16 @@ class YarnRenderer {
                  ColourBytes& colour_bytes, Eigen::Array3f& low, Eigen::Array3f& high);
   Strips choose_points(float px_per_mm, const PieceLimits& limits, const Eigen::Vector4f& eye,
                        bool layered, unsigned which);
+  // render()'s steps: what the frame draws, the points it draws them
+  // through, the shadow pass (into the shadow map, then framebuffer
+  // `target` again) and the yarn and halo passes.
+  struct FramePlan;
+  FramePlan plan_frame(const KnitFrame& frame, const KnitView& view);
+  [[nodiscard]] PieceLimits piece_limits(const FramePlan& plan) const;
+  void draw_shadow_map(const KnitFrame& frame, const FramePlan& plan, const PieceLimits& limits,
+                       unsigned target);
+  void draw_yarns(const KnitFrame& frame, const KnitView& view, const FramePlan& plan,
+                  const PieceLimits& limits);
 
   std::unique_ptr<Gl> gl_;
   std::unique_ptr<Packed> packed_;
