@@ -259,11 +259,10 @@ void colour_chart(cloth::StitchChart& chart, const std::vector<std::uint8_t>& in
         std::max_element(votes[cell].begin(), votes[cell].end()) - votes[cell].begin());
 }
 
-}  // namespace
-
-Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& albedo,
-                                      const analysis::FabricMeasurement& fabric,
-                                      const ChartInferenceOptions& options) {
+// What a chart is read from: knitted maps with a measured repeat, their
+// height, and an albedo (when there is one) that matches it.
+Status check_chart_inputs(const cv::Mat& height, const cv::Mat& albedo,
+                          const analysis::FabricMeasurement& fabric) {
   using analysis::Construction;
   if (fabric.construction == Construction::woven && fabric.construction_from_metadata)
     return std::unexpected(bad_input(
@@ -276,31 +275,64 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
         "no repeat was measured on the maps (" +
             (fabric.notes.empty() ? std::string("no repeat found") : fabric.notes.back()) +
             "); the stitches are found within the measured repeat"));
-  if (height_in.empty() || height_in.channels() != 1)
+  if (height.empty() || height.channels() != 1)
     return std::unexpected(bad_input({}, "height", "a stitch chart needs the height map"));
-  if (!albedo.empty() && (albedo.size() != height_in.size() || albedo.depth() != CV_32F ||
+  if (!albedo.empty() && (albedo.size() != height.size() || albedo.depth() != CV_32F ||
                           (albedo.channels() != 3 && albedo.channels() != 1)))
     return std::unexpected(bad_input(
         {}, "albedo", "the albedo must be float, grey or BGR, and the size of the height map"));
-  const int n = options.samples;
-  cv::Mat height;
-  height_in.convertTo(height, CV_32F);
-  const int side_x = std::min(height.cols, kMaxWorkingSide);
-  const int side_y = std::min(height.rows, kMaxWorkingSide);
-  const cv::Rect window((height.cols - side_x) / 2, (height.rows - side_y) / 2, side_x, side_y);
-  const RepeatFrame measured{{window.x + 0.5 * side_x, window.y + 0.5 * side_y},
-                             fabric.u_px,
-                             -fabric.v_px};
+  return {};
+}
 
-  TemplateBank bank(n);
+// The best first reading, refined when its repeat is large (its first
+// labelling was only the lone faces' reading); refined, it must still
+// beat the others.
+std::optional<Reading> choose_reading(const std::vector<std::optional<Reading>>& readings) {
+  const auto better = [](const std::optional<Reading>& a, const std::optional<Reading>& b) {
+    return a && (!b || a->synthesis.match.score > b->synthesis.match.score);
+  };
+  std::optional<Reading> best;
+  for (const auto& reading : readings)
+    if (better(reading, best)) best = reading;
+  if (best && inference::needs_refining(best->period)) {
+    auto refined = inference::refine_labelling(best->folded, best->period, best->wale_mm,
+                                               best->course_mm, best->synthesis);
+    if (refined) best->synthesis = std::move(*refined);
+    for (const auto& reading : readings)
+      if (reading && !inference::needs_refining(reading->period) && better(reading, best))
+        best = reading;
+  }
+  return best;
+}
+
+// Why the maps gave no chart: the best fit, short of a knit's.
+Error poor_fit(const std::optional<Reading>& best, const analysis::FabricMeasurement& fabric) {
+  char text[400];
+  std::snprintf(text, sizeof text,
+                "the maps' stitches look like no knitted chart (best fit %.2f; knitted fabric "
+                "fits %.2f or more)%s",
+                best ? best->synthesis.match.score : 0.0, kMinFit,
+                fabric.construction == analysis::Construction::woven
+                    ? ": the measurement takes it for woven (give scan.json's "
+                      "fabric.construction if it is knitted)"
+                    : ": is it knitted?");
+  return bad_input({}, "height", text);
+}
+
+// The stitches' reading: every split of the measured repeat at its best
+// phase, the likeliest knitted and matched, the best kept where it fits as
+// knitted fabric does.
+Result<Reading> best_reading(const cv::Mat& height, const cv::Mat& albedo, cv::Rect window,
+                             const RepeatFrame& measured, const analysis::FabricMeasurement& fabric,
+                             const ChartInferenceOptions& options, TemplateBank& bank) {
+  const int n = options.samples;
   std::vector<Candidate> candidates =
-      candidate_splits(height, window, measured, options.max_stitches_per_repeat, n, options,
-                       bank);
+      candidate_splits(height, window, measured, options.max_stitches_per_repeat, n, options, bank);
   if (candidates.empty())
-    return std::unexpected(bad_input(
-        {}, "fabric.lattice_px",
-        "the measured repeat is too small to hold a stitch of " +
-            std::to_string(static_cast<int>(kMinStitchPx)) + " pixels or more"));
+    return std::unexpected(bad_input({}, "fabric.lattice_px",
+                                     "the measured repeat is too small to hold a stitch of " +
+                                         std::to_string(static_cast<int>(kMinStitchPx)) +
+                                         " pixels or more"));
   // Each candidate knitted and matched on its own, side by side.
   const std::vector<Candidate> checked = shortlist(std::move(candidates));
   std::vector<std::optional<Reading>> readings(checked.size());
@@ -310,40 +342,30 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
           read_candidate(height, albedo, window, checked[static_cast<std::size_t>(i)], fabric,
                          options.max_stitches_per_repeat, n);
   });
-  // The best first reading, refined when its repeat is large (its first
-  // labelling was only the lone faces' reading); refined, it must still
-  // beat the others.
-  const auto better = [](const std::optional<Reading>& a, const std::optional<Reading>& b) {
-    return a && (!b || a->synthesis.match.score > b->synthesis.match.score);
-  };
-  std::optional<Reading> best;
-  for (auto& reading : readings)
-    if (better(reading, best)) best = reading;
-  if (best && inference::needs_refining(best->period)) {
-    auto refined = inference::refine_labelling(best->folded, best->period, best->wale_mm,
-                                               best->course_mm, best->synthesis);
-    if (refined) best->synthesis = std::move(*refined);
-    for (auto& reading : readings)
-      if (reading && !inference::needs_refining(reading->period) && better(reading, best))
-        best = reading;
-  }
-  char text[400];
-  if (!best || best->synthesis.match.score < kMinFit) {
-    std::snprintf(text, sizeof text,
-                  "the maps' stitches look like no knitted chart (best fit %.2f; knitted fabric "
-                  "fits %.2f or more)%s",
-                  best ? best->synthesis.match.score : 0.0, kMinFit,
-                  fabric.construction == Construction::woven
-                      ? ": the measurement takes it for woven (give scan.json's "
-                        "fabric.construction if it is knitted)"
-                      : ": is it knitted?");
-    return std::unexpected(bad_input({}, "height", text));
-  }
+  std::optional<Reading> best = choose_reading(readings);
+  if (!best || best->synthesis.match.score < kMinFit)
+    return std::unexpected(poor_fit(best, fabric));
+  return std::move(*best);
+}
 
-  // The stitches where the knitted chart fits best: the lattice moved by
-  // the match's shift, so that chart cell (0, 0) lies at lattice stitch
-  // (0, 0); then started at the maps' bottom-left whole stitch.
-  const Reading& reading = *best;
+// The share of the stitches, each read on its own, that agree with the chart
+// tiled over the grid.
+double chart_agreement(const InferredKnit& out) {
+  int agree = 0;
+  for (int row = 0; row < out.rows; ++row)
+    for (int column = 0; column < out.columns; ++column)
+      agree += out.stitches[static_cast<std::size_t>(row * out.columns + column)] ==
+               out.chart.at(column, row);
+  return out.stitches.empty() ? 0.0 : static_cast<double>(agree) / out.stitches.size();
+}
+
+// The stitches where the knitted chart fits best: the lattice moved by
+// the match's shift, so that chart cell (0, 0) lies at lattice stitch
+// (0, 0); then started at the maps' bottom-left whole stitch. The chart,
+// each stitch read on its own, and the colours.
+InferredKnit knit_of(const Reading& reading, const cv::Mat& height, const cv::Mat& albedo,
+                     cv::Rect window, const ChartInferenceOptions& options) {
+  const int n = options.samples;
   const Period period = reading.period;
   const inference::Match& match = reading.synthesis.match;
   StitchLattice lattice = reading.block.lattice;
@@ -380,14 +402,15 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
   out.split_from_scan = options.known_wales_per_repeat > 0 || options.known_courses_per_repeat > 0;
   out.wales_per_repeat = reading.candidate.split.wales;
   out.courses_per_repeat = reading.candidate.split.courses;
-  int agree = 0;
-  for (int row = 0; row < out.rows; ++row)
-    for (int column = 0; column < out.columns; ++column)
-      agree += out.stitches[static_cast<std::size_t>(row * out.columns + column)] ==
-               chart.at(column, row);
-  out.agreement = out.stitches.empty() ? 0.0 : static_cast<double>(agree) / out.stitches.size();
+  out.agreement = chart_agreement(out);
+  return out;
+}
 
-  // Densities as fabric_measure.h counts them, one wale and course per stitch.
+// Densities as fabric_measure.h counts them, one wale and course per stitch,
+// the chart's gauge where the pixel size is known, and the notes.
+void add_gauge_and_notes(InferredKnit& out, const Reading& reading,
+                         const analysis::FabricMeasurement& fabric) {
+  cloth::StitchChart& chart = out.chart;
   const auto [wale_px, course_px] = inference::spacing(out.lattice);
   out.per_pixel = !fabric.pixel_size_mm;
   const double unit = fabric.pixel_size_mm ? 10.0 / *fabric.pixel_size_mm : 1.0;
@@ -400,16 +423,41 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
     // tightness factor's steps.
     chart.gauge.yarn_diameter_mm = reading.synthesis.yarn_mm;
   }
+  char text[400];
   std::snprintf(text, sizeof text,
                 "stitches: %s to a measured repeat; chart %s (wales x courses), fit %.2f with "
                 "the chart as the cloth model knits it (yarn %.2f mm); %d x %d stitches seen, "
                 "%.1f %% of them, each read on its own, agree with the chart",
                 describe(reading.candidate.split.wales, reading.candidate.split.courses).c_str(),
-                describe(period.columns, period.rows).c_str(), out.fit,
+                describe(reading.period.columns, reading.period.rows).c_str(), out.fit,
                 reading.synthesis.yarn_mm, out.columns, out.rows, 100 * out.agreement);
   out.notes.emplace_back(text);
   if (out.per_pixel)
     out.notes.emplace_back("no pixel size: the gauge is per pixel and the chart has none");
+}
+
+}  // namespace
+
+Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& albedo,
+                                      const analysis::FabricMeasurement& fabric,
+                                      const ChartInferenceOptions& options) {
+  if (auto ok = check_chart_inputs(height_in, albedo, fabric); !ok)
+    return std::unexpected(ok.error());
+  const int n = options.samples;
+  cv::Mat height;
+  height_in.convertTo(height, CV_32F);
+  const int side_x = std::min(height.cols, kMaxWorkingSide);
+  const int side_y = std::min(height.rows, kMaxWorkingSide);
+  const cv::Rect window((height.cols - side_x) / 2, (height.rows - side_y) / 2, side_x, side_y);
+  const RepeatFrame measured{{window.x + 0.5 * side_x, window.y + 0.5 * side_y},
+                             fabric.u_px,
+                             -fabric.v_px};
+
+  TemplateBank bank(n);
+  const auto reading = best_reading(height, albedo, window, measured, fabric, options, bank);
+  if (!reading) return std::unexpected(reading.error());
+  InferredKnit out = knit_of(*reading, height, albedo, window, options);
+  add_gauge_and_notes(out, *reading, fabric);
   return out;
 }
 

@@ -211,6 +211,239 @@ Result<formats::AtomicDirectory::Existing> check_tile_output(const fs::path& out
                                    "it (choose another --out)"));
 }
 
+// The frames a lattice allows: nu x nv repeats of u and v, up to as many as
+// could fit, or `repeats` each way when asked.
+struct FrameSearch {
+  cv::Point2d u, v;
+  int most_u = 1, most_v = 1;
+  int repeats = 0;  // 0: as many as fit
+  cv::Size scan;
+
+  [[nodiscard]] bool allows(int nu, int nv) const {
+    return !(repeats > 0 && (nu != repeats || nv != repeats));
+  }
+};
+
+// As many whole repeats as fit with the band (or as asked), the largest area.
+std::optional<Frame> largest_frame(const FrameSearch& search) {
+  std::optional<Frame> best;
+  for (int nu = 1; nu <= search.most_u; ++nu) {
+    for (int nv = 1; nv <= search.most_v; ++nv) {
+      if (!search.allows(nu, nv)) continue;
+      const Frame f = periodic_frame(search.u, search.v, nu, nv, search.scan);
+      if (!fits(f, search.scan)) continue;
+      if (!best || nu * nv > best->nu * best->nv) best = f;
+    }
+  }
+  return best;
+}
+
+// The smoothest cut (a whole number of tile pixels along each direction
+// from the frame's origin), as a point of the scan; every lattice translate
+// of it is as good.
+cv::Point2d smoothest_cut(const formats::Maps& maps, const Frame& frame) {
+  cv::Mat mx, my, probe;
+  sampling_maps(frame, mx, my);
+  cv::remap(maps.height.empty() ? grey_of(maps.albedo) : maps.height, probe, mx, my,
+            cv::INTER_LINEAR, cv::BORDER_REFLECT);
+  probe = probe(cv::Rect(frame.band, frame.band, frame.width, frame.height));
+  const int du = smoothest_phase(probe, frame.nu, true);
+  const int dv = smoothest_phase(probe, frame.nv, false);
+  const cv::Point2d step_u = frame.nu * frame.u / frame.width;
+  const cv::Point2d step_v = frame.nv * frame.v / frame.height;
+  return frame.origin + du * step_u + dv * step_v;
+}
+
+// The largest frame starting on a lattice translate of `cut` that fits.
+std::optional<Frame> frame_at_cut(const FrameSearch& search, cv::Point2d cut) {
+  const cv::Point2d u = search.u, v = search.v;
+  std::optional<Frame> chosen;
+  const double det = cross(u, v);
+  for (int nu = 1; nu <= search.most_u; ++nu) {
+    for (int nv = 1; nv <= search.most_v; ++nv) {
+      if (!search.allows(nu, nv)) continue;
+      if (chosen && nu * nv <= chosen->nu * chosen->nv) continue;
+      Frame f = periodic_frame(u, v, nu, nv, search.scan);
+      const cv::Point2d d = f.origin - cut;
+      const double su = cross(d, v) / det, sv = cross(u, d) / det;
+      for (const double ku : {std::floor(su), std::ceil(su)}) {
+        bool done = false;
+        for (const double kv : {std::floor(sv), std::ceil(sv)}) {
+          Frame g = f;
+          g.origin = cut + ku * u + kv * v;
+          if (fits(g, search.scan)) {
+            chosen = g;
+            done = true;
+            break;
+          }
+        }
+        if (done) break;
+      }
+    }
+  }
+  return chosen;
+}
+
+// Where the tile lies: whole repeats of the lattice cut where the fabric is
+// smoothest, else the whole scan (tile.message says why, tile.periodic
+// which).
+Result<Frame> choose_frame(const formats::Maps& maps, const std::optional<RepeatLattice>& lattice,
+                           const TileOptions& options, Tile& tile) {
+  const cv::Size scan = maps.p.size();
+  Frame frame;
+  if (lattice) {
+    const cv::Point2d u = lattice->u_px, v = lattice->v_px;
+    const int most_u = static_cast<int>(scan.width / std::max(1.0, std::abs(u.x))) + 1;
+    const int most_v = static_cast<int>(scan.height / std::max(1.0, std::abs(v.y))) + 1;
+    const FrameSearch search{u, v, most_u, most_v, options.repeats, scan};
+    std::optional<Frame> best = largest_frame(search);
+    if (!best && options.repeats > 0)
+      return std::unexpected(
+          bad_input({}, "--repeats",
+                    std::to_string(options.repeats) + " repeats each way do not fit in the scan (" +
+                        std::to_string(scan.width) + "x" + std::to_string(scan.height) +
+                        " px, repeat " + std::to_string(static_cast<int>(norm(u))) + "x" +
+                        std::to_string(static_cast<int>(norm(v))) + " px); ask for fewer"));
+    if (best) {
+      // Cut where the fabric is smoothest when the shifted frame still fits.
+      const std::optional<Frame> chosen = frame_at_cut(search, smoothest_cut(maps, *best));
+      if (chosen) *best = *chosen;
+      frame = *best;
+      tile.periodic = true;
+    } else {
+      tile.message = "the repeat is too large for a whole one to fit with its blend band";
+    }
+  } else {
+    tile.message = "no repeat found";
+  }
+  if (!tile.periodic) {
+    frame = whole_scan_frame(scan);
+    tile.message += ": the tile is the whole scan with its border cross-faded";
+  }
+  return frame;
+}
+
+// How the tile's pixels lie on the scan's: the Jacobian J of tile pixels to
+// scan pixels (its columns ju and jv), and the scan pixels per tile pixel
+// along the tile's x and y.
+struct TileScale {
+  double scale_x = 1, scale_y = 1;
+  double course_spacing = 0;
+  cv::Point2d ju, jv;
+};
+
+TileScale tile_scale(const Frame& frame) {
+  TileScale s;
+  s.scale_x = frame.nu * norm(frame.u) / frame.width;  // scan px per tile px along x
+  s.course_spacing = std::abs(cross(frame.u, frame.v)) / norm(frame.u);
+  s.scale_y = frame.nv * s.course_spacing / frame.height;
+  s.ju = frame.nu * frame.u / frame.width;
+  s.jv = frame.nv * frame.v / frame.height;
+  return s;
+}
+
+// The maps resampled onto the tile's pixels, band included, before the
+// cross-fade.
+struct Resampled {
+  cv::Mat p, q, height, albedo, valid;
+};
+
+// The plane through the tile's heights comes off, from the gradients
+// too: a residual tilt would otherwise step the height at the seam.
+void remove_plane(cv::Mat& height, cv::Mat& tp, cv::Mat& tq, const TileScale& s, double px) {
+  cv::Matx33d normal = cv::Matx33d::zeros();
+  cv::Vec3d rhs;
+  for (int r = 0; r < height.rows; ++r)
+    for (int c = 0; c < height.cols; ++c) {
+      const float z = height.at<float>(r, c);
+      if (!std::isfinite(z)) continue;
+      const cv::Vec3d x(1, c, r);
+      normal += x * x.t();
+      rhs += z * x;
+    }
+  cv::Vec3d plane;
+  if (cv::solve(normal, rhs, plane, cv::DECOMP_CHOLESKY)) {
+    for (int r = 0; r < height.rows; ++r)
+      for (int c = 0; c < height.cols; ++c)
+        height.at<float>(r, c) -= static_cast<float>(plane[0] + plane[1] * c + plane[2] * r);
+    // Heights per tile pixel, gradients per unit length.
+    tp -= plane[1] / (s.scale_x * px);
+    tq += plane[2] / (s.scale_y * px);
+  }
+}
+
+Resampled resample_maps(const formats::Maps& maps, const Frame& frame, const TileScale& s) {
+  cv::Mat mx, my;
+  sampling_maps(frame, mx, my);
+  const auto sample = [&](const cv::Mat& src, int interpolation) {
+    cv::Mat out;
+    cv::remap(src, out, mx, my, interpolation, cv::BORDER_REFLECT);
+    return out;
+  };
+
+  // Gradients follow the resampling: the tile's axes are the scan's u and v
+  // directions scaled, so its gradient is J^T times the scan's, J the
+  // Jacobian of tile pixels to scan pixels (rows down: dz/drow = -q).
+  const double px = maps.pixel_size_mm.value_or(1.0);
+  cv::Mat p = sample(maps.p, cv::INTER_CUBIC);
+  cv::Mat q = sample(maps.q, cv::INTER_CUBIC);
+  Resampled resampled;
+  resampled.p.create(p.size(), CV_32F);
+  resampled.q.create(p.size(), CV_32F);
+  for (int r = 0; r < p.rows; ++r) {
+    for (int c = 0; c < p.cols; ++c) {
+      const double gx = p.at<float>(r, c), gy = -q.at<float>(r, c);  // per unit length, rows down
+      resampled.p.at<float>(r, c) = static_cast<float>((s.ju.x * gx + s.ju.y * gy) / s.scale_x);
+      resampled.q.at<float>(r, c) = static_cast<float>(-(s.jv.x * gx + s.jv.y * gy) / s.scale_y);
+    }
+  }
+  if (!maps.height.empty()) {
+    resampled.height = sample(maps.height, cv::INTER_CUBIC);
+    remove_plane(resampled.height, resampled.p, resampled.q, s, px);
+  }
+  resampled.albedo = sample(maps.albedo, cv::INTER_CUBIC);
+  maps.mask.convertTo(resampled.valid, CV_32F, 1.0 / 255);
+  resampled.valid = sample(resampled.valid, cv::INTER_NEAREST);
+  return resampled;
+}
+
+// The tile's maps, cross-faded, and what the tile says of itself: where it
+// lies, its size and its seam.
+void fill_tile(Tile& tile, const formats::Maps& maps, const Frame& frame, const TileScale& s,
+               const Resampled& resampled) {
+  const double px = maps.pixel_size_mm.value_or(1.0);
+  const auto fade = [&](const cv::Mat& e) {
+    return cross_fade(e, frame.width, frame.height, frame.band);
+  };
+  formats::Maps& out = tile.maps;
+  out.directory = maps.directory;  // the source, for tile.json
+  out.pixel_size_mm =
+      maps.pixel_size_mm ? std::optional<double>(*maps.pixel_size_mm * s.scale_x) : std::nullopt;
+  out.height_units = maps.height_units;
+  out.p = fade(resampled.p);
+  out.q = fade(resampled.q);
+  out.albedo = cv::max(fade(resampled.albedo), 0.0);
+  if (!resampled.height.empty()) out.height = fade(resampled.height);
+  const cv::Mat faded = fade(resampled.valid);
+  out.mask = faded >= 0.999f;  // valid only where both sides were
+
+  tile.repeats_u = frame.nu;
+  tile.repeats_v = frame.nv;
+  tile.origin_px = frame.origin;
+  tile.u_px = frame.u;
+  tile.v_px = frame.v;
+  tile.band_px = frame.band;
+  tile.pixel_size_mm = out.pixel_size_mm;
+  tile.width = frame.nu * norm(frame.u) * px;
+  tile.height = frame.nv * s.course_spacing * px;
+  // The height's seam where it has one; a scan whose height is NaN along
+  // the border (outside its mask) is checked on the albedo instead.
+  tile.seam = out.height.empty() ? SeamCheck{} : check_seam(out.height, "height");
+  const long seam_samples = 2L * (out.p.rows + out.p.cols) * 2;  // four lines of the 2x2
+  if (out.height.empty() || tile.seam.samples < seam_samples / 2)
+    tile.seam = check_seam(grey_of(out.albedo), "albedo");
+}
+
 }  // namespace
 
 SeamCheck check_seam(const cv::Mat& map, const std::string& name) {
@@ -236,174 +469,17 @@ SeamCheck check_seam(const cv::Mat& map, const std::string& name) {
   return check;
 }
 
-Result<Tile> make_seamless_tile(const formats::Maps& maps, const std::optional<RepeatLattice>& lattice,
+Result<Tile> make_seamless_tile(const formats::Maps& maps,
+                                const std::optional<RepeatLattice>& lattice,
                                 const TileOptions& options) {
   const cv::Size scan = maps.p.size();
   if (scan.width < 16 || scan.height < 16)
     return std::unexpected(bad_input(maps.directory, "", "the maps are too small to tile"));
   Tile tile;
-  Frame frame;
-  if (lattice) {
-    // As many whole repeats as fit with the band (or as asked), the largest area.
-    const cv::Point2d u = lattice->u_px, v = lattice->v_px;
-    std::optional<Frame> best;
-    const int most_u = static_cast<int>(scan.width / std::max(1.0, std::abs(u.x))) + 1;
-    const int most_v = static_cast<int>(scan.height / std::max(1.0, std::abs(v.y))) + 1;
-    for (int nu = 1; nu <= most_u; ++nu) {
-      for (int nv = 1; nv <= most_v; ++nv) {
-        if (options.repeats > 0 && (nu != options.repeats || nv != options.repeats)) continue;
-        const Frame f = periodic_frame(u, v, nu, nv, scan);
-        if (!fits(f, scan)) continue;
-        if (!best || nu * nv > best->nu * best->nv) best = f;
-      }
-    }
-    if (!best && options.repeats > 0)
-      return std::unexpected(
-          bad_input({}, "--repeats",
-                    std::to_string(options.repeats) + " repeats each way do not fit in the scan (" +
-                        std::to_string(scan.width) + "x" + std::to_string(scan.height) +
-                        " px, repeat " + std::to_string(static_cast<int>(norm(u))) + "x" +
-                        std::to_string(static_cast<int>(norm(v))) + " px); ask for fewer"));
-    if (best) {
-      // Cut where the fabric is smoothest (a whole number of tile pixels
-      // along each direction) when the shifted frame still fits.
-      cv::Mat mx, my, probe;
-      sampling_maps(*best, mx, my);
-      cv::remap(maps.height.empty() ? grey_of(maps.albedo) : maps.height, probe, mx, my,
-                cv::INTER_LINEAR, cv::BORDER_REFLECT);
-      probe = probe(cv::Rect(best->band, best->band, best->width, best->height));
-      const int du = smoothest_phase(probe, best->nu, true);
-      const int dv = smoothest_phase(probe, best->nv, false);
-      const cv::Point2d step_u = best->nu * best->u / best->width;
-      const cv::Point2d step_v = best->nv * best->v / best->height;
-      // The smoothest cut, as a point of the scan; every lattice translate
-      // of it is as good. The largest frame starting on one that fits.
-      const cv::Point2d cut = best->origin + du * step_u + dv * step_v;
-      std::optional<Frame> chosen;
-      const double det = cross(u, v);
-      for (int nu = 1; nu <= most_u; ++nu) {
-        for (int nv = 1; nv <= most_v; ++nv) {
-          if (options.repeats > 0 && (nu != options.repeats || nv != options.repeats)) continue;
-          if (chosen && nu * nv <= chosen->nu * chosen->nv) continue;
-          Frame f = periodic_frame(u, v, nu, nv, scan);
-          const cv::Point2d d = f.origin - cut;
-          const double su = cross(d, v) / det, sv = cross(u, d) / det;
-          for (const double ku : {std::floor(su), std::ceil(su)}) {
-            bool done = false;
-            for (const double kv : {std::floor(sv), std::ceil(sv)}) {
-              Frame g = f;
-              g.origin = cut + ku * u + kv * v;
-              if (fits(g, scan)) {
-                chosen = g;
-                done = true;
-                break;
-              }
-            }
-            if (done) break;
-          }
-        }
-      }
-      if (chosen) *best = *chosen;
-      frame = *best;
-      tile.periodic = true;
-    } else {
-      tile.message = "the repeat is too large for a whole one to fit with its blend band";
-    }
-  } else {
-    tile.message = "no repeat found";
-  }
-  if (!tile.periodic) {
-    frame = whole_scan_frame(scan);
-    tile.message += ": the tile is the whole scan with its border cross-faded";
-  }
-
-  cv::Mat mx, my;
-  sampling_maps(frame, mx, my);
-  const auto sample = [&](const cv::Mat& src, int interpolation) {
-    cv::Mat out;
-    cv::remap(src, out, mx, my, interpolation, cv::BORDER_REFLECT);
-    return out;
-  };
-
-  // Gradients follow the resampling: the tile's axes are the scan's u and v
-  // directions scaled, so its gradient is J^T times the scan's, J the
-  // Jacobian of tile pixels to scan pixels (rows down: dz/drow = -q).
-  const double px = maps.pixel_size_mm.value_or(1.0);
-  const double scale_x = frame.nu * norm(frame.u) / frame.width;  // scan px per tile px along x
-  const double course_spacing = std::abs(cross(frame.u, frame.v)) / norm(frame.u);
-  const double scale_y = frame.nv * course_spacing / frame.height;
-  const cv::Point2d ju = frame.nu * frame.u / frame.width;
-  const cv::Point2d jv = frame.nv * frame.v / frame.height;
-  cv::Mat p = sample(maps.p, cv::INTER_CUBIC);
-  cv::Mat q = sample(maps.q, cv::INTER_CUBIC);
-  cv::Mat tp(p.size(), CV_32F), tq(p.size(), CV_32F);
-  for (int r = 0; r < p.rows; ++r) {
-    for (int c = 0; c < p.cols; ++c) {
-      const double gx = p.at<float>(r, c), gy = -q.at<float>(r, c);  // per unit length, rows down
-      tp.at<float>(r, c) = static_cast<float>((ju.x * gx + ju.y * gy) / scale_x);
-      tq.at<float>(r, c) = static_cast<float>(-(jv.x * gx + jv.y * gy) / scale_y);
-    }
-  }
-  cv::Mat height;
-  if (!maps.height.empty()) {
-    height = sample(maps.height, cv::INTER_CUBIC);
-    // The plane through the tile's heights comes off, from the gradients
-    // too: a residual tilt would otherwise step the height at the seam.
-    cv::Matx33d normal = cv::Matx33d::zeros();
-    cv::Vec3d rhs;
-    for (int r = 0; r < height.rows; ++r)
-      for (int c = 0; c < height.cols; ++c) {
-        const float z = height.at<float>(r, c);
-        if (!std::isfinite(z)) continue;
-        const cv::Vec3d x(1, c, r);
-        normal += x * x.t();
-        rhs += z * x;
-      }
-    cv::Vec3d plane;
-    if (cv::solve(normal, rhs, plane, cv::DECOMP_CHOLESKY)) {
-      for (int r = 0; r < height.rows; ++r)
-        for (int c = 0; c < height.cols; ++c)
-          height.at<float>(r, c) -= static_cast<float>(plane[0] + plane[1] * c + plane[2] * r);
-      // Heights per tile pixel, gradients per unit length.
-      tp -= plane[1] / (scale_x * px);
-      tq += plane[2] / (scale_y * px);
-    }
-  }
-  cv::Mat albedo = sample(maps.albedo, cv::INTER_CUBIC);
-  cv::Mat valid;
-  maps.mask.convertTo(valid, CV_32F, 1.0 / 255);
-  valid = sample(valid, cv::INTER_NEAREST);
-
-  const auto fade = [&](const cv::Mat& e) {
-    return cross_fade(e, frame.width, frame.height, frame.band);
-  };
-  formats::Maps& out = tile.maps;
-  out.directory = maps.directory;  // the source, for tile.json
-  out.pixel_size_mm =
-      maps.pixel_size_mm ? std::optional<double>(*maps.pixel_size_mm * scale_x) : std::nullopt;
-  out.height_units = maps.height_units;
-  out.p = fade(tp);
-  out.q = fade(tq);
-  out.albedo = cv::max(fade(albedo), 0.0);
-  if (!height.empty()) out.height = fade(height);
-  const cv::Mat faded = fade(valid);
-  out.mask = faded >= 0.999f;  // valid only where both sides were
-
-  tile.repeats_u = frame.nu;
-  tile.repeats_v = frame.nv;
-  tile.origin_px = frame.origin;
-  tile.u_px = frame.u;
-  tile.v_px = frame.v;
-  tile.band_px = frame.band;
-  tile.pixel_size_mm = out.pixel_size_mm;
-  tile.width = frame.nu * norm(frame.u) * px;
-  tile.height = frame.nv * course_spacing * px;
-  // The height's seam where it has one; a scan whose height is NaN along
-  // the border (outside its mask) is checked on the albedo instead.
-  tile.seam = out.height.empty() ? SeamCheck{} : check_seam(out.height, "height");
-  const long seam_samples = 2L * (out.p.rows + out.p.cols) * 2;  // four lines of the 2x2
-  if (out.height.empty() || tile.seam.samples < seam_samples / 2)
-    tile.seam = check_seam(grey_of(out.albedo), "albedo");
+  const auto frame = choose_frame(maps, lattice, options, tile);
+  if (!frame) return std::unexpected(frame.error());
+  const TileScale scale = tile_scale(*frame);
+  fill_tile(tile, maps, *frame, scale, resample_maps(maps, *frame, scale));
   return tile;
 }
 

@@ -702,14 +702,10 @@ void pack_edges(const float* __restrict ex, const float* __restrict ey,
   }
 }
 
-Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& mask,
-                             const MaskedIntegrationOptions& options,
-                             MaskedIntegrationStats* stats) {
+// The domain: inside the mask, with finite gradients.
+cv::Mat integration_domain(const cv::Mat& p, const cv::Mat& q, const cv::Mat& mask) {
   const int w = p.cols;
   const int h = p.rows;
-  const std::size_t n = static_cast<std::size_t>(w) * h;
-
-  // The domain: inside the mask, with finite gradients.
   cv::Mat inside(h, w, CV_8U);
   parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
@@ -721,77 +717,77 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
         out[j] = (mr == nullptr || mr[j] != 0) && is_finite(pr[j]) && is_finite(qr[j]) ? 1 : 0;
     }
   });
+  return inside;
+}
 
-  // Edge weights and the right-hand side b, a row at a time: b_i =
-  // sum over i's edges of the target difference toward i.
-  const float limit = options.max_slope;
-  Level fine;
-  fine.w = w;
-  fine.h = h;
-  fine.edges.assign(n, 0);
-  std::vector<float> b(n, 0.0F);
-  parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
-    const auto width = static_cast<std::size_t>(w);
-    // Row buffers with one sample of zeros before and two after, so that
-    // every edge sees four samples: gradients (0 outside) and inside (1/0).
-    std::vector<float> g_row(width + 3, 0.0F);
-    std::vector<float> m_row(width + 3, 0.0F);
-    std::vector<float> g_rows[4];
-    std::vector<float> m_rows[4];
-    for (int k = 0; k < 4; ++k) {
-      g_rows[k].assign(width, 0.0F);
-      m_rows[k].assign(width, 0.0F);
+// Edge weights and the right-hand side b for rows [begin, end), a row at a
+// time: b_i = sum over i's edges of the target difference toward i. `edges`
+// and `b` are the whole grid's (Level's packed bytes).
+void assemble_rows(const cv::Mat& p, const cv::Mat& q, const cv::Mat& inside, float limit,
+                   int begin, int end, std::uint8_t* edges, float* b) {
+  const int w = p.cols;
+  const int h = p.rows;
+  const auto width = static_cast<std::size_t>(w);
+  // Row buffers with one sample of zeros before and two after, so that
+  // every edge sees four samples: gradients (0 outside) and inside (1/0).
+  std::vector<float> g_row(width + 3, 0.0F);
+  std::vector<float> m_row(width + 3, 0.0F);
+  std::vector<float> g_rows[4];
+  std::vector<float> m_rows[4];
+  for (int k = 0; k < 4; ++k) {
+    g_rows[k].assign(width, 0.0F);
+    m_rows[k].assign(width, 0.0F);
+  }
+  std::vector<float> gx(width + 1, 0.0F);  // gx[j + 1]: edge j to j + 1; gx[0] = 0
+  std::vector<float> ex(width + 1, 0.0F);
+  std::vector<float> gy_above(width, 0.0F);
+  std::vector<float> gy(width, 0.0F);
+  std::vector<float> ey_above(width, 0.0F);
+  std::vector<float> ey(width, 0.0F);
+  const auto load = [&](const cv::Mat& g, int i, float* values, float* inside_row) {
+    if (i < 0 || i >= h) {
+      std::fill(values, values + width, 0.0F);
+      std::fill(inside_row, inside_row + width, 0.0F);
+      return;
     }
-    std::vector<float> gx(width + 1, 0.0F);  // gx[j + 1]: edge j to j + 1; gx[0] = 0
-    std::vector<float> ex(width + 1, 0.0F);
-    std::vector<float> gy_above(width, 0.0F);
-    std::vector<float> gy(width, 0.0F);
-    std::vector<float> ey_above(width, 0.0F);
-    std::vector<float> ey(width, 0.0F);
-    const auto load = [&](const cv::Mat& g, int i, float* values, float* inside_row) {
-      if (i < 0 || i >= h) {
-        std::fill(values, values + width, 0.0F);
-        std::fill(inside_row, inside_row + width, 0.0F);
-        return;
-      }
-      load_row(g.ptr<float>(i), inside.ptr<std::uint8_t>(i), limit, values, inside_row, w);
-    };
-    // gy for the edges from row i down to row i + 1.
-    const auto vertical = [&](int i, float* targets, float* weights) {
-      for (int k = 0; k < 4; ++k)
-        load(q, i - 1 + k, g_rows[k].data(), m_rows[k].data());
-      edge_targets(g_rows[0].data(), g_rows[1].data(), g_rows[2].data(), g_rows[3].data(),
-                   m_rows[0].data(), m_rows[1].data(), m_rows[2].data(), m_rows[3].data(), targets,
-                   weights, w);
-      for (std::size_t j = 0; j < width; ++j)
-        targets[j] = -targets[j];  // y is up, the row index down
-    };
-    vertical(begin - 1, gy_above.data(), ey_above.data());
-    for (int i = begin; i < end; ++i) {
-      load(p, i, g_row.data() + 1, m_row.data() + 1);
-      edge_targets(g_row.data(), g_row.data() + 1, g_row.data() + 2, g_row.data() + 3, m_row.data(),
-                   m_row.data() + 1, m_row.data() + 2, m_row.data() + 3, gx.data() + 1,
-                   ex.data() + 1, w);
-      vertical(i, gy.data(), ey.data());
-      const std::size_t row = static_cast<std::size_t>(i) * width;
-      pack_edges(ex.data(), ey.data(), ey_above.data(), fine.edges.data() + row, w);
-      for (std::size_t j = 0; j < width; ++j)
-        b[row + j] = gx[j] - gx[j + 1] + gy_above[j] - gy[j];
-      std::swap(gy_above, gy);
-      std::swap(ey_above, ey);
-    }
-  });
+    load_row(g.ptr<float>(i), inside.ptr<std::uint8_t>(i), limit, values, inside_row, w);
+  };
+  // gy for the edges from row i down to row i + 1.
+  const auto vertical = [&](int i, float* targets, float* weights) {
+    for (int k = 0; k < 4; ++k)
+      load(q, i - 1 + k, g_rows[k].data(), m_rows[k].data());
+    edge_targets(g_rows[0].data(), g_rows[1].data(), g_rows[2].data(), g_rows[3].data(),
+                 m_rows[0].data(), m_rows[1].data(), m_rows[2].data(), m_rows[3].data(), targets,
+                 weights, w);
+    for (std::size_t j = 0; j < width; ++j)
+      targets[j] = -targets[j];  // y is up, the row index down
+  };
+  vertical(begin - 1, gy_above.data(), ey_above.data());
+  for (int i = begin; i < end; ++i) {
+    load(p, i, g_row.data() + 1, m_row.data() + 1);
+    edge_targets(g_row.data(), g_row.data() + 1, g_row.data() + 2, g_row.data() + 3, m_row.data(),
+                 m_row.data() + 1, m_row.data() + 2, m_row.data() + 3, gx.data() + 1, ex.data() + 1,
+                 w);
+    vertical(i, gy.data(), ey.data());
+    const std::size_t row = static_cast<std::size_t>(i) * width;
+    pack_edges(ex.data(), ey.data(), ey_above.data(), edges + row, w);
+    for (std::size_t j = 0; j < width; ++j)
+      b[row + j] = gx[j] - gx[j + 1] + gy_above[j] - gy[j];
+    std::swap(gy_above, gy);
+    std::swap(ey_above, ey);
+  }
+}
 
-  Multigrid multigrid(std::move(fine));
+// Preconditioned conjugate gradients from zero, into `x` (w x h), for the
+// finest level's system with right-hand side `b`. The search direction d
+// and A d are updated together from z = M r in one pass:
+// A (z + beta d) = A z + beta A d.
+// The residual is built in b's buffer: fewer fresh pages for the kernel to
+// clear.
+MaskedIntegrationStats conjugate_gradients(Multigrid& multigrid, std::vector<float> b, float* x,
+                                           int w, int h, const MaskedIntegrationOptions& options) {
   const Level& level = multigrid.finest();
-
-  // Preconditioned conjugate gradients from zero. The search direction d
-  // and A d are updated together from z = M r in one pass:
-  // A (z + beta d) = A z + beta A d.
-  // The solution is built in the result's own buffer, and the residual in
-  // b's: fewer fresh pages for the kernel to clear.
-  cv::Mat height(h, w, CV_32F, cv::Scalar(0));
-  float* const x = height.ptr<float>();
+  const std::size_t n = static_cast<std::size_t>(w) * h;
   const double b_norm = std::sqrt(dot(b, b, w, h));
   std::vector<float> r = std::move(b);
   std::vector<float> z(n, 0.0F);
@@ -831,14 +827,16 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
       dad = update_direction(level, z.data(), beta, d.data(), ad.data());
     }
   }
-  if (stats != nullptr) *stats = {iterations, relative};
+  return {iterations, relative};
+}
 
-  // Each connected piece of the domain has its own free constant: give each
-  // zero mean, and NaN outside the domain.
-  cv::Mat labels;
-  const int pieces = cv::connectedComponents(inside, labels, 4, CV_32S);
-  // Sums per piece: per chunk of rows when there are few pieces, combined
-  // in chunk order; serially for a lace of many.
+// The mean of `height` over each labelled piece (label 0, outside the
+// domain, left at 0). Sums per piece: per chunk of rows when there are few
+// pieces, combined in chunk order; serially for a lace of many.
+std::vector<float> piece_means(const cv::Mat& labels, int pieces, const cv::Mat& height) {
+  const int w = height.cols;
+  const int h = height.rows;
+  const float* const x = height.ptr<float>();
   const auto piece_count = static_cast<std::size_t>(pieces);
   std::vector<double> sum(piece_count, 0.0);
   std::vector<double> count(piece_count, 0.0);
@@ -871,15 +869,52 @@ Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& 
   std::vector<float> mean(static_cast<std::size_t>(pieces), 0.0F);
   for (std::size_t c = 1; c < mean.size(); ++c)
     mean[c] = static_cast<float>(sum[c] / count[c]);
-  parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
+  return mean;
+}
+
+// Each connected piece of the domain has its own free constant: give each
+// zero mean, and NaN outside the domain.
+void centre_pieces(const cv::Mat& inside, cv::Mat& height) {
+  const int w = height.cols;
+  cv::Mat labels;
+  const int pieces = cv::connectedComponents(inside, labels, 4, CV_32S);
+  const std::vector<float> mean = piece_means(labels, pieces, height);
+  parallel_chunks(height.rows, kRowsPerChunk, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
       const int* lr = labels.ptr<int>(i);
-      float* out = height.ptr<float>(i);  // = x's row
+      float* out = height.ptr<float>(i);
       for (int j = 0; j < w; ++j)
         out[j] = lr[j] == 0 ? std::numeric_limits<float>::quiet_NaN()
                             : out[j] - mean[static_cast<std::size_t>(lr[j])];
     }
   });
+}
+
+Result<cv::Mat> solve_masked(const cv::Mat& p, const cv::Mat& q, const cv::Mat& mask,
+                             const MaskedIntegrationOptions& options,
+                             MaskedIntegrationStats* stats) {
+  const int w = p.cols;
+  const int h = p.rows;
+  const std::size_t n = static_cast<std::size_t>(w) * h;
+  const cv::Mat inside = integration_domain(p, q, mask);
+
+  Level fine;
+  fine.w = w;
+  fine.h = h;
+  fine.edges.assign(n, 0);
+  std::vector<float> b(n, 0.0F);
+  parallel_chunks(h, kRowsPerChunk, [&](int begin, int end) {
+    assemble_rows(p, q, inside, options.max_slope, begin, end, fine.edges.data(), b.data());
+  });
+  Multigrid multigrid(std::move(fine));
+
+  // The solution is built in the result's own buffer: fewer fresh pages for
+  // the kernel to clear.
+  cv::Mat height(h, w, CV_32F, cv::Scalar(0));
+  const MaskedIntegrationStats solved =
+      conjugate_gradients(multigrid, std::move(b), height.ptr<float>(), w, h, options);
+  if (stats != nullptr) *stats = solved;
+  centre_pieces(inside, height);
   return height;
 }
 
