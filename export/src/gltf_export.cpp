@@ -411,6 +411,15 @@ Status write_gltf_directory(tinygltf::Model& model, const MaterialPngs& pngs,
 
 }  // namespace
 
+ExportResult export_result(const MaterialSource& source, const fs::path& out) {
+  ExportResult result;
+  result.output = out;
+  result.width_mm = source.width_mm();
+  result.height_mm = source.height_mm();
+  result.warnings = source.warnings;
+  return result;
+}
+
 Result<ExportResult> export_gltf(const MaterialSource& source, const fs::path& out,
                                  const GltfOptions& options) {
   auto target = check_target(out, options);
@@ -418,11 +427,7 @@ Result<ExportResult> export_gltf(const MaterialSource& source, const fs::path& o
   auto textures = load_textures(source);
   if (!textures) return std::unexpected(textures.error());
 
-  ExportResult result;
-  result.output = out;
-  result.width_mm = source.width_mm();
-  result.height_mm = source.height_mm();
-  result.warnings = source.warnings;
+  ExportResult result = export_result(source, out);
 
   auto pngs = encode_material_pngs(source, *textures);
   if (!pngs) return std::unexpected(pngs.error());

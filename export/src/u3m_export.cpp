@@ -215,11 +215,7 @@ Result<ExportResult> export_u3m(const MaterialSource& source, const fs::path& ou
 
   auto textures = load_textures(source);
   if (!textures) return std::unexpected(textures.error());
-  ExportResult result;
-  result.output = out;
-  result.width_mm = source.width_mm();
-  result.height_mm = source.height_mm();
-  result.warnings = source.warnings;
+  ExportResult result = export_result(source, out);
 
   std::vector<ArchiveEntry> files;  // textures, preview, then the document
   const auto add = [&](const std::string& name, const cv::Mat& image, TextureKind kind) -> Status {

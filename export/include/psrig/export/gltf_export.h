@@ -36,6 +36,11 @@ struct ExportResult {
   std::vector<std::string> warnings;
 };
 
+// What an export of `source` into `out` starts from: its size and the
+// source's warnings.
+[[nodiscard]] ExportResult export_result(const MaterialSource& source,
+                                         const std::filesystem::path& out);
+
 // Writes the glTF of `source` to `out`. An existing `out` is replaced only
 // when it is an earlier export (a .glb file, or a directory holding
 // STEM.gltf); nothing is half-written.
