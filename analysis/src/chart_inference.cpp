@@ -171,7 +171,7 @@ std::vector<Candidate> shortlist(std::vector<Candidate> all) {
 
 // Millimetres per pixel for knitting: the maps' own, else a plain knit's
 // wale spacing over this lattice's.
-double render_scale(const StitchLattice& lattice, const analysis::FabricMeasurement& fabric) {
+double render_scale(const StitchLattice& lattice, const FabricMeasurement& fabric) {
   return fabric.pixel_size_mm.value_or(kTemplateWaleMm / norm(lattice.next_wale_px));
 }
 
@@ -187,9 +187,9 @@ struct Reading {
   inference::Synthesis synthesis;
 };
 
-std::optional<Reading> read_candidate(const cv::Mat& height, const cv::Mat& albedo,
-                                      cv::Rect window, const Candidate& candidate,
-                                      const analysis::FabricMeasurement& fabric, int max_period,
+std::optional<Reading> read_candidate(const cv::Mat& height, const cv::Mat& albedo, cv::Rect window,
+                                      const Candidate& candidate,
+                                      const FabricMeasurement& fabric, int max_period,
                                       int n) {
   const StitchBlock block = inference::inner_stitches(candidate.lattice, height.size());
   if (block.columns < 2 || block.rows < 2) return std::nullopt;
@@ -222,7 +222,8 @@ std::string describe(int columns, int rows) {
 // (its neighbours' effect included) it correlates with best; where its face
 // has holes, the chart's.
 std::vector<cloth::Stitch> read_stitches(const std::vector<cv::Mat>& faces, int columns,
-                                  const cv::Mat& folded, const cloth::StitchChart& chart, int n) {
+                                         const cv::Mat& folded, const cloth::StitchChart& chart,
+                                         int n) {
   std::vector<std::pair<cv::Mat, cloth::Stitch>> cells;
   for (int row = 0; row < chart.rows; ++row)
     for (int column = 0; column < chart.columns; ++column) {
@@ -262,7 +263,7 @@ void colour_chart(cloth::StitchChart& chart, const std::vector<std::uint8_t>& in
 // What a chart is read from: knitted maps with a measured repeat, their
 // height, and an albedo (when there is one) that matches it.
 Status check_chart_inputs(const cv::Mat& height, const cv::Mat& albedo,
-                          const analysis::FabricMeasurement& fabric) {
+                          const FabricMeasurement& fabric) {
   using analysis::Construction;
   if (fabric.construction == Construction::woven && fabric.construction_from_metadata)
     return std::unexpected(bad_input(
@@ -306,13 +307,13 @@ std::optional<Reading> choose_reading(const std::vector<std::optional<Reading>>&
 }
 
 // Why the maps gave no chart: the best fit, short of a knit's.
-Error poor_fit(const std::optional<Reading>& best, const analysis::FabricMeasurement& fabric) {
+Error poor_fit(const std::optional<Reading>& best, const FabricMeasurement& fabric) {
   char text[400];
   std::snprintf(text, sizeof text,
                 "the maps' stitches look like no knitted chart (best fit %.2f; knitted fabric "
                 "fits %.2f or more)%s",
                 best ? best->synthesis.match.score : 0.0, kMinFit,
-                fabric.construction == analysis::Construction::woven
+                fabric.construction == Construction::woven
                     ? ": the measurement takes it for woven (give scan.json's "
                       "fabric.construction if it is knitted)"
                     : ": is it knitted?");
@@ -323,7 +324,7 @@ Error poor_fit(const std::optional<Reading>& best, const analysis::FabricMeasure
 // phase, the likeliest knitted and matched, the best kept where it fits as
 // knitted fabric does.
 Result<Reading> best_reading(const cv::Mat& height, const cv::Mat& albedo, cv::Rect window,
-                             const RepeatFrame& measured, const analysis::FabricMeasurement& fabric,
+                             const RepeatFrame& measured, const FabricMeasurement& fabric,
                              const ChartInferenceOptions& options, TemplateBank& bank) {
   const int n = options.samples;
   std::vector<Candidate> candidates =
@@ -409,7 +410,7 @@ InferredKnit knit_of(const Reading& reading, const cv::Mat& height, const cv::Ma
 // Densities as fabric_measure.h counts them, one wale and course per stitch,
 // the chart's gauge where the pixel size is known, and the notes.
 void add_gauge_and_notes(InferredKnit& out, const Reading& reading,
-                         const analysis::FabricMeasurement& fabric) {
+                         const FabricMeasurement& fabric) {
   cloth::StitchChart& chart = out.chart;
   const auto [wale_px, course_px] = inference::spacing(out.lattice);
   out.per_pixel = !fabric.pixel_size_mm;
@@ -439,7 +440,7 @@ void add_gauge_and_notes(InferredKnit& out, const Reading& reading,
 }  // namespace
 
 Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& albedo,
-                                      const analysis::FabricMeasurement& fabric,
+                                      const FabricMeasurement& fabric,
                                       const ChartInferenceOptions& options) {
   if (auto ok = check_chart_inputs(height_in, albedo, fabric); !ok)
     return std::unexpected(ok.error());
@@ -449,9 +450,8 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
   const int side_x = std::min(height.cols, kMaxWorkingSide);
   const int side_y = std::min(height.rows, kMaxWorkingSide);
   const cv::Rect window((height.cols - side_x) / 2, (height.rows - side_y) / 2, side_x, side_y);
-  const RepeatFrame measured{{window.x + 0.5 * side_x, window.y + 0.5 * side_y},
-                             fabric.u_px,
-                             -fabric.v_px};
+  const RepeatFrame measured{
+      {window.x + 0.5 * side_x, window.y + 0.5 * side_y}, fabric.u_px, -fabric.v_px};
 
   TemplateBank bank(n);
   const auto reading = best_reading(height, albedo, window, measured, fabric, options, bank);
@@ -461,8 +461,8 @@ Result<InferredKnit> infer_knit_chart(const cv::Mat& height_in, const cv::Mat& a
   return out;
 }
 
-ChartInferenceOptions options_from_scan(const analysis::FabricMeasurement& fabric,
-                                        const analysis::FabricHints& hints) {
+ChartInferenceOptions options_from_scan(const FabricMeasurement& fabric,
+                                        const FabricHints& hints) {
   ChartInferenceOptions options;
   if (hints.across_per_repeat > 0 && hints.along_per_repeat > 0) {
     options.known_wales_per_repeat = fabric.threads_u;
@@ -471,7 +471,7 @@ ChartInferenceOptions options_from_scan(const analysis::FabricMeasurement& fabri
   return options;
 }
 
-void count_stitches(analysis::FabricMeasurement& fabric, const InferredKnit& knit) {
+void count_stitches(FabricMeasurement& fabric, const InferredKnit& knit) {
   fabric.threads_u = knit.wales_per_repeat;
   fabric.threads_v = knit.courses_per_repeat;
   fabric.across_density = knit.wales_per_cm;

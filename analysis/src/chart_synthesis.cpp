@@ -31,7 +31,8 @@ struct Trial {
 // length from the gauge (l = K_w / wales = K_c / courses, averaged), tex
 // from the tightness factor (sqrt(tex) = K l).
 float yarn_for(const Trial& trial, float tightness) {
-  const float loop_mm = 0.5f * (cloth::kMundenWales * trial.wale_mm + cloth::kMundenCourses * trial.course_mm);
+  const float loop_mm =
+      0.5f * (cloth::kMundenWales * trial.wale_mm + cloth::kMundenCourses * trial.course_mm);
   const float root_tex = tightness * loop_mm;
   return cloth::yarn_diameter_from_tex(root_tex * root_tex);
 }
@@ -116,7 +117,8 @@ std::optional<Synthesis> every_labelling(const Trial& trial) {
 // the lone knit and purl faces, the face read `down` samples lower: a
 // stitch's look lies partly in the course below its face (the V's point,
 // the purl bump) and partly in its own.
-std::vector<cloth::Stitch> lone_labelling(const Trial& trial, const StitchTemplates& lone, int down) {
+std::vector<cloth::Stitch> lone_labelling(const Trial& trial, const StitchTemplates& lone,
+                                          int down) {
   const int n = lone.samples;
   const cv::Mat& f = trial.folded;
   cv::Mat shifted(f.size(), CV_32F);  // row r: the fold's row r + down
@@ -128,7 +130,8 @@ std::vector<cloth::Stitch> lone_labelling(const Trial& trial, const StitchTempla
       cv::Mat face =
           shifted(cv::Rect(column * n, (trial.period.rows - 1 - row) * n, n, n)).clone();
       normalise(face);
-      labels.push_back(face.dot(lone.knit) >= face.dot(lone.purl) ? cloth::Stitch::knit : cloth::Stitch::purl);
+      labels.push_back(face.dot(lone.knit) >= face.dot(lone.purl) ? cloth::Stitch::knit
+                                                                  : cloth::Stitch::purl);
     }
   return labels;
 }

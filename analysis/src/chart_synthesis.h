@@ -11,8 +11,8 @@
 
 #include <opencv2/core.hpp>
 
-#include "psrig/cloth/stitch_chart.h"
 #include "psrig/analysis/stitch_templates.h"
+#include "psrig/cloth/stitch_chart.h"
 #include "stitch_period.h"
 
 namespace psrig::analysis::inference {

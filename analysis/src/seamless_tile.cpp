@@ -204,7 +204,8 @@ Result<formats::AtomicDirectory::Existing> check_tile_output(const fs::path& out
     return formats::AtomicDirectory::Existing::replace;
   std::ifstream in(output / formats::tile_files::kDescription);
   const nlohmann::json doc = nlohmann::json::parse(in, nullptr, false);
-  if (fs::is_directory(status) && doc.is_object() && doc.value("format", "") == formats::tile_files::kFormat)
+  if (fs::is_directory(status) && doc.is_object() &&
+      doc.value("format", "") == formats::tile_files::kFormat)
     return formats::AtomicDirectory::Existing::replace;
   return std::unexpected(bad_input(output, "",
                                    "exists and is not a psrig tile directory; refusing to replace "
@@ -519,7 +520,8 @@ nlohmann::json tile_json(const Tile& tile) {
   return j;
 }
 
-Status write_tile(const Tile& tile, const fs::path& directory, const formats::StorageOptions& storage) {
+Status write_tile(const Tile& tile, const fs::path& directory,
+                  const formats::StorageOptions& storage) {
   const auto existing = check_tile_output(directory);
   if (!existing) return std::unexpected(existing.error());
   auto staging = formats::AtomicDirectory::create(directory);
@@ -528,24 +530,32 @@ Status write_tile(const Tile& tile, const fs::path& directory, const formats::St
   const formats::Maps& m = tile.maps;
   const std::vector<int> png = formats::png_params(storage.png_level);
   const std::vector<int> half = formats::exr_params(storage.exr_compression, true);
-  const std::vector<int> map_exr =
-      formats::exr_params(storage.exr_compression, storage.map_precision == formats::MapPrecision::half);
-  if (auto ok = formats::write_image(dir / formats::map_files::kAlbedoPng, formats::encode_albedo_srgb8(m.albedo), png); !ok)
+  const std::vector<int> map_exr = formats::exr_params(
+      storage.exr_compression, storage.map_precision == formats::MapPrecision::half);
+  if (auto ok = formats::write_image(dir / formats::map_files::kAlbedoPng,
+                                     formats::encode_albedo_srgb8(m.albedo), png);
+      !ok)
     return ok;
-  if (auto ok = formats::write_image(dir / formats::map_files::kAlbedoExr, m.albedo, half); !ok) return ok;
-  if (auto ok = formats::write_image(dir / formats::map_files::kNormalPng, formats::encode_normal16(m.p, m.q), png); !ok)
+  if (auto ok = formats::write_image(dir / formats::map_files::kAlbedoExr, m.albedo, half); !ok)
+    return ok;
+  if (auto ok = formats::write_image(dir / formats::map_files::kNormalPng,
+                                     formats::encode_normal16(m.p, m.q), png);
+      !ok)
     return ok;
   if (auto ok = formats::write_image(dir / formats::map_files::kP, m.p, map_exr); !ok) return ok;
   if (auto ok = formats::write_image(dir / formats::map_files::kQ, m.q, map_exr); !ok) return ok;
   if (!m.height.empty()) {
-    if (auto ok = formats::write_image(dir / formats::map_files::kHeightExr, m.height, map_exr); !ok) return ok;
+    if (auto ok = formats::write_image(dir / formats::map_files::kHeightExr, m.height, map_exr);
+        !ok)
+      return ok;
     const cv::Mat finite = m.height == m.height;
     double low = 0, high = 0;
     if (cv::countNonZero(finite) > 0)
       cv::minMaxLoc(m.height, &low, &high, nullptr, nullptr, finite);
     cv::Mat height16 = formats::encode_height16(m.height, low, high);
     height16.setTo(0, ~finite);
-    if (auto ok = formats::write_image(dir / formats::map_files::kHeightPng, height16, png); !ok) return ok;
+    if (auto ok = formats::write_image(dir / formats::map_files::kHeightPng, height16, png); !ok)
+      return ok;
   }
   if (auto ok = formats::write_image(dir / formats::map_files::kMask, m.mask, png); !ok) return ok;
   const fs::path json_path = dir / formats::tile_files::kDescription;

@@ -55,8 +55,8 @@ bool normalise(cv::Mat& face) {
 
 }  // namespace
 
-Result<cv::Mat> render_chart_repeat(const cloth::StitchChart& pattern, float wale_mm, float course_mm,
-                                    float yarn_mm, int samples, bool draft) {
+Result<cv::Mat> render_chart_repeat(const cloth::StitchChart& pattern, float wale_mm,
+                                    float course_mm, float yarn_mm, int samples, bool draft) {
   if (!(wale_mm > 0) || !(course_mm > 0) || samples < 4 || pattern.cells.empty())
     return std::unexpected(bad_input({}, {}, "a rendered repeat needs a chart, a positive wale and "
                                              "course spacing and at least 4 samples a side"));
@@ -78,7 +78,8 @@ Result<cv::Mat> render_chart_repeat(const cloth::StitchChart& pattern, float wal
   };
   const int across = field(chart.columns), up = field(chart.rows);
   const int first_column = across / 2 * chart.columns, first_row = up / 2 * chart.rows;
-  auto fabric = cloth::KnitFabric::build(chart, across * chart.columns, up * chart.rows, parameters);
+  auto fabric =
+      cloth::KnitFabric::build(chart, across * chart.columns, up * chart.rows, parameters);
   if (!fabric) return std::unexpected(fabric.error());
   const cloth::StitchMesh mesh = fabric->mesh();
   cloth::YarnSet yarns;

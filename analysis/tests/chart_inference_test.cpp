@@ -13,9 +13,9 @@
 #include <gtest/gtest.h>
 
 #include "knitted_maps.h"
-#include "test_support.h"
 #include "psrig/analysis/colour_palette.h"
 #include "psrig/cloth/srgb.h"
+#include "test_support.h"
 
 namespace psrig::cloth {
 namespace {
@@ -40,15 +40,16 @@ std::string text_of(const StitchChart& chart) {
 }
 
 // The figures, printed for the record (cloth/README.md quotes them).
-void print_figures(const std::string& name, const analysis::InferredKnit& knit, const StitchChart& truth,
-                   const test::KnittedMaps& maps) {
-  std::printf("chart inference: %s: chart %s, %.1f %% of %d stitches right, wales %+.2f %%, "
-              "courses %+.2f %%, yarn %.2f mm (chart's %.2f), fit %.3f\n",
-              name.c_str(), analysis::same_chart_up_to_shift(knit.chart, truth) ? "equal" : "DIFFERENT",
-              100 * analysis::agreement_with_chart(knit.stitches, knit.columns, knit.rows, truth),
-              knit.columns * knit.rows, 100 * (knit.wales_per_cm / maps.wales_per_cm - 1),
-              100 * (knit.courses_per_cm / maps.courses_per_cm - 1),
-              knit.chart.gauge.yarn_diameter_mm, truth.gauge.yarn_diameter_mm, knit.fit);
+void print_figures(const std::string& name, const analysis::InferredKnit& knit,
+                   const StitchChart& truth, const test::KnittedMaps& maps) {
+  std::printf(
+      "chart inference: %s: chart %s, %.1f %% of %d stitches right, wales %+.2f %%, "
+      "courses %+.2f %%, yarn %.2f mm (chart's %.2f), fit %.3f\n",
+      name.c_str(), analysis::same_chart_up_to_shift(knit.chart, truth) ? "equal" : "DIFFERENT",
+      100 * analysis::agreement_with_chart(knit.stitches, knit.columns, knit.rows, truth),
+      knit.columns * knit.rows, 100 * (knit.wales_per_cm / maps.wales_per_cm - 1),
+      100 * (knit.courses_per_cm / maps.courses_per_cm - 1), knit.chart.gauge.yarn_diameter_mm,
+      truth.gauge.yarn_diameter_mm, knit.fit);
 }
 
 struct Case {
@@ -68,8 +69,12 @@ TEST_P(ChartInference, FindsTheChartTheStitchesAndTheGauge) {
   ASSERT_TRUE(inferred) << inferred.error().describe();
   print_figures(c.chart, *inferred, truth, maps);
   EXPECT_TRUE(analysis::same_chart_up_to_shift(inferred->chart, truth))
-      << "inferred:\n" << text_of(inferred->chart) << "truth:\n" << text_of(truth);
-  EXPECT_GE(analysis::agreement_with_chart(inferred->stitches, inferred->columns, inferred->rows, truth), 0.95)
+      << "inferred:\n"
+      << text_of(inferred->chart) << "truth:\n"
+      << text_of(truth);
+  EXPECT_GE(
+      analysis::agreement_with_chart(inferred->stitches, inferred->columns, inferred->rows, truth),
+      0.95)
       << inferred->notes.front();
   EXPECT_NEAR(inferred->wales_per_cm / maps.wales_per_cm, 1.0, 0.02);
   EXPECT_NEAR(inferred->courses_per_cm / maps.courses_per_cm, 1.0, 0.02);
@@ -111,8 +116,11 @@ TEST(ChartInference, Basketweave) {
   print_figures("basketweave.chart", *inferred, truth, maps);
   EXPECT_EQ(inferred->chart.columns, 8);
   EXPECT_EQ(inferred->chart.rows, 8);
-  EXPECT_GE(analysis::agreement_with_chart(inferred->stitches, inferred->columns, inferred->rows, truth), 0.95)
-      << "inferred:\n" << text_of(inferred->chart) << inferred->notes.front();
+  EXPECT_GE(
+      analysis::agreement_with_chart(inferred->stitches, inferred->columns, inferred->rows, truth),
+      0.95)
+      << "inferred:\n"
+      << text_of(inferred->chart) << inferred->notes.front();
   EXPECT_NEAR(inferred->wales_per_cm / maps.wales_per_cm, 1.0, 0.02);
   EXPECT_NEAR(inferred->courses_per_cm / maps.courses_per_cm, 1.0, 0.02);
 }
@@ -129,8 +137,8 @@ TEST(ChartInference, StripesGiveAPaletteAndColourRows) {
   for (int row = 0; row < 4; ++row)
     EXPECT_EQ(chart.colour_at(0, row), chart.colour_at(0, row + 2) == 0 ? 1 : 0) << text_of(chart);
   for (const Eigen::Vector3f& colour : chart.palette) {
-    const float nearest =
-        std::min(analysis::delta_e(colour, truth.palette[0]), analysis::delta_e(colour, truth.palette[1]));
+    const float nearest = std::min(analysis::delta_e(colour, truth.palette[0]),
+                                   analysis::delta_e(colour, truth.palette[1]));
     EXPECT_LT(nearest, 3.0f) << format_srgb_hex(colour);
   }
   // Written out and read back, the same chart.

@@ -32,8 +32,8 @@ sim::Swatch swatch_of(const Case& c, cv::Size size = {640, 480}) {
 
 // What scan.json's fabric says of a simulated swatch (sim/fabric_truth.h).
 analysis::FabricHints hints_of(const sim::SwatchPattern& pattern) {
-  return {pattern.knitted() ? analysis::Construction::knit : analysis::Construction::woven, pattern.name,
-          pattern.gauge.across_per_repeat, pattern.gauge.along_per_repeat};
+  return {pattern.knitted() ? analysis::Construction::knit : analysis::Construction::woven,
+          pattern.name, pattern.gauge.across_per_repeat, pattern.gauge.along_per_repeat};
 }
 
 class FabricGauge : public ::testing::TestWithParam<Case> {};
@@ -82,8 +82,8 @@ INSTANTIATE_TEST_SUITE_P(Patterns, FabricGauge,
 // weave's threads, 15 pixels apart, must stay resolved.
 TEST(FabricMeasure, LargeScanIsMeasuredAtFullResolution) {
   const sim::Swatch swatch = swatch_of({"plain", 3}, {1800, 1400});
-  const auto m =
-      analysis::measure_fabric(swatch.height_mm, swatch.albedo, {0.025, {analysis::Construction::woven, "plain"}});
+  const auto m = analysis::measure_fabric(swatch.height_mm, swatch.albedo,
+                                          {0.025, {analysis::Construction::woven, "plain"}});
   ASSERT_TRUE(m && m->periodic);
   EXPECT_NEAR(m->across_density / 24.0, 1.0, 0.01) << analysis::summary_line(*m);
   EXPECT_NEAR(m->along_density / 22.0, 1.0, 0.01) << analysis::summary_line(*m);
@@ -100,7 +100,9 @@ TEST(FabricMeasure, TellsKnitFromWovenByStructure) {
     options.pixel_size_mm = 0.025;
     const auto m = analysis::measure_fabric(swatch.height_mm, swatch.albedo, options);
     ASSERT_TRUE(m && m->periodic) << pattern;
-    EXPECT_EQ(m->construction, knitted ? analysis::Construction::knit : analysis::Construction::woven) << pattern;
+    EXPECT_EQ(m->construction,
+              knitted ? analysis::Construction::knit : analysis::Construction::woven)
+        << pattern;
     EXPECT_FALSE(m->construction_from_metadata);
     EXPECT_GT(m->construction_confidence, 0.5);
     EXPECT_LT(m->construction_confidence, 1.0);
@@ -112,7 +114,7 @@ TEST(FabricMeasure, TellsKnitFromWovenByStructure) {
 TEST(FabricMeasure, WithoutPixelSizeFiguresArePerPixelAndSaySo) {
   const sim::Swatch swatch = swatch_of({"jersey", 0});
   const auto m = analysis::measure_fabric(swatch.height_mm, swatch.albedo,
-                                {std::nullopt, {analysis::Construction::knit, "jersey"}});
+                                          {std::nullopt, {analysis::Construction::knit, "jersey"}});
   ASSERT_TRUE(m && m->periodic);
   const sim::SwatchGauge truth = test::named_pattern("jersey").gauge;
   // Per pixel = per cm times the pixel size in cm.
@@ -145,7 +147,8 @@ TEST(FabricMeasure, RandomReliefHasNoRepeat) {
 // missing lattice names its key.
 TEST(FabricMeasure, ReadsReportJsonBack) {
   const sim::Swatch swatch = swatch_of({"rib", 3});
-  const auto m = analysis::measure_fabric(swatch.height_mm, swatch.albedo, {0.025, {analysis::Construction::knit, "rib"}});
+  const auto m = analysis::measure_fabric(swatch.height_mm, swatch.albedo,
+                                          {0.025, {analysis::Construction::knit, "rib"}});
   ASSERT_TRUE(m && m->periodic);
   const auto back = analysis::fabric_from_json(to_json(*m), 0.025);
   ASSERT_TRUE(back) << back.error().describe();
@@ -167,12 +170,13 @@ TEST(FabricMeasure, ReadsReportJsonBack) {
 }
 
 TEST(FabricMeasure, ReadsTheScansFabricMetadata) {
-  const auto hints =
-      analysis::fabric_hints(nlohmann::json{{"fabric", {{"construction", "woven"}, {"structure", "twill"}}}});
+  const auto hints = analysis::fabric_hints(
+      nlohmann::json{{"fabric", {{"construction", "woven"}, {"structure", "twill"}}}});
   EXPECT_EQ(hints.construction, analysis::Construction::woven);
   EXPECT_EQ(hints.structure, "twill");
   EXPECT_EQ(hints.across_per_repeat, 0);
-  EXPECT_EQ(analysis::fabric_hints(nlohmann::json{{"fabric", 3}}).construction, analysis::Construction::unknown);
+  EXPECT_EQ(analysis::fabric_hints(nlohmann::json{{"fabric", 3}}).construction,
+            analysis::Construction::unknown);
   const auto counted = analysis::fabric_hints(nlohmann::json{
       {"fabric", {{"construction", "knit"}, {"stitches_per_repeat", nlohmann::json{4, 1}}}}});
   EXPECT_EQ(counted.across_per_repeat, 4);
@@ -180,9 +184,9 @@ TEST(FabricMeasure, ReadsTheScansFabricMetadata) {
   // Counts that are no counts are no hint.
   for (const nlohmann::json& bad : {nlohmann::json{4}, nlohmann::json{0, 1}, nlohmann::json{2.5, 1},
                                     nlohmann::json("4x1"), nlohmann::json{4, 1, 1}})
-    EXPECT_EQ(
-        analysis::fabric_hints(nlohmann::json{{"fabric", {{"threads_per_repeat", bad}}}}).across_per_repeat,
-        0)
+    EXPECT_EQ(analysis::fabric_hints(nlohmann::json{{"fabric", {{"threads_per_repeat", bad}}}})
+                  .across_per_repeat,
+              0)
         << bad.dump();
 }
 

@@ -101,7 +101,8 @@ int render(const DrapeArgs& args) {
       return report_error("drape", ok.error());
     drawn.emplace_back(scene->time(), std::move(image));
   }
-  if (auto ok = formats::write_image(staging->path() / "contact-sheet.png", contact_sheet(drawn)); !ok)
+  if (auto ok = formats::write_image(staging->path() / "contact-sheet.png", contact_sheet(drawn));
+      !ok)
     return report_error("drape", ok.error());
   if (auto ok = staging->commit(formats::AtomicDirectory::Existing::replace, false); !ok)
     return report_error("drape", ok.error());

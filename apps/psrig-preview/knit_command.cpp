@@ -3,24 +3,23 @@
 // 1 K, 10 K and 50 K stitches.
 
 #include <GLES3/gl3.h>
-#include <sys/resource.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <iostream>
 #include <optional>
+#include <sys/resource.h>
 #include <vector>
 
 #include <opencv2/core.hpp>
 
 #include "cloth_model.h"
-#include "scan_cloth.h"
 #include "command.h"
 #include "psrig/cloth/srgb.h"
-#include "psrig/preview/yarn_renderer.h"
 #include "psrig/cloth/weave_matrix.h"
 #include "psrig/formats/image_io.h"
+#include "psrig/preview/yarn_renderer.h"
+#include "scan_cloth.h"
 
 namespace psrig::preview::cli {
 namespace {

@@ -3,8 +3,8 @@
 #include <iostream>
 
 #include "command.h"
-#include "psrig/preview/patch_tile.h"
 #include "psrig/formats/image_io.h"
+#include "psrig/preview/patch_tile.h"
 
 namespace psrig::preview::cli {
 namespace {

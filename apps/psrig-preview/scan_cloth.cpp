@@ -14,7 +14,7 @@ constexpr double kDeg = 180.0 / 3.14159265358979323846;
 
 // The measured fabric: report.json's, else measured on the maps now.
 Result<analysis::FabricMeasurement> fabric_of(const formats::Maps& maps,
-                                                std::vector<std::string>& warnings) {
+                                              std::vector<std::string>& warnings) {
   if (maps.report.is_object() && maps.report.contains("fabric")) {
     auto fabric = analysis::fabric_from_json(maps.report["fabric"], maps.pixel_size_mm);
     if (fabric) return fabric;
@@ -23,8 +23,7 @@ Result<analysis::FabricMeasurement> fabric_of(const formats::Maps& maps,
   analysis::MeasureOptions options;
   options.pixel_size_mm = maps.pixel_size_mm;
   options.hints = analysis::fabric_hints(maps.scan_document);
-  return analysis::measure_fabric(maps.height.empty() ? maps.p : maps.height, maps.albedo,
-                                    options);
+  return analysis::measure_fabric(maps.height.empty() ? maps.p : maps.height, maps.albedo, options);
 }
 
 // Shear and spacings at rest of a lattice with steps `along` (one stitch

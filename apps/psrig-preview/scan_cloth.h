@@ -13,9 +13,9 @@
 #include <Eigen/Core>
 
 #include "cloth_model.h"
-#include "psrig/base/error.h"
 #include "psrig/analysis/chart_inference.h"
 #include "psrig/analysis/fabric_measure.h"
+#include "psrig/base/error.h"
 
 namespace psrig::preview::cli {
 

@@ -13,8 +13,8 @@
 #include <string>
 
 #include "command.h"
-#include "psrig/rig/rig_calibration.h"
 #include "psrig/lights/emergency_stop.h"
+#include "psrig/rig/rig_calibration.h"
 
 namespace psrig::cli {
 namespace {

@@ -49,8 +49,8 @@ Command add_devices_command(CLI::App& parent) {
         char usb_title[96];
         std::snprintf(usb_title, sizeof usb_title, "USB strobe controllers %04x:%04x (lights.usb)",
                       config.lights.usb.vendor_id, config.lights.usb.product_id);
-        print_section(usb_title, lights::find_usb_strobe_controllers(
-                                     config.lights.usb.vendor_id, config.lights.usb.product_id));
+        print_section(usb_title, lights::find_usb_strobe_controllers(config.lights.usb.vendor_id,
+                                                                     config.lights.usb.product_id));
         print_section("serial ports (lights.modbus.device)", lights::find_serial_ports());
         return 0;
       }};

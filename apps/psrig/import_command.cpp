@@ -11,10 +11,10 @@
 
 #include "command.h"
 #include "psrig/calibration/calibration_store.h"
-#include "psrig/formats/scan_layout.h"
 #include "psrig/calibration/image_set.h"
-#include "psrig/formats/scan_writer.h"
 #include "psrig/formats/image_io.h"
+#include "psrig/formats/scan_layout.h"
+#include "psrig/formats/scan_writer.h"
 
 namespace psrig::cli {
 namespace {

@@ -13,11 +13,11 @@
 #include <opencv2/core.hpp>
 
 #include "command.h"
-#include "psrig/processing/flatten.h"
-#include "psrig/formats/image_io.h"
-#include "psrig/processing/integration.h"
-#include "psrig/formats/map_encoding.h"
 #include "psrig/base/parallel.h"
+#include "psrig/formats/image_io.h"
+#include "psrig/formats/map_encoding.h"
+#include "psrig/processing/flatten.h"
+#include "psrig/processing/integration.h"
 
 namespace psrig::cli {
 namespace {

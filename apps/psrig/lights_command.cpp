@@ -7,8 +7,8 @@
 #include <thread>
 
 #include "command.h"
-#include "psrig/rig/rig.h"
 #include "psrig/lights/emergency_stop.h"
+#include "psrig/rig/rig.h"
 
 namespace psrig::cli {
 namespace {
@@ -51,8 +51,7 @@ Command add_lights_command(CLI::App& parent) {
             std::printf("lights: %s\n", rig->lights->describe().c_str());
             if (args->off) return rig->lights->all_off() ? 0 : 1;
             for (int round = 0; round < args->rounds && !lights::stop_requested(); ++round) {
-              for (int k = 0; k < rig->lights->channel_count() && !lights::stop_requested();
-                   ++k) {
+              for (int k = 0; k < rig->lights->channel_count() && !lights::stop_requested(); ++k) {
                 const double tilt = config->geometry.tilts_deg.at(static_cast<std::size_t>(k));
                 std::printf("LED %d on (tilt %.0f deg, slant %.0f deg)\n", k, tilt,
                             config->geometry.slant_deg);

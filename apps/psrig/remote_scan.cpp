@@ -12,8 +12,8 @@
 
 #include "command.h"
 #include "daemon_client.h"
-#include "psrig/lights/emergency_stop.h"
 #include "psrig/formats/scan_layout.h"
+#include "psrig/lights/emergency_stop.h"
 
 namespace psrig::cli {
 namespace {

@@ -7,11 +7,11 @@
 #include <memory>
 
 #include "command.h"
+#include "psrig/base/parallel.h"
 #include "psrig/calibration/calibration_status.h"
+#include "psrig/lights/emergency_stop.h"
 #include "psrig/rig/rig.h"
 #include "psrig/rig/scan_sequencer.h"
-#include "psrig/lights/emergency_stop.h"
-#include "psrig/base/parallel.h"
 #include "remote_scan.h"
 
 namespace psrig::cli {

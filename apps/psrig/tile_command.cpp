@@ -8,8 +8,8 @@
 
 #include "command.h"
 #include "psrig/analysis/fabric_measure.h"
-#include "psrig/formats/maps_reader.h"
 #include "psrig/analysis/seamless_tile.h"
+#include "psrig/formats/maps_reader.h"
 
 namespace psrig::cli {
 namespace {
@@ -45,8 +45,9 @@ Command add_tile_command(CLI::App& parent) {
             for (const auto& w : warnings)
               std::cerr << "psrig tile: warning: " << w << '\n';
             const std::filesystem::path out =
-                args->out.empty() ? std::filesystem::path(args->maps) / formats::tile_files::kDirectory
-                                  : std::filesystem::path(args->out);
+                args->out.empty()
+                    ? std::filesystem::path(args->maps) / formats::tile_files::kDirectory
+                    : std::filesystem::path(args->out);
             if (auto ok = analysis::write_tile(*tile, out); !ok)
               return report_error("tile", ok.error());
             if (args->quiet) return 0;

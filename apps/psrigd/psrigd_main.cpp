@@ -20,14 +20,14 @@
 #include <CLI/CLI.hpp>
 
 #include "psrig/base/log.h"
+#include "psrig/catalogue/rig_presence.h"
 #include "psrig/config/config_loader.h"
 #include "psrig/daemon/http_api.h"
 #include "psrig/daemon/modbus_server.h"
-#include "psrig/catalogue/rig_presence.h"
 #include "psrig/daemon/scan_service.h"
+#include "psrig/daemon/status_json.h"
 #include "psrig/daemon/systemd_notify.h"
 #include "psrig/lights/emergency_stop.h"
-#include "psrig/daemon/status_json.h"
 
 namespace {
 

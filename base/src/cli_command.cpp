@@ -61,7 +61,9 @@ SubcommandProgram::SubcommandProgram(std::string name, std::string_view version,
 
 namespace {
 
-bool is_quiet_flag(std::string_view arg) { return arg == "-q" || arg == "--quiet"; }
+bool is_quiet_flag(std::string_view arg) {
+  return arg == "-q" || arg == "--quiet";
+}
 
 // -q before the subcommand moves after it, so that a subcommand with a -q of
 // its own (print nothing on success) gets it; one without hands it back.
@@ -94,8 +96,8 @@ int SubcommandProgram::run(int argc, char** argv, const std::vector<Command>& co
     return code == 0 ? exit_done : exit_bad_input;
   }
   set_log_level(verbose_ ? spdlog::level::debug
-                         : quiet_ ? std::max(quiet_level_, spdlog::level::warn)
-                                  : quiet_level_);
+                : quiet_ ? std::max(quiet_level_, spdlog::level::warn)
+                         : quiet_level_);
   try {
     for (const auto& command : commands)
       if (command.app->parsed()) return command.run();

@@ -138,7 +138,8 @@ void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
       for (int column = 0; column < columns_; ++column) {
         const Eigen::Vector2f shift = static_cast<float>(column / repeat_columns) * rest_.a1 + up;
         const std::size_t first = per_stitch * static_cast<std::size_t>(column % repeat_columns);
-        for (std::size_t k = first; k < first + per_stitch; ++k) emit(k, shift, column);
+        for (std::size_t k = first; k < first + per_stitch; ++k)
+          emit(k, shift, column);
       }
       // The sinker after the last loop closes the course.
       emit(per_stitch * static_cast<std::size_t>(columns_ % repeat_columns),

@@ -3,14 +3,15 @@
 // energy never grows without input, nothing passes through a collider, a
 // knit gives more across its courses than along its wales, and the same
 // scene gives the same cloth on any number of threads.
+#include "psrig/cloth/stitch_cloth.h"
+
 #include <cmath>
 #include <filesystem>
 
 #include <gtest/gtest.h>
 
-#include "psrig/cloth/drape_scene.h"
-#include "psrig/cloth/stitch_cloth.h"
 #include "psrig/base/parallel.h"
+#include "psrig/cloth/drape_scene.h"
 
 namespace psrig::cloth {
 namespace {
@@ -164,7 +165,8 @@ TEST(DrapeScene, TheSameYarnsOnAnyNumberOfThreads) {
     auto fabric = KnitFabric::build(*chart, 16, 18, {});
     EXPECT_TRUE(fabric);
     DrapeAnimation scene(std::move(*fabric), DrapeScene::sphere);
-    for (int frame = 0; frame < 12; ++frame) scene.advance(kFrame);
+    for (int frame = 0; frame < 12; ++frame)
+      scene.advance(kFrame);
     YarnSet yarns;
     scene.yarns(yarns);
     return yarns;

@@ -18,12 +18,12 @@
 #include "http_answers.h"
 #include "psrig/base/log.h"
 #include "psrig/calibration/calibration_status.h"
-#include "psrig/rig/rig_calibration.h"
-#include "psrig/formats/scan_layout.h"
-#include "scan_exports.h"
-#include "rig_forwarding.h"
-#include "scan_previews.h"
 #include "psrig/daemon/status_json.h"
+#include "psrig/formats/scan_layout.h"
+#include "psrig/rig/rig_calibration.h"
+#include "rig_forwarding.h"
+#include "scan_exports.h"
+#include "scan_previews.h"
 #include "web_catalogue.h"
 
 namespace psrig::daemon {

@@ -454,8 +454,9 @@ void ModbusServer::Impl::refresh(const DaemonStatus& status) {
   if (refused)
     error = *refused;
   else if (failed)
-    error = status.last_error_code == catalogue::ScanErrorCode::none ? catalogue::ScanErrorCode::internal
-                                                          : status.last_error_code;
+    error = status.last_error_code == catalogue::ScanErrorCode::none
+                ? catalogue::ScanErrorCode::internal
+                : status.last_error_code;
 
   auto* registers = mapping->tab_input_registers;
   registers[modbus_register::state] = static_cast<std::uint16_t>(status.state);
@@ -507,9 +508,10 @@ void ModbusServer::Impl::act(bool trigger_edge, bool lights_off_edge) {
     } else {
       // Why, as the PLC reads it: a stopping daemon aborts, a full queue
       // says so (its code), anything else is the catalogue's storage.
-      refused = control.status().state == DaemonState::stopping   ? catalogue::ScanErrorCode::aborted
-                : submitted.error().code == ErrorCode::queue_full ? catalogue::ScanErrorCode::queue_full
-                                                                  : catalogue::ScanErrorCode::storage;
+      refused = control.status().state == DaemonState::stopping ? catalogue::ScanErrorCode::aborted
+                : submitted.error().code == ErrorCode::queue_full
+                    ? catalogue::ScanErrorCode::queue_full
+                    : catalogue::ScanErrorCode::storage;
       plc_log()->warn("PLC: trigger refused: {}", submitted.error().describe());
       const std::scoped_lock lock(counters_mutex);
       ++counters.triggers_refused;

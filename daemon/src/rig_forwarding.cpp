@@ -7,7 +7,8 @@
 
 namespace psrig::daemon {
 
-Result<catalogue::RigRecord> find_rig(const catalogue::Catalogue& catalogue, const std::string& name) {
+Result<catalogue::RigRecord> find_rig(const catalogue::Catalogue& catalogue,
+                                      const std::string& name) {
   auto rigs = catalogue.rigs();
   if (!rigs) return std::unexpected(rigs.error());
   std::string known;
@@ -45,7 +46,8 @@ Result<RigAnswer> forward_to_rig(const catalogue::RigRecord& rig, const std::str
   return RigAnswer{result->status, result->body};
 }
 
-nlohmann::json rigs_json(const std::vector<catalogue::RigRecord>& rigs, const std::string& this_rig) {
+nlohmann::json rigs_json(const std::vector<catalogue::RigRecord>& rigs,
+                         const std::string& this_rig) {
   nlohmann::json list = nlohmann::json::array();
   for (const auto& rig : rigs)
     list.push_back({{"name", rig.name},

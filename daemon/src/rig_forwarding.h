@@ -11,7 +11,6 @@
 #include <nlohmann/json.hpp>
 
 #include "psrig/base/error.h"
-
 #include "psrig/catalogue/catalogue.h"
 
 namespace psrig::daemon {
@@ -23,13 +22,15 @@ struct RigAnswer {
 
 // The rig named `name` in the catalogue's rigs list; a bad_input error
 // naming the rigs there are when it is not one.
-[[nodiscard]] Result<catalogue::RigRecord> find_rig(const catalogue::Catalogue& catalogue, const std::string& name);
+[[nodiscard]] Result<catalogue::RigRecord> find_rig(const catalogue::Catalogue& catalogue,
+                                                    const std::string& name);
 
 // `method` `path` with `body` (JSON) to the rig's API, with its token. An
 // error (ErrorCode::unavailable) naming the rig and its URL when it does
 // not answer.
-[[nodiscard]] Result<RigAnswer> forward_to_rig(const catalogue::RigRecord& rig, const std::string& method,
-                                               const std::string& path, const std::string& body);
+[[nodiscard]] Result<RigAnswer> forward_to_rig(const catalogue::RigRecord& rig,
+                                               const std::string& method, const std::string& path,
+                                               const std::string& body);
 
 // GET /v1/rigs: every rig, its status, whether it is online, never its token.
 [[nodiscard]] nlohmann::json rigs_json(const std::vector<catalogue::RigRecord>& rigs,

@@ -37,8 +37,9 @@ Status RigHolder::open(const config::RigConfig& config, catalogue::ScanErrorCode
                   internal_error(std::string("opening the rig: ") + e.what()));
   }
   if (!opened) {
-    const catalogue::ScanErrorCode what =
-        opened.error().code == ErrorCode::camera ? catalogue::ScanErrorCode::camera : catalogue::ScanErrorCode::lights;
+    const catalogue::ScanErrorCode what = opened.error().code == ErrorCode::camera
+                                              ? catalogue::ScanErrorCode::camera
+                                              : catalogue::ScanErrorCode::lights;
     return failed(what, opened.error());
   }
   auto rig = std::make_unique<rig::Rig>(std::move(*opened));

@@ -150,8 +150,8 @@ Result<fs::path> scan_preview(const fs::path& maps_directory, ScanPreview previe
     auto normal = read(maps_directory / formats::map_files::kNormalPng, cv::IMREAD_UNCHANGED);
     if (!normal) return std::unexpected(normal.error());
     if (normal->channels() != 3 || normal->size() != albedo->size())
-      return std::unexpected(
-          io_error(maps_directory / formats::map_files::kNormalPng, "not an RGB normal map the albedo's size"));
+      return std::unexpected(io_error(maps_directory / formats::map_files::kNormalPng,
+                                      "not an RGB normal map the albedo's size"));
     picture = relight(*albedo, *normal);
   }
 

@@ -92,8 +92,9 @@ void ScanRecorder::progress(std::int64_t id, const std::string& step, int percen
   events_.publish("progress", std::move(event));
 }
 
-void ScanRecorder::failed(std::int64_t id, catalogue::ScanStatus status, catalogue::ScanErrorCode code,
-                          const std::string& message, bool files_kept) {
+void ScanRecorder::failed(std::int64_t id, catalogue::ScanStatus status,
+                          catalogue::ScanErrorCode code, const std::string& message,
+                          bool files_kept) {
   auto log = logger("daemon");
   // A row that cannot be written now waits in the catalogue (catalogue.h).
   if (auto ok = catalogue_->mark_failed(id, status, code, message, files_kept); !ok)
@@ -108,7 +109,8 @@ void ScanRecorder::failed(std::int64_t id, catalogue::ScanStatus status, catalog
     status_.step.clear();
     status_.progress_percent = 0;
     if (!stopping_)
-      status_.state = status == catalogue::ScanStatus::failed ? DaemonState::error : DaemonState::idle;
+      status_.state =
+          status == catalogue::ScanStatus::failed ? DaemonState::error : DaemonState::idle;
   }
   auto event = scan_event(id);
   event.update({{"status", to_string(status)},
@@ -176,8 +178,8 @@ Status ScanRecorder::done(std::int64_t id, const fs::path& scan_directory,
 Status ScanRecorder::cancelled(std::int64_t id, const std::string& message) {
   // The scan has left the queue, so it is cancelled whether or not its row
   // can be written now: the catalogue keeps its end until it can.
-  if (auto ok =
-          catalogue_->mark_failed(id, catalogue::ScanStatus::aborted, catalogue::ScanErrorCode::aborted, message, false);
+  if (auto ok = catalogue_->mark_failed(id, catalogue::ScanStatus::aborted,
+                                        catalogue::ScanErrorCode::aborted, message, false);
       !ok)
     logger("daemon")->error("scan {}: {}", id, ok.error().describe());
   auto event = scan_event(id);
@@ -190,7 +192,8 @@ Status ScanRecorder::cancelled(std::int64_t id, const std::string& message) {
 }
 
 void ScanRecorder::abandoned(std::int64_t id) {
-  if (auto ok = catalogue_->mark_failed(id, catalogue::ScanStatus::aborted, catalogue::ScanErrorCode::aborted,
+  if (auto ok = catalogue_->mark_failed(id, catalogue::ScanStatus::aborted,
+                                        catalogue::ScanErrorCode::aborted,
                                         "psrigd stopped before this scan started", false);
       !ok)
     logger("daemon")->error("scan {}: {}", id, ok.error().describe());

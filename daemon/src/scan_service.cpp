@@ -4,9 +4,9 @@
 #include <exception>
 
 #include "psrig/base/log.h"
-#include "psrig/rig/scan_sequencer.h"
-#include "psrig/lights/emergency_stop.h"
 #include "psrig/formats/scan_layout.h"
+#include "psrig/lights/emergency_stop.h"
+#include "psrig/rig/scan_sequencer.h"
 
 namespace psrig::daemon {
 namespace {
@@ -57,8 +57,8 @@ Result<std::unique_ptr<ScanService>> ScanService::start(config::RigConfig config
   return start(std::move(config), std::move(*catalogue));
 }
 
-Result<std::unique_ptr<ScanService>> ScanService::start(config::RigConfig config,
-                                                        std::unique_ptr<catalogue::Catalogue> catalogue) {
+Result<std::unique_ptr<ScanService>> ScanService::start(
+    config::RigConfig config, std::unique_ptr<catalogue::Catalogue> catalogue) {
   // Scan directories are made from the roots the catalogue resolved (a
   // root reached through a symlink, say), or none would lie inside them.
   config.storage.root = catalogue->rig_root();
@@ -128,8 +128,9 @@ config::RigConfig ScanService::config() const {
 
 Result<std::int64_t> ScanService::submit(catalogue::ScanSubmission submission) {
   if (!has_rig()) return std::unexpected(no_rig_error());
-  auto id = queue_.push(std::move(submission),
-                        [&](const catalogue::ScanSubmission& queued) { return recorder_.add(queued); });
+  auto id = queue_.push(std::move(submission), [&](const catalogue::ScanSubmission& queued) {
+    return recorder_.add(queued);
+  });
   if (!id) {
     Error error = id.error();
     if (error.code == ErrorCode::queue_full) {
@@ -171,8 +172,9 @@ Result<std::int64_t> ScanService::submit_calibration(nlohmann::json options,
   submission.source = "http";
   submission.calibration = job.id;
   // The queue knows it as -id: never a scan's (catalogue) id.
-  auto queued = queue_.push(std::move(submission),
-                            [&](const catalogue::ScanSubmission&) { return Result<std::int64_t>(-job.id); });
+  auto queued = queue_.push(std::move(submission), [&](const catalogue::ScanSubmission&) {
+    return Result<std::int64_t>(-job.id);
+  });
   if (!queued) {
     calibrations_.forget(job.id);
     Error error = queued.error();
@@ -340,7 +342,8 @@ catalogue::ScanErrorCode ScanService::classify(const Error& error, Stage stage) 
     case Stage::writing:
       return catalogue::ScanErrorCode::storage;
     case Stage::processing:
-      return error.kind == ErrorKind::io ? catalogue::ScanErrorCode::storage : catalogue::ScanErrorCode::processing;
+      return error.kind == ErrorKind::io ? catalogue::ScanErrorCode::storage
+                                         : catalogue::ScanErrorCode::processing;
     case Stage::acquiring:
       break;
   }
@@ -354,9 +357,9 @@ catalogue::ScanErrorCode ScanService::classify(const Error& error, Stage stage) 
   return catalogue::ScanErrorCode::camera;
 }
 
-void ScanService::finish(const ScanJob& job, catalogue::ScanStatus status, catalogue::ScanErrorCode code,
-                         const std::string& message, const fs::path& scan_directory,
-                         bool keep_files) {
+void ScanService::finish(const ScanJob& job, catalogue::ScanStatus status,
+                         catalogue::ScanErrorCode code, const std::string& message,
+                         const fs::path& scan_directory, bool keep_files) {
   beat();
   if (!keep_files && !scan_directory.empty()) {
     std::error_code ec;
@@ -375,7 +378,8 @@ void ScanService::run(const ScanJob& job) {
   apply_pending_config();
   const auto aborted = [&] { return queue_.abort_requested() || lights::stop_requested(); };
   if (aborted())
-    return finish(job, catalogue::ScanStatus::aborted, catalogue::ScanErrorCode::aborted, "aborted", {}, false);
+    return finish(job, catalogue::ScanStatus::aborted, catalogue::ScanErrorCode::aborted, "aborted",
+                  {}, false);
   set_step(job.id, "opening the rig", 0, DaemonState::scanning);
   const config::RigConfig config = this->config();
   catalogue::ScanErrorCode open_code = catalogue::ScanErrorCode::config;
@@ -384,12 +388,12 @@ void ScanService::run(const ScanJob& job) {
 
   // A full disk is found before the LEDs go on, not after the frames are taken.
   if (auto ok = storage_.check(config); !ok)
-    return finish(job, catalogue::ScanStatus::failed, catalogue::ScanErrorCode::storage, ok.error().describe(), {},
-                  false);
+    return finish(job, catalogue::ScanStatus::failed, catalogue::ScanErrorCode::storage,
+                  ok.error().describe(), {}, false);
   const fs::path directory = rig::default_scan_directory(config, job.submission.sample_id);
   if (auto ok = recorder_.running(job.id, directory); !ok)
-    return finish(job, catalogue::ScanStatus::failed, catalogue::ScanErrorCode::storage, ok.error().describe(), {},
-                  false);
+    return finish(job, catalogue::ScanStatus::failed, catalogue::ScanErrorCode::storage,
+                  ok.error().describe(), {}, false);
   attempt_.directory = directory;
 
   rig_.clear_faults();
@@ -440,7 +444,8 @@ void ScanService::run(const ScanJob& job) {
     // processed again later. Anything less than a whole scan is not.
     const bool keep = stage == Stage::processing && holds_whole_scan(ours);
     finish(job, catalogue::ScanStatus::failed, code, outcome.error().describe(), ours, keep);
-    if (code == catalogue::ScanErrorCode::camera || code == catalogue::ScanErrorCode::lights) rig_.close();
+    if (code == catalogue::ScanErrorCode::camera || code == catalogue::ScanErrorCode::lights)
+      rig_.close();
     return;
   }
 
@@ -451,8 +456,8 @@ void ScanService::run(const ScanJob& job) {
     report = outcome->maps->report;
   }
   if (auto ok = recorder_.make_durable(outcome->directory, maps); !ok)
-    return finish(job, catalogue::ScanStatus::failed, catalogue::ScanErrorCode::storage, ok.error().describe(), directory,
-                  false);
+    return finish(job, catalogue::ScanStatus::failed, catalogue::ScanErrorCode::storage,
+                  ok.error().describe(), directory, false);
   Status recorded;
   {
     std::lock_guard lock(outcome_mutex_);
@@ -460,8 +465,8 @@ void ScanService::run(const ScanJob& job) {
     if (recorded) queue_.finish_running();
   }
   if (!recorded)
-    return finish(job, catalogue::ScanStatus::failed, catalogue::ScanErrorCode::storage, recorded.error().describe(),
-                  directory, false);
+    return finish(job, catalogue::ScanStatus::failed, catalogue::ScanErrorCode::storage,
+                  recorded.error().describe(), directory, false);
   storage_.record_scan(outcome->directory, maps);
 }
 

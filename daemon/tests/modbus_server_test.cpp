@@ -333,7 +333,8 @@ TEST_F(ModbusServerTest, RefusedTriggerShowsAsErrorCodeUntilOneIsAccepted) {
   EXPECT_EQ(control_.submissions().size(), 1u);
   auto words = plc.registers();
   EXPECT_TRUE(plc.inputs()[modbus_input::error]);
-  EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(catalogue::ScanErrorCode::queue_full));
+  EXPECT_EQ(words[modbus_register::error_code],
+            static_cast<int>(catalogue::ScanErrorCode::queue_full));
   EXPECT_EQ(words[modbus_register::triggers_refused], 1);
   EXPECT_EQ(words[modbus_register::triggers_accepted], 0);
 
@@ -342,7 +343,8 @@ TEST_F(ModbusServerTest, RefusedTriggerShowsAsErrorCodeUntilOneIsAccepted) {
   ASSERT_TRUE(plc.write_coil(modbus_coil::trigger, false));
   ASSERT_TRUE(plc.write_coil(modbus_coil::trigger, true));
   words = plc.registers();
-  EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(catalogue::ScanErrorCode::aborted));
+  EXPECT_EQ(words[modbus_register::error_code],
+            static_cast<int>(catalogue::ScanErrorCode::aborted));
   EXPECT_EQ(words[modbus_register::triggers_refused], 2);
 
   // Refused because the catalogue cannot write (a full disk): storage, not the queue.
@@ -351,7 +353,8 @@ TEST_F(ModbusServerTest, RefusedTriggerShowsAsErrorCodeUntilOneIsAccepted) {
   ASSERT_TRUE(plc.write_coil(modbus_coil::trigger, false));
   ASSERT_TRUE(plc.write_coil(modbus_coil::trigger, true));
   words = plc.registers();
-  EXPECT_EQ(words[modbus_register::error_code], static_cast<int>(catalogue::ScanErrorCode::storage));
+  EXPECT_EQ(words[modbus_register::error_code],
+            static_cast<int>(catalogue::ScanErrorCode::storage));
   EXPECT_EQ(words[modbus_register::triggers_refused], 3);
 
   control_.script([](DaemonStatus& s) { s.state = DaemonState::idle; });
@@ -381,7 +384,8 @@ TEST_F(ModbusServerTest, LightsOffCoilActsOnItsRisingEdge) {
   ASSERT_TRUE(plc.write_coil(modbus_coil::lights_off, true));
   EXPECT_EQ(control_.lights_off_calls(), 2);
   EXPECT_TRUE(plc.inputs()[modbus_input::error]);
-  EXPECT_EQ(plc.registers()[modbus_register::error_code], static_cast<int>(catalogue::ScanErrorCode::lights));
+  EXPECT_EQ(plc.registers()[modbus_register::error_code],
+            static_cast<int>(catalogue::ScanErrorCode::lights));
   EXPECT_EQ(server_->counters().lights_off, 1u);
 }
 

@@ -2,13 +2,13 @@
 // of queued, running or finished, cancelled or aborted where it is, and
 // refused (not half-queued) when full, stopping or when its row fails.
 
+#include "psrig/daemon/scan_queue.h"
+
 #include <atomic>
 #include <chrono>
 #include <thread>
 
 #include <gtest/gtest.h>
-
-#include "psrig/daemon/scan_queue.h"
 
 namespace psrig::daemon {
 namespace {
@@ -70,9 +70,10 @@ TEST(ScanQueue, AFullQueueRefusesNamingTheLimitAndMakesNoRow) {
 
 TEST(ScanQueue, ARowThatCannotBeMadeQueuesNothing) {
   ScanQueue queue(4, "rig.toml");
-  auto failed = queue.push(sample("A"), [](const catalogue::ScanSubmission&) -> Result<std::int64_t> {
-    return std::unexpected(io_error("catalogue.db", "disk full").with(ErrorCode::disk_full));
-  });
+  auto failed =
+      queue.push(sample("A"), [](const catalogue::ScanSubmission&) -> Result<std::int64_t> {
+        return std::unexpected(io_error("catalogue.db", "disk full").with(ErrorCode::disk_full));
+      });
   ASSERT_FALSE(failed);
   EXPECT_EQ(failed.error().code, ErrorCode::disk_full);
   EXPECT_EQ(queue.length(), 0U);
@@ -116,7 +117,8 @@ TEST(ScanQueue, AStopperSetAfterTheAbortIsCalledAtOnce) {
 TEST(ScanQueue, AbortAllEmptiesTheQueueAndStopsTheRunningScan) {
   ScanQueue queue(4, "rig.toml");
   Rows rows;
-  for (const char* id : {"A", "B", "C"}) ASSERT_TRUE(queue.push(sample(id), std::ref(rows)));
+  for (const char* id : {"A", "B", "C"})
+    ASSERT_TRUE(queue.push(sample(id), std::ref(rows)));
   ASSERT_TRUE(queue.wait_next(0ms).job);
   bool stopped = false;
   queue.set_stopper([&] { stopped = true; });
@@ -142,7 +144,8 @@ TEST(ScanQueue, StoppingWakesTheWorkerAndRefusesNewScans) {
     EXPECT_FALSE(next.job);
     woke = true;
   });
-  while (queue.length() != 0) std::this_thread::sleep_for(1ms);
+  while (queue.length() != 0)
+    std::this_thread::sleep_for(1ms);
   std::this_thread::sleep_for(20ms);
   const auto start = std::chrono::steady_clock::now();
   EXPECT_TRUE(queue.stop().empty());

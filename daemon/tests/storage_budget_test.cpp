@@ -3,6 +3,8 @@
 // one took, whichever is more; the message says how much is free and what
 // to do.
 
+#include "psrig/daemon/storage_budget.h"
+
 #include <algorithm>
 #include <cmath>
 #include <filesystem>
@@ -10,7 +12,6 @@
 
 #include <gtest/gtest.h>
 
-#include "psrig/daemon/storage_budget.h"
 #include "test_support.h"
 
 namespace psrig::daemon {

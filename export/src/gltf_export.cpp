@@ -85,7 +85,7 @@ tinygltf::ExtensionMap repeat_transform(int repeats) {
 // A single-file export may replace an earlier one; a directory only when it
 // holds STEM.gltf (an earlier export), never anything else.
 Result<formats::AtomicDirectory::Existing> check_directory_target(const fs::path& out,
-                                                                     const std::string& main_file) {
+                                                                  const std::string& main_file) {
   std::error_code ec;
   const auto status = fs::symlink_status(out, ec);
   if (!fs::exists(status)) return formats::AtomicDirectory::Existing::refuse;

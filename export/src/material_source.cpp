@@ -6,8 +6,8 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/imgcodecs.hpp>
 
-#include "psrig/formats/scan_layout.h"
 #include "psrig/analysis/seamless_tile.h"
+#include "psrig/formats/scan_layout.h"
 
 namespace psrig::export_ {
 namespace {
@@ -121,9 +121,9 @@ Status read_tile_facts(MaterialSource& source, const fs::path& tile_file) {
   auto tile = read_json(tile_file);
   if (!tile) return std::unexpected(tile.error());
   if (!tile->contains("format") || (*tile)["format"] != formats::tile_files::kFormat)
-    return std::unexpected(bad_input(
-        tile_file, "format",
-        std::string("expected \"") + formats::tile_files::kFormat + "\"; remake the tile with psrig tile"));
+    return std::unexpected(bad_input(tile_file, "format",
+                                     std::string("expected \"") + formats::tile_files::kFormat +
+                                         "\"; remake the tile with psrig tile"));
   auto pixel = optional_length(*tile, tile_file, "pixel_size_mm");
   if (!pixel) return std::unexpected(pixel.error());
   source.pixel_size_mm = *pixel;

@@ -98,7 +98,7 @@ Result<TextureSet> load_textures(const MaterialSource& source) {
 }
 
 formats::ImageMetadata texture_metadata(const MaterialSource& source, const TextureSet& textures,
-                                           TextureKind kind) {
+                                        TextureKind kind) {
   namespace keys = formats::metadata_keys;
   formats::ImageMetadata m;
   m.pixel_size_mm = source.pixel_size_mm;

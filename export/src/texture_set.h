@@ -28,8 +28,7 @@ struct TextureSet {
 // What a texture file says about itself (image_metadata.h).
 enum class TextureKind { albedo, normal, normal_directx, height, occlusion };
 [[nodiscard]] formats::ImageMetadata texture_metadata(const MaterialSource& source,
-                                                         const TextureSet& textures,
-                                                         TextureKind kind);
+                                                      const TextureSet& textures, TextureKind kind);
 
 // The normal map with green flipped: DirectX's convention (+Y down).
 [[nodiscard]] cv::Mat to_directx(const cv::Mat& normal16);
@@ -37,8 +36,8 @@ enum class TextureKind { albedo, normal, normal_directx, height, occlusion };
 [[nodiscard]] cv::Mat to_8bit(const cv::Mat& image16);
 
 // Encodes `image` as a PNG (deflate level 6: exports travel) with metadata.
-[[nodiscard]] Result<std::vector<unsigned char>> encode_png(
-    const cv::Mat& image, const formats::ImageMetadata& metadata);
+[[nodiscard]] Result<std::vector<unsigned char>> encode_png(const cv::Mat& image,
+                                                            const formats::ImageMetadata& metadata);
 // Writes `bytes` to `file`.
 [[nodiscard]] Status write_bytes(const std::filesystem::path& file,
                                  const std::vector<unsigned char>& bytes);

@@ -99,7 +99,7 @@ cv::Mat render_preview(const TextureSet& t) {
 }
 
 Result<formats::AtomicDirectory::Existing> check_directory_target(const fs::path& out,
-                                                                     const std::string& main_file) {
+                                                                  const std::string& main_file) {
   std::error_code ec;
   const auto status = fs::symlink_status(out, ec);
   if (!fs::exists(status)) return formats::AtomicDirectory::Existing::refuse;

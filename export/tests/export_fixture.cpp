@@ -45,7 +45,7 @@ KnownMaps write_known_maps(const fs::path& directory, const MapsSpec& spec) {
   if (spec.height_map) {
     (void)formats::write_image(directory / "height.exr", height);
     (void)formats::write_image(directory / "height.png",
-                                  formats::encode_height16(height, maps.low, maps.high));
+                               formats::encode_height16(height, maps.low, maps.high));
   }
   if (spec.report) {
     nlohmann::json report = {

@@ -13,12 +13,12 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "psrig/formats/scan_writer.h"
-#include "psrig/sim/synthetic_scan.h"
 #include "psrig/formats/image_io.h"
 #include "psrig/formats/image_metadata.h"
 #include "psrig/formats/map_encoding.h"
+#include "psrig/formats/scan_writer.h"
 #include "psrig/processing/pipeline.h"
+#include "psrig/sim/synthetic_scan.h"
 #include "shipped_swatch.h"
 #include "test_support.h"
 
@@ -79,7 +79,7 @@ TEST(MapMetadata, ColourPngCarriesSrgbScaleAndText) {
   TempDir dir;
   cv::Mat image(20, 30, CV_8UC3, cv::Scalar(10, 120, 240));
   ASSERT_TRUE(formats::write_image(dir / "a.png", image, {},
-                                      sample_metadata(ImageMetadata::ColourSpace::colour)));
+                                   sample_metadata(ImageMetadata::ColourSpace::colour)));
   const PngChunks chunks = read_chunks(dir / "a.png");
   ASSERT_TRUE(chunks.data.contains("sRGB"));
   EXPECT_EQ(be32(chunks.data.at("gAMA").data()), 45455u);
@@ -103,7 +103,7 @@ TEST(MapMetadata, DataPngIsLinearNotSrgb) {
   TempDir dir;
   cv::Mat image(8, 8, CV_16UC1, cv::Scalar(1234));
   ASSERT_TRUE(formats::write_image(dir / "h.png", image, {cv::IMWRITE_PNG_COMPRESSION, 0},
-                                      sample_metadata(ImageMetadata::ColourSpace::data)));
+                                   sample_metadata(ImageMetadata::ColourSpace::data)));
   const PngChunks chunks = read_chunks(dir / "h.png");
   EXPECT_FALSE(chunks.data.contains("sRGB"));
   EXPECT_EQ(be32(chunks.data.at("gAMA").data()), 100000u);  // gamma 1.0
@@ -115,7 +115,7 @@ TEST(MapMetadata, ExrCarriesAttributes) {
   TempDir dir;
   cv::Mat image(6, 9, CV_32F, cv::Scalar(0.125));
   ASSERT_TRUE(formats::write_image(dir / "h.exr", image, {},
-                                      sample_metadata(ImageMetadata::ColourSpace::data)));
+                                   sample_metadata(ImageMetadata::ColourSpace::data)));
   Imf::InputFile in((dir / "h.exr").c_str());
   const Imf::Header& header = in.header();
   ASSERT_TRUE(Imf::hasXDensity(header));
@@ -128,16 +128,16 @@ TEST(MapMetadata, ExrCarriesAttributes) {
   ASSERT_EQ(back.type(), CV_32FC1);
   EXPECT_EQ(cv::norm(back, image, cv::NORM_INF), 0.0);
   // The caller's compression is kept.
-  ASSERT_TRUE(formats::write_image(
-      dir / "z.exr", image, {cv::IMWRITE_EXR_COMPRESSION, cv::IMWRITE_EXR_COMPRESSION_ZIP},
-      sample_metadata(ImageMetadata::ColourSpace::data)));
+  ASSERT_TRUE(formats::write_image(dir / "z.exr", image,
+                                   {cv::IMWRITE_EXR_COMPRESSION, cv::IMWRITE_EXR_COMPRESSION_ZIP},
+                                   sample_metadata(ImageMetadata::ColourSpace::data)));
   EXPECT_EQ(Imf::InputFile((dir / "z.exr").c_str()).header().compression(), Imf::ZIP_COMPRESSION);
   EXPECT_EQ(in.header().compression(), Imf::NO_COMPRESSION);
   // Three channels, half: OpenCV reads the colours back in its order.
   cv::Mat colour(4, 5, CV_32FC3, cv::Scalar(0.25, 0.5, 0.75));
   ASSERT_TRUE(formats::write_image(dir / "c.exr", colour,
-                                      {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_HALF},
-                                      sample_metadata(ImageMetadata::ColourSpace::unspecified)));
+                                   {cv::IMWRITE_EXR_TYPE, cv::IMWRITE_EXR_TYPE_HALF},
+                                   sample_metadata(ImageMetadata::ColourSpace::unspecified)));
   const cv::Mat colour_back = cv::imread((dir / "c.exr").string(), cv::IMREAD_UNCHANGED);
   ASSERT_EQ(colour_back.type(), CV_32FC3);
   EXPECT_EQ(cv::norm(colour_back, colour, cv::NORM_INF), 0.0);

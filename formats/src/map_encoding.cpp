@@ -131,5 +131,4 @@ cv::Mat encode_height16(const cv::Mat& height, double low, double high) {
   return out;
 }
 
-
 }  // namespace psrig::formats

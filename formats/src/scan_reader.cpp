@@ -6,9 +6,9 @@
 #include <mutex>
 #include <sstream>
 
+#include "psrig/base/parallel.h"
 #include "psrig/formats/image_io.h"
 #include "psrig/formats/light_matrix.h"
-#include "psrig/base/parallel.h"
 #include "psrig/formats/scan_layout.h"
 #include "psrig/formats/scan_writer.h"
 
@@ -475,15 +475,15 @@ Result<Scan> read_scan_unguarded(const fs::path& directory) {
 
 Result<Scan> as_stored(Scan scan, const fs::path& directory) {
   try {
-    auto description = DescriptionParser(directory / scan_files::kDescription)
-                           .parse(scan_json(scan), directory);
+    auto description =
+        DescriptionParser(directory / scan_files::kDescription).parse(scan_json(scan), directory);
     if (!description) return std::unexpected(description.error());
     scan.description = std::move(*description);
     const auto requests = image_requests(scan);
     for (const auto& request : requests)
       if (request.destination->empty())
-        return std::unexpected(internal_error("as_stored: the scan has no image for " +
-                                              request.key));
+        return std::unexpected(
+            internal_error("as_stored: the scan has no image for " + request.key));
     if (auto ok = check_images(scan, requests, directory); !ok) return std::unexpected(ok.error());
     return scan;
   } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not

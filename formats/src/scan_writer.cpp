@@ -5,9 +5,9 @@
 #include <string>
 #include <vector>
 
+#include "psrig/base/parallel.h"
 #include "psrig/formats/atomic_directory.h"
 #include "psrig/formats/image_io.h"
-#include "psrig/base/parallel.h"
 #include "psrig/formats/scan_layout.h"
 
 namespace psrig::formats {
@@ -17,7 +17,7 @@ using formats::Scan;
 namespace files = formats::scan_files;
 namespace fs = std::filesystem;
 
-nlohmann::json intensity_json(const formats::ScanLight& light) {
+nlohmann::json intensity_json(const ScanLight& light) {
   const cv::Vec3d& bgr = light.intensity_bgr;
   if (!light.intensity_is_rgb && bgr[0] == bgr[1] && bgr[1] == bgr[2]) return bgr[0];
   return nlohmann::json::array({bgr[2], bgr[1], bgr[0]});
@@ -52,14 +52,14 @@ std::vector<ImageFile> image_files(const Scan& scan) {
 nlohmann::json scan_json(const Scan& scan) {
   const auto& d = scan.description;
   nlohmann::json doc = d.document.is_object() ? d.document : nlohmann::json::object();
-  doc["format"] = formats::kScanFormat;
+  doc["format"] = kScanFormat;
   nlohmann::json sample = doc.contains("sample") && doc["sample"].is_object()
                               ? doc["sample"]
                               : nlohmann::json::object();
   sample["id"] = d.sample_id;
   sample["description"] = d.sample_description;
   doc["sample"] = sample;
-  doc["encoding"] = d.encoding == formats::Encoding::srgb ? "srgb" : "linear";
+  doc["encoding"] = d.encoding == Encoding::srgb ? "srgb" : "linear";
   doc["black_level"] = d.black_level;
   doc["white_level"] = scan.white_level > 0 ? nlohmann::json(scan.white_level)
                        : d.white_level      ? nlohmann::json(*d.white_level)
@@ -106,13 +106,13 @@ nlohmann::json scan_json(const Scan& scan) {
 namespace {
 
 Status write_scan_unguarded(const Scan& scan, const fs::path& directory,
-                            const formats::StorageOptions& storage) {
+                            const StorageOptions& storage) {
   if (scan.frames.size() != scan.description.lights.size() || scan.frames.size() < 3)
     return std::unexpected(internal_error("write_scan: need one frame per light, at least three"));
   std::error_code ec;
   if (fs::exists(directory, ec))
     return std::unexpected(bad_input(directory, "", "already exists; a scan is never overwritten"));
-  auto staging = formats::AtomicDirectory::create(directory);
+  auto staging = AtomicDirectory::create(directory);
   if (!staging) return std::unexpected(staging.error());
 
   const auto files = image_files(scan);
@@ -120,10 +120,10 @@ Status write_scan_unguarded(const Scan& scan, const fs::path& directory,
   psrig::parallel_chunks(static_cast<int>(files.size()), 1, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
       const fs::path path = staging->path() / files[i].name;
-      auto written = files[i].vector_exr
-                         ? formats::write_vector_exr(path, *files[i].image)
-                         : formats::write_image(path, *files[i].image,
-                                                   formats::png_params(storage.png_level));
+      auto written =
+          files[i].vector_exr
+              ? write_vector_exr(path, *files[i].image)
+              : write_image(path, *files[i].image, png_params(storage.png_level));
       if (!written) errors[i] = written.error();
     }
   });
@@ -135,13 +135,13 @@ Status write_scan_unguarded(const Scan& scan, const fs::path& directory,
   json << scan_json(scan).dump(2) << '\n';
   json.close();
   if (!json) return std::unexpected(io_error(json_path, "cannot write"));
-  return staging->commit(formats::AtomicDirectory::Existing::refuse, true);
+  return staging->commit(AtomicDirectory::Existing::refuse, true);
 }
 
 }  // namespace
 
 Status write_scan(const Scan& scan, const fs::path& directory,
-                  const formats::StorageOptions& storage) {
+                  const StorageOptions& storage) {
   if (storage.png_level < 0 || storage.png_level > 9)
     return std::unexpected(internal_error("write_scan: PNG level outside 0-9"));
   try {
@@ -151,6 +151,5 @@ Status write_scan(const Scan& scan, const fs::path& directory,
         internal_error(directory.string() + ": writing the scan failed: " + e.what()));
   }
 }
-
 
 }  // namespace psrig::formats

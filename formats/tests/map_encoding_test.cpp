@@ -13,9 +13,9 @@ namespace psrig::processing {
 namespace {
 
 cv::Vec3w normal_rgb(float p, float q) {
-  const cv::Vec3w bgr =
-      formats::encode_normal16(cv::Mat(1, 1, CV_32F, cv::Scalar(p)), cv::Mat(1, 1, CV_32F, cv::Scalar(q)))
-          .at<cv::Vec3w>(0, 0);
+  const cv::Vec3w bgr = formats::encode_normal16(cv::Mat(1, 1, CV_32F, cv::Scalar(p)),
+                                                 cv::Mat(1, 1, CV_32F, cv::Scalar(q)))
+                            .at<cv::Vec3w>(0, 0);
   return {bgr[2], bgr[1], bgr[0]};
 }
 
@@ -59,7 +59,7 @@ TEST(MapEncoding, HeightSpansTheSixteenBitRange) {
 TEST(MapEncoding, MaskMarksValidPixels) {
   const cv::Mat flags = (cv::Mat_<std::uint8_t>(1, 5) << 0, kShadowed, kShadowed | kRecovered,
                          kOutsideMask, kLowSignal);
-  const cv::Mat mask = processing::encode_valid_mask(flags);
+  const cv::Mat mask = encode_valid_mask(flags);
   EXPECT_EQ(mask.at<std::uint8_t>(0, 0), 255);
   EXPECT_EQ(mask.at<std::uint8_t>(0, 1), 0);
   EXPECT_EQ(mask.at<std::uint8_t>(0, 2), 255);

@@ -32,7 +32,8 @@ TEST(ScanLayout, KnowsEveryFileTheRigWritesAndNothingElse) {
 }
 
 TEST(ScanLayout, KnowsEveryMapsFile) {
-  for (const char* name : formats::map_files::kAll) EXPECT_TRUE(formats::map_files::is_map_file(name)) << name;
+  for (const char* name : formats::map_files::kAll)
+    EXPECT_TRUE(formats::map_files::is_map_file(name)) << name;
   EXPECT_EQ(std::size(formats::map_files::kAll), 10u);
   for (const char* name : {"albedo.png", "albedo.exr", "normal.png", "p.exr", "q.exr", "height.exr",
                            "height.png", "mask.png", "report.json"})

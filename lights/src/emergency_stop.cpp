@@ -1,15 +1,14 @@
 #include "psrig/lights/emergency_stop.h"
 
-#include <pthread.h>
-#include <signal.h>
-#include <unistd.h>
-
 #include <atomic>
 #include <cstdlib>
 #include <exception>
 #include <mutex>
+#include <pthread.h>
 #include <set>
+#include <signal.h>
 #include <thread>
+#include <unistd.h>
 
 #include "psrig/lights/safe_lights.h"
 

@@ -5,7 +5,6 @@
 // two LEDs on, and all off after a failure.
 
 #include "psrig/lights/modbus_lights.h"
-#include "psrig/rig/open_devices.h"
 
 #include <atomic>
 #include <chrono>
@@ -21,6 +20,7 @@
 #include <gtest/gtest.h>
 
 #include "psrig/lights/safe_lights.h"
+#include "psrig/rig/open_devices.h"
 #include "sim_modbus_driver.h"
 
 namespace psrig::lights {
@@ -92,8 +92,8 @@ class ModbusLightsTest : public ::testing::TestWithParam<std::string> {
     config_.modbus.retries = 2;
   }
 
-  std::unique_ptr<lights::LightController> open() {
-    auto opened = lights::open_modbus_lights(config_);
+  std::unique_ptr<LightController> open() {
+    auto opened = open_modbus_lights(config_);
     EXPECT_TRUE(opened.has_value()) << opened.error().describe();
     return opened ? std::move(*opened) : nullptr;
   }
@@ -101,7 +101,7 @@ class ModbusLightsTest : public ::testing::TestWithParam<std::string> {
   // From both sides: the host's log, the driver's own switch history and
   // the world's view never show two LEDs on, and the host never even asked
   // for it (the driver's interlock would have refused).
-  void expect_never_two_on(const lights::LightController& lights) const {
+  void expect_never_two_on(const LightController& lights) const {
     EXPECT_EQ(lights.log().overlap(), std::nullopt);
     EXPECT_EQ(driver_->log().overlap(), std::nullopt);
     EXPECT_LE(world_.max_on(), 1u);
@@ -223,7 +223,7 @@ TEST_P(ModbusLightsTest, CustomRegisterMapWorks) {
 TEST_P(ModbusLightsTest, RegisterMapMismatchIsRefusedAtOpenByName) {
   start_driver();                              // the default map
   config_.modbus.registers.enable_coil = 200;  // not the driver's
-  auto opened = lights::open_modbus_lights(config_);
+  auto opened = open_modbus_lights(config_);
   ASSERT_FALSE(opened.has_value());
   EXPECT_THAT(opened.error().message,
               AllOf(HasSubstr("refused reading back the enable coils (coils 200-202, "
@@ -233,7 +233,7 @@ TEST_P(ModbusLightsTest, RegisterMapMismatchIsRefusedAtOpenByName) {
 
   config_.modbus.registers = {};
   config_.modbus.registers.all_off_coil = 33;  // a gap in the driver's coils
-  opened = lights::open_modbus_lights(config_);
+  opened = open_modbus_lights(config_);
   ASSERT_FALSE(opened.has_value());
   EXPECT_THAT(opened.error().message,
               AllOf(HasSubstr("refused switching every LED off (writing coil 33"),
@@ -247,7 +247,7 @@ TEST_P(ModbusLightsTest, ForeignDeviceIsNamedAndNeverWrittenTo) {
   registers.device_id = 0x0BAD;  // some other Modbus device on that address
   start_driver(registers);
   config_.modbus.registers.device_id = 0x4C44;
-  const auto opened = lights::open_modbus_lights(config_);
+  const auto opened = open_modbus_lights(config_);
   ASSERT_FALSE(opened.has_value());
   EXPECT_THAT(opened.error().message,
               AllOf(HasSubstr(endpoint()), HasSubstr("device id 0x0bad in input register 1"),
@@ -319,7 +319,7 @@ TEST_P(ModbusLightsTest, DriverFaultStatusIsAnErrorAndEverythingGoesOff) {
   lights.reset();
 
   // A driver already in fault is not used at all.
-  const auto reopened = lights::open_modbus_lights(config_);
+  const auto reopened = open_modbus_lights(config_);
   ASSERT_FALSE(reopened.has_value());
   EXPECT_THAT(reopened.error().message, HasSubstr("at start-up"));
   EXPECT_TRUE(driver_->leds_on().empty());
@@ -510,7 +510,7 @@ TEST_P(ModbusLightsTest, WrongSlaveIdIsNamedInTheError) {
   config_.modbus.slave = 6;
   config_.modbus.timeout_ms = 100;
   config_.modbus.retries = 0;
-  const auto opened = lights::open_modbus_lights(config_);
+  const auto opened = open_modbus_lights(config_);
   ASSERT_FALSE(opened.has_value());
   EXPECT_THAT(opened.error().message,
               AllOf(HasSubstr("slave 6"), HasSubstr("no answer"), HasSubstr("lights.modbus.slave"),
@@ -566,7 +566,7 @@ TEST_P(ModbusLightsTest, SafeLightsFailureLeavesEveryLedOff) {
   config_.modbus.timeout_ms = 100;
   auto lights = open();
   ASSERT_TRUE(lights);
-  lights::SafeLights safe(std::move(lights), milliseconds(5000));
+  SafeLights safe(std::move(lights), milliseconds(5000));
   ASSERT_TRUE(safe.turn_on(0).has_value());
   EXPECT_THAT(driver_->leds_on(), ElementsAre(0));
 
@@ -601,7 +601,7 @@ TEST_P(ModbusLightsTest, SafeLightsWatchdogSwitchesTheDriverOff) {
   start_driver();
   auto lights = open();
   ASSERT_TRUE(lights);
-  lights::SafeLights safe(std::move(lights), milliseconds(100));
+  SafeLights safe(std::move(lights), milliseconds(100));
   ASSERT_TRUE(safe.turn_on(2).has_value());
   EXPECT_THAT(driver_->leds_on(), ElementsAre(2));
   const auto deadline = Clock::now() + std::chrono::seconds(5);
@@ -646,7 +646,7 @@ TEST(ModbusLightsTcpTest, DroppedConnectionIsReopenedOrReported) {
   config.modbus = driver.host_config();
   config.modbus.timeout_ms = 200;
   config.modbus.retries = 2;
-  auto opened = lights::open_modbus_lights(config);
+  auto opened = open_modbus_lights(config);
   ASSERT_TRUE(opened.has_value()) << opened.error().describe();
   auto& lights = **opened;
   EXPECT_EQ(driver.connections(), 1);
@@ -672,25 +672,25 @@ TEST(ModbusLightsTcpTest, DroppedConnectionIsReopenedOrReported) {
 TEST(ModbusLightsConfigTest, BadSettingsNameTheKey) {
   config::LightsConfig config;
   config.modbus.transport = "udp";
-  auto opened = lights::open_modbus_lights(config);
+  auto opened = open_modbus_lights(config);
   ASSERT_FALSE(opened.has_value());
   EXPECT_EQ(opened.error().key, "lights.modbus.transport");
 
   config.modbus.transport = "rtu";
   config.modbus.parity = 'X';
-  opened = lights::open_modbus_lights(config);
+  opened = open_modbus_lights(config);
   ASSERT_FALSE(opened.has_value());
   EXPECT_EQ(opened.error().key, "lights.modbus.parity");
 
   config.modbus.parity = 'E';
   config.modbus.registers.intensity_full_scale = 0;
-  opened = lights::open_modbus_lights(config);
+  opened = open_modbus_lights(config);
   ASSERT_FALSE(opened.has_value());
   EXPECT_EQ(opened.error().key, "lights.modbus.registers.intensity_full_scale");
 
   config.modbus.registers = {};
   config.modbus.registers.all_off_coil = 2;  // one of the three enable coils
-  opened = lights::open_modbus_lights(config);
+  opened = open_modbus_lights(config);
   ASSERT_FALSE(opened.has_value());
   EXPECT_EQ(opened.error().key, "lights.modbus.registers.all_off_coil");
   EXPECT_THAT(opened.error().message, HasSubstr("enable coils 0-2"));
@@ -700,7 +700,7 @@ TEST(ModbusLightsConfigTest, MissingSerialPortNamesTheDeviceAndTheFix) {
   config::LightsConfig config;
   config.modbus.transport = "rtu";
   config.modbus.device = "/dev/ttyNOSUCH0";
-  const auto opened = lights::open_modbus_lights(config);
+  const auto opened = open_modbus_lights(config);
   ASSERT_FALSE(opened.has_value());
   EXPECT_THAT(opened.error().describe(),
               AllOf(HasSubstr("/dev/ttyNOSUCH0"), HasSubstr("lights.modbus.device"),

@@ -16,7 +16,7 @@ namespace {
 using namespace std::chrono_literals;
 
 // A backend that does as told, remembers the state, and fails on request.
-class FakeLights final : public lights::LightController {
+class FakeLights final : public LightController {
  public:
   struct State {
     std::vector<bool> on = std::vector<bool>(3, false);
@@ -52,7 +52,7 @@ int lit_count(const FakeLights::State& state) {
 
 TEST(SafeLights, OneAtATime) {
   auto state = std::make_shared<FakeLights::State>();
-  lights::SafeLights lights(std::make_unique<FakeLights>(state), 5s);
+  SafeLights lights(std::make_unique<FakeLights>(state), 5s);
   for (int round = 0; round < 3; ++round)
     for (int channel : {0, 2, 1}) {
       ASSERT_TRUE(lights.turn_on(channel));
@@ -68,7 +68,7 @@ TEST(SafeLights, OneAtATime) {
 
 TEST(SafeLights, BadChannelIsAnError) {
   auto state = std::make_shared<FakeLights::State>();
-  lights::SafeLights lights(std::make_unique<FakeLights>(state), 5s);
+  SafeLights lights(std::make_unique<FakeLights>(state), 5s);
   EXPECT_FALSE(lights.turn_on(3));
   EXPECT_FALSE(lights.turn_on(-1));
   EXPECT_EQ(lit_count(*state), 0);
@@ -76,7 +76,7 @@ TEST(SafeLights, BadChannelIsAnError) {
 
 TEST(SafeLights, ABackendErrorEndsWithAllOff) {
   auto state = std::make_shared<FakeLights::State>();
-  lights::SafeLights lights(std::make_unique<FakeLights>(state), 5s);
+  SafeLights lights(std::make_unique<FakeLights>(state), 5s);
   ASSERT_TRUE(lights.turn_on(0));
   state->fail_on = true;
   const int offs_before = state->off_calls;
@@ -90,7 +90,7 @@ TEST(SafeLights, ABackendErrorEndsWithAllOff) {
 
 TEST(SafeLights, AnOffThatFailsIsTriedAgainAndReported) {
   auto state = std::make_shared<FakeLights::State>();
-  lights::SafeLights lights(std::make_unique<FakeLights>(state), 5s);
+  SafeLights lights(std::make_unique<FakeLights>(state), 5s);
   ASSERT_TRUE(lights.turn_on(0));
   state->fail_off = true;
   const int offs_before = state->off_calls;
@@ -101,7 +101,7 @@ TEST(SafeLights, AnOffThatFailsIsTriedAgainAndReported) {
 
 TEST(SafeLights, WatchdogSwitchesOffAnLedLeftOn) {
   auto state = std::make_shared<FakeLights::State>();
-  lights::SafeLights lights(std::make_unique<FakeLights>(state), 50ms);
+  SafeLights lights(std::make_unique<FakeLights>(state), 50ms);
   ASSERT_TRUE(lights.turn_on(2));
   const auto deadline = Clock::now() + 2s;
   while (!lights.timed_out() && Clock::now() < deadline)
@@ -119,7 +119,7 @@ TEST(SafeLights, WatchdogSwitchesOffAnLedLeftOn) {
 TEST(SafeLights, DestructionAndExceptionsLeaveAllOff) {
   auto state = std::make_shared<FakeLights::State>();
   try {
-    lights::SafeLights lights(std::make_unique<FakeLights>(state), 5s);
+    SafeLights lights(std::make_unique<FakeLights>(state), 5s);
     ASSERT_TRUE(lights.turn_on(1));
     throw std::runtime_error("something went wrong mid-scan");
   } catch (const std::runtime_error&) {
@@ -129,11 +129,11 @@ TEST(SafeLights, DestructionAndExceptionsLeaveAllOff) {
 
 TEST(SafeLights, EmergencyOffReachesEveryInstance) {
   auto a = std::make_shared<FakeLights::State>(), b = std::make_shared<FakeLights::State>();
-  lights::SafeLights first(std::make_unique<FakeLights>(a), 5s),
+  SafeLights first(std::make_unique<FakeLights>(a), 5s),
       second(std::make_unique<FakeLights>(b), 5s);
   ASSERT_TRUE(first.turn_on(0));
   ASSERT_TRUE(second.turn_on(2));
-  lights::emergency_all_off();
+  emergency_all_off();
   EXPECT_EQ(lit_count(*a), 0);
   EXPECT_EQ(lit_count(*b), 0);
 }

@@ -2,7 +2,6 @@
 // switch a line, from any number of processes, read back by the tests.
 
 #include "psrig/lights/switch_log_file.h"
-#include "psrig/rig/open_devices.h"
 
 #include <fstream>
 #include <iterator>
@@ -14,6 +13,7 @@
 
 #include "psrig/config/config_loader.h"
 #include "psrig/lights/light_controller.h"
+#include "psrig/rig/open_devices.h"
 #include "test_support.h"
 
 namespace psrig::lights {
@@ -41,14 +41,14 @@ TEST(SwitchLogFile, TheSimLightsAppendEverySwitchAsALine) {
     ASSERT_TRUE(lights) << lights.error().describe();
     ASSERT_TRUE((*lights)->turn_on(1));
     // In the file as soon as the switch returns.
-    auto so_far = lights::read_switch_log_file(temp / "switches.log");
+    auto so_far = read_switch_log_file(temp / "switches.log");
     ASSERT_TRUE(so_far) << so_far.error().describe();
     ASSERT_EQ(so_far->size(), 1U);
     ASSERT_TRUE((*lights)->all_off());
     ASSERT_TRUE((*lights)->turn_on(2));
     ASSERT_TRUE((*lights)->all_off());
   }
-  auto read = lights::read_switch_log_file(temp / "switches.log");
+  auto read = read_switch_log_file(temp / "switches.log");
   ASSERT_TRUE(read) << read.error().describe();
   ASSERT_EQ(read->size(), 4U);
   const std::vector<std::pair<int, bool>> expected = {
@@ -65,7 +65,7 @@ TEST(SwitchLogFile, TheSimLightsAppendEverySwitchAsALine) {
     }
     EXPECT_LT(std::chrono::abs(s.wall - std::chrono::system_clock::now()), std::chrono::minutes(1));
   }
-  lights::SwitchLog log;
+  SwitchLog log;
   replay(*read, log);
   EXPECT_FALSE(log.overlap());
   EXPECT_TRUE(log.on_now().empty());
@@ -96,7 +96,7 @@ TEST(SwitchLogFile, SeveralProcessesAppendWholeLines) {
   ASSERT_EQ(::waitpid(child, &status, 0), child);
   EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0);
 
-  auto read = lights::read_switch_log_file(temp / "switches.log");
+  auto read = read_switch_log_file(temp / "switches.log");
   ASSERT_TRUE(read) << read.error().describe();
   ASSERT_EQ(read->size(), 4U * kSwitches);
   int mine = 0, theirs = 0;
@@ -110,15 +110,15 @@ TEST(SwitchLogFile, SeveralProcessesAppendWholeLines) {
 
 TEST(SwitchLogFile, AMissingFileIsNoSwitchesAndAMalformedLineIsNamed) {
   TempDir temp;
-  auto none = lights::read_switch_log_file(temp / "absent.log");
+  auto none = read_switch_log_file(temp / "absent.log");
   ASSERT_TRUE(none);
   EXPECT_TRUE(none->empty());
   std::ofstream(temp / "bad.log") << "1 2 3 0 on\n1 2 3 all on\n";
-  auto bad = lights::read_switch_log_file(temp / "bad.log");
+  auto bad = read_switch_log_file(temp / "bad.log");
   ASSERT_FALSE(bad);
   EXPECT_EQ(bad.error().line, 2) << bad.error().describe();
   std::ofstream(temp / "worse.log") << "1 2 3 x on\n";
-  EXPECT_FALSE(lights::read_switch_log_file(temp / "worse.log"));
+  EXPECT_FALSE(read_switch_log_file(temp / "worse.log"));
 }
 
 TEST(SwitchLogFile, AFileThatCannotBeOpenedFailsTheBackendNamingIt) {

@@ -186,10 +186,10 @@ class Bench {
 };
 
 // The most channels on together over the firmware's own record.
-int most_on_together(const std::vector<lights::SwitchEvent>& history) {
+int most_on_together(const std::vector<SwitchEvent>& history) {
   std::map<int, bool> on;
   int most = 0;
-  for (const lights::SwitchEvent& event : history) {
+  for (const SwitchEvent& event : history) {
     on[event.channel] = event.on;
     int count = 0;
     for (const auto& [channel, lit] : on)
@@ -210,7 +210,7 @@ TEST(StrobeFirmware, NeverTurnsTwoChannelsOnAndBreaksBeforeMaking) {
   EXPECT_EQ(bench.firmware_.channels_on(), std::vector<int>{0});
   EXPECT_EQ(bench.status().on_channel, 0);
 
-  const std::vector<lights::SwitchEvent> history = bench.firmware_.history();
+  const std::vector<SwitchEvent> history = bench.firmware_.history();
   EXPECT_EQ(most_on_together(history), 1);
   ASSERT_EQ(history.size(), 7u);  // on 0, off 0, on 1, off 1, on 2, off 2, on 0
   for (std::size_t i = 1; i < history.size(); ++i) {

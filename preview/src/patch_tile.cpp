@@ -7,8 +7,8 @@
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/analysis/fabric_measure.h"
-#include "psrig/formats/maps_reader.h"
 #include "psrig/analysis/seamless_tile.h"
+#include "psrig/formats/maps_reader.h"
 
 namespace psrig::preview {
 
@@ -22,7 +22,8 @@ std::optional<PatchTile> stored_tile(const SwatchMaps& maps) {
   std::ifstream in(dir / formats::tile_files::kDescription);
   if (!in) return std::nullopt;
   const auto doc = nlohmann::json::parse(in, nullptr, false);
-  if (!doc.is_object() || doc.value("format", "") != formats::tile_files::kFormat) return std::nullopt;
+  if (!doc.is_object() || doc.value("format", "") != formats::tile_files::kFormat)
+    return std::nullopt;
   auto loaded = load_swatch_maps(dir);
   if (!loaded) return std::nullopt;
   PatchTile tile;

@@ -6,9 +6,9 @@
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/formats/image_io.h"
-#include "psrig/processing/linearise.h"
 #include "psrig/formats/map_encoding.h"
 #include "psrig/formats/scan_layout.h"
+#include "psrig/processing/linearise.h"
 
 namespace psrig::preview {
 namespace {

@@ -12,10 +12,10 @@
 #include <vector>
 
 #include "gl_program.h"
+#include "psrig/base/parallel.h"
 #include "psrig/cloth/srgb.h"
 #include "psrig/preview/clear_frame.h"
 #include "psrig/preview/strip_points.h"
-#include "psrig/base/parallel.h"
 
 namespace psrig::preview {
 namespace {

@@ -5,10 +5,10 @@
 
 #include <gtest/gtest.h>
 
-#include "psrig/formats/scan_writer.h"
-#include "psrig/sim/synthetic_scan.h"
-#include "psrig/processing/pipeline.h"
 #include "psrig/analysis/seamless_tile.h"
+#include "psrig/formats/scan_writer.h"
+#include "psrig/processing/pipeline.h"
+#include "psrig/sim/synthetic_scan.h"
 #include "shipped_swatch.h"
 #include "test_support.h"
 

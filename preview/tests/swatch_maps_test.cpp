@@ -10,8 +10,8 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
-#include "psrig/preview/newest_scan.h"
 #include "psrig/formats/map_encoding.h"
+#include "psrig/preview/newest_scan.h"
 #include "test_support.h"
 
 namespace psrig::preview {

@@ -1,5 +1,4 @@
 #include "psrig/processing/integration.h"
-#include "gradient_inputs.h"
 
 #include <algorithm>
 #include <bit>
@@ -16,6 +15,7 @@
 
 #include <fftw3.h>
 
+#include "gradient_inputs.h"
 #include "psrig/base/parallel.h"
 
 // Both methods work on the gradient field extended by mirroring across every

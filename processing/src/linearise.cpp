@@ -127,7 +127,8 @@ void scale_in_place(float* __restrict values, float factor, int n) {
 
 }  // namespace
 
-CodeLineariser::CodeLineariser(formats::Encoding encoding, double black_level, double white_level, int depth)
+CodeLineariser::CodeLineariser(formats::Encoding encoding, double black_level, double white_level,
+                               int depth)
     : encoding_(encoding), black_(black_level), white_(white_level), depth_(depth) {
   const double full = formats::full_scale(depth);
   const auto decode = [&](double code) {

@@ -50,10 +50,10 @@
 
 #include <opencv2/imgproc.hpp>
 
-#include "psrig/processing/integration.h"
-#include "psrig/base/parallel.h"
 #include "gradient_inputs.h"
+#include "psrig/base/parallel.h"
 #include "psrig/base/vector_clones.h"
+#include "psrig/processing/integration.h"
 
 namespace psrig::processing {
 namespace {

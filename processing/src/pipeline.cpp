@@ -10,20 +10,20 @@
 
 #include <opencv2/imgcodecs.hpp>
 
-#include "psrig/base/log.h"
-#include "psrig/formats/atomic_directory.h"
-#include "psrig/processing/colour_correction.h"
-#include "psrig/processing/evaluation.h"
 #include "psrig/analysis/fabric_measure.h"
-#include "psrig/processing/flatten.h"
-#include "psrig/processing/hole_fill.h"
+#include "psrig/base/log.h"
+#include "psrig/base/parallel.h"
+#include "psrig/formats/atomic_directory.h"
 #include "psrig/formats/image_io.h"
 #include "psrig/formats/image_metadata.h"
 #include "psrig/formats/map_encoding.h"
-#include "psrig/base/parallel.h"
-#include "psrig/processing/report.h"
 #include "psrig/formats/scan_layout.h"
 #include "psrig/formats/scan_reader.h"
+#include "psrig/processing/colour_correction.h"
+#include "psrig/processing/evaluation.h"
+#include "psrig/processing/flatten.h"
+#include "psrig/processing/hole_fill.h"
+#include "psrig/processing/report.h"
 
 namespace psrig::processing {
 namespace {
@@ -171,7 +171,7 @@ MapContext map_context(const formats::Scan& scan, const SolveResult& result,
       .options = options,
       .dir = dir,
       .albedo = std::move(albedo),
-      .valid = processing::encode_valid_mask(result.flags),
+      .valid = encode_valid_mask(result.flags),
       .pixel_size = description.pixel_size_mm.value_or(1.0),
       .in_mm = description.pixel_size_mm.has_value(),
       .measure = {},

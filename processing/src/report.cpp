@@ -1,7 +1,7 @@
 #include "psrig/processing/report.h"
 
-#include "psrig/formats/light_matrix.h"
 #include "psrig/base/parallel.h"
+#include "psrig/formats/light_matrix.h"
 
 namespace psrig::processing {
 namespace {

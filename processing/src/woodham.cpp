@@ -9,9 +9,9 @@
 #include <vector>
 
 #include "psrig/base/parallel.h"
+#include "psrig/base/vector_clones.h"
 #include "psrig/formats/scan_layout.h"
 #include "stream_store.h"
-#include "psrig/base/vector_clones.h"
 
 namespace psrig::processing {
 namespace {
@@ -776,9 +776,9 @@ Status solve_into(const formats::Scan& scan, const SolveOptions& options, SolveR
   std::optional<NearField> near;
   if (scan.description.near_field()) {
     if (!scan.description.pixel_size_mm)
-      return std::unexpected(bad_input(scan.description.directory / formats::scan_files::kDescription,
-                                       "lights[0].position_mm",
-                                       "needs pixel_size_mm to place the pixels on the swatch"));
+      return std::unexpected(bad_input(
+          scan.description.directory / formats::scan_files::kDescription, "lights[0].position_mm",
+          "needs pixel_size_mm to place the pixels on the swatch"));
     near.emplace();
     for (const auto& light : scan.description.lights)
       near->position.push_back(*light.position_mm);

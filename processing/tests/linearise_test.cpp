@@ -23,7 +23,8 @@ double angular_error(const formats::Scan& scan) {
   EXPECT_TRUE(result) << (result ? "" : result.error().describe());
   if (!result) return 180;
   return test::mean_angular_error_deg(normals_from_gradients(result->p, result->q),
-                                      scan.ground_truth_normal, processing::encode_valid_mask(result->flags));
+                                      scan.ground_truth_normal,
+                                      encode_valid_mask(result->flags));
 }
 
 // A colour sphere under three lights, rendered linear in float.
@@ -65,7 +66,8 @@ TEST(ScanLineariser, SrgbEncodedFramesGiveTheLinearAnswer) {
   scan.white_level = 65535;
   scan.description.encoding = formats::Encoding::srgb;
   EXPECT_LT(angular_error(scan), 0.05);
-  scan.description.encoding = formats::Encoding::linear;  // the same codes taken as linear: wrong shape
+  scan.description.encoding =
+      formats::Encoding::linear;  // the same codes taken as linear: wrong shape
   EXPECT_GT(angular_error(scan), 2.0);
 }
 

@@ -9,14 +9,14 @@
 
 #include <gtest/gtest.h>
 
+#include "psrig/base/parallel.h"
+#include "psrig/formats/image_io.h"
+#include "psrig/formats/scan_reader.h"
+#include "psrig/processing/evaluation.h"
+#include "psrig/processing/pipeline.h"
+#include "psrig/processing/woodham.h"
 #include "psrig/rig/rig.h"
 #include "psrig/rig/scan_sequencer.h"
-#include "psrig/processing/evaluation.h"
-#include "psrig/formats/image_io.h"
-#include "psrig/base/parallel.h"
-#include "psrig/processing/pipeline.h"
-#include "psrig/formats/scan_reader.h"
-#include "psrig/processing/woodham.h"
 #include "test_support.h"
 
 namespace psrig {
@@ -139,7 +139,7 @@ TEST(NearField, ScanReaderChecksPositions) {
     std::filesystem::create_directories(path);
     for (int k = 0; k < 3; ++k)
       ASSERT_TRUE(formats::write_image(path / ("led" + std::to_string(k) + ".png"),
-                                          cv::Mat(8, 8, CV_16U, cv::Scalar(30000))));
+                                       cv::Mat(8, 8, CV_16U, cv::Scalar(30000))));
     std::ofstream(path / "scan.json")
         << R"({"format": "psrig-scan/1", "lights": )" << lights_json << extra << "}";
   };

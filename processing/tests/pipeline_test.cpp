@@ -10,12 +10,12 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "psrig/formats/scan_writer.h"
-#include "psrig/sim/synthetic_scan.h"
-#include "psrig/processing/evaluation.h"
 #include "psrig/formats/image_io.h"
 #include "psrig/formats/map_encoding.h"
+#include "psrig/formats/scan_writer.h"
+#include "psrig/processing/evaluation.h"
 #include "psrig/sim/swatch_model.h"
+#include "psrig/sim/synthetic_scan.h"
 #include "shipped_swatch.h"
 #include "synthetic_scene.h"
 #include "test_support.h"
@@ -79,8 +79,8 @@ TEST(Pipeline, WritesEveryMapAndTheReport) {
 TEST(Pipeline, SeventyGlossyLightsWithRejection) {
   test::TempDir temp;
   const auto surface = test::sphere_surface({64, 48}, 20, 3);
-  const formats::Scan scan = test::render_scan(surface, test::dome_lights(70, 55), CV_16U, 0.002, 3, {},
-                                      {.strength = 0.5, .exponent = 40});
+  const formats::Scan scan = test::render_scan(surface, test::dome_lights(70, 55), CV_16U, 0.002, 3,
+                                               {}, {.strength = 0.5, .exponent = 40});
   ASSERT_TRUE(formats::write_scan(scan, temp / "scan"));
   ProcessOptions options;
   options.output = temp / "plain";
@@ -149,7 +149,7 @@ TEST_P(SyntheticSwatch, NoisyNormalsMatchTheDerivedBound) {
   const auto swatch = test::made(sim::make_swatch(params.swatch));
   auto result = solve(scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = processing::encode_valid_mask(result->flags);
+  const cv::Mat valid = encode_valid_mask(result->flags);
 
   std::vector<cv::Vec3d> lights;
   for (const auto& light : scan.description.lights)
@@ -460,8 +460,10 @@ TEST(Pipeline, HalfPrecisionMapsStayWithinTheirRoundingAndTakeLessSpace) {
   }
   EXPECT_LT(half_bytes, full_bytes * 6 / 10);
   // The surface angle between the two maps' normals.
-  auto p32 = formats::read_image(full / "p.exr", "p"), q32 = formats::read_image(full / "q.exr", "q");
-  auto p16 = formats::read_image(half / "p.exr", "p"), q16 = formats::read_image(half / "q.exr", "q");
+  auto p32 = formats::read_image(full / "p.exr", "p"),
+       q32 = formats::read_image(full / "q.exr", "q");
+  auto p16 = formats::read_image(half / "p.exr", "p"),
+       q16 = formats::read_image(half / "q.exr", "q");
   ASSERT_TRUE(p32 && q32 && p16 && q16);
   double worst_deg = 0;
   for (int r = 0; r < p32->rows; ++r)
@@ -473,7 +475,8 @@ TEST(Pipeline, HalfPrecisionMapsStayWithinTheirRoundingAndTakeLessSpace) {
     }
   EXPECT_LE(worst_deg, 180 / CV_PI / 2048);
   // The 16-bit normal.png is the same from either.
-  auto n32 = formats::read_image(full / "normal.png", "n"), n16 = formats::read_image(half / "normal.png", "n");
+  auto n32 = formats::read_image(full / "normal.png", "n"),
+       n16 = formats::read_image(half / "normal.png", "n");
   ASSERT_TRUE(n32 && n16);
   EXPECT_EQ(cv::norm(*n32, *n16, cv::NORM_INF), 0);
 }

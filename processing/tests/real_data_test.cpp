@@ -12,9 +12,9 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "psrig/processing/evaluation.h"
 #include "psrig/formats/map_encoding.h"
 #include "psrig/formats/scan_reader.h"
+#include "psrig/processing/evaluation.h"
 #include "psrig/processing/woodham.h"
 #include "synthetic_scene.h"
 #include "test_support.h"
@@ -48,7 +48,7 @@ TEST(RealData, BeethovenPlasterAlbedoIsNearlyFlatAndNormalsIntegrable) {
   ASSERT_TRUE(scan) << scan.error().describe();
   auto result = solve(*scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = processing::encode_valid_mask(result->flags);
+  const cv::Mat valid = encode_valid_mask(result->flags);
   // Measured: 96.7 % of the mask valid (the rest grazes a light).
   EXPECT_GT(cv::countNonZero(valid), 0.95 * cv::countNonZero(scan->mask));
 
@@ -96,9 +96,10 @@ TEST(RealData, ButterflyEightLightsWithAmbientFrame) {
   ASSERT_GT(object_pixels, 50000);
 
   // Measured: 99.6 % valid by least squares, 100 % with rejection.
-  EXPECT_GT(cv::countNonZero(processing::encode_valid_mask(result->flags) & object), 0.99 * object_pixels);
-  EXPECT_GE(cv::countNonZero(processing::encode_valid_mask(rejecting->flags) & object),
-            cv::countNonZero(processing::encode_valid_mask(result->flags) & object));
+  EXPECT_GT(cv::countNonZero(encode_valid_mask(result->flags) & object),
+            0.99 * object_pixels);
+  EXPECT_GE(cv::countNonZero(encode_valid_mask(rejecting->flags) & object),
+            cv::countNonZero(encode_valid_mask(result->flags) & object));
   // Eight lights leave a real misfit; measured mean 0.029 of full scale.
   EXPECT_LT(cv::mean(result->residual, object)[0], 0.04);
   // Ambient light adds the same to every frame and flattens the relief;
@@ -150,7 +151,7 @@ std::vector<cv::Vec3d> chrome_sphere_lights(const std::filesystem::path& dir) {
 
 // An in-memory scan of one uw-cse455 object under the lights chosen.
 formats::Scan uw_scan(const std::filesystem::path& dir, const std::string& name,
-             const std::vector<cv::Vec3d>& all_lights, const std::vector<int>& chosen) {
+                      const std::vector<cv::Vec3d>& all_lights, const std::vector<int>& chosen) {
   formats::Scan scan;
   auto& d = scan.description;
   for (int k : chosen) {

@@ -77,7 +77,8 @@ TEST_P(GlossyScenes, DomeWithCastShadows) {
   std::vector<cv::Mat> shadows;
   for (const auto& l : lights)
     shadows.push_back(test::dome_cast_shadow(size, radius, l));
-  const formats::Scan scan = test::render_scan(surface, lights, CV_16U, 0.005, 21, shadows, kGlossy);
+  const formats::Scan scan =
+      test::render_scan(surface, lights, CV_16U, 0.005, 21, shadows, kGlossy);
   const Errors e = compare(scan, surface.normal);
   print("glossy dome, cast shadows", count, e);
   EXPECT_LT(e.robust, e.naive);
@@ -94,7 +95,8 @@ TEST_P(GlossyScenes, BumpyPlaneWithCastShadows) {
   std::vector<cv::Mat> shadows;
   for (const auto& l : lights)
     shadows.push_back(test::height_cast_shadow(height, l));
-  const formats::Scan scan = test::render_scan(surface, lights, CV_16U, 0.005, 22, shadows, kGlossy);
+  const formats::Scan scan =
+      test::render_scan(surface, lights, CV_16U, 0.005, 22, shadows, kGlossy);
   const Errors e = compare(scan, surface.normal);
   print("glossy bumps, cast shadows", count, e);
   EXPECT_LT(e.robust, e.naive);

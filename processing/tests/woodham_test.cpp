@@ -8,8 +8,8 @@
 
 #include <gtest/gtest.h>
 
-#include "psrig/formats/map_encoding.h"
 #include "psrig/base/parallel.h"
+#include "psrig/formats/map_encoding.h"
 #include "synthetic_scene.h"
 
 namespace psrig::processing {
@@ -21,7 +21,8 @@ using test::ring_lights;
 using test::sphere_surface;
 
 double valid_fraction(const cv::Mat& flags) {
-  return cv::countNonZero(processing::encode_valid_mask(flags)) / static_cast<double>(flags.total());
+  return cv::countNonZero(encode_valid_mask(flags)) /
+         static_cast<double>(flags.total());
 }
 
 TEST(Woodham, SphereColour16BitNoiseFreeIsExact) {
@@ -30,7 +31,7 @@ TEST(Woodham, SphereColour16BitNoiseFreeIsExact) {
   auto result = solve(scan);
   ASSERT_TRUE(result) << result.error().describe();
   const cv::Mat normals = normals_from_gradients(result->p, result->q);
-  const cv::Mat valid = processing::encode_valid_mask(result->flags);
+  const cv::Mat valid = encode_valid_mask(result->flags);
   EXPECT_GT(cv::countNonZero(valid), 0.8 * valid.total());
   EXPECT_LT(mean_angular_error_deg(normals, surface.normal, valid), 0.05);
 
@@ -51,7 +52,7 @@ TEST(Woodham, SphereGreyFloatNoiseFree) {
   const formats::Scan scan = render_scan(surface, ring_lights(3, 30, 15), CV_32F);
   auto result = solve(scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = processing::encode_valid_mask(result->flags);
+  const cv::Mat valid = encode_valid_mask(result->flags);
   EXPECT_LT(
       mean_angular_error_deg(normals_from_gradients(result->p, result->q), surface.normal, valid),
       0.01);
@@ -75,7 +76,7 @@ TEST(Woodham, NoiseErrorMatchesDerivedBound) {
   const formats::Scan scan = render_scan(surface, lights, CV_16U, sigma, 7);
   auto result = solve(scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = processing::encode_valid_mask(result->flags);
+  const cv::Mat valid = encode_valid_mask(result->flags);
   const double measured =
       mean_angular_error_deg(normals_from_gradients(result->p, result->q), surface.normal, valid);
 
@@ -103,7 +104,7 @@ TEST(Woodham, LeastSquaresWithThreeLightsEqualsExactInverse) {
   options.force_least_squares = true;
   auto least_squares = solve(scan, options);
   ASSERT_TRUE(exact && least_squares);
-  const cv::Mat valid = processing::encode_valid_mask(exact->flags);
+  const cv::Mat valid = encode_valid_mask(exact->flags);
   EXPECT_EQ(cv::norm(exact->flags, least_squares->flags, cv::NORM_INF), 0);
   EXPECT_LT(cv::norm(exact->p, least_squares->p, cv::NORM_INF, valid), 1e-4);
   EXPECT_LT(cv::norm(exact->q, least_squares->q, cv::NORM_INF, valid), 1e-4);
@@ -171,7 +172,7 @@ TEST(Woodham, PerLightRgbIntensityIsDividedOut) {
   scan.description.lights[1].intensity_bgr = {1, 1, 2};
   auto result = solve(scan);
   ASSERT_TRUE(result);
-  const cv::Mat valid = processing::encode_valid_mask(result->flags);
+  const cv::Mat valid = encode_valid_mask(result->flags);
   EXPECT_LT(
       mean_angular_error_deg(normals_from_gradients(result->p, result->q), surface.normal, valid),
       0.01);

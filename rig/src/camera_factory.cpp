@@ -1,7 +1,7 @@
-#include "psrig/rig/open_devices.h"
 #include "psrig/cameras/libcamera_camera.h"
-#include "psrig/sim/sim_camera.h"
 #include "psrig/cameras/v4l2_camera.h"
+#include "psrig/rig/open_devices.h"
+#include "psrig/sim/sim_camera.h"
 
 namespace psrig::rig {
 

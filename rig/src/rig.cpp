@@ -7,8 +7,8 @@
 
 #include "psrig/base/log.h"
 #include "psrig/calibration/calibration_store.h"
-#include "psrig/sim/fabric_truth.h"
 #include "psrig/rig/open_devices.h"
+#include "psrig/sim/fabric_truth.h"
 #include "psrig/sim/world.h"
 
 namespace psrig::rig {
@@ -110,7 +110,8 @@ ScanRequest Rig::request(const config::RigConfig& config) const {
     request.ground_truth_normal = world->swatch().normal;
     request.ground_truth_height = world->swatch().height_mm;
     if (const auto& pattern = world->pattern())
-      request.ground_truth_fabric = sim::fabric_ground_truth(*pattern, config.sim.swatch_rotation_deg);
+      request.ground_truth_fabric =
+          sim::fabric_ground_truth(*pattern, config.sim.swatch_rotation_deg);
   }
   return request;
 }

@@ -8,12 +8,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/base/log.h"
-#include "psrig/formats/scan_reader.h"
-#include "psrig/formats/scan_writer.h"
-#include "psrig/rig/storage_settings.h"
-#include "psrig/lights/emergency_stop.h"
 #include "psrig/formats/light_matrix.h"
 #include "psrig/formats/scan_layout.h"
+#include "psrig/formats/scan_reader.h"
+#include "psrig/formats/scan_writer.h"
+#include "psrig/lights/emergency_stop.h"
+#include "psrig/rig/storage_settings.h"
 
 namespace psrig::rig {
 namespace {
@@ -83,20 +83,20 @@ formats::ScanLight scan_light(const config::RigConfig& config, const ScanRequest
   const bool use_calibration = calibrated && channel < calibrated->directions.size() &&
                                channel < calibrated->intensities.size();
   const bool flat_fielded = use_flats(calibrated, stored);
-  formats::ScanLight light{
-      formats::scan_files::led_frame(phase_channel, stored.depth()),
-      use_calibration ? calibrated->directions[channel]
-                      : formats::light_direction(config.geometry.tilts_deg.at(channel),
-                                                 config.geometry.slant_deg),
-      cv::Vec3d::all(flat_fielded      ? 1.0
-                     : use_calibration ? calibrated->intensities[channel]
-                                       : intensity[phase_channel]),
-      false, std::nullopt};
+  formats::ScanLight light{formats::scan_files::led_frame(phase_channel, stored.depth()),
+                           use_calibration
+                               ? calibrated->directions[channel]
+                               : formats::light_direction(config.geometry.tilts_deg.at(channel),
+                                                          config.geometry.slant_deg),
+                           cv::Vec3d::all(flat_fielded      ? 1.0
+                                          : use_calibration ? calibrated->intensities[channel]
+                                                            : intensity[phase_channel]),
+                           false, std::nullopt};
   const auto positions = config::led_positions_mm(config.geometry);
-  const bool measured = calibrated &&
-                        calibrated->led_positions_mm.size() ==
-                            static_cast<std::size_t>(config.lights.channels) &&
-                        channel < calibrated->led_positions_mm.size();
+  const bool measured =
+      calibrated &&
+      calibrated->led_positions_mm.size() == static_cast<std::size_t>(config.lights.channels) &&
+      channel < calibrated->led_positions_mm.size();
   std::optional<cv::Vec3d> position;
   if (measured)
     position = calibrated->led_positions_mm[channel];
@@ -135,8 +135,8 @@ void apply_calibration(const config::RigConfig& config, const ScanRequest& reque
       cv::Mat stored;
       code.convertTo(stored, CV_16U);
       scan.flats.push_back(stored);
-      d.flats.push_back(formats::scan_files::flat_frame(static_cast<int>(scan.flats.size() - 1),
-                                                           stored.depth()));
+      d.flats.push_back(
+          formats::scan_files::flat_frame(static_cast<int>(scan.flats.size() - 1), stored.depth()));
     }
   } else if (request.calibration && !request.calibration->flats.empty()) {
     logger("capture")->warn(
@@ -432,8 +432,7 @@ void ScanSequencer::describe_scan(const ScanRequest& request, const cameras::Fra
         {"gain", reference.gain},
         {"frames_averaged", config_.camera.frames_average},
         {"frames_discarded", config_.camera.frames_discard},
-        {"frames_skipped_stale",
-         timing.frames_skipped - config_.camera.frames_discard * phases},
+        {"frames_skipped_stale", timing.frames_skipped - config_.camera.frames_discard * phases},
         {"frames_kept", timing.frames_kept},
         {"frames_skipped", timing.frames_skipped},
         {"capture_ms", std::round(timing.total.count() * 10) / 10},
@@ -461,7 +460,8 @@ Result<ScanOutcome> ScanSequencer::capture(
   if (progress) progress({ScanStage::writing, "writing", 0, 1});
   std::error_code ec;
   fs::create_directories(outcome.directory.parent_path(), ec);
-  if (auto ok = formats::write_scan(*scan, outcome.directory, storage_options(config_.storage)); !ok)
+  if (auto ok = formats::write_scan(*scan, outcome.directory, storage_options(config_.storage));
+      !ok)
     return std::unexpected(ok.error());
   committed_ = true;
   if (request.process.value_or(config_.capture.process)) {

@@ -11,15 +11,15 @@
 
 #include <gtest/gtest.h>
 
-#include "psrig/rig/rig.h"
-#include "psrig/rig/scan_sequencer.h"
 #include "psrig/config/config_loader.h"
-#include "psrig/sim/sim_lights.h"
 #include "psrig/formats/image_io.h"
 #include "psrig/formats/scan_layout.h"
 #include "psrig/formats/scan_reader.h"
 #include "psrig/processing/pipeline.h"
+#include "psrig/rig/rig.h"
+#include "psrig/rig/scan_sequencer.h"
 #include "psrig/rig/storage_settings.h"
+#include "psrig/sim/sim_lights.h"
 #include "psrig/sim/world.h"
 #include "test_support.h"
 
@@ -48,7 +48,7 @@ void expect_all_off_and_never_two_on(const SafeLights& lights) {
 TEST(ScanSequencer, SimulatedScanRecoversTheSwatchNormals) {
   test::TempDir dir;
   const auto config = small_sim_config();
-  auto rig = rig::open_rig(config);
+  auto rig = open_rig(config);
   ASSERT_TRUE(rig) << rig.error().describe();
   ScanSequencer sequencer(config, *rig->lights, *rig->camera);
   auto request = rig->request(config);
@@ -199,7 +199,7 @@ TEST(ScanSequencer, AScanIsProcessedFromMemoryNotReadBack) {
   auto config = small_sim_config();
   config.sim.width = 480;
   config.sim.height = 360;
-  auto rig = rig::open_rig(config);
+  auto rig = open_rig(config);
   ASSERT_TRUE(rig) << rig.error().describe();
   ScanSequencer sequencer(config, *rig->lights, *rig->camera);
   auto request = rig->request(config);
@@ -369,13 +369,13 @@ TEST(ScanSequencer, DefaultDirectoryIsTimestampedAndSafe) {
   config::RigConfig config;
   test::TempDir dir;
   config.storage.root = dir.path();
-  const auto path = rig::default_scan_directory(config, "J 0001/../x");
+  const auto path = default_scan_directory(config, "J 0001/../x");
   EXPECT_EQ(path.parent_path(), dir.path());
   const std::string name = path.filename().string();
   EXPECT_EQ(name.size(), std::string("20261121-170500-J_0001_.._x").size()) << name;
   EXPECT_EQ(name.substr(15), "-J_0001_.._x");
   std::filesystem::create_directory(path);
-  EXPECT_NE(rig::default_scan_directory(config, "J 0001/../x"), path);  // never reuses a name
+  EXPECT_NE(default_scan_directory(config, "J 0001/../x"), path);  // never reuses a name
 }
 
 }  // namespace

@@ -18,7 +18,7 @@ constexpr std::int64_t kBuffers = 4;
 
 class SimCamera final : public cameras::Camera {
  public:
-  SimCamera(const config::RigConfig& config, std::shared_ptr<sim::World> world)
+  SimCamera(const config::RigConfig& config, std::shared_ptr<World> world)
       : config_(config), world_(std::move(world)), sensor_(config.sim, config.sim.seed) {}
 
   Status configure(const config::CameraConfig& settings) override {
@@ -90,9 +90,9 @@ class SimCamera final : public cameras::Camera {
 
  private:
   config::RigConfig config_;
-  std::shared_ptr<sim::World> world_;
-  sim::Sensor sensor_;
-  sim::SensorSettings settings_;
+  std::shared_ptr<World> world_;
+  Sensor sensor_;
+  SensorSettings settings_;
   Clock::time_point t0_;
   std::int64_t next_ = 0;
   bool running_ = false;
@@ -101,7 +101,7 @@ class SimCamera final : public cameras::Camera {
 }  // namespace
 
 Result<std::unique_ptr<cameras::Camera>> open_sim_camera(const config::RigConfig& config) {
-  auto world = sim::World::attach(config);
+  auto world = World::attach(config);
   if (!world) return std::unexpected(std::move(world.error()));
   return std::make_unique<SimCamera>(config, std::move(*world));
 }

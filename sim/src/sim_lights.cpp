@@ -1,7 +1,7 @@
 #include "psrig/sim/sim_lights.h"
 
-#include "psrig/sim/simulated_leds.h"
 #include "psrig/lights/switch_log_file.h"
+#include "psrig/sim/simulated_leds.h"
 
 namespace psrig::sim {
 namespace {

@@ -3,17 +3,17 @@
 #include <cmath>
 #include <string>
 
-#include "psrig/sim/fabric_truth.h"
 #include "psrig/formats/light_matrix.h"
 #include "psrig/formats/scan_layout.h"
+#include "psrig/sim/fabric_truth.h"
 #include "psrig/sim/lambertian_render.h"
 
 namespace psrig::sim {
 
 Result<formats::Scan> make_synthetic_scan(const SyntheticScanParams& params) {
-  auto made = sim::make_swatch(params.swatch);
+  auto made = make_swatch(params.swatch);
   if (!made) return std::unexpected(std::move(made.error()));
-  const sim::Swatch& swatch = *made;
+  const Swatch& swatch = *made;
   const double full = params.depth == CV_8U ? 255.0 : 65535.0;
   cv::RNG random(params.swatch.seed * 0x9E3779B97F4A7C15ull + 1);
 
@@ -43,7 +43,7 @@ Result<formats::Scan> make_synthetic_scan(const SyntheticScanParams& params) {
                         {1, 1, 1},
                         false,
                         std::nullopt});
-    cv::Mat radiance = sim::render_lambertian(swatch, {direction, {1, 1, 1}}, params.cast_shadows);
+    cv::Mat radiance = render_lambertian(swatch, {direction, {1, 1, 1}}, params.cast_shadows);
     radiance *= params.exposure;
     if (params.noise > 0) {
       cv::Mat noise(radiance.size(), radiance.type());

@@ -3,11 +3,11 @@
 #include <cmath>
 #include <optional>
 
-#include "psrig/sim/simulated_rig.h"
 #include "psrig/formats/light_matrix.h"
 #include "psrig/sim/card_target.h"
 #include "psrig/sim/colour_chart_target.h"
 #include "psrig/sim/lambertian_render.h"
+#include "psrig/sim/simulated_rig.h"
 #include "psrig/sim/sphere_target.h"
 
 namespace psrig::sim {
@@ -40,7 +40,7 @@ Swatch target_scene(const config::SimConfig& sim) {
 }  // namespace
 
 Result<World> World::make(const config::RigConfig& config,
-                          std::shared_ptr<sim::SimulatedLeds> leds) {
+                          std::shared_ptr<SimulatedLeds> leds) {
   const config::SimConfig& sim = config.sim;
   if (sim.target != "swatch")
     return World(config, target_scene(sim), std::nullopt, std::move(leds));
@@ -65,11 +65,10 @@ Result<World> World::make(const config::RigConfig& config,
 }
 
 World::World(const config::RigConfig& config, Swatch scene, std::optional<SwatchPattern> pattern,
-             std::shared_ptr<sim::SimulatedLeds> leds)
+             std::shared_ptr<SimulatedLeds> leds)
     : swatch_(std::move(scene)),
       pattern_(std::move(pattern)),
-      leds_(leds ? std::move(leds)
-                 : std::make_shared<sim::SimulatedLeds>(config.lights.channels)) {
+      leds_(leds ? std::move(leds) : std::make_shared<SimulatedLeds>(config.lights.channels)) {
   const auto sphere = sphere_target(config.sim);
   // Near LEDs where the geometry places them, else (an unmeasured rig) at
   // [sim] led_distance_mm along the geometry's slant and tilts.
@@ -113,10 +112,10 @@ Result<std::shared_ptr<World>> World::attach(const config::RigConfig& config) {
   // Rendering under the registry's lock: a second caller waits for the
   // world rather than rendering another. A world that cannot be made is
   // not registered: the next caller tries again.
-  static sim::SimulatedRigRegistry<World> registry;
+  static SimulatedRigRegistry<World> registry;
   std::optional<Error> failed;
   auto world = registry.attach(config, [&]() -> std::shared_ptr<World> {
-    auto made = make(config, sim::SimulatedLeds::attach(config));
+    auto made = make(config, SimulatedLeds::attach(config));
     if (!made) {
       failed = std::move(made.error());
       return nullptr;

@@ -8,8 +8,8 @@
 
 #include <gtest/gtest.h>
 
-#include "psrig/sim/simulated_leds.h"
 #include "psrig/sim/sensor.h"
+#include "psrig/sim/simulated_leds.h"
 #include "psrig/sim/world.h"
 #include "shipped_swatch.h"
 #include "test_support.h"
@@ -78,7 +78,7 @@ TEST(SimWorld, AttachFindsTheRigsWorldThroughTheConfiguration) {
   auto world = test::made(World::attach(config));
   // The sim camera and the sim lights, opened apart, meet in it.
   EXPECT_EQ(test::made(World::attach(config)), world);
-  EXPECT_EQ(world->leds(), sim::SimulatedLeds::attach(config));
+  EXPECT_EQ(world->leds(), SimulatedLeds::attach(config));
   config::RigConfig other = config;
   other.sim.seed = 2;
   EXPECT_NE(test::made(World::attach(other)), world);
@@ -87,7 +87,7 @@ TEST(SimWorld, AttachFindsTheRigsWorldThroughTheConfiguration) {
   EXPECT_EQ(test::made(World::attach(other)), world);
   // Nobody holding it: the next rig opened gets a fresh world.
   const std::weak_ptr<World> held = world;
-  const std::weak_ptr<sim::SimulatedLeds> leds = world->leds();
+  const std::weak_ptr<SimulatedLeds> leds = world->leds();
   world.reset();
   EXPECT_TRUE(held.expired());
   EXPECT_TRUE(leds.expired());

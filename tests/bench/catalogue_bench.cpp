@@ -9,11 +9,11 @@
 #include <benchmark/benchmark.h>
 #include <nlohmann/json.hpp>
 
-#include "psrig/config/config_loader.h"
+#include "bench_config.h"
 #include "psrig/catalogue/catalogue.h"
+#include "psrig/config/config_loader.h"
 #include "psrig/daemon/http_api.h"
 #include "psrig/daemon/scan_service.h"
-#include "bench_config.h"
 #include "test_support.h"
 
 namespace psrig::test {

@@ -21,8 +21,8 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
-#include "psrig/processing/integration.h"
 #include "psrig/base/parallel.h"
+#include "psrig/processing/integration.h"
 
 namespace {
 

@@ -12,8 +12,8 @@
 #include <benchmark/benchmark.h>
 
 #include "psrig/formats/scan_writer.h"
-#include "psrig/sim/synthetic_scan.h"
 #include "psrig/processing/pipeline.h"
+#include "psrig/sim/synthetic_scan.h"
 #include "shipped_swatch.h"
 #include "test_support.h"
 
@@ -33,8 +33,7 @@ const fs::path& scan_12mp() {
     params.swatch.pattern = psrig::test::named_pattern("jersey");
     params.swatch.size = {4056, 3040};
     params.noise = 0.002;
-    psrig::formats::Scan synthetic =
-        psrig::test::made(psrig::sim::make_synthetic_scan(params));
+    psrig::formats::Scan synthetic = psrig::test::made(psrig::sim::make_synthetic_scan(params));
     synthetic.ground_truth_normal = cv::Mat();  // a rig scan has none
     synthetic.ground_truth_height = cv::Mat();
     const fs::path dir = workspace() / "scan";

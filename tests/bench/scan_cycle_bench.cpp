@@ -12,9 +12,9 @@
 
 #include <benchmark/benchmark.h>
 
+#include "psrig/config/config_loader.h"
 #include "psrig/rig/rig.h"
 #include "psrig/rig/scan_sequencer.h"
-#include "psrig/config/config_loader.h"
 
 namespace {
 

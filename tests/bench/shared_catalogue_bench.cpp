@@ -23,8 +23,8 @@
 #include "bench_config.h"
 #include "postgres_server.h"
 #include "psrig/base/log.h"
-#include "psrig/config/config_loader.h"
 #include "psrig/catalogue/catalogue.h"
+#include "psrig/config/config_loader.h"
 #include "psrig/daemon/scan_service.h"
 
 namespace psrig::test {

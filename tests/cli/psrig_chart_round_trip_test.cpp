@@ -94,8 +94,9 @@ TEST_P(ChartRoundTrip, MeasuresTheGaugeAndReadsTheChartBack) {
   ASSERT_TRUE(inferred) << inferred.error().describe();
   if (trip.whole_chart) {
     EXPECT_TRUE(analysis::same_chart_up_to_shift(*inferred, *truth))
-        << "read off:\n" << cloth::format_stitch_chart(*inferred)
-        << "knitted:\n" << cloth::format_stitch_chart(*truth);
+        << "read off:\n"
+        << cloth::format_stitch_chart(*inferred) << "knitted:\n"
+        << cloth::format_stitch_chart(*truth);
   }
   EXPECT_NEAR(inferred->gauge.wales_per_cm, printed["wales_per_cm"].get<double>(), 0.01);
 }

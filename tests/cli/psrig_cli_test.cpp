@@ -67,8 +67,8 @@ TEST(PsrigCli, RejectWithTwelveLightsNamesTheMethodInTheReport) {
   const fs::path scan = temp / "scan";
   fs::create_directories(scan);
   const auto lights = dome_lights(12, 50);
-  const formats::Scan rendered = render_scan(sphere_surface({48, 40}, 15, 1), lights, CV_16U,
-                                                0.002, 1, {}, {.strength = 0.5, .exponent = 40});
+  const formats::Scan rendered = render_scan(sphere_surface({48, 40}, 15, 1), lights, CV_16U, 0.002,
+                                             1, {}, {.strength = 0.5, .exponent = 40});
   nlohmann::json doc = {{"format", "psrig-scan/1"}, {"lights", nlohmann::json::array()}};
   for (std::size_t k = 0; k < lights.size(); ++k) {
     const std::string name = "led" + std::to_string(k) + ".png";
@@ -196,11 +196,11 @@ TEST(PsrigCli, CommonFlagsGoBeforeOrAfterTheSubcommand) {
     EXPECT_EQ(run.out, "") << args[0] << ' ' << args[1];
   }
   // A subcommand without a -q of its own takes the program's.
-  const auto config = run_program(
-      "psrig", {"-q", "config", "check", PSRIG_SOURCE_DIR "/config/sim.toml"});
+  const auto config =
+      run_program("psrig", {"-q", "config", "check", PSRIG_SOURCE_DIR "/config/sim.toml"});
   EXPECT_EQ(config.exit_code, 0) << config.err;
-  const auto config_after = run_program(
-      "psrig", {"config", "check", PSRIG_SOURCE_DIR "/config/sim.toml", "-q"});
+  const auto config_after =
+      run_program("psrig", {"config", "check", PSRIG_SOURCE_DIR "/config/sim.toml", "-q"});
   EXPECT_EQ(config_after.exit_code, 0) << config_after.err;
   for (const auto& args : {std::vector<std::string>{"process", "--version"},
                            std::vector<std::string>{"config", "check", "--version"}}) {

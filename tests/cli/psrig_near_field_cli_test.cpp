@@ -13,9 +13,9 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include "psrig/processing/evaluation.h"
 #include "psrig/formats/light_matrix.h"
 #include "psrig/formats/scan_reader.h"
+#include "psrig/processing/evaluation.h"
 #include "psrig/processing/woodham.h"
 #include "test_support.h"
 

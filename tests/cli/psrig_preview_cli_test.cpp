@@ -51,7 +51,8 @@ TEST(PsrigPreviewCli, CommonFlagsGoAfterTheSubcommandToo) {
     EXPECT_EQ(run.exit_code, 0) << run.err;
     EXPECT_EQ(run.out, "psrig-preview " PSRIG_VERSION "\n");
   }
-  const auto quiet = run_program("psrig-preview", {"-q", "render", "/no/such/maps", "--out", "x.png"});
+  const auto quiet =
+      run_program("psrig-preview", {"-q", "render", "/no/such/maps", "--out", "x.png"});
   EXPECT_EQ(quiet.exit_code, 2) << quiet.err;  // -q taken; the missing maps are the error
   EXPECT_TRUE(contains(quiet.err, "/no/such/maps")) << quiet.err;
 }

@@ -45,7 +45,7 @@ class CatalogueBackendTest : public ::testing::TestWithParam<Backend> {
 
   // How `rig` opens the catalogue of `root` (the shared storage root).
   [[nodiscard]] catalogue::CatalogueOptions options(const std::filesystem::path& root,
-                                                 const std::string& rig = kRig) const {
+                                                    const std::string& rig = kRig) const {
     catalogue::CatalogueOptions o;
     o.storage_root = root;
     o.rig_name = rig;
@@ -62,7 +62,7 @@ class CatalogueBackendTest : public ::testing::TestWithParam<Backend> {
     return catalogue::open_catalogue(options(root, rig));
   }
   [[nodiscard]] std::unique_ptr<catalogue::Catalogue> open(const std::filesystem::path& root,
-                                                        const std::string& rig = kRig) {
+                                                           const std::string& rig = kRig) {
     auto catalogue = try_open(root, rig);
     EXPECT_TRUE(catalogue) << catalogue.error().describe();
     return catalogue ? std::move(*catalogue) : nullptr;

@@ -214,7 +214,8 @@ TEST_P(SharedCatalogue, RigsStartingTogetherMigrateOnce) {
   std::vector<std::future<bool>> starts;
   for (int i = 0; i < 4; ++i)
     starts.push_back(std::async(std::launch::async, [this, i] {
-      auto catalogue = catalogue::open_catalogue(options(temp / "shared", "rig-" + std::to_string(i)));
+      auto catalogue =
+          catalogue::open_catalogue(options(temp / "shared", "rig-" + std::to_string(i)));
       EXPECT_TRUE(catalogue) << catalogue.error().describe();
       return catalogue && add(**catalogue, "S") > 0;
     }));

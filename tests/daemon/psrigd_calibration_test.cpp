@@ -10,9 +10,9 @@
 #include "daemon_process.h"
 #include "psrig/calibration/calibration_store.h"
 #include "psrig/calibration/light_calibration.h"
+#include "psrig/formats/light_matrix.h"
 #include "psrig/lights/switch_log.h"
 #include "psrig/lights/switch_log_file.h"
-#include "psrig/formats/light_matrix.h"
 
 namespace psrig::test {
 namespace {

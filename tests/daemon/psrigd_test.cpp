@@ -21,10 +21,10 @@
 #include <nlohmann/json.hpp>
 
 #include "daemon_process.h"
-#include "raw_http.h"
 #include "psrig/config/config_loader.h"
-#include "psrig/rig/open_devices.h"
 #include "psrig/lights/light_controller.h"
+#include "psrig/rig/open_devices.h"
+#include "raw_http.h"
 #include "sim_modbus_driver.h"
 
 namespace psrig::test {

@@ -14,9 +14,9 @@
 namespace psrig::test {
 namespace {
 
+using catalogue::ScanStatus;
 using daemon::ScanCancel;
 using daemon::ScanService;
-using catalogue::ScanStatus;
 
 // A service over config/sim.toml at 160x120, scans in `temp`/scans.
 std::unique_ptr<ScanService> start_service(const TempDir& temp, const Edits& edits = {}) {

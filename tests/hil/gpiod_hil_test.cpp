@@ -14,9 +14,9 @@
 #include "emulated_gpio_chip.h"
 #include "gpio_led_wiring.h"
 #include "psrig/lights/gpiod_lights.h"
-#include "psrig/rig/open_devices.h"
 #include "psrig/lights/light_controller.h"
 #include "psrig/lights/safe_lights.h"
+#include "psrig/rig/open_devices.h"
 #include "psrig/sim/simulated_leds.h"
 #include "umockdev_bed.h"
 

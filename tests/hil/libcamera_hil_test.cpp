@@ -17,8 +17,8 @@
 
 #include "emulated_uvc_camera.h"
 #include "psrig/cameras/camera.h"
-#include "psrig/rig/open_devices.h"
 #include "psrig/cameras/libcamera_camera.h"
+#include "psrig/rig/open_devices.h"
 #include "psrig/rig/rig.h"
 #include "psrig/rig/scan_sequencer.h"
 #include "psrig/sim/sensor.h"
@@ -366,9 +366,10 @@ TEST(LibcameraHil, ACameraUnpluggedMidScanEndsItWithAllLedsOff) {
   auto rig = rig::open_rig(emulated.config);
   ASSERT_TRUE(rig) << rig.error().describe();
   rig::ScanSequencer sequencer(emulated.config, *rig->lights, *rig->camera);
-  auto outcome = sequencer.capture(emulated.request_into(dir), [&](const rig::ScanProgress& progress) {
-    if (progress.step == "light 3 of 3") emulated.camera.unplug();
-  });
+  auto outcome =
+      sequencer.capture(emulated.request_into(dir), [&](const rig::ScanProgress& progress) {
+        if (progress.step == "light 3 of 3") emulated.camera.unplug();
+      });
   ASSERT_FALSE(outcome);
   const std::string message = outcome.error().describe();
   EXPECT_NE(message.find(emulated.camera.camera_id()), std::string::npos) << message;

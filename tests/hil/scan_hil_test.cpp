@@ -66,8 +66,7 @@ config::RigConfig hil_config() {
 // 8-bit grey and `sensor_format`, which "auto" picks for its depth.
 struct EmulatedRig {
   explicit EmulatedRig(std::uint32_t sensor_format = V4L2_PIX_FMT_Y12) : format(sensor_format) {
-    wiring.connect(chip,
-                   test::GpioLedWiring::to_leds(sim::SimulatedLeds::attach(config)));
+    wiring.connect(chip, test::GpioLedWiring::to_leds(sim::SimulatedLeds::attach(config)));
   }
 
   std::uint32_t format;
@@ -116,7 +115,7 @@ struct Opened {
 };
 
 Opened open(EmulatedRig& emulated) {
-  auto rig = rig::open_rig(emulated.config);
+  auto rig = open_rig(emulated.config);
   EXPECT_TRUE(rig) << (rig ? "" : rig.error().describe());
   if (!rig) return {};
   Opened opened{std::move(*rig), nullptr};
@@ -125,7 +124,7 @@ Opened open(EmulatedRig& emulated) {
   return opened;
 }
 
-rig::ScanRequest request_into(const test::TempDir& dir, const EmulatedRig& emulated) {
+ScanRequest request_into(const test::TempDir& dir, const EmulatedRig& emulated) {
   ScanRequest request;
   request.directory = dir / "scan";
   request.sample_id = "HIL-1";

@@ -21,9 +21,9 @@
 
 #include "emulated_strobe_controller.h"
 #include "psrig/config/rig_config.h"
-#include "psrig/rig/open_devices.h"
 #include "psrig/lights/light_controller.h"
 #include "psrig/lights/usb_lights.h"
+#include "psrig/rig/open_devices.h"
 #include "umockdev_bed.h"
 
 namespace psrig::test {

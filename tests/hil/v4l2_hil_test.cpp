@@ -13,8 +13,8 @@
 
 #include "emulated_v4l2_camera.h"
 #include "psrig/cameras/camera.h"
-#include "psrig/rig/open_devices.h"
 #include "psrig/cameras/v4l2_formats.h"
+#include "psrig/rig/open_devices.h"
 #include "umockdev_bed.h"
 
 namespace psrig::cameras {

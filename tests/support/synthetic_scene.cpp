@@ -122,9 +122,9 @@ cv::Mat dome_cast_shadow(cv::Size size, double radius, const cv::Vec3d& light) {
   return mask;
 }
 
-formats::Scan render_scan(const Surface& surface, const std::vector<cv::Vec3d>& lights,
-                             int depth, double noise, std::uint64_t seed,
-                             const std::vector<cv::Mat>& shadows, Specular specular) {
+formats::Scan render_scan(const Surface& surface, const std::vector<cv::Vec3d>& lights, int depth,
+                          double noise, std::uint64_t seed, const std::vector<cv::Mat>& shadows,
+                          Specular specular) {
   formats::Scan scan;
   const int channels = surface.albedo.channels();
   const double full = depth == CV_8U ? 255 : depth == CV_16U ? 65535 : 1;

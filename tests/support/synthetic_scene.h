@@ -58,10 +58,10 @@ struct Specular {
 // normals, and `description` is filled so solve() can run on it.
 // Where `shadows[k]` is given and nonzero, light k is blocked.
 [[nodiscard]] formats::Scan render_scan(const Surface& surface,
-                                           const std::vector<cv::Vec3d>& lights, int depth,
-                                           double noise = 0, std::uint64_t seed = 1,
-                                           const std::vector<cv::Mat>& shadows = {},
-                                           Specular specular = {});
+                                        const std::vector<cv::Vec3d>& lights, int depth,
+                                        double noise = 0, std::uint64_t seed = 1,
+                                        const std::vector<cv::Mat>& shadows = {},
+                                        Specular specular = {});
 
 // The RMS angle error (radians) photometric stereo makes at a pixel of
 // normal n and grey albedo rho, under Gaussian noise sigma (fraction of full

@@ -8,8 +8,10 @@
 //     -lfmt -o /tmp/write_psrig_png_seeds && /tmp/write_psrig_png_seeds tests/fuzz/corpus/png
 #include <cstdio>
 #include <vector>
-#include <opencv2/imgcodecs.hpp>
+
 #include <opencv2/core.hpp>
+#include <opencv2/imgcodecs.hpp>
+
 #include "psrig/formats/image_io.h"
 int main(int, char** argv) {
   namespace p = psrig::processing;

@@ -53,8 +53,8 @@ class SimModbusDriver {
   // Called from the server thread for every LED change, in order (offs
   // before ons), before the reply leaves: `level` is the LED's intensity
   // register over the full scale. Shaped for sim::SimulatedLeds::set_led.
-  using SwitchCallback = std::function<void(int channel, bool on, double level,
-                                            lights::Clock::time_point time)>;
+  using SwitchCallback =
+      std::function<void(int channel, bool on, double level, lights::Clock::time_point time)>;
 
   [[nodiscard]] static Result<std::unique_ptr<SimModbusDriver>> start(
       const SimModbusDriverOptions& options, SwitchCallback on_switch = {});

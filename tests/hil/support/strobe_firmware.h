@@ -53,9 +53,8 @@ class StrobeFirmware {
 
   // One bulk OUT transfer, received at `now`; returns the bulk IN response
   // (empty for a zero-length transfer, which gets none).
-  [[nodiscard]] lights::strobe::Frame receive(
-      std::span<const std::uint8_t> bytes,
-      lights::Clock::time_point now = lights::Clock::now());
+  [[nodiscard]] lights::strobe::Frame receive(std::span<const std::uint8_t> bytes,
+                                              lights::Clock::time_point now = lights::Clock::now());
   // Runs the timers up to `now`: strobes end, the watchdog trips.
   void advance(lights::Clock::time_point now);
   // Runs the timers on a thread of their own, in real time, until
@@ -64,8 +63,7 @@ class StrobeFirmware {
   void stop_timer();
 
   // What the world does to the controller.
-  void set_temperature(double celsius,
-                       lights::Clock::time_point now = lights::Clock::now());
+  void set_temperature(double celsius, lights::Clock::time_point now = lights::Clock::now());
   // A broken LED, found (and latched) whenever its channel is driven on.
   void set_led_fault(int channel, LedFault fault);
   // USB reset, suspend or VBUS lost (unplugged): all off, watchdog idle.
@@ -90,7 +88,7 @@ class StrobeFirmware {
   };
 
   lights::strobe::Response execute(const lights::strobe::Command& command,
-                                          lights::Clock::time_point now);
+                                   lights::Clock::time_point now);
   void advance_locked(lights::Clock::time_point now);
   [[nodiscard]] std::optional<lights::Clock::time_point> next_deadline_locked() const;
   void drive(int channel, bool on, lights::Clock::time_point at);

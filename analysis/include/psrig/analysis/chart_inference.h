@@ -34,9 +34,9 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "psrig/analysis/fabric_measure.h"
 #include "psrig/base/error.h"
 #include "psrig/cloth/stitch_chart.h"
-#include "psrig/analysis/fabric_measure.h"
 
 namespace psrig::analysis {
 
@@ -98,8 +98,8 @@ struct ChartInferenceOptions {
 // analysis::fabric_hints) as the split, as `fabric` measured them: the
 // rig's word (the simulator's, or the technician's), so only knit and purl
 // are read off then.
-[[nodiscard]] ChartInferenceOptions options_from_scan(const analysis::FabricMeasurement& fabric,
-                                                      const analysis::FabricHints& hints);
+[[nodiscard]] ChartInferenceOptions options_from_scan(const FabricMeasurement& fabric,
+                                                      const FabricHints& hints);
 
 // height: CV_32F (NaN: none); albedo: CV_32FC3 linear BGR (as the maps
 // directory's albedo.exr), CV_32FC1, or empty (then no palette). `fabric`
@@ -107,13 +107,13 @@ struct ChartInferenceOptions {
 // (by the scan's metadata), no repeat, a repeat too small to hold a stitch,
 // or faces that look like no knit or purl stitch.
 [[nodiscard]] Result<InferredKnit> infer_knit_chart(const cv::Mat& height, const cv::Mat& albedo,
-                                                    const analysis::FabricMeasurement& fabric,
+                                                    const FabricMeasurement& fabric,
                                                     const ChartInferenceOptions& options = {});
 
 // The measurement with its stitches counted rather than assumed: the
 // wales and courses in its repeat, and so its densities, from `knit`; the
 // note on the assumption replaced by one on the count.
-void count_stitches(analysis::FabricMeasurement& fabric, const InferredKnit& knit);
+void count_stitches(FabricMeasurement& fabric, const InferredKnit& knit);
 
 // The same stitches, both repeats tiled, whatever stitch each starts at:
 // equal sizes and one cyclic shift that maps one onto the other (stitches
@@ -122,7 +122,7 @@ void count_stitches(analysis::FabricMeasurement& fabric, const InferredKnit& kni
 
 // The fraction of `grid` (columns x rows, row-major, row 0 the bottom) that
 // agrees with `chart` tiled over it at the best cyclic shift of the chart.
-[[nodiscard]] double agreement_with_chart(const std::vector<cloth::Stitch>& grid, int columns, int rows,
-                                          const cloth::StitchChart& chart);
+[[nodiscard]] double agreement_with_chart(const std::vector<cloth::Stitch>& grid, int columns,
+                                          int rows, const cloth::StitchChart& chart);
 
 }  // namespace psrig::analysis

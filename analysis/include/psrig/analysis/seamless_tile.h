@@ -13,14 +13,13 @@
 #include <nlohmann/json.hpp>
 #include <opencv2/core.hpp>
 
-#include "psrig/base/error.h"
 #include "psrig/analysis/fabric_measure.h"
+#include "psrig/base/error.h"
 #include "psrig/formats/maps_reader.h"
 #include "psrig/formats/scan_layout.h"
 #include "psrig/formats/storage_options.h"
 
 namespace psrig::analysis {
-
 
 // The seam check: the tile repeated 2x2; per line (a column, or a row) the
 // RMS of the second difference of the height across it. `value` is the

@@ -11,8 +11,8 @@
 
 #include "psrig/base/error.h"
 #include "psrig/config/rig_config.h"
-#include "psrig/lights/switch_log.h"
 #include "psrig/formats/scan.h"
+#include "psrig/lights/switch_log.h"
 
 namespace psrig::cameras {
 

@@ -26,9 +26,9 @@
 
 #include <nlohmann/json.hpp>
 
-#include "psrig/config/rig_config.h"
 #include "psrig/base/error.h"
 #include "psrig/catalogue/scan_submission.h"
+#include "psrig/config/rig_config.h"
 
 namespace psrig::catalogue {
 

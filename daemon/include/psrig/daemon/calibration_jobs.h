@@ -21,7 +21,7 @@ struct CalibrationJob {
   std::int64_t id = 0;  // 1, 2, 3, … (the queue knows it as -id, apart from scans' ids)
   std::string kind;
   nlohmann::json options;                 // as asked
-  rig::CalibrationRequest request;    // what runs
+  rig::CalibrationRequest request;        // what runs
   std::string status = "queued";          // queued | running | done | failed | aborted
   std::string queued, started, finished;  // UTC ISO-8601
   std::string step;
@@ -35,8 +35,7 @@ struct CalibrationJob {
 class CalibrationJobs {
  public:
   // A new job, queued.
-  [[nodiscard]] CalibrationJob add(const nlohmann::json& options,
-                                   rig::CalibrationRequest request);
+  [[nodiscard]] CalibrationJob add(const nlohmann::json& options, rig::CalibrationRequest request);
   // Forgets a job that the queue refused.
   void forget(std::int64_t id);
   void started(std::int64_t id, std::int64_t scans_finished_before);

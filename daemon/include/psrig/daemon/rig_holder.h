@@ -10,9 +10,9 @@
 #include <string>
 
 #include "psrig/base/error.h"
-#include "psrig/rig/rig.h"
 #include "psrig/config/rig_config.h"
 #include "psrig/daemon/scan_control.h"
+#include "psrig/rig/rig.h"
 
 namespace psrig::daemon {
 

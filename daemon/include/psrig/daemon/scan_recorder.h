@@ -43,8 +43,8 @@ class ScanRecorder {
   void progress(std::int64_t id, const std::string& step, int percent, DaemonState state);
 
   // A scan's end: its row, then the status page and the event.
-  void failed(std::int64_t id, catalogue::ScanStatus status, catalogue::ScanErrorCode code, const std::string& message,
-              bool files_kept);
+  void failed(std::int64_t id, catalogue::ScanStatus status, catalogue::ScanErrorCode code,
+              const std::string& message, bool files_kept);
   // Flushes the maps (or the scan, without maps) to disk: a row that says
   // `done` must not outlive them in a power cut. Before done().
   [[nodiscard]] Status make_durable(const std::filesystem::path& scan_directory,

@@ -15,9 +15,9 @@
 #include <optional>
 #include <thread>
 
+#include "psrig/catalogue/catalogue.h"
 #include "psrig/config/rig_config.h"
 #include "psrig/daemon/calibration_jobs.h"
-#include "psrig/catalogue/catalogue.h"
 #include "psrig/daemon/rig_holder.h"
 #include "psrig/daemon/scan_control.h"
 #include "psrig/daemon/scan_events.h"
@@ -118,8 +118,9 @@ class ScanService final : public ScanControl {
   void drop(const ScanJob& job, const std::string& message, bool stopping);
   void apply_pending_config();
   // The scan's files removed unless kept, then its end recorded.
-  void finish(const ScanJob& job, catalogue::ScanStatus status, catalogue::ScanErrorCode code, const std::string& message,
-              const std::filesystem::path& scan_directory, bool keep_files);
+  void finish(const ScanJob& job, catalogue::ScanStatus status, catalogue::ScanErrorCode code,
+              const std::string& message, const std::filesystem::path& scan_directory,
+              bool keep_files);
   void set_step(std::int64_t id, const std::string& step, int percent, DaemonState state);
   [[nodiscard]] catalogue::ScanErrorCode classify(const Error& error, Stage stage) const;
   void beat();

@@ -37,5 +37,4 @@ struct DecodedGradients {
 // Height -> 16-bit grey, `low` to 0 and `high` to 65535.
 [[nodiscard]] cv::Mat encode_height16(const cv::Mat& height, double low, double high);
 
-
 }  // namespace psrig::formats

@@ -16,12 +16,11 @@ namespace psrig::formats {
 // every key psrig knows rewritten from the description. Images are named
 // led<k>, dark, mask, flat<k>, gt_normal, gt_height, with .png for 8- and
 // 16-bit images and .exr for float ones.
-[[nodiscard]] nlohmann::json scan_json(const formats::Scan& scan);
+[[nodiscard]] nlohmann::json scan_json(const Scan& scan);
 
 // Writes the images and scan.json into `directory`, which must not exist
 // yet: the directory appears whole, flushed to disk, or not at all.
-[[nodiscard]] Status write_scan(const formats::Scan& scan,
-                                const std::filesystem::path& directory,
-                                const formats::StorageOptions& storage = {});
+[[nodiscard]] Status write_scan(const Scan& scan, const std::filesystem::path& directory,
+                                const StorageOptions& storage = {});
 
 }  // namespace psrig::formats

@@ -9,10 +9,10 @@
 #include <nlohmann/json.hpp>
 
 #include "psrig/base/error.h"
-#include "psrig/processing/flatten.h"
-#include "psrig/processing/integration.h"
 #include "psrig/formats/scan.h"
 #include "psrig/formats/storage_options.h"
+#include "psrig/processing/flatten.h"
+#include "psrig/processing/integration.h"
 #include "psrig/processing/woodham.h"
 
 namespace psrig::processing {

@@ -10,9 +10,9 @@
 
 #include <nlohmann/json.hpp>
 
+#include "psrig/formats/scan.h"
 #include "psrig/processing/evaluation.h"
 #include "psrig/processing/pipeline.h"
-#include "psrig/formats/scan.h"
 #include "psrig/processing/woodham.h"
 
 namespace psrig::processing {

@@ -12,8 +12,8 @@
 
 #include "psrig/base/error.h"
 #include "psrig/formats/light_matrix.h"
-#include "psrig/processing/linearise.h"
 #include "psrig/formats/scan.h"
+#include "psrig/processing/linearise.h"
 
 namespace psrig::processing {
 
@@ -72,9 +72,11 @@ struct SolveResult {
 };
 
 // Linearises and solves a whole scan, a row at a time on the thread pool.
-[[nodiscard]] Result<SolveResult> solve(const formats::Scan& scan, const SolveOptions& options = {});
+[[nodiscard]] Result<SolveResult> solve(const formats::Scan& scan,
+                                        const SolveOptions& options = {});
 // The same into `result`, reusing its buffers when they have the right size.
-[[nodiscard]] Status solve_into(const formats::Scan& scan, const SolveOptions& options, SolveResult& result);
+[[nodiscard]] Status solve_into(const formats::Scan& scan, const SolveOptions& options,
+                                SolveResult& result);
 
 // Unit normals (nx, ny, nz) from gradients, CV_32FC3.
 [[nodiscard]] cv::Mat normals_from_gradients(const cv::Mat& p, const cv::Mat& q);

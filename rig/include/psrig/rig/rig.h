@@ -7,9 +7,9 @@
 #include <memory>
 
 #include "psrig/cameras/camera.h"
-#include "psrig/rig/scan_sequencer.h"
 #include "psrig/config/rig_config.h"
 #include "psrig/lights/safe_lights.h"
+#include "psrig/rig/scan_sequencer.h"
 
 // The world's header brings the cloth's (and Eigen's) along; a rig's
 // holders need only hold it (include psrig/sim/world.h to look inside).
@@ -35,8 +35,7 @@ struct Rig {
 // behind the safety layer (the daemon records which device fails). Unset:
 // the device as opened.
 struct RigWrappers {
-  std::function<std::unique_ptr<lights::LightController>(
-      std::unique_ptr<lights::LightController>)>
+  std::function<std::unique_ptr<lights::LightController>(std::unique_ptr<lights::LightController>)>
       lights;
   std::function<std::unique_ptr<cameras::Camera>(std::unique_ptr<cameras::Camera>)> camera;
 };

@@ -21,9 +21,9 @@
 
 #include "psrig/cameras/camera.h"
 #include "psrig/config/rig_config.h"
+#include "psrig/formats/scan.h"
 #include "psrig/lights/safe_lights.h"
 #include "psrig/processing/pipeline.h"
-#include "psrig/formats/scan.h"
 
 namespace psrig::rig {
 
@@ -94,7 +94,8 @@ struct ScanOutcome {
 
 class ScanSequencer {
  public:
-  ScanSequencer(const config::RigConfig& config, lights::SafeLights& lights, cameras::Camera& camera);
+  ScanSequencer(const config::RigConfig& config, lights::SafeLights& lights,
+                cameras::Camera& camera);
 
   // Frames only (no files): what capture() writes.
   [[nodiscard]] Result<formats::Scan> acquire(

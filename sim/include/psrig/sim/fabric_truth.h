@@ -11,10 +11,10 @@
 
 namespace psrig::sim {
 
-[[nodiscard]] nlohmann::json fabric_metadata(const sim::SwatchPattern& pattern);
+[[nodiscard]] nlohmann::json fabric_metadata(const SwatchPattern& pattern);
 
 // `rotation_deg`: the fabric turned counterclockwise on the rig.
-[[nodiscard]] nlohmann::json fabric_ground_truth(const sim::SwatchPattern& pattern,
+[[nodiscard]] nlohmann::json fabric_ground_truth(const SwatchPattern& pattern,
                                                  double rotation_deg);
 
 }  // namespace psrig::sim

@@ -10,6 +10,7 @@
 namespace psrig::sim {
 
 // Bad input when the world cannot be made (sim.pattern names no usable pattern).
-[[nodiscard]] Result<std::unique_ptr<cameras::Camera>> open_sim_camera(const config::RigConfig& config);
+[[nodiscard]] Result<std::unique_ptr<cameras::Camera>> open_sim_camera(
+    const config::RigConfig& config);
 
 }  // namespace psrig::sim

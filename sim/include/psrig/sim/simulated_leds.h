@@ -26,7 +26,8 @@ class SimulatedLeds {
   [[nodiscard]] int channel_count() const { return channels_; }
 
   // LED `channel` on at `level` (0..1) or off, from now (or `at`).
-  void set_led(int channel, bool on, double level = 1.0, lights::Clock::time_point at = lights::Clock::now());
+  void set_led(int channel, bool on, double level = 1.0,
+               lights::Clock::time_point at = lights::Clock::now());
   void all_off(lights::Clock::time_point at = lights::Clock::now());
   [[nodiscard]] std::vector<int> leds_on() const;
   // Everything switched, for the never-two-on check.

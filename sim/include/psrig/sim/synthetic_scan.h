@@ -10,7 +10,7 @@
 namespace psrig::sim {
 
 struct SyntheticScanParams {
-  sim::SwatchParams swatch;
+  SwatchParams swatch;
   double slant_deg = 45;  // all three lights; tilts 0, 120, 240
   double noise = 0;       // Gaussian, standard deviation as a fraction of full scale
   int depth = CV_16U;     // CV_8U or CV_16U

@@ -26,9 +26,8 @@ class World {
   // The world of `config` lit by `leds` (null: LEDs of its own, switched
   // through leds(); attach() gives the rig's world instead). Bad input,
   // naming sim.pattern, when the swatch's pattern cannot be read or made.
-  [[nodiscard]] static Result<World> make(
-      const config::RigConfig& config,
-      std::shared_ptr<sim::SimulatedLeds> leds = nullptr);
+  [[nodiscard]] static Result<World> make(const config::RigConfig& config,
+                                          std::shared_ptr<SimulatedLeds> leds = nullptr);
 
   // The world of the simulated rig `config` describes, lit by its LEDs
   // (SimulatedLeds::attach): the same instance for every holder of an
@@ -45,7 +44,7 @@ class World {
   [[nodiscard]] const Swatch& swatch() const { return swatch_; }
   // What the swatch is made of ([sim] pattern); none for calibration targets.
   [[nodiscard]] const std::optional<SwatchPattern>& pattern() const { return pattern_; }
-  [[nodiscard]] const std::shared_ptr<sim::SimulatedLeds>& leds() const { return leds_; }
+  [[nodiscard]] const std::shared_ptr<SimulatedLeds>& leds() const { return leds_; }
 
   // How much of [begin, end) each LED shone (SimulatedLeds::exposure_weights).
   [[nodiscard]] std::vector<double> exposure_weights(Clock::time_point begin,
@@ -61,7 +60,7 @@ class World {
 
  private:
   World(const config::RigConfig& config, Swatch scene, std::optional<SwatchPattern> pattern,
-        std::shared_ptr<sim::SimulatedLeds> leds);
+        std::shared_ptr<SimulatedLeds> leds);
 
   std::vector<cv::Vec3d> directions_;
   std::vector<cv::Vec3d> positions_;
@@ -69,7 +68,7 @@ class World {
   std::optional<SwatchPattern> pattern_;
   std::vector<cv::Mat> radiance_;
   cv::Mat ambient_;
-  std::shared_ptr<sim::SimulatedLeds> leds_;
+  std::shared_ptr<SimulatedLeds> leds_;
 };
 
 }  // namespace psrig::sim
