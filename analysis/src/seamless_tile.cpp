@@ -588,19 +588,14 @@ Result<Tile> cut_tile(const formats::Maps& maps, const TileOptions& options,
   return tile;
 }
 
-Result<fs::path> ensure_tile(const fs::path& maps_directory, std::vector<std::string>& warnings) {
+std::optional<fs::path> stored_tile(const fs::path& maps_directory) {
   const fs::path directory = maps_directory / formats::tile_files::kDirectory;
   std::error_code tile_ec;
   std::error_code maps_ec;
   const auto made = fs::last_write_time(directory / formats::tile_files::kDescription, tile_ec);
   const auto maps = fs::last_write_time(maps_directory / formats::map_files::kReport, maps_ec);
   if (!tile_ec && (maps_ec || made >= maps)) return directory;
-  auto read = formats::read_maps(maps_directory, warnings);
-  if (!read) return std::unexpected(read.error());
-  auto tile = cut_tile(*read, {}, warnings);
-  if (!tile) return std::unexpected(tile.error());
-  if (auto ok = write_tile(*tile, directory); !ok) return std::unexpected(ok.error());
-  return directory;
+  return std::nullopt;
 }
 
 }  // namespace psrig::analysis

@@ -22,6 +22,7 @@ class FaultRecordingCamera final : public cameras::Camera {
   }
   Status stop() override { return noted(inner_->stop(), faults_->camera); }
   std::string describe() const override { return inner_->describe(); }
+  void describe_scene(formats::Scan& scan) const override { inner_->describe_scene(scan); }
 
  private:
   std::unique_ptr<cameras::Camera> inner_;

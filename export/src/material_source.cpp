@@ -8,6 +8,7 @@
 
 #include "psrig/analysis/seamless_tile.h"
 #include "psrig/formats/scan_layout.h"
+#include "psrig/formats/scratch_directory.h"
 
 namespace psrig::export_ {
 namespace {
@@ -204,18 +205,42 @@ Result<MaterialSource> material_source_from(const fs::path& directory) {
   return source;
 }
 
+namespace {
+
+// The maps' tile cut now for this export alone, into a scratch directory
+// the source keeps until it goes: the maps directory is only read.
+Result<MaterialSource> cut_for_this_export(const fs::path& maps_directory,
+                                           std::vector<std::string>& warnings) {
+  auto maps = formats::read_maps(maps_directory, warnings);
+  if (!maps) return std::unexpected(maps.error());
+  auto tile = analysis::cut_tile(*maps, {}, warnings);
+  if (!tile) return std::unexpected(tile.error());
+  auto scratch = formats::ScratchDirectory::create("tile");
+  if (!scratch) return std::unexpected(scratch.error());
+  const fs::path directory = scratch->path() / formats::tile_files::kDirectory;
+  if (auto ok = analysis::write_tile(*tile, directory); !ok) return std::unexpected(ok.error());
+  auto source = material_source_from(directory);
+  if (source)
+    source->scratch = std::make_shared<const formats::ScratchDirectory>(std::move(*scratch));
+  return source;
+}
+
+}  // namespace
+
 Result<MaterialSource> material_for_export(const fs::path& directory, bool whole_scan) {
   std::error_code ec;
   if (whole_scan || fs::is_regular_file(directory / formats::tile_files::kDescription, ec) ||
       !fs::is_directory(directory, ec))
     return material_source_from(directory);
+  if (const auto stored = analysis::stored_tile(directory)) return material_source_from(*stored);
   std::vector<std::string> warnings;
-  auto tile = analysis::ensure_tile(directory, warnings);
-  auto source = material_source_from(tile ? *tile : directory);
-  if (!source) return source;
-  if (!tile)
-    warnings.push_back("no seamless tile (" + tile.error().describe() +
+  auto source = cut_for_this_export(directory, warnings);
+  if (!source) {
+    warnings.push_back("no seamless tile (" + source.error().describe() +
                        "); exporting the whole scan, which shows a seam where it repeats");
+    source = material_source_from(directory);
+    if (!source) return source;
+  }
   source->warnings.insert(source->warnings.begin(), warnings.begin(), warnings.end());
   return source;
 }

@@ -50,26 +50,37 @@ TEST(PsrigExportCli, WithoutPixelSizeWarnsAndExportsInPixels) {
   EXPECT_NE(run.out.find("(200 x 120 px)"), std::string::npos) << run.out;
 }
 
-// By default a maps directory is exported as its seamless tile (made once
-// into MAPS_DIR/tile), so the material repeats without a seam.
+// By default a maps directory is exported as its seamless tile: cut for
+// the export when `psrig tile` has not stored one, the maps only read; the
+// stored one when it has.
 TEST(PsrigExportCli, AMapsDirectoryExportsItsSeamlessTile) {
   TempDir dir("psrig-export-cli");
   const std::string scan = (dir / "scan").string();
   ASSERT_EQ(run_program("psrig", {"synth", "--out", scan, "--size", "400x300", "-q"}).exit_code, 0);
   ASSERT_EQ(run_program("psrig", {"process", scan, "-q"}).exit_code, 0);
   const fs::path maps = dir / "scan" / "maps";
-  const auto run = run_program(
-      "psrig", {"export", maps.string(), "--format", "glb", "--out", (dir / "t.glb").string()});
+  const auto maps_before = list_directory(maps);
+  fs::create_directories(dir / "cut");
+  fs::create_directories(dir / "stored");
+  const auto run = run_program("psrig", {"export", maps.string(), "--format", "glb", "--out",
+                                         (dir / "cut" / "t.glb").string()});
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(run.err.empty()) << run.err;
-  ASSERT_TRUE(fs::exists(maps / "tile" / "tile.json"));
+  EXPECT_NE(run.out.find("seamless tile"), std::string::npos) << run.out;
+  EXPECT_EQ(list_directory(maps), maps_before);  // a reader never writes
+
+  // `psrig tile` stores the same tile; the export then takes it as it is.
+  ASSERT_EQ(run_program("psrig", {"tile", maps.string(), "-q"}).exit_code, 0);
   const auto tile = nlohmann::json::parse(std::ifstream(maps / "tile" / "tile.json"));
   EXPECT_TRUE(tile["periodic"].get<bool>()) << tile.dump();
   char size[96];
   std::snprintf(size, sizeof size, "size: %.3f x %.3f mm", tile["width_mm"].get<double>(),
                 tile["height_mm"].get<double>());
   EXPECT_NE(run.out.find(size), std::string::npos) << run.out << " vs " << size;
-  EXPECT_NE(run.out.find("seamless tile"), std::string::npos) << run.out;
+  const auto stored = run_program("psrig", {"export", maps.string(), "--format", "glb", "--out",
+                                            (dir / "stored" / "t.glb").string()});
+  ASSERT_EQ(stored.exit_code, 0) << stored.err;
+  EXPECT_TRUE(file_contents(dir / "stored" / "t.glb") == file_contents(dir / "cut" / "t.glb"));
   // The whole scan on request: 400 x 300 px.
   const auto whole = run_program("psrig", {"export", maps.string(), "--format", "glb", "--out",
                                            (dir / "w.glb").string(), "--whole-scan"});

@@ -8,7 +8,6 @@
 #include "psrig/base/log.h"
 #include "psrig/calibration/calibration_store.h"
 #include "psrig/rig/open_devices.h"
-#include "psrig/sim/fabric_truth.h"
 #include "psrig/sim/world.h"
 
 namespace psrig::rig {
@@ -106,13 +105,6 @@ std::optional<AppliedCalibration> current_calibration(const config::RigConfig& c
 ScanRequest Rig::request(const config::RigConfig& config) const {
   ScanRequest request;
   request.calibration = current_calibration(config);
-  if (world && config.camera.backend == "sim") {
-    request.ground_truth_normal = world->swatch().normal;
-    request.ground_truth_height = world->swatch().height_mm;
-    if (const auto& pattern = world->pattern())
-      request.ground_truth_fabric =
-          sim::fabric_ground_truth(*pattern, config.sim.swatch_rotation_deg);
-  }
   return request;
 }
 

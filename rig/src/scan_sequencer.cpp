@@ -407,8 +407,6 @@ Result<ScanSequencer::Lighting> ScanSequencer::light_first_phase(
 void ScanSequencer::describe_scan(const ScanRequest& request, const cameras::Frame& reference,
                                   double scale, const CaptureTiming& timing, int phases,
                                   const std::string& started, formats::Scan& scan) const {
-  scan.ground_truth_normal = request.ground_truth_normal;
-  scan.ground_truth_height = request.ground_truth_height;
   auto& d = scan.description;
   d.sample_id = request.sample_id;
   d.sample_description = request.description;
@@ -441,8 +439,7 @@ void ScanSequencer::describe_scan(const ScanRequest& request, const cameras::Fra
         {"started", started},
         {"finished", iso_time()}}}};
   apply_calibration(config_, request, scaled, scan);
-  if (!request.ground_truth_fabric.is_null())
-    d.document["ground_truth"]["fabric"] = request.ground_truth_fabric;
+  camera_.describe_scene(scan);  // a simulated camera's ground truth
 }
 
 Result<ScanOutcome> ScanSequencer::capture(

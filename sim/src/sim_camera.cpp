@@ -4,6 +4,7 @@
 #include <cmath>
 #include <thread>
 
+#include "psrig/sim/fabric_truth.h"
 #include "psrig/sim/sensor.h"
 #include "psrig/sim/world.h"
 
@@ -86,6 +87,14 @@ class SimCamera final : public cameras::Camera {
            std::to_string(config_.sim.height) + " " + std::to_string(config_.sim.bit_depth) +
            "-bit " + (settings_.channels == 1 ? "grey" : "colour") + ", " + config_.sim.pattern +
            " swatch";
+  }
+
+  void describe_scene(formats::Scan& scan) const override {
+    scan.ground_truth_normal = world_->swatch().normal;
+    scan.ground_truth_height = world_->swatch().height_mm;
+    if (const auto& pattern = world_->pattern())
+      scan.description.document["ground_truth"]["fabric"] =
+          fabric_ground_truth(*pattern, config_.sim.swatch_rotation_deg);
   }
 
  private:

@@ -62,6 +62,9 @@ struct ProgramRun {
     const std::filesystem::path& scan, const std::string& pattern,
     const std::string& size = "400x320", const std::string& pixel_size = "0.03");
 
+// The file's bytes; empty when it cannot be read.
+[[nodiscard]] std::string file_contents(const std::filesystem::path& file);
+
 // Names in `directory`, hidden ones included, sorted.
 [[nodiscard]] std::vector<std::string> list_directory(const std::filesystem::path& directory);
 

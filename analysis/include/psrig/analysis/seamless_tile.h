@@ -63,11 +63,12 @@ struct Tile {
 [[nodiscard]] Result<Tile> cut_tile(const formats::Maps& maps, const TileOptions& options,
                                     std::vector<std::string>& warnings);
 
-// The tile directory of a maps directory, `maps_directory/tile`, made
-// (and written) unless one is there already, at least as new as the maps'
-// report.json: what the exports and psrigd use. Its warnings when made.
-[[nodiscard]] Result<std::filesystem::path> ensure_tile(const std::filesystem::path& maps_directory,
-                                                        std::vector<std::string>& warnings);
+// The tile stored with a maps directory, `maps_directory/tile` (`psrig
+// tile` writes it), when there is one at least as new as the maps'
+// report.json; nothing otherwise. Only finds: cutting and writing a tile
+// is `psrig tile`'s step, never a reader's.
+[[nodiscard]] std::optional<std::filesystem::path> stored_tile(
+    const std::filesystem::path& maps_directory);
 
 // tile.json.
 [[nodiscard]] nlohmann::json tile_json(const Tile& tile);

@@ -47,6 +47,11 @@ class Camera {
   [[nodiscard]] virtual Status stop() = 0;
   // "v4l2 /dev/video0 (uvcvideo, 'HD Camera'), 1920x1080 YUYV" and the like.
   [[nodiscard]] virtual std::string describe() const = 0;
+  // What the camera knows of the scene beyond its frames, added to a scan it
+  // took: the simulated camera writes its world's answer (the swatch's true
+  // normals, heights and gauge) so that accuracy can be measured; a real
+  // camera knows nothing more. No request or rig type carries it.
+  virtual void describe_scene(formats::Scan& /*scan*/) const {}
 };
 
 }  // namespace psrig::cameras

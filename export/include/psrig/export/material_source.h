@@ -5,11 +5,13 @@
 // (report.json and the scan's scan.json beside it).
 
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 #include <vector>
 
 #include "psrig/base/error.h"
+#include "psrig/formats/scratch_directory.h"
 
 namespace psrig::export_ {
 
@@ -38,6 +40,10 @@ struct MaterialSource {
   // a whole number of repeats resampled to whole pixels.
   std::optional<double> tile_width_mm, tile_height_mm;
 
+  // A tile cut for this export alone lives here, and goes with the last
+  // copy of the source; null for maps or a tile already on disk.
+  std::shared_ptr<const formats::ScratchDirectory> scratch;
+
   [[nodiscard]] bool has_height() const { return !height_exr.empty() || !height_png.empty(); }
   // The physical size in mm (pixels when the pixel size is unknown).
   [[nodiscard]] double width_mm() const {
@@ -57,10 +63,11 @@ struct MaterialSource {
 [[nodiscard]] Result<MaterialSource> material_source_from(const std::filesystem::path& directory);
 
 // What an export of `directory` is made from: the tile directory itself
-// when given one; for a maps directory its seamless tile (made once into
-// `directory/tile`, analysis::ensure_tile), so the material repeats
-// without a seam, or the whole scan when `whole_scan` or when no tile can
-// be cut from the maps (a warning says why).
+// when given one; for a maps directory its seamless tile, so the material
+// repeats without a seam: the one `psrig tile` stored there when it is
+// current, else one cut for this export into a scratch directory (the maps
+// directory is never written); or the whole scan when `whole_scan` or when
+// no tile can be cut from the maps (a warning says why).
 [[nodiscard]] Result<MaterialSource> material_for_export(const std::filesystem::path& directory,
                                                          bool whole_scan = false);
 

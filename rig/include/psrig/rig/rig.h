@@ -20,14 +20,13 @@ class World;
 namespace psrig::rig {
 
 struct Rig {
-  // The simulated camera's world (sim::World::attach), for the ground truth;
-  // null when the camera is real or not asked for.
+  // The simulated camera's world (sim::World::attach): its LEDs' log for
+  // tests; null when the camera is real or not asked for.
   std::shared_ptr<sim::World> world;
   std::unique_ptr<lights::SafeLights> lights;
   std::unique_ptr<cameras::Camera> camera;  // null when not asked for
 
-  // A scan request that carries the simulated world's answer when the
-  // camera is simulated.
+  // A scan request with the rig's current light calibration applied.
   [[nodiscard]] ScanRequest request(const config::RigConfig& config) const;
 };
 

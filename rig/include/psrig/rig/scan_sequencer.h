@@ -17,8 +17,6 @@
 #include <string>
 #include <vector>
 
-#include <nlohmann/json.hpp>
-
 #include "psrig/cameras/camera.h"
 #include "psrig/config/rig_config.h"
 #include "psrig/formats/scan.h"
@@ -58,12 +56,6 @@ struct ScanRequest {
   std::string description;
   std::filesystem::path directory;  // the scan to create; empty: storage.root/<time>-<sample id>
   std::optional<bool> process;      // override capture.process
-  // The simulated world's answer, stored with the scan when given (only a
-  // simulated camera has one).
-  cv::Mat ground_truth_normal;
-  cv::Mat ground_truth_height;
-  // The simulated swatch's gauge as made (scan.json's ground_truth.fabric), or null.
-  nlohmann::json ground_truth_fabric;
   // The lights as calibrated (one per channel); absent: rig.toml's
   // geometry and lights.intensity, and scan.json's "calibration" is null.
   std::optional<AppliedCalibration> calibration;
