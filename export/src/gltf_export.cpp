@@ -11,6 +11,7 @@
 #include "psrig/export/occlusion.h"
 #include "psrig/formats/atomic_directory.h"
 #include "texture_set.h"
+#include "package_files.h"
 
 namespace psrig::export_ {
 namespace {
@@ -197,7 +198,7 @@ Result<BesideFiles> beside_files(const MaterialSource& source, const TextureSet&
     auto height_png =
         encode_png(textures.height, texture_metadata(source, textures, TextureKind::height));
     if (!height_png) return std::unexpected(height_png.error());
-    const std::string name = options.binary ? stem + "_height.png" : "height.png";
+    const std::string name = (options.binary ? stem + "_" : std::string()) + package_files::kHeight;
     beside.emplace_back(name, std::move(*height_png));
     psrig["height"] = {{"uri", name},
                        {"note",
@@ -211,7 +212,8 @@ Result<BesideFiles> beside_files(const MaterialSource& source, const TextureSet&
     auto dx = encode_png(to_directx(textures.normal),
                          texture_metadata(source, textures, TextureKind::normal_directx));
     if (!dx) return std::unexpected(dx.error());
-    const std::string name = options.binary ? stem + "_normal_directx.png" : "normal_directx.png";
+    const std::string name =
+        (options.binary ? stem + "_" : std::string()) + package_files::kNormalDirectx;
     beside.emplace_back(name, std::move(*dx));
     psrig["normal_directx"] = {{"uri", name},
                                {"note",
@@ -271,9 +273,9 @@ void add_sampler(tinygltf::Model& model) {
   model.samplers.push_back(sampler);
 }
 
-// A texture and its image: inside the .glb (`binary`), or a file beside
-// the .gltf. Returns the texture's index.
-int add_texture(tinygltf::Model& model, const std::string& name,
+// A texture and its image: inside the .glb (`binary`), or the file `file`
+// beside the .gltf. Returns the texture's index.
+int add_texture(tinygltf::Model& model, const std::string& name, const char* file,
                 const std::vector<unsigned char>& png, bool binary) {
   tinygltf::Image image;
   image.name = name;
@@ -281,7 +283,7 @@ int add_texture(tinygltf::Model& model, const std::string& name,
   if (binary)
     image.bufferView = add_view(model, append(model.buffers[0].data, png), png.size(), 0);
   else
-    image.uri = name + ".png";
+    image.uri = file;
   model.images.push_back(image);
   tinygltf::Texture texture;
   texture.sampler = 0;
@@ -298,17 +300,17 @@ tinygltf::Material make_material(tinygltf::Model& model, const MaterialSource& s
   material.name = source.sample_id.empty() ? "psrig scan" : source.sample_id;
   material.doubleSided = true;  // cloth is seen from both sides
   material.pbrMetallicRoughness.baseColorTexture.index =
-      add_texture(model, "albedo", pngs.albedo, options.binary);
+      add_texture(model, "albedo", package_files::kAlbedo, pngs.albedo, options.binary);
   material.pbrMetallicRoughness.baseColorTexture.extensions = repeat_transform(options.repeats);
   material.pbrMetallicRoughness.metallicFactor = 0.0;
   // Not measured (photometric stereo assumes a matte surface): a matte
   // fabric's usual starting point, for the artist to tune.
   material.pbrMetallicRoughness.roughnessFactor = 0.8;
-  material.normalTexture.index = add_texture(model, "normal", pngs.normal, options.binary);
+  material.normalTexture.index = add_texture(model, "normal", package_files::kNormal, pngs.normal, options.binary);
   material.normalTexture.extensions = repeat_transform(options.repeats);
   if (!textures.height.empty()) {
     material.occlusionTexture.index =
-        add_texture(model, "occlusion", pngs.occlusion, options.binary);
+        add_texture(model, "occlusion", package_files::kOcclusion, pngs.occlusion, options.binary);
     material.occlusionTexture.extensions = repeat_transform(options.repeats);
   }
   // KHR_materials_sheen: the retro-reflective rim of fibres. Its colour
@@ -392,12 +394,12 @@ Status write_gltf_directory(tinygltf::Model& model, const MaterialPngs& pngs,
         io_error(target.out, "cannot make the export here: " + staging.error().message));
   const fs::path dir = staging->path();
   model.buffers[0].uri = target.stem + ".bin";
-  if (auto ok = write_bytes(dir / "albedo.png", pngs.albedo); !ok)
+  if (auto ok = write_bytes(dir / package_files::kAlbedo, pngs.albedo); !ok)
     return std::unexpected(ok.error());
-  if (auto ok = write_bytes(dir / "normal.png", pngs.normal); !ok)
+  if (auto ok = write_bytes(dir / package_files::kNormal, pngs.normal); !ok)
     return std::unexpected(ok.error());
   if (!pngs.occlusion.empty())
-    if (auto ok = write_bytes(dir / "occlusion.png", pngs.occlusion); !ok)
+    if (auto ok = write_bytes(dir / package_files::kOcclusion, pngs.occlusion); !ok)
       return std::unexpected(ok.error());
   for (const auto& [name, bytes] : beside)
     if (auto ok = write_bytes(dir / name, bytes); !ok) return std::unexpected(ok.error());

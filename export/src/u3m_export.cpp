@@ -11,6 +11,7 @@
 #include "psrig/formats/atomic_directory.h"
 #include "texture_set.h"
 #include "u3ma_archive.h"
+#include "package_files.h"
 
 namespace psrig::export_ {
 namespace {
@@ -129,7 +130,7 @@ json u3m_document(const MaterialSource& source, double mean_height, double heigh
                     {"texture",
                      {{"factor", height_high - height_low},
                       {"offset", height_low},
-                      {"image", image_json("height.png", px, w, h)}}}};
+                      {"image", image_json(package_files::kHeight, px, w, h)}}}};
   }
   const json front = {
       {"shader", "principled"},
@@ -144,7 +145,7 @@ json u3m_document(const MaterialSource& source, double mean_height, double heigh
       {"metalness", number_param(0.0)},
       {"normal",
        {{"constant", {{"x", 0.0}, {"y", 0.0}, {"z", 1.0}}},
-        {"texture", {{"scale", 1.0}, {"image", image_json("normal.png", px, w, h)}}}}},
+        {"texture", {{"scale", 1.0}, {"image", image_json(package_files::kNormal, px, w, h)}}}}},
       {"displacement", displacement},
       {"roughness", number_param(0.8)},
       // Cloth: full sheen tinted toward the base colour, as the glTF export's
@@ -161,11 +162,11 @@ json u3m_document(const MaterialSource& source, double mean_height, double heigh
         {"texture",
          {{"mode", "multiply"},
           {"factor", {{"r", 1.0}, {"g", 1.0}, {"b", 1.0}}},
-          {"image", image_json("albedo.png", px, w, h)}}}}},
+          {"image", image_json(package_files::kAlbedo, px, w, h)}}}}},
       {"subsurface_color",
        {{"constant", {{"r", 1.0}, {"g", 1.0}, {"b", 1.0}}}, {"texture", nullptr}}},
       {"preview",
-       {{"path", "preview.png"},
+       {{"path", package_files::kPreview},
         {"width", w},
         {"height", h},
         {"dpi", {{"x", preview_px.width * 25.4 / w}, {"y", preview_px.height * 25.4 / h}}}}}};
@@ -224,17 +225,17 @@ Result<ExportResult> export_u3m(const MaterialSource& source, const fs::path& ou
     files.push_back({name, std::move(*png), false});
     return {};
   };
-  if (auto ok = add("albedo.png", textures->albedo, TextureKind::albedo); !ok)
+  if (auto ok = add(package_files::kAlbedo, textures->albedo, TextureKind::albedo); !ok)
     return std::unexpected(ok.error());
-  if (auto ok = add("normal.png", textures->normal, TextureKind::normal); !ok)
+  if (auto ok = add(package_files::kNormal, textures->normal, TextureKind::normal); !ok)
     return std::unexpected(ok.error());
   const bool has_height = !textures->height.empty();
   if (has_height)
-    if (auto ok = add("height.png", textures->height, TextureKind::height); !ok)
+    if (auto ok = add(package_files::kHeight, textures->height, TextureKind::height); !ok)
       return std::unexpected(ok.error());
   if (options.directx_normal)
     if (auto ok =
-            add("normal_directx.png", to_directx(textures->normal), TextureKind::normal_directx);
+            add(package_files::kNormalDirectx, to_directx(textures->normal), TextureKind::normal_directx);
         !ok)
       return std::unexpected(ok.error());
   const cv::Mat preview = render_preview(*textures);
@@ -244,7 +245,7 @@ Result<ExportResult> export_u3m(const MaterialSource& source, const fs::path& ou
     if (m.pixel_size_mm) *m.pixel_size_mm *= static_cast<double>(source.width_px) / preview.cols;
     auto png = encode_png(preview, m);
     if (!png) return std::unexpected(png.error());
-    files.push_back({"preview.png", std::move(*png), false});
+    files.push_back({package_files::kPreview, std::move(*png), false});
   }
   const json document =
       u3m_document(source, textures->height_mean, textures->height_low, textures->height_high,
