@@ -8,10 +8,11 @@
 
 #include <nlohmann/json.hpp>
 
+#include "export_target.h"
+#include "package_files.h"
 #include "psrig/export/occlusion.h"
 #include "psrig/formats/atomic_directory.h"
 #include "texture_set.h"
-#include "package_files.h"
 
 namespace psrig::export_ {
 namespace {
@@ -81,21 +82,6 @@ tinygltf::ExtensionMap repeat_transform(int repeats) {
       tinygltf::Value(tinygltf::Value::Array{tinygltf::Value(static_cast<double>(repeats)),
                                              tinygltf::Value(static_cast<double>(repeats))});
   return {{"KHR_texture_transform", tinygltf::Value(std::move(transform))}};
-}
-
-// A single-file export may replace an earlier one; a directory only when it
-// holds STEM.gltf (an earlier export), never anything else.
-Result<formats::AtomicDirectory::Existing> check_directory_target(const fs::path& out,
-                                                                  const std::string& main_file) {
-  std::error_code ec;
-  const auto status = fs::symlink_status(out, ec);
-  if (!fs::exists(status)) return formats::AtomicDirectory::Existing::refuse;
-  if (fs::is_directory(status) &&
-      (fs::is_empty(out, ec) || fs::is_regular_file(out / main_file, ec)))
-    return formats::AtomicDirectory::Existing::replace;
-  return std::unexpected(bad_input(out, "--out",
-                                   "exists and is not an earlier export; refusing to replace it "
-                                   "(choose another --out, or remove it)"));
 }
 
 // Where the export goes, checked before any map is read.

@@ -8,10 +8,11 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "export_target.h"
+#include "package_files.h"
 #include "psrig/formats/atomic_directory.h"
 #include "texture_set.h"
 #include "u3ma_archive.h"
-#include "package_files.h"
 
 namespace psrig::export_ {
 namespace {
@@ -97,19 +98,6 @@ cv::Mat render_preview(const TextureSet& t) {
     }
   });
   return out;
-}
-
-Result<formats::AtomicDirectory::Existing> check_directory_target(const fs::path& out,
-                                                                  const std::string& main_file) {
-  std::error_code ec;
-  const auto status = fs::symlink_status(out, ec);
-  if (!fs::exists(status)) return formats::AtomicDirectory::Existing::refuse;
-  if (fs::is_directory(status) &&
-      (fs::is_empty(out, ec) || fs::is_regular_file(out / main_file, ec)))
-    return formats::AtomicDirectory::Existing::replace;
-  return std::unexpected(bad_input(out, "--out",
-                                   "exists and is not an earlier export; refusing to replace it "
-                                   "(choose another --out, or remove it)"));
 }
 
 }  // namespace
