@@ -3,15 +3,17 @@
 // and coming back while rows are written (the journal). The suite both
 // backends share is catalogue_test.cpp.
 
+#include <chrono>
 #include <fstream>
 #include <future>
+#include <iterator>
 #include <set>
 #include <thread>
 
 #include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
 
 #include "catalogue_backends.h"
-#include "daemon_process.h"
 
 namespace psrig::test {
 namespace {
@@ -47,6 +49,12 @@ std::optional<catalogue::CatalogueEntry> row(const Catalogue& catalogue, std::in
   auto entry = catalogue.get(id);
   EXPECT_TRUE(entry) << entry.error().describe();
   return entry ? *entry : std::nullopt;
+}
+
+// The journal as it is on disk.
+std::string read_file(const fs::path& file) {
+  std::ifstream in(file, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
 }
 
 // Every write waiting in the journal reaches the database once it is back
