@@ -4,7 +4,7 @@
 #include <cmath>
 #include <thread>
 
-#include "psrig/sim/fabric_truth.h"
+#include "psrig/sim/scene_truth.h"
 #include "psrig/sim/sensor.h"
 #include "psrig/sim/world.h"
 
@@ -90,11 +90,7 @@ class SimCamera final : public cameras::Camera {
   }
 
   void describe_scene(formats::Scan& scan) const override {
-    scan.ground_truth_normal = world_->swatch().normal;
-    scan.ground_truth_height = world_->swatch().height_mm;
-    if (const auto& pattern = world_->pattern())
-      scan.description.document["ground_truth"]["fabric"] =
-          fabric_ground_truth(*pattern, config_.sim.swatch_rotation_deg);
+    add_scene_truth(*world_, config_.sim.swatch_rotation_deg, scan);
   }
 
  private:

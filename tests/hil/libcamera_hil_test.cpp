@@ -21,6 +21,7 @@
 #include "psrig/rig/open_devices.h"
 #include "psrig/rig/rig.h"
 #include "psrig/rig/scan_sequencer.h"
+#include "psrig/sim/scene_truth.h"
 #include "psrig/sim/sensor.h"
 #include "psrig/sim/world.h"
 #include "shipped_swatch.h"
@@ -333,9 +334,17 @@ struct ScanRig {
     rig::ScanRequest request;
     request.directory = dir / "scan";
     request.sample_id = "HIL-LIBCAMERA";
-    request.ground_truth_normal = world->swatch().normal;
-    request.ground_truth_height = world->swatch().height_mm;
     return request;
+  }
+
+  // The emulated camera shows the simulated world, so its scans carry the
+  // world's answer as a simulated camera's do.
+  [[nodiscard]] Result<rig::Rig> open() const {
+    rig::RigWrappers truth;
+    truth.camera = [this](std::unique_ptr<cameras::Camera> opened) {
+      return sim::with_scene_truth(std::move(opened), world, config.sim.swatch_rotation_deg);
+    };
+    return rig::open_rig(config, true, truth);
   }
 };
 
@@ -343,7 +352,7 @@ TEST(LibcameraHil, AScanThroughLibcameraRecoversTheSwatch) {
   SKIP_WITHOUT_EMULATION();
   test::TempDir dir;
   ScanRig emulated;
-  auto rig = rig::open_rig(emulated.config);
+  auto rig = emulated.open();
   ASSERT_TRUE(rig) << rig.error().describe();
   rig::ScanSequencer sequencer(emulated.config, *rig->lights, *rig->camera);
   auto outcome = sequencer.capture(emulated.request_into(dir));
@@ -363,7 +372,7 @@ TEST(LibcameraHil, ACameraUnpluggedMidScanEndsItWithAllLedsOff) {
   SKIP_WITHOUT_EMULATION();
   test::TempDir dir;
   ScanRig emulated;
-  auto rig = rig::open_rig(emulated.config);
+  auto rig = emulated.open();
   ASSERT_TRUE(rig) << rig.error().describe();
   rig::ScanSequencer sequencer(emulated.config, *rig->lights, *rig->camera);
   auto outcome =

@@ -23,6 +23,7 @@
 #include "gpio_led_wiring.h"
 #include "psrig/rig/rig.h"
 #include "psrig/rig/scan_sequencer.h"
+#include "psrig/sim/scene_truth.h"
 #include "psrig/sim/sensor.h"
 #include "psrig/sim/world.h"
 #include "shipped_swatch.h"
@@ -114,8 +115,15 @@ struct Opened {
   std::unique_ptr<ScanSequencer> sequencer;
 };
 
+// The emulated camera shows the simulated world, so its scans carry the
+// world's answer as a simulated camera's do.
 Opened open(EmulatedRig& emulated) {
-  auto rig = open_rig(emulated.config);
+  RigWrappers truth;
+  truth.camera = [&](std::unique_ptr<cameras::Camera> camera) {
+    return sim::with_scene_truth(std::move(camera), emulated.world,
+                                 emulated.config.sim.swatch_rotation_deg);
+  };
+  auto rig = open_rig(emulated.config, true, truth);
   EXPECT_TRUE(rig) << (rig ? "" : rig.error().describe());
   if (!rig) return {};
   Opened opened{std::move(*rig), nullptr};
@@ -124,12 +132,10 @@ Opened open(EmulatedRig& emulated) {
   return opened;
 }
 
-ScanRequest request_into(const test::TempDir& dir, const EmulatedRig& emulated) {
+ScanRequest request_into(const test::TempDir& dir) {
   ScanRequest request;
   request.directory = dir / "scan";
   request.sample_id = "HIL-1";
-  request.ground_truth_normal = emulated.world->swatch().normal;
-  request.ground_truth_height = emulated.world->swatch().height_mm;
   return request;
 }
 
@@ -163,7 +169,7 @@ TEST_P(ScanHilSensor, GpiodAndV4l2ScanRecoversTheSwatch) {
   ASSERT_TRUE(opened.sequencer);
   EXPECT_NE(opened.rig.camera->describe().find(GetParam().name), std::string::npos)
       << opened.rig.camera->describe();
-  auto outcome = opened.sequencer->capture(request_into(dir, emulated));
+  auto outcome = opened.sequencer->capture(request_into(dir));
   ASSERT_TRUE(outcome) << outcome.error().describe();
   ASSERT_TRUE(outcome->maps);
   const auto& error = outcome->maps->report["ground_truth"]["angular_error_deg"];
@@ -189,7 +195,7 @@ std::string broken_scan(EmulatedRig& emulated, const std::string& step,
   test::TempDir dir;
   auto opened = open(emulated);
   if (!opened.sequencer) return "the rig did not open";
-  auto outcome = opened.sequencer->capture(request_into(dir, emulated), [&](const ScanProgress& p) {
+  auto outcome = opened.sequencer->capture(request_into(dir), [&](const ScanProgress& p) {
     if (p.step == step) fault();
   });
   EXPECT_FALSE(outcome);
