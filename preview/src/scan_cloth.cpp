@@ -1,14 +1,13 @@
-#include "scan_cloth.h"
+#include "psrig/preview/scan_cloth.h"
 
 #include <cmath>
 
 #include <spdlog/fmt/fmt.h>
 
-#include "command.h"
 #include "psrig/analysis/maps_fabric.h"
 #include "psrig/formats/maps_reader.h"
 
-namespace psrig::preview::cli {
+namespace psrig::preview {
 namespace {
 
 constexpr double kDeg = 180.0 / 3.14159265358979323846;
@@ -64,19 +63,16 @@ std::string ScanCloth::describe() const {
   return fmt::format("the gauge and shear {:.2f} of {}", shear, maps.string());
 }
 
-Result<ScanCloth> read_scan_cloth(const std::filesystem::path& directory) {
-  std::vector<std::string> warnings;
-  auto maps = formats::read_maps(directory, warnings);
-  if (!maps) return std::unexpected(with_scan_directory_hint(maps.error(), directory));
+Result<ScanCloth> scan_cloth_of(const formats::Maps& maps, std::vector<std::string> warnings) {
   ScanCloth out;
-  out.maps = directory;
-  const cv::Scalar mean = cv::mean(maps->albedo);
+  out.maps = maps.directory;
+  const cv::Scalar mean = cv::mean(maps.albedo);
   out.mean_colour = {static_cast<float>(mean[2]), static_cast<float>(mean[1]),
                      static_cast<float>(mean[0])};
-  auto fabric = analysis::fabric_of_maps(*maps, warnings);
+  auto fabric = analysis::fabric_of_maps(maps, warnings);
   if (!fabric) return std::unexpected(fabric.error());
   out.fabric = std::move(*fabric);
-  const double mm = maps->pixel_size_mm.value_or(0);
+  const double mm = maps.pixel_size_mm.value_or(0);
   const bool woven = out.fabric.construction == analysis::Construction::woven;
   if (out.fabric.periodic) {
     // The repeat's densities and skew, for when no chart can be read.
@@ -89,7 +85,7 @@ Result<ScanCloth> read_scan_cloth(const std::filesystem::path& directory) {
       (woven ? out.pick_mm : out.course_mm) = along;
     }
   }
-  auto knit = analysis::infer_knit_chart(*maps, out.fabric);
+  auto knit = analysis::infer_knit_chart(maps, out.fabric);
   if (knit) {
     rest_shape(knit->lattice.next_wale_px, knit->lattice.next_course_px, mm, out, true);
     if (!(mm > 0)) out.wale_mm = out.course_mm = 0;
@@ -101,4 +97,11 @@ Result<ScanCloth> read_scan_cloth(const std::filesystem::path& directory) {
   return out;
 }
 
-}  // namespace psrig::preview::cli
+Result<ScanCloth> read_scan_cloth(const std::filesystem::path& directory) {
+  std::vector<std::string> warnings;
+  auto maps = formats::read_maps(directory, warnings);
+  if (!maps) return std::unexpected(maps.error());
+  return scan_cloth_of(*maps, std::move(warnings));
+}
+
+}  // namespace psrig::preview
