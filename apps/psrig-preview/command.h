@@ -12,6 +12,7 @@
 #include "psrig/base/cli_command.h"
 #include "psrig/preview/egl_context.h"
 #include "psrig/preview/offscreen_target.h"
+#include "psrig/preview/scan_cloth.h"
 #include "psrig/preview/scene_view.h"
 #include "psrig/preview/swatch_renderer.h"
 
@@ -46,10 +47,12 @@ struct HeadlessCanvas {
 };
 [[nodiscard]] Result<HeadlessCanvas> open_headless_canvas(cv::Size size, int samples);
 
-// load_swatch_maps for a directory the user named: given a scan directory
-// instead of its maps, the error says which directory was meant
-// (with_scan_directory_hint adds that to any error reading maps).
+// load_swatch_maps and read_scan_cloth for a directory the user named:
+// given a scan directory instead of its maps, the error says which
+// directory was meant (with_scan_directory_hint adds that to any error
+// reading maps).
 [[nodiscard]] Result<SwatchMaps> load_maps_argument(const std::filesystem::path& directory);
+[[nodiscard]] Result<ScanCloth> read_scan_cloth_argument(const std::filesystem::path& directory);
 [[nodiscard]] Error with_scan_directory_hint(Error error, const std::filesystem::path& directory);
 
 // "1920x1080" -> the size; errors name the option.

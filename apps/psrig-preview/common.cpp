@@ -2,6 +2,7 @@
 
 #include "command.h"
 #include "psrig/base/width_height.h"
+#include "psrig/formats/maps_reader.h"
 #include "psrig/formats/scan_layout.h"
 
 namespace psrig::preview::cli {
@@ -67,6 +68,13 @@ Result<SwatchMaps> load_maps_argument(const std::filesystem::path& directory) {
   auto maps = load_swatch_maps(directory);
   if (maps) return maps;
   return std::unexpected(with_scan_directory_hint(std::move(maps.error()), directory));
+}
+
+Result<ScanCloth> read_scan_cloth_argument(const std::filesystem::path& directory) {
+  std::vector<std::string> warnings;
+  auto maps = formats::read_maps(directory, warnings);
+  if (!maps) return std::unexpected(with_scan_directory_hint(std::move(maps.error()), directory));
+  return scan_cloth_of(*maps, std::move(warnings));
 }
 
 Result<cv::Size> parse_size(const std::string& text, const std::string& option) {

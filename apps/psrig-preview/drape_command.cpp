@@ -15,10 +15,10 @@
 #include <opencv2/imgproc.hpp>
 
 #include "command.h"
-#include "drape_cloth.h"
 #include "psrig/cloth/drape_scene.h"
 #include "psrig/formats/atomic_directory.h"
 #include "psrig/formats/image_io.h"
+#include "psrig/preview/drape_cloth.h"
 
 namespace psrig::preview::cli {
 namespace {
@@ -42,12 +42,23 @@ double milliseconds(Clock::duration d) {
   return std::chrono::duration<double, std::milli>(d).count();
 }
 
+// drape_fabric for what the user named: a scan's maps read as
+// read_scan_cloth_argument reads them, so a scan directory is pointed at
+// its maps.
+Result<cloth::KnitFabric> fabric_argument(const DrapeArgs& args, int stitches, int rows) {
+  if (!std::filesystem::is_directory(args.pattern))
+    return drape_fabric(args.pattern, stitches, rows, args.cloth_size);
+  auto scan = read_scan_cloth_argument(args.pattern);
+  if (!scan) return std::unexpected(scan.error());
+  return knit_of_scan(*scan, stitches, rows, args.cloth_size);
+}
+
 Result<cloth::DrapeAnimation> animation(const DrapeArgs& args, int stitches, int rows) {
   const auto scene = cloth::parse_drape_scene(args.scene);
   if (!scene)
     return std::unexpected(bad_input({}, "--scene",
                                      "'" + args.scene + "' is not a scene: hang, table, sphere or arm"));
-  auto fabric = drape_fabric(args.pattern, stitches, rows, args.cloth_size);
+  auto fabric = fabric_argument(args, stitches, rows);
   if (!fabric) return std::unexpected(fabric.error());
   return cloth::DrapeAnimation(std::move(*fabric), *scene);
 }

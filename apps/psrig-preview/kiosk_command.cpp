@@ -14,11 +14,11 @@
 #include <optional>
 
 #include "command.h"
-#include "kiosk_drape.h"
 #include "kiosk_output.h"
 #include "psrig/formats/map_encoding.h"
 #include "psrig/formats/scan_layout.h"
 #include "psrig/preview/clear_frame.h"
+#include "psrig/preview/kiosk_drape.h"
 #include "psrig/preview/newest_scan.h"
 #include "psrig/preview/patch_tile.h"
 #include "psrig/preview/scene_motion.h"

@@ -13,13 +13,13 @@
 
 #include <opencv2/core.hpp>
 
-#include "cloth_model.h"
 #include "command.h"
 #include "psrig/cloth/srgb.h"
 #include "psrig/cloth/weave_matrix.h"
 #include "psrig/formats/image_io.h"
+#include "psrig/preview/cloth_model.h"
+#include "psrig/preview/scan_cloth.h"
 #include "psrig/preview/yarn_renderer.h"
-#include "scan_cloth.h"
 
 namespace psrig::preview::cli {
 namespace {
@@ -155,7 +155,7 @@ int render(const KnitArgs& args, bool shear_given) {
   if (!size) return report_error("knit", size.error());
   std::optional<ScanCloth> scan;
   if (!args.from_scan.empty()) {
-    auto read = read_scan_cloth(args.from_scan);
+    auto read = read_scan_cloth_argument(args.from_scan);
     if (!read) return report_error("knit", read.error());
     for (const std::string& warning : read->warnings)
       std::cerr << "psrig-preview knit: warning: " << warning << '\n';

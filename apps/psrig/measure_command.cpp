@@ -1,6 +1,6 @@
 // psrig measure MAPS_DIR: the fabric's repeat, densities and skew from its
-// maps (processing/fabric_measure.h); with --chart, a knit's stitch chart
-// read off them too (cloth/chart_inference.h), its stitches counted.
+// maps (analysis/maps_fabric.h); with --chart, a knit's stitch chart read
+// off them too, its stitches counted.
 
 #include <cstdio>
 #include <filesystem>
@@ -11,6 +11,7 @@
 #include "command.h"
 #include "psrig/analysis/chart_inference.h"
 #include "psrig/analysis/fabric_measure.h"
+#include "psrig/analysis/maps_fabric.h"
 #include "psrig/formats/maps_reader.h"
 
 namespace psrig::cli {
@@ -98,19 +99,15 @@ Command add_measure_command(CLI::App& parent) {
             if (!maps) return report_error("measure", maps.error());
             for (const auto& w : warnings)
               std::cerr << "psrig measure: warning: " << w << '\n';
-            analysis::MeasureOptions options;
-            options.pixel_size_mm = maps->pixel_size_mm;
-            options.hints = analysis::fabric_hints(maps->scan_document);
-            const cv::Mat& height = maps->height.empty() ? maps->p : maps->height;
-            auto m = analysis::measure_fabric(height, maps->albedo, options);
+            // Measured anew, never report.json's: this is the explicit step.
+            auto m = analysis::measure_maps(*maps);
             if (!m) return report_error("measure", m.error());
             if (!m->periodic)
               std::cerr << "psrig measure: warning: "
                         << (m->notes.empty() ? "no repeat found" : m->notes.back()) << '\n';
             std::optional<analysis::InferredKnit> knit;
             if (!args->chart.empty()) {
-              auto inferred = analysis::infer_knit_chart(
-                  height, maps->albedo, *m, analysis::options_from_scan(*m, options.hints));
+              auto inferred = analysis::infer_knit_chart(*maps, *m);
               if (!inferred) {
                 Error error = inferred.error();
                 error.file = args->maps;

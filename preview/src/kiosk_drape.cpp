@@ -1,8 +1,8 @@
-#include "kiosk_drape.h"
+#include "psrig/preview/kiosk_drape.h"
 
 #include <iostream>
 
-namespace psrig::preview::cli {
+namespace psrig::preview {
 namespace {
 
 // The kiosk's camera on the drape, as `psrig-preview drape`'s default.
@@ -75,4 +75,4 @@ Status KioskDrape::draw(float dt, cv::Size size) {
   return {};
 }
 
-}  // namespace psrig::preview::cli
+}  // namespace psrig::preview

@@ -1,6 +1,6 @@
-#include "drape_cloth.h"
+#include "psrig/preview/drape_cloth.h"
 
-namespace psrig::preview::cli {
+namespace psrig::preview {
 
 Result<cloth::KnitFabric> knit_of_scan(const ScanCloth& scan, int stitches, int rows,
                                        const ClothSize& size) {
@@ -68,4 +68,4 @@ void draw_drape_frame(const cloth::DrapeAnimation& animation, DrapeRenderers& re
                           [&](const KnitFrame& frame) { renderers.props->draw(frame); });
 }
 
-}  // namespace psrig::preview::cli
+}  // namespace psrig::preview

@@ -11,7 +11,7 @@
 #include "psrig/cloth/weave_matrix.h"
 #include "psrig/cloth/woven_fabric.h"
 
-namespace psrig::preview::cli {
+namespace psrig::preview {
 
 // Sizes given on the command line, over the pattern file's; 0: not given.
 struct ClothSize {
@@ -49,4 +49,4 @@ class ClothModel {
       : cloth_(std::move(cloth)) {}
 };
 
-}  // namespace psrig::preview::cli
+}  // namespace psrig::preview

@@ -1,8 +1,8 @@
-#include "cloth_model.h"
+#include "psrig/preview/cloth_model.h"
 
 #include <spdlog/fmt/fmt.h>
 
-namespace psrig::preview::cli {
+namespace psrig::preview {
 namespace {
 
 // A gauge or yarn error names the pattern file.
@@ -69,4 +69,4 @@ std::string ClothModel::describe() const {
                      woven.dimensions().yarn_diameter_mm);
 }
 
-}  // namespace psrig::preview::cli
+}  // namespace psrig::preview

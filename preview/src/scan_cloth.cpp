@@ -1,30 +1,16 @@
-#include "scan_cloth.h"
+#include "psrig/preview/scan_cloth.h"
 
 #include <cmath>
 
 #include <spdlog/fmt/fmt.h>
 
-#include "command.h"
+#include "psrig/analysis/maps_fabric.h"
 #include "psrig/formats/maps_reader.h"
 
-namespace psrig::preview::cli {
+namespace psrig::preview {
 namespace {
 
 constexpr double kDeg = 180.0 / 3.14159265358979323846;
-
-// The measured fabric: report.json's, else measured on the maps now.
-Result<analysis::FabricMeasurement> fabric_of(const formats::Maps& maps,
-                                              std::vector<std::string>& warnings) {
-  if (maps.report.is_object() && maps.report.contains("fabric")) {
-    auto fabric = analysis::fabric_from_json(maps.report["fabric"], maps.pixel_size_mm);
-    if (fabric) return fabric;
-    warnings.push_back(fabric.error().describe() + "; measuring the maps instead");
-  }
-  analysis::MeasureOptions options;
-  options.pixel_size_mm = maps.pixel_size_mm;
-  options.hints = analysis::fabric_hints(maps.scan_document);
-  return analysis::measure_fabric(maps.height.empty() ? maps.p : maps.height, maps.albedo, options);
-}
 
 // Shear and spacings at rest of a lattice with steps `along` (one stitch
 // or thread along the courses) and `up` (one up the wales), image pixels
@@ -77,19 +63,16 @@ std::string ScanCloth::describe() const {
   return fmt::format("the gauge and shear {:.2f} of {}", shear, maps.string());
 }
 
-Result<ScanCloth> read_scan_cloth(const std::filesystem::path& directory) {
-  std::vector<std::string> warnings;
-  auto maps = formats::read_maps(directory, warnings);
-  if (!maps) return std::unexpected(with_scan_directory_hint(maps.error(), directory));
+Result<ScanCloth> scan_cloth_of(const formats::Maps& maps, std::vector<std::string> warnings) {
   ScanCloth out;
-  out.maps = directory;
-  const cv::Scalar mean = cv::mean(maps->albedo);
+  out.maps = maps.directory;
+  const cv::Scalar mean = cv::mean(maps.albedo);
   out.mean_colour = {static_cast<float>(mean[2]), static_cast<float>(mean[1]),
                      static_cast<float>(mean[0])};
-  auto fabric = fabric_of(*maps, warnings);
+  auto fabric = analysis::fabric_of_maps(maps, warnings);
   if (!fabric) return std::unexpected(fabric.error());
   out.fabric = std::move(*fabric);
-  const double mm = maps->pixel_size_mm.value_or(0);
+  const double mm = maps.pixel_size_mm.value_or(0);
   const bool woven = out.fabric.construction == analysis::Construction::woven;
   if (out.fabric.periodic) {
     // The repeat's densities and skew, for when no chart can be read.
@@ -102,10 +85,7 @@ Result<ScanCloth> read_scan_cloth(const std::filesystem::path& directory) {
       (woven ? out.pick_mm : out.course_mm) = along;
     }
   }
-  const cv::Mat& height = maps->height.empty() ? maps->p : maps->height;
-  auto knit = analysis::infer_knit_chart(
-      height, maps->albedo, out.fabric,
-      analysis::options_from_scan(out.fabric, analysis::fabric_hints(maps->scan_document)));
+  auto knit = analysis::infer_knit_chart(maps, out.fabric);
   if (knit) {
     rest_shape(knit->lattice.next_wale_px, knit->lattice.next_course_px, mm, out, true);
     if (!(mm > 0)) out.wale_mm = out.course_mm = 0;
@@ -117,4 +97,11 @@ Result<ScanCloth> read_scan_cloth(const std::filesystem::path& directory) {
   return out;
 }
 
-}  // namespace psrig::preview::cli
+Result<ScanCloth> read_scan_cloth(const std::filesystem::path& directory) {
+  std::vector<std::string> warnings;
+  auto maps = formats::read_maps(directory, warnings);
+  if (!maps) return std::unexpected(maps.error());
+  return scan_cloth_of(*maps, std::move(warnings));
+}
+
+}  // namespace psrig::preview

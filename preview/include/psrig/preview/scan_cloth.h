@@ -1,9 +1,10 @@
 #pragma once
-// What a scan tells `psrig-preview knit --from-scan`: the fabric measured
-// on its maps (report.json's `fabric`, else measured anew), and for a knit
-// its stitch chart read off the maps (cloth/chart_inference.h): which
-// stitches are knit and which purl, the gauge and shear of the stitch
-// lattice, each stitch's colour quantised to a palette.
+// What a scan tells the preview's cloth (`psrig-preview knit --from-scan`,
+// the drapes): the fabric measured on its maps (report.json's `fabric`,
+// else measured anew), and for a knit its stitch chart read off the maps
+// (analysis/maps_fabric.h): which stitches are knit and which purl, the
+// gauge and shear of the stitch lattice, each stitch's colour quantised to
+// a palette.
 
 #include <filesystem>
 #include <optional>
@@ -12,12 +13,13 @@
 
 #include <Eigen/Core>
 
-#include "cloth_model.h"
 #include "psrig/analysis/chart_inference.h"
 #include "psrig/analysis/fabric_measure.h"
 #include "psrig/base/error.h"
+#include "psrig/formats/maps_reader.h"
+#include "psrig/preview/cloth_model.h"
 
-namespace psrig::preview::cli {
+namespace psrig::preview {
 
 struct ScanCloth {
   std::filesystem::path maps;
@@ -45,8 +47,11 @@ struct ScanCloth {
   [[nodiscard]] std::string describe() const;
 };
 
-// Reads the maps directory; bad input naming it when it cannot be read
-// (and, given a scan directory, which directory was meant).
+// The cloth the maps show; `warnings`: what reading them found lacking.
+[[nodiscard]] Result<ScanCloth> scan_cloth_of(const formats::Maps& maps,
+                                              std::vector<std::string> warnings = {});
+// Reads the maps directory, then as scan_cloth_of; read_maps's bad input
+// naming it when it cannot be read.
 [[nodiscard]] Result<ScanCloth> read_scan_cloth(const std::filesystem::path& maps);
 
-}  // namespace psrig::preview::cli
+}  // namespace psrig::preview

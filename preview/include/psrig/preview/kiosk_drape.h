@@ -12,9 +12,9 @@
 #include <string>
 
 #include "psrig/cloth/drape_scene.h"
-#include "drape_cloth.h"
+#include "psrig/preview/drape_cloth.h"
 
-namespace psrig::preview::cli {
+namespace psrig::preview {
 
 struct KioskDrapeOptions {
   cloth::DrapeScene scene = cloth::DrapeScene::hang;
@@ -54,4 +54,4 @@ class KioskDrape {
   std::optional<DrapeRenderers> renderers_;
 };
 
-}  // namespace psrig::preview::cli
+}  // namespace psrig::preview

@@ -6,18 +6,18 @@
 
 #include <filesystem>
 
-#include "cloth_model.h"
 #include "psrig/cloth/drape_scene.h"
-#include "psrig/preview/prop_renderer.h"
-#include "psrig/preview/yarn_renderer.h"
 #include "psrig/cloth/knit_fabric.h"
+#include "psrig/preview/cloth_model.h"
 #include "psrig/preview/knit_view.h"
-#include "scan_cloth.h"
+#include "psrig/preview/prop_renderer.h"
+#include "psrig/preview/scan_cloth.h"
+#include "psrig/preview/yarn_renderer.h"
 
-namespace psrig::preview::cli {
+namespace psrig::preview {
 
-// `chart_or_maps`: a .chart file, or a maps (or scan) directory. `size`
-// over the chart's or the scan's gauge where given.
+// `chart_or_maps`: a .chart file, or a maps directory (read_scan_cloth).
+// `size` over the chart's or the scan's gauge where given.
 [[nodiscard]] Result<cloth::KnitFabric> drape_fabric(const std::filesystem::path& chart_or_maps,
                                                      int stitches, int rows,
                                                      const ClothSize& size = {});
@@ -44,4 +44,4 @@ void draw_drape(cloth::DrapeAnimation& animation, DrapeRenderers& renderers, con
 void draw_drape_frame(const cloth::DrapeAnimation& animation, DrapeRenderers& renderers,
                       const KnitView& view, cv::Size size);
 
-}  // namespace psrig::preview::cli
+}  // namespace psrig::preview

@@ -1,0 +1,70 @@
+// The cloth a scan shows, as the preview knits and drapes it: a simulated
+// rib-1x1 scan processed into maps gives its chart, its gauge at rest (the
+// sizes given on the command line over it) and a knit to drape; maps that
+// cannot be read are read_maps's error, the program adding its own hints.
+
+#include "psrig/preview/scan_cloth.h"
+
+#include <cmath>
+
+#include <gtest/gtest.h>
+
+#include "psrig/analysis/chart_inference.h"
+#include "psrig/formats/scan_writer.h"
+#include "psrig/preview/drape_cloth.h"
+#include "psrig/processing/pipeline.h"
+#include "psrig/sim/synthetic_scan.h"
+#include "shipped_swatch.h"
+#include "test_support.h"
+
+namespace psrig::preview {
+namespace {
+
+std::filesystem::path processed_rib(const test::TempDir& temp) {
+  sim::SyntheticScanParams params;
+  params.swatch = test::swatch_params("rib-1x1", {400, 320}, 0.03);
+  const auto scan = temp / "scan";
+  EXPECT_TRUE(formats::write_scan(test::made(sim::make_synthetic_scan(params)), scan));
+  return test::made(processing::process_scan(scan)).maps_directory;
+}
+
+TEST(ScanCloth, ReadsTheChartAndTheGaugeAtRest) {
+  test::TempDir temp;
+  const auto maps = processed_rib(temp);
+  const auto scan = read_scan_cloth(maps);
+  ASSERT_TRUE(scan) << scan.error().describe();
+  EXPECT_EQ(scan->maps, maps);
+  EXPECT_TRUE(scan->warnings.empty()) << scan->warnings.front();
+  ASSERT_TRUE(scan->knit) << scan->why;
+  const auto knitted = cloth::load_stitch_chart(test::shipped_pattern("rib-1x1.chart"));
+  ASSERT_TRUE(knitted);
+  EXPECT_TRUE(analysis::same_chart_up_to_shift(scan->knit->chart, *knitted));
+  // The lattice's spacings at rest are its gauge; a square rib leans little.
+  EXPECT_NEAR(10 / scan->wale_mm, scan->knit->wales_per_cm, 0.02 * scan->knit->wales_per_cm);
+  EXPECT_NEAR(10 / scan->course_mm, scan->knit->courses_per_cm, 0.02 * scan->knit->courses_per_cm);
+  EXPECT_LT(std::abs(scan->shear), 0.05f);
+  EXPECT_EQ(scan->stitch_colours(4, 3).size(), 12u);
+
+  // What the command line gives wins over the scan's; the rest is the scan's.
+  const ClothSize size = scan->cloth_size({.wales_per_cm = 5}, true);
+  EXPECT_EQ(size.wales_per_cm, 5);
+  EXPECT_NEAR(size.courses_per_cm, 10 / scan->course_mm, 1e-4);
+  EXPECT_EQ(size.yarn_mm, scan->knit->chart.gauge.yarn_diameter_mm);
+
+  const auto fabric = drape_fabric(maps, 6, 5);
+  ASSERT_TRUE(fabric) << fabric.error().describe();
+}
+
+TEST(ScanCloth, UnreadableMapsGiveReadMapsOwnError) {
+  test::TempDir temp;
+  const auto maps = processed_rib(temp);
+  // The scan directory, not its maps: which one was meant is psrig-preview's to say.
+  const auto scan = read_scan_cloth(maps.parent_path());
+  ASSERT_FALSE(scan);
+  EXPECT_EQ(scan.error().kind, ErrorKind::bad_input);
+  EXPECT_EQ(scan.error().file, maps.parent_path() / "albedo.exr");
+  EXPECT_EQ(scan.error().message.find("did you mean"), std::string::npos) << scan.error().message;
+}
+
+}  // namespace
+}  // namespace psrig::preview
