@@ -13,12 +13,11 @@
 #include "psrig/analysis/colour_palette.h"
 #include "psrig/analysis/stitch_templates.h"
 #include "stitch_period.h"
+#include "working_square.h"
 
 namespace psrig::analysis {
 namespace {
 
-using inference::cross;
-using inference::norm;
 using inference::Period;
 using inference::RepeatFrame;
 using inference::Split;
@@ -32,9 +31,6 @@ constexpr double kMinAspect = 0.35;
 constexpr double kMaxAspect = 2.0;
 // Lone faces are rendered at aspects this factor apart (the nearest serves).
 constexpr double kAspectRatioStep = 1.25;
-// The folding works on the central square of at most this many pixels a
-// side, as the fabric measurement does: tens of repeats.
-constexpr int kMaxWorkingSide = 1280;
 // Splits of the measured repeat checked by knitting their chart: those of
 // at most this many stitches, and the others whose lone-stitch fit ranks
 // this high. A stitch's neighbours change its look (a 1x1 rib's purl wales

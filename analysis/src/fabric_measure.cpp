@@ -13,15 +13,13 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "plane_vectors.h"
+#include "working_square.h"
+
 namespace psrig::analysis {
 namespace {
 
 constexpr double kDeg = 180.0 / std::numbers::pi;
-// Measuring works on the central square of at most this many pixels a side,
-// at full resolution: tens of repeats of any fabric the rig takes, and the
-// finest weave's threads (15 pixels apart) stay resolved, which shrinking
-// a 12 MP scan would not keep.
-constexpr int kMaxWorkingSide = 1280;
 // A texture repeats when the autocorrelation has a peak off zero this high.
 constexpr double kMinPeak = 0.25;
 // Lattice candidates: peaks within this fraction of the highest. Lower peaks
@@ -38,13 +36,6 @@ constexpr double kNoDetail = 1e-5;
 constexpr double kWholeRepeatGain = 0.1;
 // The most threads scan.json's fabric may say one repeat holds.
 constexpr std::int64_t kMaxThreads = 1000;
-
-double norm(cv::Point2d p) {
-  return std::hypot(p.x, p.y);
-}
-double cross(cv::Point2d a, cv::Point2d b) {
-  return a.x * b.y - a.y * b.x;
-}
 
 // One channel as a float image with NaN where it has no value.
 cv::Mat luminance(const cv::Mat& image) {

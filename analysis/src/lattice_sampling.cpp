@@ -6,14 +6,6 @@
 
 namespace psrig::analysis::inference {
 
-double cross(cv::Point2d a, cv::Point2d b) {
-  return a.x * b.y - a.y * b.x;
-}
-
-double norm(cv::Point2d p) {
-  return std::hypot(p.x, p.y);
-}
-
 float sample(const cv::Mat& map, cv::Point2d p) {
   if (!(p.x >= 0 && p.y >= 0 && p.x <= map.cols - 1 && p.y <= map.rows - 1))
     return std::numeric_limits<float>::quiet_NaN();

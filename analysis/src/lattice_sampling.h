@@ -9,12 +9,10 @@
 #include <Eigen/Core>
 #include <opencv2/core.hpp>
 
+#include "plane_vectors.h"
 #include "psrig/analysis/chart_inference.h"
 
 namespace psrig::analysis::inference {
-
-[[nodiscard]] double cross(cv::Point2d a, cv::Point2d b);
-[[nodiscard]] double norm(cv::Point2d p);
 
 // Bilinear look-up in a CV_32F map; NaN outside it or next to a NaN.
 [[nodiscard]] float sample(const cv::Mat& map, cv::Point2d p);

@@ -9,6 +9,7 @@
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "plane_vectors.h"
 #include "psrig/formats/atomic_directory.h"
 #include "psrig/formats/image_io.h"
 #include "psrig/formats/map_encoding.h"
@@ -19,13 +20,6 @@ namespace psrig::analysis {
 namespace fs = std::filesystem;
 
 namespace {
-
-double norm(cv::Point2d p) {
-  return std::hypot(p.x, p.y);
-}
-double cross(cv::Point2d a, cv::Point2d b) {
-  return a.x * b.y - a.y * b.x;
-}
 
 // Where the tile lies in the scan: tile pixel (i, j) samples the scan at
 // origin + (i + 0.5) / width * nu * u + (j + 0.5) / height * nv * v, for i

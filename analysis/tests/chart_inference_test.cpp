@@ -52,17 +52,17 @@ void print_figures(const std::string& name, const analysis::InferredKnit& knit,
       truth.gauge.yarn_diameter_mm, knit.fit);
 }
 
-struct Case {
+struct ChartCase {
   const char* chart;
   cv::Size size;
   double pixel_size_mm;
   ClothDeformation deformation;
 };
 
-class ChartInference : public ::testing::TestWithParam<Case> {};
+class ChartInference : public ::testing::TestWithParam<ChartCase> {};
 
 TEST_P(ChartInference, FindsTheChartTheStitchesAndTheGauge) {
-  const Case c = GetParam();
+  const ChartCase c = GetParam();
   const StitchChart truth = shipped(c.chart);
   const test::KnittedMaps maps = test::knit_maps(truth, c.size, c.pixel_size_mm, c.deformation);
   const auto inferred = analysis::infer_knit_chart(maps.height, maps.albedo, measured(maps));
@@ -89,16 +89,16 @@ TEST_P(ChartInference, FindsTheChartTheStitchesAndTheGauge) {
 
 INSTANTIATE_TEST_SUITE_P(
     ShippedCharts, ChartInference,
-    ::testing::Values(Case{"stockinette.chart", {400, 320}, 0.03, {}},
-                      Case{"rib-1x1.chart", {400, 320}, 0.03, {}},
-                      Case{"rib-2x2.chart", {440, 320}, 0.04, {}},
-                      Case{"garter.chart", {400, 320}, 0.03, {}},
-                      Case{"seed.chart", {400, 320}, 0.03, {}},
+    ::testing::Values(ChartCase{"stockinette.chart", {400, 320}, 0.03, {}},
+                      ChartCase{"rib-1x1.chart", {400, 320}, 0.03, {}},
+                      ChartCase{"rib-2x2.chart", {440, 320}, 0.04, {}},
+                      ChartCase{"garter.chart", {400, 320}, 0.03, {}},
+                      ChartCase{"seed.chart", {400, 320}, 0.03, {}},
                       // Leaning wales (skew 5.7 deg): the lattice is sheared, the
                       // stitches still found. (At 8.5 deg fabric_measure takes a
                       // longer lattice vector, three wales and a course, for u.)
-                      Case{"seed.chart", {400, 320}, 0.03, {1.0f, 0.1f}}),
-    [](const ::testing::TestParamInfo<Case>& param_info) {
+                      ChartCase{"seed.chart", {400, 320}, 0.03, {1.0f, 0.1f}}),
+    [](const ::testing::TestParamInfo<ChartCase>& param_info) {
       std::string name = std::filesystem::path(param_info.param.chart).stem().string();
       std::erase(name, '-');
       return name + (param_info.param.deformation.shear != 0 ? "Sheared" : "");

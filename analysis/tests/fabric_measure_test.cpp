@@ -18,13 +18,13 @@
 namespace psrig::processing {
 namespace {
 
-struct Case {
+struct FabricCase {
   const char* pattern;
   double rotation_deg;
   cv::Size size{640, 480};
 };
 
-sim::Swatch swatch_of(const Case& c, cv::Size size = {640, 480}) {
+sim::Swatch swatch_of(const FabricCase& c, cv::Size size = {640, 480}) {
   sim::SwatchParams params = test::swatch_params(c.pattern, size, 0.025, 3);
   params.rotation_deg = c.rotation_deg;
   return test::made(sim::make_swatch(params));
@@ -36,10 +36,10 @@ analysis::FabricHints hints_of(const sim::SwatchPattern& pattern) {
           pattern.name, pattern.gauge.across_per_repeat, pattern.gauge.along_per_repeat};
 }
 
-class FabricGauge : public ::testing::TestWithParam<Case> {};
+class FabricGauge : public ::testing::TestWithParam<FabricCase> {};
 
 TEST_P(FabricGauge, DensitiesWithinOnePercentSkewWithinHalfADegree) {
-  const Case c = GetParam();
+  const FabricCase c = GetParam();
   const sim::Swatch swatch = swatch_of(c, c.size);
   const sim::SwatchPattern pattern = test::named_pattern(c.pattern);
   const sim::SwatchGauge& truth = pattern.gauge;
@@ -63,14 +63,16 @@ TEST_P(FabricGauge, DensitiesWithinOnePercentSkewWithinHalfADegree) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Patterns, FabricGauge,
-                         ::testing::Values(Case{"jersey", 0}, Case{"rib", 0}, Case{"garter", 0},
-                                           Case{"plain", 0}, Case{"twill", 0}, Case{"jersey", 3.5},
-                                           Case{"rib", -4}, Case{"garter", 2.5}, Case{"plain", -3},
-                                           Case{"twill", 4}, Case{"rib-2x2", 0}, Case{"seed", 3},
-                                           Case{"stripes", -2}, Case{"satin-5", 2},
+                         ::testing::Values(FabricCase{"jersey", 0}, FabricCase{"rib", 0},
+                                           FabricCase{"garter", 0}, FabricCase{"plain", 0},
+                                           FabricCase{"twill", 0}, FabricCase{"jersey", 3.5},
+                                           FabricCase{"rib", -4}, FabricCase{"garter", 2.5},
+                                           FabricCase{"plain", -3}, FabricCase{"twill", 4},
+                                           FabricCase{"rib-2x2", 0}, FabricCase{"seed", 3},
+                                           FabricCase{"stripes", -2}, FabricCase{"satin-5", 2},
                                            // Its repeat is 11 x 7.5 mm: two of them each way.
-                                           Case{"basketweave", 3, {1100, 800}}),
-                         [](const ::testing::TestParamInfo<Case>& param_info) {
+                                           FabricCase{"basketweave", 3, {1100, 800}}),
+                         [](const ::testing::TestParamInfo<FabricCase>& param_info) {
                            const double r = param_info.param.rotation_deg;
                            return test::test_name(param_info.param.pattern) + (r == 0 ? ""
                                                                                : r > 0

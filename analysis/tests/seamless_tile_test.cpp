@@ -18,12 +18,12 @@
 namespace psrig::processing {
 namespace {
 
-struct Case {
+struct TileCase {
   const char* pattern;
   double rotation_deg;
 };
 
-formats::Maps maps_of(const Case& c) {
+formats::Maps maps_of(const TileCase& c) {
   sim::SwatchParams params = test::swatch_params(c.pattern, {640, 480}, 0.025, 5);
   params.rotation_deg = c.rotation_deg;
   const sim::Swatch swatch = test::made(sim::make_swatch(params));
@@ -40,7 +40,7 @@ formats::Maps maps_of(const Case& c) {
   return maps;
 }
 
-class SeamlessTile : public ::testing::TestWithParam<Case> {};
+class SeamlessTile : public ::testing::TestWithParam<TileCase> {};
 
 TEST_P(SeamlessTile, RepeatsWithoutSeamAndKeepsItsPeriodAndSize) {
   const formats::Maps maps = maps_of(GetParam());
@@ -81,11 +81,12 @@ TEST_P(SeamlessTile, RepeatsWithoutSeamAndKeepsItsPeriodAndSize) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Patterns, SeamlessTile,
-                         ::testing::Values(Case{"jersey", 0}, Case{"rib", 0}, Case{"garter", 0},
-                                           Case{"plain", 0}, Case{"twill", 0}, Case{"jersey", -3},
-                                           Case{"rib", 4}, Case{"garter", -2.5}, Case{"plain", 3},
-                                           Case{"twill", -4}),
-                         [](const ::testing::TestParamInfo<Case>& param_info) {
+                         ::testing::Values(TileCase{"jersey", 0}, TileCase{"rib", 0},
+                                           TileCase{"garter", 0}, TileCase{"plain", 0},
+                                           TileCase{"twill", 0}, TileCase{"jersey", -3},
+                                           TileCase{"rib", 4}, TileCase{"garter", -2.5},
+                                           TileCase{"plain", 3}, TileCase{"twill", -4}),
+                         [](const ::testing::TestParamInfo<TileCase>& param_info) {
                            const double r = param_info.param.rotation_deg;
                            return std::string(param_info.param.pattern) + (r == 0  ? ""
                                                                            : r > 0 ? "_turned_ccw"

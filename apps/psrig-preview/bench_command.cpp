@@ -41,7 +41,6 @@ int bench(const BenchArgs& args) {
   const SceneView base = scene_view(args.view);
   const SceneMotion motion;
   canvas->target->bind();
-  using Clock = std::chrono::steady_clock;
   std::vector<double> frame_ms;
   for (int frame = -args.warmup; frame < args.frames; ++frame) {
     const auto frame_start = Clock::now();

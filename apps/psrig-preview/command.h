@@ -2,6 +2,7 @@
 // One `psrig-preview` subcommand, and what the subcommands share: frame
 // size parsing, the view and light options, and error reporting.
 
+#include <chrono>
 #include <filesystem>
 #include <memory>
 #include <string>
@@ -72,6 +73,12 @@ inline int report_error(const std::string& command, const Error& error) {
 
 // The multisampling the preview draws with unless told otherwise.
 inline constexpr int kDefaultSamples = 4;
+
+// The commands time their frames on this clock, in milliseconds.
+using Clock = std::chrono::steady_clock;
+inline double milliseconds(Clock::duration duration) {
+  return std::chrono::duration<double, std::milli>(duration).count();
+}
 // --samples, 0 (off) to 16, for every command that draws.
 void add_samples_option(CLI::App& app, int& samples);
 

@@ -36,12 +36,6 @@ struct DrapeArgs {
   ClothSize cloth_size;
 };
 
-using Clock = std::chrono::steady_clock;
-
-double milliseconds(Clock::duration d) {
-  return std::chrono::duration<double, std::milli>(d).count();
-}
-
 // drape_fabric for what the user named: a scan's maps read as
 // read_scan_cloth_argument reads them, so a scan directory is pointed at
 // its maps.

@@ -126,7 +126,6 @@ int run_kiosk(const KioskArgs& args) {
   std::optional<Shown> shown, failed;
   SceneMotion motion;
   const SceneView base = kiosk_view();
-  using Clock = std::chrono::steady_clock;
   const auto start = Clock::now();
   double next_poll = 0;
   for (long frame = 0; (args.frames == 0 || frame < args.frames) && !stop_requested; ++frame) {

@@ -14,6 +14,7 @@
 #include <opencv2/core.hpp>
 
 #include "command.h"
+#include "psrig/base/median.h"
 #include "psrig/cloth/srgb.h"
 #include "psrig/cloth/weave_matrix.h"
 #include "psrig/formats/image_io.h"
@@ -47,14 +48,8 @@ struct KnitArgs {
   std::vector<int> bench_stitches{1000, 10000, 50000};
 };
 
-using Clock = std::chrono::steady_clock;
-
 // The lean --shear allows: within it yarns still find room.
 constexpr float kMaxShear = 0.6f;
-
-double milliseconds(Clock::duration duration) {
-  return std::chrono::duration<double, std::milli>(duration).count();
-}
 
 // CPU time of every thread of the process (llvmpipe's rasterising threads
 // included), in ms: on a busy machine a steadier measure than wall time.
@@ -63,11 +58,6 @@ double process_cpu_ms() {
   getrusage(RUSAGE_SELF, &usage);
   const auto ms = [](const timeval& t) { return t.tv_sec * 1e3 + t.tv_usec / 1e3; };
   return ms(usage.ru_utime) + ms(usage.ru_stime);
-}
-
-double median(std::vector<double> values) {
-  std::sort(values.begin(), values.end());
-  return values.empty() ? 0 : values[values.size() / 2];
 }
 
 // The yarn's colour when given, or none (the chart's).

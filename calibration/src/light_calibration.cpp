@@ -6,6 +6,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "psrig/base/median.h"
+
 namespace psrig::calibration {
 namespace {
 
@@ -17,13 +19,6 @@ cv::Vec3d unit(const cv::Vec3d& v) {
 
 cv::Vec3d reflect(const cv::Vec3d& n, const cv::Vec3d& v) {
   return unit(2 * n.dot(v) * n - v);
-}
-
-double median(std::vector<double> values) {
-  if (values.empty()) return 0;
-  auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
 }
 
 // The pixels of the image inside the circle shrunk by `margin` pixels.

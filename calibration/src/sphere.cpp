@@ -6,6 +6,8 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "psrig/base/median.h"
+
 namespace psrig::calibration {
 namespace {
 
@@ -23,13 +25,6 @@ double bilinear(const cv::Mat& image, double x, double y) {
   const auto at = [&](int r, int c) { return static_cast<double>(image.at<float>(r, c)); };
   return (1 - fy) * ((1 - fx) * at(y0, x0) + fx * at(y0, x1)) +
          fy * ((1 - fx) * at(y1, x0) + fx * at(y1, x1));
-}
-
-double median(std::vector<double> values) {
-  if (values.empty()) return 0;
-  auto middle = values.begin() + static_cast<std::ptrdiff_t>(values.size() / 2);
-  std::nth_element(values.begin(), middle, values.end());
-  return *middle;
 }
 
 // Edge points: on each ray from the circle's centre, where the silhouette

@@ -10,19 +10,14 @@
 
 #include "psrig/cameras/libcamera_camera.h"
 #include "psrig/cameras/v4l2_formats.h"
+#include "v4l2/v4l2_device.h"
 
 namespace psrig::cameras {
 namespace {
 
-namespace fs = std::filesystem;
+using v4l2::xioctl;
 
-int xioctl(int fd, unsigned long request, void* arg) {
-  int result = 0;
-  do
-    result = ioctl(fd, request, arg);
-  while (result < 0 && errno == EINTR);
-  return result;
-}
+namespace fs = std::filesystem;
 
 std::string text(const __u8* bytes, std::size_t size) {
   const auto* chars = reinterpret_cast<const char*>(bytes);

@@ -17,7 +17,7 @@ using Values = std::vector<std::optional<std::string>>;
 // how many have run. Append, never edit: databases in the field have run
 // the old ones. Times are UTC ISO-8601 text, as in the embedded
 // catalogue, so both compare and search them alike.
-const char* const kMigrations[] = {
+const char* const kPostgresMigrations[] = {
     R"sql(
 CREATE SEQUENCE scan_ids;  -- never reused: rigs take ids from it ahead of need
 CREATE TABLE scans (
@@ -66,10 +66,10 @@ CREATE TABLE rigs (
 );
 )sql",
 };
-static_assert(std::size(kMigrations) == PostgresCatalogue::kSchemaVersion);
+static_assert(std::size(kPostgresMigrations) == PostgresCatalogue::kSchemaVersion);
 
 // catalogue_rows.h's columns.
-constexpr const char* kSelectEntry = R"sql(
+constexpr const char* kPostgresSelectEntry = R"sql(
 SELECT s.id, s.rig, s.sample_id, s.description, s.source, s.status, s.created,
        s.started, s.finished, s.error_code, s.error_message, s.scan_path, s.maps_path,
        s.report::text,
@@ -171,7 +171,7 @@ Status PostgresCatalogue::migrate(std::chrono::seconds patience) {
         found = version.empty() ? 0 : version[0][0].as<int>();
         if (found > kSchemaVersion) return;
         for (int step = found; step < kSchemaVersion; ++step) {
-          t.exec(kMigrations[step]);
+          t.exec(kPostgresMigrations[step]);
           t.exec("UPDATE psrig_schema SET version = " + std::to_string(step + 1));
         }
       },
@@ -398,7 +398,8 @@ Status PostgresCatalogue::mark_failed(std::int64_t id, ScanStatus status, ScanEr
 Result<std::optional<CatalogueEntry>> PostgresCatalogue::get(std::int64_t id) const {
   std::optional<CatalogueEntry> entry;
   auto read = link_.transact([&](pqxx::dbtransaction& t) {
-    const auto found = run(t, std::string(kSelectEntry) + " WHERE s.id = $1::bigint", {std::to_string(id)});
+    const auto found = run(t, std::string(kPostgresSelectEntry) + " WHERE s.id = $1::bigint",
+                           {std::to_string(id)});
     if (!found.empty()) entry = read_entry(found[0], root_);
   });
   if (!read) return std::unexpected(read.error());
@@ -417,8 +418,9 @@ Result<std::vector<CatalogueEntry>> PostgresCatalogue::search(const CatalogueQue
     // orders them across rigs; the id within one second.
     for (const auto& row :
          run(t,
-             std::string(kSelectEntry) + filter.where + " ORDER BY s.created DESC, s.id DESC LIMIT $" +
-                 std::to_string(limit) + "::bigint OFFSET $" + std::to_string(limit + 1) + "::bigint",
+             std::string(kPostgresSelectEntry) + filter.where +
+                 " ORDER BY s.created DESC, s.id DESC LIMIT $" + std::to_string(limit) +
+                 "::bigint OFFSET $" + std::to_string(limit + 1) + "::bigint",
              values))
       entries.push_back(read_entry(row, root_));
   });

@@ -18,7 +18,7 @@ using sqlite::Statement;
 // Each step takes the schema from version N to N + 1; user_version says
 // how many have run. Append, never edit: databases in the field have run
 // the old ones.
-const char* const kMigrations[] = {
+const char* const kSqliteMigrations[] = {
     R"sql(
 CREATE TABLE scans (
   id INTEGER PRIMARY KEY AUTOINCREMENT,  -- never reused: a PLC may still hold an old id
@@ -90,10 +90,10 @@ ALTER TABLE scans ADD COLUMN rig TEXT NOT NULL DEFAULT '';
 CREATE INDEX scans_rig ON scans (rig);
 )sql",
 };
-static_assert(std::size(kMigrations) == SqliteCatalogue::kSchemaVersion);
+static_assert(std::size(kSqliteMigrations) == SqliteCatalogue::kSchemaVersion);
 
 // catalogue_rows.h's columns.
-constexpr const char* kSelectEntry = R"sql(
+constexpr const char* kSqliteSelectEntry = R"sql(
 SELECT s.id, s.rig, s.sample_id, s.description, s.source, s.status, s.created,
        s.started, s.finished, s.error_code, s.error_message, s.scan_path, s.maps_path, s.report,
        (SELECT json_group_array(tag) FROM (SELECT tag FROM scan_tags t WHERE t.scan_id = s.id
@@ -251,7 +251,7 @@ Status SqliteCatalogue::migrate() {
                                         " is newer than this psrigd understands (" +
                                         std::to_string(kSchemaVersion) + "); run a newer psrigd"));
   for (int step = current; step < kSchemaVersion; ++step) {
-    const std::string sql = std::string("BEGIN IMMEDIATE;") + kMigrations[step] +
+    const std::string sql = std::string("BEGIN IMMEDIATE;") + kSqliteMigrations[step] +
                             "PRAGMA user_version = " + std::to_string(step + 1) + "; COMMIT;";
     if (auto ok = execute(sql); !ok) {
       (void)execute("ROLLBACK");
@@ -448,7 +448,7 @@ Result<std::optional<CatalogueEntry>> SqliteCatalogue::get(std::int64_t id) cons
   std::optional<CatalogueEntry> entry;
   {
     std::lock_guard lock(mutex_);
-    auto select = Statement::prepare(db_, std::string(kSelectEntry) + " WHERE s.id = ?");
+    auto select = Statement::prepare(db_, std::string(kSqliteSelectEntry) + " WHERE s.id = ?");
     if (!select) return std::unexpected(select.error());
     select->bind(1, id);
     auto row = select->step();
@@ -482,7 +482,7 @@ Result<std::vector<CatalogueEntry>> SqliteCatalogue::search(const CatalogueQuery
   {
     std::lock_guard lock(mutex_);
     auto select = Statement::prepare(
-        db_, std::string(kSelectEntry) + where + " ORDER BY s.id DESC LIMIT ? OFFSET ?");
+        db_, std::string(kSqliteSelectEntry) + where + " ORDER BY s.id DESC LIMIT ? OFFSET ?");
     if (!select) return std::unexpected(select.error());
     int index = 1;
     for (const auto& text : texts)

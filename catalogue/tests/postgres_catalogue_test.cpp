@@ -27,13 +27,13 @@ using catalogue::ScanStatus;
 
 using SharedCatalogue = CatalogueBackendTest;
 
-std::int64_t add(Catalogue& catalogue, const std::string& sample) {
+std::int64_t add_shared(Catalogue& catalogue, const std::string& sample) {
   auto id = catalogue.add({sample, "", {"shared"}, "test"});
   EXPECT_TRUE(id) << id.error().describe();
   return id.value_or(-1);
 }
 
-void make_scan(const fs::path& directory) {
+void make_bare_scan(const fs::path& directory) {
   fs::create_directories(directory);
   std::ofstream(directory / "scan.json") << "{}";
 }
@@ -76,7 +76,7 @@ TEST_P(SharedCatalogue, TwoRigsWriteOneCatalogueAtOnce) {
   const auto write = [](Catalogue& catalogue, const std::string& prefix) {
     std::vector<std::int64_t> ids;
     for (int i = 0; i < kEach; ++i) {
-      const auto id = add(catalogue, prefix + std::to_string(i));
+      const auto id = add_shared(catalogue, prefix + std::to_string(i));
       EXPECT_TRUE(catalogue.mark_running(id, catalogue.rig_root() / (prefix + std::to_string(i))));
       EXPECT_TRUE(catalogue.mark_done(id, {}, {{"residual", {{"mean", 0.001 * i}}}}));
       ids.push_back(id);
@@ -113,10 +113,10 @@ TEST_P(SharedCatalogue, RecoveryTouchesOnlyThisRigsRowsAndFiles) {
   const fs::path root = temp / "shared";
   auto b = open(root, "rig-b");
   ASSERT_TRUE(b);
-  const auto b_running = add(*b, "B");
+  const auto b_running = add_shared(*b, "B");
   const fs::path b_scan = b->rig_root() / "20260504-000000-B";
   ASSERT_TRUE(b->mark_running(b_running, b_scan));
-  make_scan(b_scan);
+  make_bare_scan(b_scan);
   const fs::path b_staging = b->rig_root() / ".20260504-000001-B2.partial-999999-1";
   fs::create_directories(b_staging);
   std::int64_t a_running = 0;
@@ -124,7 +124,7 @@ TEST_P(SharedCatalogue, RecoveryTouchesOnlyThisRigsRowsAndFiles) {
   {
     auto a = open(root, "rig-a");
     ASSERT_TRUE(a);
-    a_running = add(*a, "A");
+    a_running = add_shared(*a, "A");
     a_half = a->rig_root() / "20260504-000000-A";
     ASSERT_TRUE(a->mark_running(a_running, a_half));
     fs::create_directories(a_half);  // no scan.json: not whole
@@ -146,10 +146,10 @@ TEST_P(SharedCatalogue, RecoveryTouchesOnlyThisRigsRowsAndFiles) {
 TEST_P(SharedCatalogue, AnOutageIsRiddenOutAndEveryRowWrittenOnce) {
   auto catalogue = open(temp / "shared");
   ASSERT_TRUE(catalogue);
-  const auto before = add(*catalogue, "BEFORE");
+  const auto before = add_shared(*catalogue, "BEFORE");
   const fs::path scan = catalogue->rig_root() / "20260504-000000-BEFORE";
   ASSERT_TRUE(catalogue->mark_running(before, scan));
-  make_scan(scan);
+  make_bare_scan(scan);
 
   ASSERT_TRUE(server().stop()) << server().log();
   const nlohmann::json report = {{"residual", {{"mean", 0.002}}}};
@@ -186,10 +186,10 @@ TEST_P(SharedCatalogue, TheJournalOutlivesThePsrigd) {
   {
     auto catalogue = open(root);
     ASSERT_TRUE(catalogue);
-    id = add(*catalogue, "J");
+    id = add_shared(*catalogue, "J");
     const fs::path scan = catalogue->rig_root() / "20260504-000000-J";
     ASSERT_TRUE(catalogue->mark_running(id, scan));
-    make_scan(scan);
+    make_bare_scan(scan);
     ASSERT_TRUE(server().stop()) << server().log();
     EXPECT_TRUE(catalogue->mark_done(id, scan / "maps", nullptr));
     journal = options(root).journal;
@@ -225,7 +225,7 @@ TEST_P(SharedCatalogue, RigsStartingTogetherMigrateOnce) {
       auto catalogue =
           catalogue::open_catalogue(options(temp / "shared", "rig-" + std::to_string(i)));
       EXPECT_TRUE(catalogue) << catalogue.error().describe();
-      return catalogue && add(**catalogue, "S") > 0;
+      return catalogue && add_shared(**catalogue, "S") > 0;
     }));
   for (auto& start : starts)
     EXPECT_TRUE(start.get());

@@ -5,6 +5,8 @@
 #include <cmath>
 #include <numeric>
 
+#include "catmull_rom.h"
+
 namespace psrig::cloth {
 namespace {
 
@@ -87,12 +89,6 @@ float depth(const StitchChart& chart, const KeyPoint& key, int column, int row) 
       break;
   }
   return 0.5f * (at(row) + at(row + 1));
-}
-
-Eigen::Vector4f catmull_rom_weights(float t) {
-  const float t2 = t * t, t3 = t2 * t;
-  return 0.5f *
-         Eigen::Vector4f(-t + 2 * t2 - t3, 2 - 5 * t2 + 3 * t3, t + 4 * t2 - 3 * t3, -t2 + t3);
 }
 
 }  // namespace

@@ -4,18 +4,9 @@
 #include <cmath>
 #include <vector>
 
+#include "catmull_rom.h"
+
 namespace psrig::cloth {
-namespace {
-
-// Catmull-Rom's weights of p0..p3 at t; the same handful of t for every
-// span, so they are worked out once per call.
-Eigen::Vector4f catmull_rom_weights(float t) {
-  const float t2 = t * t, t3 = t2 * t;
-  return 0.5f *
-         Eigen::Vector4f(-t + 2 * t2 - t3, 2 - 5 * t2 + 3 * t3, t + 4 * t2 - 3 * t3, -t2 + t3);
-}
-
-}  // namespace
 
 void sample_yarn(std::span<const YarnControlPoint> control, int samples_per_span, bool coloured,
                  YarnCurve& curve) {

@@ -14,7 +14,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-StitchChart shipped(const std::string& file) {
+StitchChart shipped_chart(const std::string& file) {
   auto chart = load_stitch_chart(test::shipped_pattern(file));
   EXPECT_TRUE(chart) << chart.error().describe();
   return chart ? *chart : StitchChart{};
@@ -43,7 +43,7 @@ TEST(StitchChart, EveryShippedChartLoads) {
 }
 
 TEST(StitchChart, StockinetteIsAllKnit) {
-  const StitchChart chart = shipped("stockinette.chart");
+  const StitchChart chart = shipped_chart("stockinette.chart");
   for (const Stitch stitch : chart.cells)
     EXPECT_EQ(stitch, Stitch::knit);
   EXPECT_EQ(chart.palette.size(), 1U);
@@ -54,7 +54,7 @@ TEST(StitchChart, StockinetteIsAllKnit) {
 }
 
 TEST(StitchChart, GarterCoursesAlternate) {
-  const StitchChart chart = shipped("garter.chart");
+  const StitchChart chart = shipped_chart("garter.chart");
   EXPECT_EQ(chart.rows % 2, 0);
   EXPECT_EQ(chart.at(0, 0), Stitch::knit);
   for (int row = 0; row < chart.rows; ++row)
@@ -67,7 +67,7 @@ TEST(StitchChart, GarterCoursesAlternate) {
 TEST(StitchChart, RibColumnsAlternate) {
   const std::pair<const char*, int> ribs[] = {{"rib-1x1.chart", 2}, {"rib-2x2.chart", 4}};
   for (const auto& [file, period] : ribs) {
-    const StitchChart chart = shipped(file);
+    const StitchChart chart = shipped_chart(file);
     EXPECT_EQ(chart.columns % period, 0) << file;
     EXPECT_EQ(chart.at(0, 0), Stitch::knit) << file;
     for (int row = 0; row < chart.rows; ++row)
@@ -78,12 +78,12 @@ TEST(StitchChart, RibColumnsAlternate) {
       }
   }
   // Within a period, the knit columns come together: K K P P, not K P K P.
-  const StitchChart rib = shipped("rib-2x2.chart");
+  const StitchChart rib = shipped_chart("rib-2x2.chart");
   EXPECT_EQ(rib.at(1, 0), Stitch::knit);
 }
 
 TEST(StitchChart, SeedDiffersFromItsFourNeighbours) {
-  const StitchChart chart = shipped("seed.chart");
+  const StitchChart chart = shipped_chart("seed.chart");
   for (int row = 0; row < chart.rows; ++row)
     for (int column = 0; column < chart.columns; ++column) {
       const Stitch stitch = chart.at(column, row);
@@ -95,7 +95,7 @@ TEST(StitchChart, SeedDiffersFromItsFourNeighbours) {
 }
 
 TEST(StitchChart, BasketweaveBlocksAlternateAndOffset) {
-  const StitchChart chart = shipped("basketweave.chart");
+  const StitchChart chart = shipped_chart("basketweave.chart");
   ASSERT_EQ(chart.columns, 8);
   ASSERT_EQ(chart.rows, 8);
   for (int row = 0; row < chart.rows; ++row)
@@ -108,7 +108,7 @@ TEST(StitchChart, BasketweaveBlocksAlternateAndOffset) {
 }
 
 TEST(StitchChart, StripesChangeColourEveryTwoCourses) {
-  const StitchChart chart = shipped("stripes.chart");
+  const StitchChart chart = shipped_chart("stripes.chart");
   ASSERT_EQ(chart.palette.size(), 2u);
   ASSERT_EQ(chart.rows % 4, 0);
   for (int row = 0; row < chart.rows; ++row)

@@ -14,7 +14,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-WeaveMatrix shipped(const std::string& file) {
+WeaveMatrix shipped_weave(const std::string& file) {
   auto matrix = load_weave_matrix(test::shipped_pattern(file));
   EXPECT_TRUE(matrix) << matrix.error().describe();
   return matrix ? *matrix : WeaveMatrix{};
@@ -36,7 +36,7 @@ TEST(WeaveMatrix, EveryShippedWeaveLoads) {
 }
 
 TEST(WeaveMatrix, PlainIsACheckerboard) {
-  const WeaveMatrix plain = shipped("plain.weave");
+  const WeaveMatrix plain = shipped_weave("plain.weave");
   for (int weft = 0; weft < plain.wefts; ++weft)
     for (int warp = 0; warp < plain.warps; ++warp) {
       EXPECT_NE(plain.warp_over(warp, weft), plain.warp_over(warp + 1, weft));
@@ -45,7 +45,7 @@ TEST(WeaveMatrix, PlainIsACheckerboard) {
 }
 
 TEST(WeaveMatrix, TwillShiftsOneWarpPerWeft) {
-  const WeaveMatrix twill = shipped("twill-2x2.weave");
+  const WeaveMatrix twill = shipped_weave("twill-2x2.weave");
   ASSERT_EQ(twill.warps, 4);
   ASSERT_EQ(twill.wefts, 4);
   for (int weft = 0; weft < twill.wefts; ++weft) {
@@ -60,7 +60,7 @@ TEST(WeaveMatrix, TwillShiftsOneWarpPerWeft) {
 }
 
 TEST(WeaveMatrix, SatinCrossingsAreAloneInRowColumnAndNeighbourhood) {
-  const WeaveMatrix satin = shipped("satin-5.weave");
+  const WeaveMatrix satin = shipped_weave("satin-5.weave");
   ASSERT_EQ(satin.warps, 5);
   ASSERT_EQ(satin.wefts, 5);
   for (int i = 0; i < 5; ++i) {

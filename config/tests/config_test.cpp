@@ -5,6 +5,7 @@
 
 #include <gtest/gtest.h>
 
+#include "config_error.h"
 #include "psrig/config/config_loader.h"
 #include "test_support.h"
 
@@ -15,17 +16,6 @@ namespace fs = std::filesystem;
 
 fs::path config_dir() {
   return fs::path(PSRIG_SOURCE_DIR) / "config";
-}
-
-Error expect_error(const std::string& text, const std::string& key, int line) {
-  auto config = parse_config(text, "/etc/psrig/rig.toml");
-  EXPECT_FALSE(config) << text;
-  if (config) return {};
-  EXPECT_EQ(config.error().kind, ErrorKind::bad_input);
-  EXPECT_EQ(config.error().key, key) << config.error().describe();
-  EXPECT_EQ(config.error().line, line) << config.error().describe();
-  EXPECT_EQ(config.error().file, fs::path("/etc/psrig/rig.toml"));
-  return config.error();
 }
 
 TEST(Config, ShippedFilesLoadWithoutWarnings) {

@@ -5,20 +5,11 @@
 
 #include <gtest/gtest.h>
 
+#include "config_error.h"
 #include "psrig/config/config_loader.h"
 
 namespace psrig::config {
 namespace {
-
-Error expect_error(const std::string& text, const std::string& key, int line) {
-  auto config = parse_config(text, "/etc/psrig/rig.toml");
-  EXPECT_FALSE(config) << text;
-  if (config) return {};
-  EXPECT_EQ(config.error().kind, ErrorKind::bad_input);
-  EXPECT_EQ(config.error().key, key) << config.error().describe();
-  EXPECT_EQ(config.error().line, line) << config.error().describe();
-  return config.error();
-}
 
 TEST(RigCalibrationConfig, Defaults) {
   auto c = parse_config("", "rig.toml");

@@ -99,8 +99,10 @@ std::string peer_name(const sockaddr_in& peer) {
   return std::string(text) + ":" + std::to_string(ntohs(peer.sin_port));
 }
 
+}  // namespace
+
 // One connection: the bytes of its request so far, and when it must be whole.
-struct Client {
+struct ModbusConnection {
   int fd = -1;
   std::string peer;
   std::array<std::uint8_t, MODBUS_TCP_MAX_ADU_LENGTH> buffer{};
@@ -108,15 +110,13 @@ struct Client {
   Clock::time_point deadline{};  // while size > 0
 };
 
-}  // namespace
-
 // Everything the server thread owns at the C level, and the PLC-side state.
 struct ModbusServer::Impl {
   Impl(ScanControl& control_in, ModbusServerOptions options_in)
       : control(control_in), options(std::move(options_in)) {}
 
   ~Impl() {
-    for (const Client& client : clients)
+    for (const ModbusConnection& client : clients)
       ::close(client.fd);
     for (const int fd : {wake, listen})
       if (fd >= 0) ::close(fd);
@@ -128,8 +128,8 @@ struct ModbusServer::Impl {
   void serve();
   void accept_one();
   // Reads what `client` sent and answers each whole request; false: close it.
-  bool receive(Client& client);
-  bool answer(Client& client, const std::uint8_t* frame, int length);
+  bool receive(ModbusConnection& client);
+  bool answer(ModbusConnection& client, const std::uint8_t* frame, int length);
   void drop(std::size_t index, const char* why);
   void refresh(const DaemonStatus& status);
   void act(bool trigger_edge, bool lights_off_edge);
@@ -148,7 +148,7 @@ struct ModbusServer::Impl {
   // libmodbus answers into it; the answer is sent on after acting.
   std::optional<lights::ModbusReplyCapture> capture;
   std::vector<in_addr_t> allowed;  // options.allow, parsed; empty: anyone
-  std::vector<Client> clients;
+  std::vector<ModbusConnection> clients;
   std::thread thread;
   std::mutex stop_mutex;  // one stop() joins
   std::atomic<bool> stopping = false;
@@ -259,7 +259,7 @@ void ModbusServer::stop() {
   [[maybe_unused]] const auto written = ::write(impl_->wake, &one, sizeof one);
   impl_->thread.join();
   // Connections close now, not at destruction: a stopped server serves nobody.
-  for (const Client& client : impl_->clients)
+  for (const ModbusConnection& client : impl_->clients)
     ::close(client.fd);
   impl_->clients.clear();
   ::close(impl_->listen);
@@ -282,7 +282,7 @@ void ModbusServer::Impl::serve() {
     // Wake for the earliest request deadline, if any.
     int wait_ms = -1;
     const auto now = Clock::now();
-    for (const Client& client : clients) {
+    for (const ModbusConnection& client : clients) {
       if (client.size == 0) continue;
       const auto left = std::chrono::ceil<std::chrono::milliseconds>(client.deadline - now).count();
       const int left_ms = static_cast<int>(std::clamp<std::int64_t>(left, 0, 60'000));
@@ -291,7 +291,7 @@ void ModbusServer::Impl::serve() {
     fds.clear();
     fds.push_back({wake, POLLIN, 0});
     fds.push_back({listen, POLLIN, 0});
-    for (const Client& client : clients)
+    for (const ModbusConnection& client : clients)
       fds.push_back({client.fd, POLLIN, 0});
     if (::poll(fds.data(), fds.size(), wait_ms) < 0) {
       if (errno == EINTR) continue;
@@ -354,7 +354,7 @@ void ModbusServer::Impl::accept_one() {
   }
   const int one = 1;
   ::setsockopt(fd, IPPROTO_TCP, TCP_NODELAY, &one, sizeof one);
-  Client client;
+  ModbusConnection client;
   client.fd = fd;
   client.peer = name;
   clients.push_back(std::move(client));
@@ -374,7 +374,7 @@ void ModbusServer::Impl::drop(std::size_t index, const char* why) {
   ::close(fd);
 }
 
-bool ModbusServer::Impl::receive(Client& client) {
+bool ModbusServer::Impl::receive(ModbusConnection& client) {
   // Never more than the rest of one frame is buffered: each whole request
   // is answered before the next is read.
   const ssize_t n = ::recv(client.fd, client.buffer.data() + client.size,
@@ -404,7 +404,7 @@ bool ModbusServer::Impl::receive(Client& client) {
   return true;
 }
 
-bool ModbusServer::Impl::answer(Client& client, const std::uint8_t* frame, int length) {
+bool ModbusServer::Impl::answer(ModbusConnection& client, const std::uint8_t* frame, int length) {
   const std::uint8_t* pdu = frame + kHeader;
   const int pdu_size = length - static_cast<int>(kHeader);
   const int function = pdu[0];

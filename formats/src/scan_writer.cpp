@@ -131,10 +131,10 @@ Status write_scan_unguarded(const Scan& scan, const fs::path& directory,
     if (error) return std::unexpected(*error);
 
   const fs::path json_path = staging->path() / files::kDescription;
-  std::ofstream json(json_path);
-  json << scan_json(scan).dump(2) << '\n';
-  json.close();
-  if (!json) return std::unexpected(io_error(json_path, "cannot write"));
+  std::ofstream description(json_path);
+  description << scan_json(scan).dump(2) << '\n';
+  description.close();
+  if (!description) return std::unexpected(io_error(json_path, "cannot write"));
   return staging->commit(AtomicDirectory::Existing::refuse, true);
 }
 

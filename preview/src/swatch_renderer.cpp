@@ -10,14 +10,16 @@
 #include "psrig/preview/texture_levels.h"
 
 namespace psrig::preview {
-namespace {
-
-constexpr GLenum kTextureMaxAnisotropy = 0x84FE;  // GL_EXT_texture_filter_anisotropic
-
-struct Mesh {
+// A mesh's GL objects (SwatchRenderer::Gl holds them, so not in the
+// anonymous namespace).
+struct SwatchMesh {
   GLuint array = 0, vertices = 0, indices = 0;
   GLsizei count = 0;
 };
+
+namespace {
+
+constexpr GLenum kTextureMaxAnisotropy = 0x84FE;  // GL_EXT_texture_filter_anisotropic
 
 void upload_levels(GLuint texture, const std::vector<cv::Mat>& levels, GLint internal_format,
                    GLenum type, const RendererOptions& options) {
@@ -39,8 +41,8 @@ void upload_levels(GLuint texture, const std::vector<cv::Mat>& levels, GLint int
     glTexParameterf(GL_TEXTURE_2D, kTextureMaxAnisotropy, options.max_anisotropy);
 }
 
-Mesh upload_patch(const cloth::PatchMesh& patch) {
-  Mesh mesh;
+SwatchMesh upload_patch(const cloth::PatchMesh& patch) {
+  SwatchMesh mesh;
   glGenVertexArrays(1, &mesh.array);
   glBindVertexArray(mesh.array);
   glGenBuffers(1, &mesh.vertices);
@@ -69,7 +71,7 @@ Mesh upload_patch(const cloth::PatchMesh& patch) {
 }
 
 // A unit UV sphere, as a triangle list of positions.
-Mesh upload_sphere() {
+SwatchMesh upload_sphere() {
   constexpr int kStacks = 12, kSlices = 20;
   std::vector<float> positions;
   std::vector<std::uint32_t> indices;
@@ -87,7 +89,7 @@ Mesh upload_sphere() {
       const auto b = a + kSlices + 1;
       indices.insert(indices.end(), {a, b, a + 1, a + 1, b, b + 1});
     }
-  Mesh mesh;
+  SwatchMesh mesh;
   glGenVertexArrays(1, &mesh.array);
   glBindVertexArray(mesh.array);
   glGenBuffers(1, &mesh.vertices);
@@ -106,7 +108,7 @@ Mesh upload_sphere() {
   return mesh;
 }
 
-void release(Mesh& mesh) {
+void release(SwatchMesh& mesh) {
   glDeleteBuffers(1, &mesh.vertices);
   glDeleteBuffers(1, &mesh.indices);
   glDeleteVertexArrays(1, &mesh.array);
@@ -118,8 +120,8 @@ void release(Mesh& mesh) {
 struct SwatchRenderer::Gl {
   std::optional<GlProgram> swatch, marker;
   GLuint albedo = 0, normal = 0;
-  Mesh patches[2];  // indexed by cloth::PatchShape
-  Mesh sphere;
+  SwatchMesh patches[2];  // indexed by cloth::PatchShape
+  SwatchMesh sphere;
   bool blend = false;  // only with an alpha map: opaque swatches skip it
   ~Gl() {
     glDeleteTextures(1, &albedo);
@@ -207,7 +209,7 @@ void SwatchRenderer::draw(const SceneView& view, cv::Size viewport) {
   glActiveTexture(GL_TEXTURE1);
   glBindTexture(GL_TEXTURE_2D, gl_->normal);
   glUniform1i(swatch.uniform("u_normal_gloss"), 1);
-  const Mesh& patch = gl_->patches[static_cast<int>(setup.shape)];
+  const SwatchMesh& patch = gl_->patches[static_cast<int>(setup.shape)];
   glBindVertexArray(patch.array);
   glDrawElements(GL_TRIANGLES, patch.count, GL_UNSIGNED_INT, nullptr);
 

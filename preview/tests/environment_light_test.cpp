@@ -13,7 +13,7 @@
 namespace psrig::preview {
 namespace {
 
-constexpr double kPi = std::numbers::pi;
+constexpr double kPiDouble = std::numbers::pi;
 
 // Integral over the sphere of radiance(w) * kernel(w), by a fine grid.
 template <class Radiance, class Kernel>
@@ -21,10 +21,10 @@ Eigen::Vector3d integrate(Radiance radiance, Kernel kernel) {
   constexpr int kRows = 400, kColumns = 800;
   Eigen::Vector3d sum = Eigen::Vector3d::Zero();
   for (int row = 0; row < kRows; ++row) {
-    const double polar = (row + 0.5) * kPi / kRows;
-    const double area = std::sin(polar) * (kPi / kRows) * (2 * kPi / kColumns);
+    const double polar = (row + 0.5) * kPiDouble / kRows;
+    const double area = std::sin(polar) * (kPiDouble / kRows) * (2 * kPiDouble / kColumns);
     for (int column = 0; column < kColumns; ++column) {
-      const double longitude = (column + 0.5) * 2 * kPi / kColumns;
+      const double longitude = (column + 0.5) * 2 * kPiDouble / kColumns;
       const Eigen::Vector3f w(static_cast<float>(std::sin(polar) * std::cos(longitude)),
                               static_cast<float>(std::cos(polar)),
                               static_cast<float>(std::sin(polar) * std::sin(longitude)));
@@ -46,8 +46,8 @@ TEST(EnvironmentLight, LambertAndFibreLobesMatchDirectIntegration) {
   cv::Mat image(180, 360, CV_32FC3);
   for (int row = 0; row < image.rows; ++row)
     for (int column = 0; column < image.cols; ++column) {
-      const double polar = (row + 0.5) * kPi / image.rows;
-      const double longitude = (column + 0.5) * 2 * kPi / image.cols - kPi;
+      const double polar = (row + 0.5) * kPiDouble / image.rows;
+      const double longitude = (column + 0.5) * 2 * kPiDouble / image.cols - kPiDouble;
       const Eigen::Vector3f w(static_cast<float>(std::sin(polar) * std::sin(longitude)),
                               static_cast<float>(std::cos(polar)),
                               static_cast<float>(std::sin(polar) * std::cos(longitude)));
@@ -59,10 +59,14 @@ TEST(EnvironmentLight, LambertAndFibreLobesMatchDirectIntegration) {
        {Eigen::Vector3f(0, 1, 0), Eigen::Vector3f(0.6f, 0, 0.8f), Eigen::Vector3f(-0.48f, -0.6f, 0.64f)}) {
     const Eigen::Vector3f n = direction.normalized();
     const Eigen::Vector3d lambert =
-        integrate(smooth_sky, [&](const Eigen::Vector3f& w) { return std::max(0.0f, n.dot(w)); }) / kPi;
-    const Eigen::Vector3d fibre = integrate(smooth_sky, [&](const Eigen::Vector3f& w) {
-                                    return std::sqrt(std::max(0.0f, 1 - n.dot(w) * n.dot(w)));
-                                  }) / (kPi * kPi);
+        integrate(smooth_sky, [&](const Eigen::Vector3f& w) { return std::max(0.0f, n.dot(w)); }) /
+        kPiDouble;
+    const Eigen::Vector3d fibre =
+        integrate(smooth_sky,
+                  [&](const Eigen::Vector3f& w) {
+                    return std::sqrt(std::max(0.0f, 1 - n.dot(w) * n.dot(w)));
+                  }) /
+        (kPiDouble * kPiDouble);
     EXPECT_TRUE(light.lambert(n).cast<double>().isApprox(lambert, 5e-3))
         << light.lambert(n).transpose() << " vs " << lambert.transpose();
     EXPECT_TRUE(light.fibre(n).cast<double>().isApprox(fibre, 5e-3))

@@ -14,11 +14,12 @@
 namespace psrig::processing {
 namespace {
 
-constexpr int kRowsPerChunk = 32;
+constexpr int kStatisticsRowsPerChunk = 32;
 
 // Sums per fixed row chunk, added up in chunk order: reproducible.
 template <class Partial, class Body, class Combine>
-Partial reduce_rows(int rows, Body body, Combine combine, int chunk_rows = kRowsPerChunk) {
+Partial reduce_rows(int rows, Body body, Combine combine,
+                    int chunk_rows = kStatisticsRowsPerChunk) {
   std::vector<Partial> partials(chunk_count(rows, chunk_rows));
   parallel_chunks(rows, chunk_rows,
                   [&](int begin, int end) { body(begin, end, partials[begin / chunk_rows]); });
@@ -172,7 +173,7 @@ PixelCounts count_pixels(const cv::Mat& flags) {
 
 cv::Mat angular_error_deg(const cv::Mat& p, const cv::Mat& q, const cv::Mat& truth) {
   cv::Mat error(p.size(), CV_32F);
-  parallel_chunks(p.rows, kRowsPerChunk, [&](int begin, int end) {
+  parallel_chunks(p.rows, kStatisticsRowsPerChunk, [&](int begin, int end) {
     for (int r = begin; r < end; ++r) {
       const float* pr = p.ptr<float>(r);
       const float* qr = q.ptr<float>(r);

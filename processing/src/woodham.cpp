@@ -18,7 +18,7 @@ namespace {
 
 // Rows handed to the pool at a time: small enough to balance, large enough
 // that scheduling costs nothing next to the work.
-constexpr int kRowsPerChunk = 8;
+constexpr int kSolveRowsPerChunk = 8;
 // The scaled normal must point out of the swatch by more than this fraction
 // of its length (normal within ~89.9 degrees of the view axis).
 constexpr float kMinNormalZ = 1e-3f;
@@ -795,7 +795,7 @@ Status solve_into(const formats::Scan& scan, const SolveOptions& options, SolveR
   result.residual.create(size, CV_32F);
   result.flags.create(size, CV_8U);
 
-  parallel_chunks(size.height, kRowsPerChunk, [&](int begin, int end) {
+  parallel_chunks(size.height, kSolveRowsPerChunk, [&](int begin, int end) {
     // Per-thread scratch for one row of every light's measurements.
     // Thread-local scratch is safe because nothing in this body opens a
     // nested parallel region (which could run another chunk on this thread
@@ -856,7 +856,7 @@ Result<SolveResult> solve(const formats::Scan& scan, const SolveOptions& options
 
 cv::Mat normals_from_gradients(const cv::Mat& p, const cv::Mat& q) {
   cv::Mat normals(p.size(), CV_32FC3);
-  parallel_chunks(p.rows, kRowsPerChunk, [&](int begin, int end) {
+  parallel_chunks(p.rows, kSolveRowsPerChunk, [&](int begin, int end) {
     for (int r = begin; r < end; ++r) {
       const float* pr = p.ptr<float>(r);
       const float* qr = q.ptr<float>(r);
@@ -874,7 +874,7 @@ cv::Mat normals_from_gradients(const cv::Mat& p, const cv::Mat& q) {
 
 cv::Mat encode_valid_mask(const cv::Mat& flags) {
   cv::Mat out(flags.size(), CV_8U);
-  parallel_chunks(flags.rows, kRowsPerChunk, [&](int begin, int end) {
+  parallel_chunks(flags.rows, kSolveRowsPerChunk, [&](int begin, int end) {
     for (int r = begin; r < end; ++r) {
       const std::uint8_t* f = flags.ptr<std::uint8_t>(r);
       std::uint8_t* o = out.ptr<std::uint8_t>(r);

@@ -8,6 +8,7 @@
 #include <benchmark/benchmark.h>
 #include <opencv2/core.hpp>
 
+#include "bench_sizes.h"
 #include "psrig/analysis/fabric_measure.h"
 #include "psrig/analysis/seamless_tile.h"
 #include "psrig/sim/swatch_model.h"
@@ -15,8 +16,8 @@
 
 namespace {
 
-constexpr int kWidth = 4056;
-constexpr int kHeight = 3040;
+using psrig::bench::kHeight;
+using psrig::bench::kWidth;
 
 // A jersey rendered at a quarter of the area, repeated to 12 MP: the
 // figures' cost depends on the size, not on the seams this leaves.

@@ -21,13 +21,14 @@
 #include <opencv2/core.hpp>
 #include <opencv2/imgproc.hpp>
 
+#include "bench_sizes.h"
 #include "psrig/base/parallel.h"
 #include "psrig/processing/integration.h"
 
 namespace {
 
-constexpr int kWidth = 4056;
-constexpr int kHeight = 3040;
+using psrig::bench::kHeight;
+using psrig::bench::kWidth;
 constexpr std::int64_t kPixels = static_cast<std::int64_t>(kWidth) * kHeight;
 
 // A smooth field with some texture: the transforms' cost does not depend on

@@ -12,6 +12,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "bench_sizes.h"
 #include "psrig/processing/woodham.h"
 #include "synthetic_scene.h"
 
@@ -19,7 +20,7 @@ namespace {
 
 using psrig::formats::Scan;
 
-const cv::Size k12MP(4056, 3040);
+using psrig::bench::k12MP;
 
 const Scan& scan_8_lights_12mp() {
   static const Scan scan = [] {

@@ -11,6 +11,7 @@
 
 #include <benchmark/benchmark.h>
 
+#include "bench_sizes.h"
 #include "psrig/base/parallel.h"
 #include "psrig/processing/woodham.h"
 #include "synthetic_scene.h"
@@ -19,9 +20,9 @@ namespace {
 
 using psrig::formats::Scan;
 
-const cv::Size k12MP(4056, 3040);
+using psrig::bench::k12MP;
 
-const Scan& scan_12mp() {
+const Scan& frames_12mp() {
   static const Scan scan = [] {
     const auto surface = psrig::test::sphere_surface(k12MP, k12MP.height * 0.45, 3);
     return psrig::test::render_scan(surface, psrig::test::ring_lights(3, 45), CV_16U, 0.002);
@@ -42,7 +43,7 @@ std::size_t output_bytes_per_pixel() {
 }
 
 void BM_Woodham3(benchmark::State& state) {
-  const Scan& scan = scan_12mp();
+  const Scan& scan = frames_12mp();
   psrig::processing::SolveResult result;  // reused, as StreamCopy reuses its output
   for (auto _ : state) {
     if (auto ok = psrig::processing::solve_into(scan, {}, result); !ok)
@@ -58,7 +59,7 @@ void BM_Woodham3(benchmark::State& state) {
 // Same rows on the same pool: each row reads its input bytes once (three
 // frame rows) and writes its output bytes once, copying input to output.
 void BM_StreamCopy(benchmark::State& state) {
-  const Scan& scan = scan_12mp();
+  const Scan& scan = frames_12mp();
   const cv::Size size = scan.size();
   const std::size_t out_row = static_cast<std::size_t>(size.width) * output_bytes_per_pixel();
   const std::size_t in_row = scan.frames[0].cols * scan.frames[0].elemSize();
@@ -89,7 +90,7 @@ void BM_StreamCopy(benchmark::State& state) {
 // read of each output line before it is written). The fairest floor for
 // Woodham3; StreamCopy is the plain one.
 void BM_StreamCopyNonTemporal(benchmark::State& state) {
-  const Scan& scan = scan_12mp();
+  const Scan& scan = frames_12mp();
   const cv::Size size = scan.size();
   const std::size_t out_row =
       static_cast<std::size_t>(size.width) * output_bytes_per_pixel() / 16 * 16;

@@ -26,13 +26,10 @@ namespace {
 namespace fs = std::filesystem;
 using nlohmann::json;
 
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
-
 // config/sim.toml with its storage root in `root` and `extra` lines added
 // to the tables they name (replacing keys already there).
-fs::path sim_config(const TempDir& temp, const std::map<std::string, std::string>& replace = {}) {
+fs::path rig_with_state(const TempDir& temp,
+                        const std::map<std::string, std::string>& replace = {}) {
   std::ifstream in(fs::path(PSRIG_SOURCE_DIR) / "config" / "sim.toml");
   std::stringstream out;
   std::string line;
@@ -45,11 +42,6 @@ fs::path sim_config(const TempDir& temp, const std::map<std::string, std::string
   const fs::path file = temp / "rig.toml";
   std::ofstream(file) << out.str();
   return file;
-}
-
-json read_json(const fs::path& file) {
-  std::ifstream in(file);
-  return json::parse(in);
 }
 
 cv::Vec3d direction_of(const json& light) {
@@ -75,7 +67,7 @@ void expect_sim_answer(const json& calibration, const std::vector<double>& inten
 
 TEST(PsrigCalibrate, ChromeSphereOnTheSimulatedRigGivesTheConfiguredDirections) {
   TempDir temp;
-  const auto config = sim_config(temp);
+  const auto config = rig_with_state(temp);
   auto run = run_program("psrig", {"calibrate", "lights", "--config", config.string(), "--target",
                                    "chrome", "--frames", "2"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -121,7 +113,7 @@ TEST(PsrigCalibrate, ChromeSphereOnTheSimulatedRigGivesTheConfiguredDirections) 
 
 TEST(PsrigCalibrate, AScanWithoutACalibrationSaysSoInScanJson) {
   TempDir temp;
-  const auto config = sim_config(temp);
+  const auto config = rig_with_state(temp);
   const fs::path scan = temp / "scan";
   auto scanned = run_program(
       "psrig", {"scan", "--config", config.string(), "--out", scan.string(), "--no-process", "-q"});
@@ -146,8 +138,8 @@ TEST(PsrigCalibrate, AScanWithoutACalibrationSaysSoInScanJson) {
 // tilt the Lambertian fit by half a degree; the flat field corrects that.
 TEST(PsrigCalibrate, MatteSphereOnTheSimulatedRigGivesDirectionsAndIntensities) {
   TempDir temp;
-  const auto config =
-      sim_config(temp, {{"vignetting", "0"}, {"max_on_ms", "5000\nintensity = [1.0, 0.8, 0.9]"}});
+  const auto config = rig_with_state(
+      temp, {{"vignetting", "0"}, {"max_on_ms", "5000\nintensity = [1.0, 0.8, 0.9]"}});
   auto run = run_program("psrig", {"calibrate", "lights", "--config", config.string(), "--target",
                                    "matte", "--frames", "1"});
   ASSERT_EQ(run.exit_code, 0) << run.err;
@@ -170,29 +162,19 @@ double albedo_cv(const fs::path& scan) {
   return deviation[0] / mean[0];
 }
 
-std::size_t versions_in(const fs::path& state) {
-  std::size_t n = 0;
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(state / "calibrations", ec)) {
-    (void)entry;
-    ++n;
-  }
-  return n;
-}
-
 // Vignetting 0.15 at the corners: a white card scanned without flats shows
 // the fall-off in its albedo; with the flats calibrated from the card it is
 // flat, and the scan says which calibration and that its flat was applied.
 TEST(PsrigCalibrateFlat, FlatsFromTheCardEvenOutTheVignetting) {
   TempDir temp;
-  const auto config = sim_config(temp, {{"target", "\"white_card\""}});
+  const auto config = rig_with_state(temp, {{"target", "\"white_card\""}});
   const fs::path state = temp / "state";
 
   // No light calibration yet: refused, nothing written.
   auto refused = run_program("psrig", {"calibrate", "flat", "--config", config.string()});
   EXPECT_EQ(refused.exit_code, 2) << refused.err;
   EXPECT_TRUE(contains(refused.err, "psrig calibrate lights first")) << refused.err;
-  EXPECT_EQ(versions_in(state), 0u);
+  EXPECT_EQ(calibration_versions(state), 0u);
 
   const fs::path plain = temp / "plain";
   auto scanned =
@@ -246,7 +228,7 @@ TEST(PsrigCalibrateFlat, FlatsFromTheCardEvenOutTheVignetting) {
 // flats from the card divided out first, it reads the configured slant.
 TEST(PsrigCalibrateFlat, TheFlatCorrectsTheMatteSphereUnderVignetting) {
   TempDir temp;
-  const auto config = sim_config(temp, {{"max_on_ms", "5000\nintensity = [1.0, 0.8, 0.9]"}});
+  const auto config = rig_with_state(temp, {{"max_on_ms", "5000\nintensity = [1.0, 0.8, 0.9]"}});
   const fs::path store = temp / "state" / "calibrations";
   const auto worst_error = [&](const fs::path& file) {
     const json c = read_json(file);
@@ -283,29 +265,29 @@ TEST(PsrigCalibrateFlat, NoCardOrASaturatedCardIsRefused) {
   TempDir temp;
   const fs::path state = temp / "state";
   {
-    const auto config = sim_config(temp);
+    const auto config = rig_with_state(temp);
     ASSERT_EQ(run_program("psrig", {"calibrate", "lights", "--config", config.string(), "--frames",
                                     "1", "-q"})
                   .exit_code,
               0);
   }
   // The matte sphere left under the camera instead of the card.
-  const auto sphere = sim_config(temp, {{"target", "\"matte_sphere\""}});
+  const auto sphere = rig_with_state(temp, {{"target", "\"matte_sphere\""}});
   auto no_card =
       run_program("psrig", {"calibrate", "flat", "--config", sphere.string(), "--frames", "1"});
   EXPECT_EQ(no_card.exit_code, 2) << no_card.err;
   EXPECT_TRUE(contains(no_card.err, "not a uniform card")) << no_card.err;
   EXPECT_TRUE(contains(no_card.err, "lay a flat white or grey card")) << no_card.err;
   EXPECT_TRUE(contains(no_card.err, sphere.string())) << no_card.err;
-  EXPECT_EQ(versions_in(state), 1u);
+  EXPECT_EQ(calibration_versions(state), 1u);
 
-  const auto saturated = sim_config(temp, {{"led_irradiance", "4"}});
+  const auto saturated = rig_with_state(temp, {{"led_irradiance", "4"}});
   auto run =
       run_program("psrig", {"calibrate", "flat", "--config", saturated.string(), "--frames", "1"});
   EXPECT_EQ(run.exit_code, 2) << run.err;
   EXPECT_TRUE(contains(run.err, "saturated")) << run.err;
   EXPECT_TRUE(contains(run.err, "exposure")) << run.err;
-  EXPECT_EQ(versions_in(state), 1u);
+  EXPECT_EQ(calibration_versions(state), 1u);
 }
 
 // The simulated ChArUco board (7 x 5 squares of 2 mm, the command's
@@ -313,7 +295,7 @@ TEST(PsrigCalibrateFlat, NoCardOrASaturatedCardIsRefused) {
 // 0.2 %, stored, and used as every later scan's pixel size.
 TEST(PsrigCalibrateScale, TheBoardOnTheSimulatedRigGivesThePixelSize) {
   TempDir temp;
-  const auto config = sim_config(temp);
+  const auto config = rig_with_state(temp);
   const fs::path store = temp / "state" / "calibrations";
   auto early = run_program("psrig", {"calibrate", "scale", "--config", config.string()});
   EXPECT_EQ(early.exit_code, 2) << early.err;
@@ -360,14 +342,14 @@ TEST(PsrigCalibrateScale, TheBoardOnTheSimulatedRigGivesThePixelSize) {
   EXPECT_TRUE(contains(refused.err, sphere.string())) << refused.err;
   EXPECT_TRUE(contains(refused.err, "shows no ChArUco board")) << refused.err;
   EXPECT_TRUE(contains(refused.err, "--square-mm")) << refused.err;
-  EXPECT_EQ(versions_in(temp / "state"), 3u);
+  EXPECT_EQ(calibration_versions(temp / "state"), 3u);
 }
 
 // A pixel size that puts the squares' edges between pixels (86.6 px a
 // square): still within 0.2 %.
 TEST(PsrigCalibrateScale, APixelSizeOffTheGridIsMeasuredToo) {
   TempDir temp;
-  const auto config = sim_config(temp, {{"pixel_size_mm", "0.0231"}});
+  const auto config = rig_with_state(temp, {{"pixel_size_mm", "0.0231"}});
   ASSERT_EQ(run_program("psrig",
                         {"calibrate", "lights", "--config", config.string(), "--frames", "1", "-q"})
                 .exit_code,
@@ -385,7 +367,7 @@ TEST(PsrigCalibrateScale, APixelSizeOffTheGridIsMeasuredToo) {
 // a calibration run, then computed again with --images and --out.
 TEST(PsrigCalibrate, FromImagesToAFileAndBadInputsWriteNothing) {
   TempDir temp;
-  const auto config = sim_config(temp);
+  const auto config = rig_with_state(temp);
   ASSERT_EQ(run_program("psrig",
                         {"calibrate", "lights", "--config", config.string(), "--frames", "1", "-q"})
                 .exit_code,

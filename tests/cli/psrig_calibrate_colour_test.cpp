@@ -27,10 +27,6 @@ using nlohmann::json;
 constexpr const char* kMixing = "[0.62, 0.30, 0.08, 0.12, 0.80, 0.08, 0.03, 0.27, 0.55]";
 const cv::Matx33d kMixingMatrix(0.62, 0.30, 0.08, 0.12, 0.80, 0.08, 0.03, 0.27, 0.55);
 
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
-
 // config/sim.toml with its storage root in the temporary directory, the
 // camera's colour mixing, and `target` under the camera.
 fs::path colour_rig(const TempDir& temp, const std::string& target = "swatch") {
@@ -47,21 +43,6 @@ fs::path colour_rig(const TempDir& temp, const std::string& target = "swatch") {
   const fs::path file = temp / "rig.toml";
   std::ofstream(file) << out.str();
   return file;
-}
-
-json read_json(const fs::path& file) {
-  std::ifstream in(file);
-  return json::parse(in);
-}
-
-std::size_t versions_in(const fs::path& state) {
-  std::size_t n = 0;
-  std::error_code ec;
-  for (const auto& entry : fs::directory_iterator(state / "calibrations", ec)) {
-    (void)entry;
-    ++n;
-  }
-  return n;
 }
 
 cv::Matx33d matrix_of(const json& m) {
@@ -228,14 +209,14 @@ TEST(PsrigCalibrateColour, NoChartIsRefusedNamingTheImageAndTheFixAndWritesNothi
   const auto config = colour_rig(temp, "white_card");
   const fs::path state = temp / "state";
   calibrate_lights(config);
-  ASSERT_EQ(versions_in(state), 1u);
+  ASSERT_EQ(calibration_versions(state), 1u);
 
   // Captured on the rig with a white card where the chart should be.
   auto card = run_program("psrig", {"calibrate", "colour", "--config", config.string()});
   EXPECT_EQ(card.exit_code, 2) << card.err;
   EXPECT_TRUE(contains(card.err, config.string())) << card.err;
   EXPECT_TRUE(contains(card.err, "is the chart fully in view, lit, not saturated?")) << card.err;
-  EXPECT_EQ(versions_in(state), 1u);
+  EXPECT_EQ(calibration_versions(state), 1u);
 
   // A uniform colour image given with --image.
   const fs::path uniform = temp / "uniform.png";
@@ -274,7 +255,7 @@ TEST(PsrigCalibrateColour, NoChartIsRefusedNamingTheImageAndTheFixAndWritesNothi
                                        "--image", (temp / "none.png").string()});
   EXPECT_EQ(missing.exit_code, 2) << missing.err;
   EXPECT_TRUE(contains(missing.err, "none.png")) << missing.err;
-  EXPECT_EQ(versions_in(state), 1u);
+  EXPECT_EQ(calibration_versions(state), 1u);
 }
 
 // An image of the chart already taken (the rig's own capture, one LED's
@@ -313,7 +294,7 @@ TEST(PsrigCalibrateColour, FromAnImageAlreadyTakenAndRefusedWhenSaturated) {
   EXPECT_EQ(saturated.exit_code, 2) << saturated.err;
   EXPECT_TRUE(contains(saturated.err, "saturated")) << saturated.err;
   EXPECT_TRUE(contains(saturated.err, over.string())) << saturated.err;
-  EXPECT_EQ(versions_in(temp / "state"), 3u);
+  EXPECT_EQ(calibration_versions(temp / "state"), 3u);
 }
 
 }  // namespace

@@ -29,10 +29,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
-
 TEST(PsrigCli, SynthThenProcess) {
   TempDir temp;
   const auto scan = (temp / "scan").string();

@@ -17,15 +17,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
-
-nlohmann::json read_json(const fs::path& file) {
-  std::ifstream in(file);
-  return nlohmann::json::parse(in);
-}
-
 // synth (turned), process, then the report's fabric section against the
 // simulator's truth in scan.json.
 void expect_measured_like_truth(const std::string& pattern, const std::string& rotate) {

@@ -41,11 +41,6 @@ fs::path near_rig(const TempDir& temp, const std::string& extra_sim = "") {
   return file;
 }
 
-json read_json(const fs::path& file) {
-  std::ifstream in(file);
-  return json::parse(in);
-}
-
 struct FieldError {
   double centre = 0;
   double edges = 0;

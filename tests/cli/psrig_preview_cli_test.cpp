@@ -23,10 +23,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
-
 // A real maps directory: a simulated scan of `pattern`, processed.
 fs::path make_maps(const TempDir& temp, const std::string& name, const std::string& pattern) {
   const fs::path scan = temp / name;

@@ -35,7 +35,7 @@ const std::vector<SheetView> kViews = {
 };
 
 // The share of the frame's middle (a third either way) that is not background.
-double cloth_share(const cv::Mat& frame) {
+double centre_yarn_share(const cv::Mat& frame) {
   cv::Mat grey;
   cv::cvtColor(frame(cv::Rect(frame.cols / 3, frame.rows / 3, frame.cols / 3, frame.rows / 3)),
                grey, cv::COLOR_BGR2GRAY);
@@ -93,7 +93,7 @@ TEST(PsrigPreviewKnitSheet, EveryPatternFromEverySideMakesTheContactSheet) {
     }
     const std::string name = pattern.filename().string();
     for (std::size_t column = 0; column < frames.size(); ++column)
-      EXPECT_GT(cloth_share(frames[column]), 0.5) << name << ", " << kViews[column].label;
+      EXPECT_GT(centre_yarn_share(frames[column]), 0.5) << name << ", " << kViews[column].label;
     EXPECT_GT(mean_difference(frames[0], frames[1]), 2.0) << name << ": the back is not the front";
     if (!woven) {  // woven threads jam when squeezed rather than close up
       EXPECT_LT(yarn_cover(frames[2]), yarn_cover(frames[3]))

@@ -19,15 +19,6 @@ namespace {
 
 namespace fs = std::filesystem;
 
-nlohmann::json read_json(const fs::path& file) {
-  std::ifstream in(file);
-  return nlohmann::json::parse(in);
-}
-
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
-
 class ShippedPattern : public ::testing::TestWithParam<const char*> {};
 
 // Small, noisy, turned a little: the solve still finds the true normals to

@@ -42,10 +42,6 @@ using Edits = std::vector<std::pair<std::string, std::string>>;
 
 inline const std::string kToken = "test-token-0123456789abcdef";
 
-inline bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
-}
-
 inline std::string read_file(const fs::path& file) {
   std::ifstream in(file, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};

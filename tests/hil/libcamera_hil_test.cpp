@@ -25,6 +25,7 @@
 #include "psrig/sim/sensor.h"
 #include "psrig/sim/world.h"
 #include "shipped_swatch.h"
+#include "started_camera.h"
 #include "test_support.h"
 #include "umockdev_bed.h"
 
@@ -34,14 +35,15 @@ namespace {
 using namespace std::chrono_literals;
 using test::EmulatedUvcCamera;
 using test::FrameRequest;
+using test::open_started;
 
 #define SKIP_WITHOUT_EMULATION()                                                            \
   if (!EmulatedUvcCamera::available())                                                      \
   GTEST_SKIP() << "needs LD_PRELOAD=libpsrig_hil_openat_shim.so:libumockdev-preload.so.0, " \
                   "in that order (ctest runs it so)"
 
-constexpr int kWidth = 64;
-constexpr int kHeight = 48;
+constexpr int kSensorWidth = 64;
+constexpr int kSensorHeight = 48;
 constexpr const char* kModel = "psrig UVC camera";
 
 config::RigConfig libcamera_config() {
@@ -51,12 +53,12 @@ config::RigConfig libcamera_config() {
   c.camera.backend = "libcamera";
   c.camera.device = "";  // the first
   c.camera.format = "auto";
-  c.camera.width = kWidth;
-  c.camera.height = kHeight;
+  c.camera.width = kSensorWidth;
+  c.camera.height = kSensorHeight;
   c.camera.exposure_us = 5000;
   c.camera.gain = 1.0;
-  c.sim.width = kWidth;
-  c.sim.height = kHeight;
+  c.sim.width = kSensorWidth;
+  c.sim.height = kSensorHeight;
   c.sim.bit_depth = 8;  // GREY carries it whole
   c.sim.black_level = 4;
   return c;
@@ -69,7 +71,7 @@ struct EmulatedRig {
       : camera(bed,
                {.card = kModel,
                 .video = {.formats = std::move(formats),
-                          .sizes = {{kWidth, kHeight}, {32, 24}},
+                          .sizes = {{kSensorWidth, kSensorHeight}, {32, 24}},
                           .frame_interval = 20ms,
                           .readout = 2ms}},
                [this](const FrameRequest& r) { return render(r); }) {}
@@ -88,15 +90,6 @@ struct EmulatedRig {
   test::UmockdevBed bed;
   EmulatedUvcCamera camera;
 };
-
-std::unique_ptr<Camera> open_started(const config::RigConfig& rig) {
-  auto camera = psrig::rig::open_camera(rig);
-  EXPECT_TRUE(camera.has_value()) << (camera ? "" : camera.error().describe());
-  if (!camera) return nullptr;
-  auto started = (*camera)->start();
-  EXPECT_TRUE(started.has_value()) << (started ? "" : started.error().describe());
-  return std::move(*camera);
-}
 
 // The device's frame a grabbed one came from, by its exposure: the stamp
 // is the start of exposure, in microseconds, which the backend dates a
@@ -141,7 +134,7 @@ TEST(LibcameraHil, CapturesTheSimulatedSwatchUnderEachLed) {
   // "auto" takes the linear format over YUYV; the controls went through
   // the pipeline handler to the node: manual exposure, in 100 us.
   EXPECT_EQ(rig.camera.video().pixel_format(), V4L2_PIX_FMT_GREY);
-  EXPECT_EQ(rig.camera.video().size(), cv::Size(kWidth, kHeight));
+  EXPECT_EQ(rig.camera.video().size(), cv::Size(kSensorWidth, kSensorHeight));
   EXPECT_NE(camera->describe().find("GREY"), std::string::npos) << camera->describe();
 
   const auto& leds = rig.world->leds();
@@ -160,7 +153,7 @@ TEST(LibcameraHil, CapturesTheSimulatedSwatchUnderEachLed) {
     }
     ASSERT_GE(frame.exposure_start, lit);
     ASSERT_EQ(frame.image.type(), CV_8UC1);
-    ASSERT_EQ(frame.image.size(), cv::Size(kWidth, kHeight));
+    ASSERT_EQ(frame.image.size(), cv::Size(kSensorWidth, kSensorHeight));
     EXPECT_EQ(frame.exposure_us, 5000);
     EXPECT_EQ(frame.white_level, 255);
 

@@ -24,6 +24,7 @@
 #include "psrig/lights/light_controller.h"
 #include "psrig/lights/usb_lights.h"
 #include "psrig/rig/open_devices.h"
+#include "test_support.h"
 #include "umockdev_bed.h"
 
 namespace psrig::test {
@@ -65,10 +66,6 @@ int most_on_at_once(const std::vector<SwitchEvent>& events) {
     most = std::max(most, static_cast<int>(on.size()));
   }
   return most;
-}
-
-bool contains(const std::string& text, const std::string& part) {
-  return text.find(part) != std::string::npos;
 }
 
 // Waits until `done` holds, up to `limit`; returns whether it did.

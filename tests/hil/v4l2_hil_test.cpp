@@ -15,6 +15,7 @@
 #include "psrig/cameras/camera.h"
 #include "psrig/cameras/v4l2_formats.h"
 #include "psrig/rig/open_devices.h"
+#include "started_camera.h"
 #include "umockdev_bed.h"
 
 namespace psrig::cameras {
@@ -24,6 +25,7 @@ using namespace std::chrono_literals;
 using test::EmulatedV4l2Camera;
 using test::EmulatedV4l2Options;
 using test::FrameRequest;
+using test::open_started;
 
 #define SKIP_WITHOUT_UMOCKDEV() \
   if (!test::UmockdevBed::available()) GTEST_SKIP() << "not under umockdev-wrapper"
@@ -45,15 +47,6 @@ config::RigConfig v4l2_config(const std::string& device, const std::string& form
 }
 
 // The factory, as the rig opens its camera; started.
-std::unique_ptr<Camera> open_started(const config::RigConfig& rig) {
-  auto camera = psrig::rig::open_camera(rig);
-  EXPECT_TRUE(camera.has_value()) << (camera ? "" : camera.error().describe());
-  if (!camera) return nullptr;
-  auto started = (*camera)->start();
-  EXPECT_TRUE(started.has_value()) << (started ? "" : started.error().describe());
-  return std::move(*camera);
-}
-
 Frame grab_ok(Camera& camera, std::chrono::milliseconds timeout = 1000ms) {
   auto frame = camera.grab(timeout);
   EXPECT_TRUE(frame.has_value()) << (frame ? "" : frame.error().describe());

@@ -8,6 +8,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 namespace psrig::test {
 
 // A fresh directory under the system temp dir, removed with its contents
@@ -61,6 +63,18 @@ struct ProgramRun {
 [[nodiscard]] std::expected<std::filesystem::path, std::string> synth_and_process(
     const std::filesystem::path& scan, const std::string& pattern,
     const std::string& size = "400x320", const std::string& pixel_size = "0.03");
+
+// Whether `part` occurs in `text` (a program's output, an error).
+[[nodiscard]] inline bool contains(const std::string& text, const std::string& part) {
+  return text.find(part) != std::string::npos;
+}
+
+// A JSON file parsed (scan.json, report.json, calibration.json); throws
+// when it is not JSON, failing the test that reads it.
+[[nodiscard]] nlohmann::json read_json(const std::filesystem::path& file);
+
+// How many calibration versions a storage root holds (STATE/calibrations).
+[[nodiscard]] std::size_t calibration_versions(const std::filesystem::path& state);
 
 // The file's bytes; empty when it cannot be read.
 [[nodiscard]] std::string file_contents(const std::filesystem::path& file);
