@@ -5,6 +5,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/calibration/scale.h"
+#include "target_sampling.h"
 
 namespace psrig::sim {
 
@@ -18,8 +19,7 @@ Swatch white_card(cv::Size size, double pixel_size_mm, float albedo) {
 }
 
 Swatch charuco_board(cv::Size size, double pixel_size_mm) {
-  constexpr int kSamples = 4;
-  const double sample_mm = pixel_size_mm / kSamples;
+  const double sample_mm = pixel_size_mm / kSamplesPerPixel;
   calibration::CharucoSpec spec;
   spec.squares_x = kBoardSquaresX;
   spec.squares_y = kBoardSquaresY;
@@ -28,7 +28,7 @@ Swatch charuco_board(cv::Size size, double pixel_size_mm) {
   const cv::Mat ink = calibration::draw_charuco(spec, 1.0 / sample_mm);
   const cv::Size printed = ink.size();
   // White paper with the board centred on it, then into the sensor's pixels.
-  const cv::Size fine(size.width * kSamples, size.height * kSamples);
+  const cv::Size fine(size.width * kSamplesPerPixel, size.height * kSamplesPerPixel);
   cv::Mat paper(fine, CV_8U, cv::Scalar(255));
   const cv::Point offset((fine.width - printed.width) / 2, (fine.height - printed.height) / 2);
   const cv::Rect placed = cv::Rect(offset, printed) & cv::Rect(cv::Point(), fine);

@@ -9,6 +9,7 @@
 
 #include "psrig/calibration/colour.h"
 #include "psrig/sim/card_target.h"
+#include "target_sampling.h"
 
 namespace psrig::sim {
 
@@ -24,8 +25,7 @@ constexpr double kChartHeight = 4 + 3 * kGap + 2 * kFrame;
 }  // namespace
 
 Swatch colour_chart(cv::Size size, double pixel_size_mm) {
-  constexpr int kSamples = 4;
-  const cv::Size fine(size.width * kSamples, size.height * kSamples);
+  const cv::Size fine(size.width * kSamplesPerPixel, size.height * kSamplesPerPixel);
   // Patch size in fine samples.
   const double unit = std::min(0.85 * fine.width / kChartWidth, 0.85 * fine.height / kChartHeight);
   const cv::Point2d centre((fine.width - 1) / 2.0, (fine.height - 1) / 2.0);

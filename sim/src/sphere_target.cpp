@@ -6,10 +6,11 @@
 
 #include <opencv2/imgproc.hpp>
 
+#include "target_sampling.h"
+
 namespace psrig::sim {
 namespace {
 
-constexpr int kSamples = 4;  // per pixel and axis
 constexpr double kMirror = 0.6;
 constexpr double kChromeDiffuse = 0.04;
 constexpr double kMatteAlbedo = 0.5;
@@ -66,10 +67,10 @@ cv::Mat render(const SphereTarget& target, const cv::Vec3d* direction,
     auto* line = out.ptr<cv::Vec3f>(row);
     for (int col = 0; col < target.size.width; ++col) {
       double sum = 0;
-      for (int i = 0; i < kSamples; ++i)
-        for (int j = 0; j < kSamples; ++j) {
-          const double x = col + (j + 0.5) / kSamples - 0.5;
-          const double y = row + (i + 0.5) / kSamples - 0.5;
+      for (int i = 0; i < kSamplesPerPixel; ++i)
+        for (int j = 0; j < kSamplesPerPixel; ++j) {
+          const double x = col + (j + 0.5) / kSamplesPerPixel - 0.5;
+          const double y = row + (i + 0.5) / kSamplesPerPixel - 0.5;
           if (!position_mm) {
             sum += sample(target, radius, x - centre.x, centre.y - y, direction, cos_led);
             continue;
@@ -82,7 +83,7 @@ cv::Mat render(const SphereTarget& target, const cv::Vec3d* direction,
           toward /= cv::norm(toward);
           sum += sample(target, radius, dx, dy, &toward, cos_led);
         }
-      const auto value = static_cast<float>(sum / (kSamples * kSamples));
+      const auto value = static_cast<float>(sum / (kSamplesPerPixel * kSamplesPerPixel));
       line[col] = {value, value, value};
     }
   }
