@@ -52,11 +52,6 @@ std::optional<catalogue::CatalogueEntry> row(const Catalogue& catalogue, std::in
 }
 
 // The journal as it is on disk.
-std::string read_file(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 // Every write waiting in the journal reaches the database once it is back
 // (the back-off is at most 5 s).
 bool wait_flushed(Catalogue& catalogue) {
@@ -194,7 +189,7 @@ TEST_P(SharedCatalogue, TheJournalOutlivesThePsrigd) {
     EXPECT_TRUE(catalogue->mark_done(id, scan / "maps", nullptr));
     journal = options(root).journal;
   }
-  const std::string kept = read_file(journal);
+  const std::string kept = file_contents(journal);
   EXPECT_NE(kept.find("\"done\""), std::string::npos) << kept;
   ASSERT_TRUE(server().start_again()) << server().log();
   auto catalogue = open(root);

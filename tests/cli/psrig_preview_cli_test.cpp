@@ -136,16 +136,10 @@ TEST(PsrigPreviewCli, HeadlessKioskOrbitsTheLight) {
   }
 }
 
-// Reads what a background process has written so far.
-std::string read_file(const fs::path& file) {
-  std::ifstream in(file);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 bool wait_for(const fs::path& file, const std::string& text) {
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
   while (std::chrono::steady_clock::now() < deadline) {
-    if (contains(read_file(file), text)) return true;
+    if (contains(file_contents(file), text)) return true;
     std::this_thread::sleep_for(std::chrono::milliseconds(20));
   }
   return false;
@@ -217,23 +211,23 @@ TEST(PsrigPreviewCli, KioskFollowsNewScansAndSkipsABrokenOne) {
   ASSERT_TRUE(kiosk.spawned());
 
   EXPECT_TRUE(wait_for(out, "showing " + (catalogue / "first" / "maps").string()))
-      << read_file(out);
+      << file_contents(out);
   // A scan whose maps are broken: reported, and the first one stays up.
   make_maps(temp, "broken", "rib");
   fs::resize_file(temp / "broken" / "maps" / "normal.png", 100);
   fs::rename(temp / "broken", catalogue / "broken");
   EXPECT_TRUE(wait_for(out, "cannot show " + (catalogue / "broken" / "maps").string()))
-      << read_file(out);
+      << file_contents(out);
   // The next good scan is shown.
   make_maps(temp, "third", "garter");
   fs::rename(temp / "third", catalogue / "third");
   EXPECT_TRUE(wait_for(out, "showing " + (catalogue / "third" / "maps").string()))
-      << read_file(out);
+      << file_contents(out);
 
   const int status = kiosk.stop();
   ASSERT_TRUE(WIFEXITED(status)) << "the kiosk ends cleanly on SIGTERM";
   EXPECT_EQ(WEXITSTATUS(status), 0);
-  EXPECT_TRUE(contains(read_file(out), "kiosk: stopped"));
+  EXPECT_TRUE(contains(file_contents(out), "kiosk: stopped"));
 }
 
 // With --drape, as on the display: each new scan's chart is read and
@@ -260,21 +254,21 @@ TEST(PsrigPreviewCli, KioskDrapesEachNewKnitInTheBackground) {
                         out);
   ASSERT_TRUE(kiosk.spawned());
   EXPECT_TRUE(wait_for(out, "draping " + (catalogue / "first" / "maps").string()))
-      << read_file(out);
+      << file_contents(out);
   scan("second", "plain");
   EXPECT_TRUE(wait_for(out, "no drape for " + (catalogue / "second" / "maps").string()))
-      << read_file(out);
+      << file_contents(out);
   scan("third", "seed");
   EXPECT_TRUE(wait_for(out, "draping " + (catalogue / "third" / "maps").string()))
-      << read_file(out);
+      << file_contents(out);
   scan("fourth", "rib-1x1");  // stopped while it may still be knitting
   EXPECT_TRUE(wait_for(out, "showing " + (catalogue / "fourth" / "maps").string()))
-      << read_file(out);
+      << file_contents(out);
 
   const int status = kiosk.stop();
   ASSERT_TRUE(WIFEXITED(status)) << "the kiosk ends cleanly on SIGTERM";
   EXPECT_EQ(WEXITSTATUS(status), 0);
-  EXPECT_TRUE(contains(read_file(out), "kiosk: stopped"));
+  EXPECT_TRUE(contains(file_contents(out), "kiosk: stopped"));
 }
 
 TEST(PsrigPreviewCli, BenchPrintsFramesPerSecond) {

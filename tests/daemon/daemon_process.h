@@ -42,11 +42,6 @@ using Edits = std::vector<std::pair<std::string, std::string>>;
 
 inline const std::string kToken = "test-token-0123456789abcdef";
 
-inline std::string read_file(const fs::path& file) {
-  std::ifstream in(file, std::ios::binary);
-  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
-}
-
 // A port nobody listens on now (the kernel's pick, released at once).
 inline int free_port() {
   const int fd = ::socket(AF_INET, SOCK_STREAM, 0);
@@ -62,7 +57,7 @@ inline int free_port() {
 
 // config/sim.toml at 160x120, scans into `temp`/scans, on `port`.
 inline fs::path daemon_config(const TempDir& temp, int port, const Edits& edits = {}) {
-  std::string text = read_file(fs::path(PSRIG_SOURCE_DIR) / "config/sim.toml");
+  std::string text = file_contents(fs::path(PSRIG_SOURCE_DIR) / "config/sim.toml");
   const auto replace = [&](const std::string& from, const std::string& to) {
     const auto at = text.find(from);
     EXPECT_NE(at, std::string::npos) << from;
@@ -193,7 +188,7 @@ class Daemon {
   }
   [[nodiscard]] int exit_code() const { return exit_code_; }
   [[nodiscard]] pid_t pid() const { return pid_; }
-  [[nodiscard]] std::string log() const { return read_file(log_); }
+  [[nodiscard]] std::string log() const { return file_contents(log_); }
   [[nodiscard]] int port() const { return port_; }
   [[nodiscard]] std::string url() const { return "http://127.0.0.1:" + std::to_string(port_); }
   httplib::Client& http() { return client_; }

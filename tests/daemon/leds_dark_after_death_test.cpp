@@ -168,13 +168,13 @@ TEST(LedsDarkAfterDeath, TheSimulatedLightsLogShowsTheStopCommandSwitchingOffAKi
     }
     std::this_thread::sleep_for(std::chrono::milliseconds(1));
   }
-  ASSERT_TRUE(channel) << "no LED came on\n" << read_file(switches) << daemon.log();
+  ASSERT_TRUE(channel) << "no LED came on\n" << file_contents(switches) << daemon.log();
 
   const auto killed = Clock::now();
   EXPECT_EQ(daemon.signal_and_wait(SIGKILL), 128 + SIGKILL);
   const auto at_death = read_switches(switches);
   ASSERT_EQ(lit(at_death), channel) << "nothing left lit: the test proves nothing\n"
-                                    << read_file(switches);
+                                    << file_contents(switches);
   std::this_thread::sleep_for(std::chrono::milliseconds(200));
 
   const auto run = run_program("psrig", {command[1], command[2], config.string(), command[4]});
@@ -190,7 +190,7 @@ TEST(LedsDarkAfterDeath, TheSimulatedLightsLogShowsTheStopCommandSwitchingOffAKi
     EXPECT_NE(after[i].pid, daemon_pid) << "the dead daemon switched at line " << i + 1;
     EXPECT_FALSE(after[i].event.on) << "line " << i + 1;
   }
-  EXPECT_FALSE(lit(after)) << read_file(switches);
+  EXPECT_FALSE(lit(after)) << file_contents(switches);
   lights::SwitchLog log;
   lights::replay(after, log);
   EXPECT_FALSE(log.overlap()) << *log.overlap();

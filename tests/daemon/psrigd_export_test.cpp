@@ -42,7 +42,7 @@ TEST(PsrigdExport, GlbAndU3maMadeOnceKeptAndServed) {
   EXPECT_EQ(body_a.substr(0, 4), "glTF");
   const fs::path kept = scan_dir / "exports" / "material.glb";
   ASSERT_TRUE(fs::exists(kept));
-  EXPECT_EQ(read_file(kept), body_a);
+  EXPECT_EQ(file_contents(kept), body_a);
   const auto made = fs::last_write_time(kept);
   // Kept: a later request serves the same file, not a new one.
   EXPECT_EQ(fetch("glb").second, body_a);

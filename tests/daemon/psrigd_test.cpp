@@ -102,7 +102,7 @@ TEST(Psrigd, ScanRoundTripSearchDownloadAndDelete) {
   const fs::path scan_dir = entry["scan_directory"].get<std::string>();
   const fs::path maps_dir = entry["maps_directory"].get<std::string>();
   EXPECT_EQ(scan_dir.parent_path(), fs::weakly_canonical(temp / "scans"));
-  EXPECT_EQ(json::parse(read_file(scan_dir / "scan.json"))["sample"]["id"], "J-0042");
+  EXPECT_EQ(json::parse(file_contents(scan_dir / "scan.json"))["sample"]["id"], "J-0042");
 
   // Downloads are the files on disk, byte for byte.
   for (const auto& [name, path] : {std::pair{"normal.png", maps_dir / "normal.png"},
@@ -112,7 +112,7 @@ TEST(Psrigd, ScanRoundTripSearchDownloadAndDelete) {
     auto res = daemon.http().Get("/v1/scans/" + std::to_string(first) + "/files/" + name);
     ASSERT_TRUE(res);
     ASSERT_EQ(res->status, 200) << name << ": " << res->body;
-    EXPECT_EQ(res->body, read_file(path)) << name;
+    EXPECT_EQ(res->body, file_contents(path)) << name;
     EXPECT_FALSE(res->body.empty());
   }
   EXPECT_EQ(daemon.get("/v1/scans/" + std::to_string(first) + "/files/catalogue.sqlite", 404)
@@ -574,7 +574,7 @@ TEST(Psrigd, QueueLimitAndReloadOnSighup) {
   EXPECT_EQ(daemon.get("/v1/status")["last_error"]["code"], 6);  // queue_full, as the PLC reads it
 
   // A broken file is logged and the running configuration kept.
-  const std::string good = read_file(config);
+  const std::string good = file_contents(config);
   std::ofstream(config) << "[daemon\nqueue_limit = ";
   ::kill(daemon.pid(), SIGHUP);
   const auto deadline = std::chrono::steady_clock::now() + 10s;
@@ -599,7 +599,7 @@ TEST(Psrigd, KilledWhileSavingThenRestartedLeavesNoHalfScan) {
   // Full size, so that processing takes long enough to be caught in.
   auto config = daemon_config(temp, port);
   {
-    std::string text = read_file(config);
+    std::string text = file_contents(config);
     text.replace(text.find("width = 160"), 11, "width = 960");
     text.replace(text.find("height = 120"), 12, "height = 720");
     std::ofstream(config) << text;
@@ -855,7 +855,7 @@ TEST(Psrigd, AMissingCameraFailsEachScanUntilAReloadFixesIt) {
   TempDir temp;
   const int port = free_port();
   const auto config = daemon_config(temp, port);
-  const std::string good = read_file(config);
+  const std::string good = file_contents(config);
   std::string broken = good;
   broken.replace(broken.find("backend = \"sim\"\nexposure_us"), 28,
                  "backend = \"v4l2\"\ndevice = \"/dev/video77\"\nexposure_us");
