@@ -3,9 +3,13 @@
 #include <OpenEXR/ImfChannelList.h>
 #include <OpenEXR/ImfFrameBuffer.h>
 #include <OpenEXR/ImfHeader.h>
+#include <OpenEXR/ImfInputFile.h>
 #include <OpenEXR/ImfOutputFile.h>
 #include <OpenEXR/ImfStandardAttributes.h>
 #include <OpenEXR/ImfStringAttribute.h>
+#include <algorithm>
+#include <bit>
+#include <cstring>
 #include <string>
 #include <vector>
 
@@ -71,6 +75,75 @@ Status write(const std::filesystem::path& file, const cv::Mat& image, bool half,
     return std::unexpected(io_error(file, std::string("cannot write EXR: ") + e.what()));
   }
   return {};
+}
+
+namespace {
+
+// An uncompressed float file's lines as stored (each channel's samples in
+// turn, channels in name order, little-endian), interleaved into `image`
+// here: OpenEXR's own copy goes a sample at a time, 5x slower.
+bool read_raw_floats(Imf::InputFile& in, cv::Mat& image) {
+  if constexpr (std::endian::native != std::endian::little) return false;
+  if (in.header().hasTileDescription()) return false;
+  const int channels = image.channels();
+  const std::size_t line_bytes = static_cast<std::size_t>(image.cols) * channels * sizeof(float);
+  std::vector<char> line(line_bytes);
+  for (int y = 0; y < image.rows; ++y) {
+    int size = static_cast<int>(line_bytes);
+    in.rawPixelDataToBuffer(y, line.data(), size);
+    if (static_cast<std::size_t>(size) != line_bytes) return false;
+    float* out = image.ptr<float>(y);
+    for (int c = 0; c < channels; ++c) {
+      const char* plane = line.data() + static_cast<std::size_t>(c) * image.cols * sizeof(float);
+      for (int x = 0; x < image.cols; ++x)
+        std::memcpy(out + static_cast<std::size_t>(x) * channels + c, plane + x * sizeof(float),
+                    sizeof(float));
+    }
+  }
+  return true;
+}
+
+}  // namespace
+
+std::optional<cv::Mat> read(const std::filesystem::path& file) {
+  try {
+    Imf::InputFile in(file.c_str());
+    const Imf::Header& header = in.header();
+    const Imath::Box2i window = header.dataWindow();
+    if (window.min.x != 0 || window.min.y != 0 || window.max.x < 0 || window.max.y < 0)
+      return std::nullopt;
+    const int width = window.max.x + 1;
+    const int height = window.max.y + 1;
+    // The channels, in the Mat's order: Y, or B, G, R.
+    std::vector<std::string> names;
+    std::optional<Imf::PixelType> stored;
+    for (auto channel = header.channels().begin(); channel != header.channels().end(); ++channel) {
+      const Imf::Channel& c = channel.channel();
+      if (c.xSampling != 1 || c.ySampling != 1) return std::nullopt;
+      if (c.type != Imf::HALF && c.type != Imf::FLOAT) return std::nullopt;
+      if (stored && *stored != c.type) return std::nullopt;
+      stored = c.type;
+      names.emplace_back(channel.name());
+    }
+    std::sort(names.begin(), names.end());  // the map's order, made explicit
+    const std::vector<std::string> grey = {"Y"};
+    const std::vector<std::string> colour = {"B", "G", "R"};
+    if (names != grey && names != colour) return std::nullopt;
+    cv::Mat image(height, width, CV_32FC(static_cast<int>(names.size())));
+    if (header.compression() == Imf::NO_COMPRESSION && *stored == Imf::FLOAT && in.isComplete() &&
+        read_raw_floats(in, image))
+      return image;
+    Imf::FrameBuffer frame;
+    char* base = reinterpret_cast<char*>(image.data);
+    for (std::size_t c = 0; c < names.size(); ++c)
+      frame.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), image.elemSize(),
+                                        image.step[0]));
+    in.setFrameBuffer(frame);
+    in.readPixels(0, height - 1);
+    return image;
+  } catch (const std::exception&) {  // damaged or unreadable: OpenCV's reader decides
+    return std::nullopt;
+  }
 }
 
 }  // namespace psrig::formats::exr

@@ -1,9 +1,11 @@
 #pragma once
 // EXR files with header attributes, through OpenEXR itself: OpenCV's
 // writer has no way to add attributes. Pixels as cv::imwrite writes them
-// (grey as Y; OpenCV's BGR as R, G, B), uncompressed.
+// (grey as Y; OpenCV's BGR as R, G, B), uncompressed. And a fast path for
+// reading the EXRs psrig writes (ground truth, maps) straight into their Mat.
 
 #include <filesystem>
+#include <optional>
 
 #include <opencv2/core.hpp>
 
@@ -22,5 +24,15 @@ namespace psrig::formats::exr {
 // psrig:pixel_size_mm.
 [[nodiscard]] Status write(const std::filesystem::path& file, const cv::Mat& image, bool half,
                            int compression, const ImageMetadata& metadata);
+
+// The image as cv::imread(IMREAD_UNCHANGED) gives it (CV_32FC1 from a Y
+// channel, CV_32FC3 in BGR order from R, G, B; half samples widened to
+// float), read by OpenEXR straight into the Mat: 4-6x faster than OpenCV's
+// reader, which converts a scanline at a time. Only for files whose
+// channels are Y alone or exactly R, G, B, all half or all float, none
+// subsampled, with the data window at the origin; nothing for any other
+// file and for one OpenEXR cannot read (then cv::imread decides, so every
+// EXR is judged as OpenCV would).
+[[nodiscard]] std::optional<cv::Mat> read(const std::filesystem::path& file);
 
 }  // namespace psrig::formats::exr

@@ -3,7 +3,9 @@
 
 #include "psrig/formats/image_io.h"
 
+#include <cstring>
 #include <fstream>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -141,6 +143,53 @@ TEST(ImageIo, AChunkLongerThanTheFileIsRefusedBeforeAnyoneAllocatesIt) {
   EXPECT_NE(read.error().message.find("damaged PNG: chunk 'tEXt' at byte 33 declares 976158745 bytes"),
             std::string::npos)
       << read.error().describe();
+}
+
+// psrig's EXR path reads what OpenCV reads, bit for bit (NaN and
+// infinities too), for every file it takes: Y or R, G, B, half or float,
+// written by OpenEXR with attributes or by OpenCV, any compression; files
+// with other channels go to OpenCV's reader as before.
+TEST(ImageIo, ExrsReadAsOpenCvReadsThem) {
+  test::TempDir temp;
+  const auto same_bits = [](const cv::Mat& a, const cv::Mat& b) {
+    if (a.type() != b.type() || a.size() != b.size()) return false;
+    for (int r = 0; r < a.rows; ++r)
+      if (std::memcmp(a.ptr(r), b.ptr(r), a.cols * a.elemSize()) != 0) return false;
+    return true;
+  };
+  formats::ImageMetadata metadata;
+  metadata.text.emplace_back("psrig:test", "yes");
+  int written = 0;
+  for (int channels : {1, 3}) {
+    cv::Mat image(37, 53, CV_32FC(channels));
+    cv::RNG(channels).fill(image, cv::RNG::UNIFORM, -4, 4);
+    image.at<float>(3, 5) = std::numeric_limits<float>::quiet_NaN();
+    image.at<float>(7, 2) = std::numeric_limits<float>::infinity();
+    for (int type : {cv::IMWRITE_EXR_TYPE_FLOAT, cv::IMWRITE_EXR_TYPE_HALF})
+      for (int compression : {cv::IMWRITE_EXR_COMPRESSION_NO, cv::IMWRITE_EXR_COMPRESSION_ZIP,
+                              cv::IMWRITE_EXR_COMPRESSION_PIZ})
+        for (bool with_metadata : {false, true}) {
+          const fs::path file = temp / ("e" + std::to_string(written++) + ".exr");
+          const std::vector<int> params = {cv::IMWRITE_EXR_TYPE, type, cv::IMWRITE_EXR_COMPRESSION,
+                                           compression};
+          ASSERT_TRUE(with_metadata ? formats::write_image(file, image, params, metadata)
+                                    : formats::write_image(file, image, params));
+          auto read = formats::read_image(file, "test");
+          ASSERT_TRUE(read) << read.error().describe();
+          EXPECT_TRUE(same_bits(*read, cv::imread(file.string(), cv::IMREAD_UNCHANGED)))
+              << file << " channels " << channels << " type " << type << " compression "
+              << compression;
+        }
+  }
+  // Grey and alpha: not the fast path's, read by OpenCV.
+  cv::Mat grey_alpha(20, 30, CV_32FC4, cv::Scalar(0.25, 0.5, 0.75, 1.0));
+  ASSERT_TRUE(formats::write_image(temp / "alpha.exr", grey_alpha));
+  auto read = formats::read_image(temp / "alpha.exr", "test");
+  ASSERT_TRUE(read) << read.error().describe();
+  EXPECT_TRUE(same_bits(*read, cv::imread((temp / "alpha.exr").string(), cv::IMREAD_UNCHANGED)));
+  // A damaged EXR is OpenCV's to refuse, as before.
+  std::ofstream(temp / "damaged.exr", std::ios::binary) << "v/1\x01not an exr";
+  EXPECT_FALSE(formats::read_image(temp / "damaged.exr", "test"));
 }
 
 TEST(ImageIo, WriteErrorsNameTheFile) {
