@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <bit>
 #include <cstring>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -32,19 +33,34 @@ bool can_write(const cv::Mat& image) {
          !image.empty();
 }
 
-Status write(const std::filesystem::path& file, const cv::Mat& image, bool half, int compression,
-             const ImageMetadata& metadata) {
-  if (!can_write(image)) return std::unexpected(internal_error("exr::write: unsupported image"));
-  cv::Mat pixels;
-  if (half)
-    image.convertTo(pixels, CV_16F);  // IEEE binary16, Imath::half's layout
-  else
-    pixels = image.isContinuous() ? image : image.clone();
+struct Writer::State {
+  std::filesystem::path file;
+  cv::Size size;
+  int channels = 1;
+  bool half = false;
+  int rows_written = 0;
+  std::unique_ptr<Imf::OutputFile> out;
+};
+
+Writer::Writer(std::unique_ptr<State> state) : state_(std::move(state)) {}
+Writer::Writer(Writer&&) noexcept = default;
+Writer& Writer::operator=(Writer&&) noexcept = default;
+Writer::~Writer() = default;
+
+Result<Writer> Writer::open(const std::filesystem::path& file, cv::Size size, int channels,
+                            bool half, int compression, const ImageMetadata& metadata) {
+  if ((channels != 1 && channels != 3) || size.width <= 0 || size.height <= 0)
+    return std::unexpected(internal_error("exr::write: unsupported image"));
+  if (compression < 0 || compression >= Imf::NUM_COMPRESSION_METHODS)
+    return std::unexpected(internal_error("exr::write: unknown compression"));
+  auto state = std::make_unique<State>();
+  state->file = file;
+  state->size = size;
+  state->channels = channels;
+  state->half = half;
   const Imf::PixelType type = half ? Imf::HALF : Imf::FLOAT;
   try {
-    Imf::Header header(image.cols, image.rows);
-    if (compression < 0 || compression >= Imf::NUM_COMPRESSION_METHODS)
-      return std::unexpected(internal_error("exr::write: unknown compression"));
+    Imf::Header header(size.width, size.height);
     header.compression() = static_cast<Imf::Compression>(compression);
     for (const auto& [keyword, text] : metadata.text)
       header.insert(keyword, Imf::StringAttribute(text));
@@ -53,28 +69,75 @@ Status write(const std::filesystem::path& file, const cv::Mat& image, bool half,
       header.insert(metadata_keys::kPixelSize,
                     Imf::StringAttribute(std::to_string(*metadata.pixel_size_mm)));
     }
+    if (channels == 1) {
+      header.channels().insert("Y", Imf::Channel(type));
+    } else {
+      for (const char* name : {"B", "G", "R"})  // OpenCV's order
+        header.channels().insert(name, Imf::Channel(type));
+    }
+    state->out = std::make_unique<Imf::OutputFile>(file.c_str(), header);
+  } catch (const std::exception& e) {
+    return std::unexpected(io_error(file, std::string("cannot write EXR: ") + e.what()));
+  }
+  return Writer(std::move(state));
+}
+
+Status Writer::write(const cv::Mat& rows) {
+  State& s = *state_;
+  if (rows.depth() != CV_32F || rows.channels() != s.channels || rows.cols != s.size.width ||
+      s.rows_written + rows.rows > s.size.height)
+    return std::unexpected(internal_error("exr::Writer: rows of the wrong size or type"));
+  if (rows.rows == 0) return {};
+  cv::Mat pixels;
+  if (s.half)
+    rows.convertTo(pixels, CV_16F);  // IEEE binary16, Imath::half's layout
+  else
+    pixels = rows.isContinuous() ? rows : rows.clone();
+  const Imf::PixelType type = s.half ? Imf::HALF : Imf::FLOAT;
+  try {
     Imf::FrameBuffer frame;
     const std::size_t element = pixels.elemSize();
     const std::size_t row = pixels.step[0];
     const std::size_t channel_bytes = pixels.elemSize1();
-    char* base = reinterpret_cast<char*>(pixels.data);
-    if (pixels.channels() == 1) {
-      header.channels().insert("Y", Imf::Channel(type));
+    // OpenEXR addresses a slice by the file's line numbers: the base is
+    // where line 0 would be, lines before this band's first included.
+    char* base = reinterpret_cast<char*>(pixels.data) -
+                 static_cast<std::ptrdiff_t>(s.rows_written) * static_cast<std::ptrdiff_t>(row);
+    if (s.channels == 1) {
       frame.insert("Y", Imf::Slice(type, base, element, row));
     } else {
       const char* names[3] = {"B", "G", "R"};  // OpenCV's order
-      for (int c = 0; c < 3; ++c) {
-        header.channels().insert(names[c], Imf::Channel(type));
+      for (int c = 0; c < 3; ++c)
         frame.insert(names[c], Imf::Slice(type, base + c * channel_bytes, element, row));
-      }
     }
-    Imf::OutputFile out(file.c_str(), header);
-    out.setFrameBuffer(frame);
-    out.writePixels(image.rows);
+    s.out->setFrameBuffer(frame);
+    s.out->writePixels(rows.rows);
   } catch (const std::exception& e) {
-    return std::unexpected(io_error(file, std::string("cannot write EXR: ") + e.what()));
+    return std::unexpected(io_error(s.file, std::string("cannot write EXR: ") + e.what()));
+  }
+  s.rows_written += rows.rows;
+  return {};
+}
+
+Status Writer::finish() {
+  State& s = *state_;
+  if (s.rows_written != s.size.height)
+    return std::unexpected(internal_error("exr::Writer: finished before the last row"));
+  try {
+    s.out.reset();  // the line offsets, and the file closed
+  } catch (const std::exception& e) {
+    return std::unexpected(io_error(s.file, std::string("cannot write EXR: ") + e.what()));
   }
   return {};
+}
+
+Status write(const std::filesystem::path& file, const cv::Mat& image, bool half, int compression,
+             const ImageMetadata& metadata) {
+  if (!can_write(image)) return std::unexpected(internal_error("exr::write: unsupported image"));
+  auto writer = Writer::open(file, image.size(), image.channels(), half, compression, metadata);
+  if (!writer) return std::unexpected(writer.error());
+  if (auto ok = writer->write(image); !ok) return ok;
+  return writer->finish();
 }
 
 namespace {

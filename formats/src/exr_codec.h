@@ -5,6 +5,7 @@
 // reading the EXRs psrig writes (ground truth, maps) straight into their Mat.
 
 #include <filesystem>
+#include <memory>
 #include <optional>
 
 #include <opencv2/core.hpp>
@@ -24,6 +25,31 @@ namespace psrig::formats::exr {
 // psrig:pixel_size_mm.
 [[nodiscard]] Status write(const std::filesystem::path& file, const cv::Mat& image, bool half,
                            int compression, const ImageMetadata& metadata);
+
+// write() a band of rows at a time, top to bottom: the same bytes, with no
+// copy of the whole image (in half floats) held at any time. OpenEXR
+// compresses each block of lines as soon as it is whole.
+class Writer {
+ public:
+  // Creates `file` for a `size` image of `channels` (1 or 3) float channels,
+  // stored as write() stores them.
+  [[nodiscard]] static Result<Writer> open(const std::filesystem::path& file, cv::Size size,
+                                           int channels, bool half, int compression,
+                                           const ImageMetadata& metadata);
+  // The next rows: CV_32F, `channels`, `size.width` wide.
+  [[nodiscard]] Status write(const cv::Mat& rows);
+  // After the last row: the line offsets written and the file closed.
+  [[nodiscard]] Status finish();
+
+  Writer(Writer&&) noexcept;
+  Writer& operator=(Writer&&) noexcept;
+  ~Writer();
+
+ private:
+  struct State;
+  explicit Writer(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
 
 // The image as cv::imread(IMREAD_UNCHANGED) gives it (CV_32FC1 from a Y
 // channel, CV_32FC3 in BGR order from R, G, B; half samples widened to

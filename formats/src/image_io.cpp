@@ -9,46 +9,12 @@
 #include <opencv2/imgproc.hpp>
 
 #include "exr_codec.h"
+#include "image_params.h"
 #include "png_codec.h"
 #include "psrig/base/parallel.h"
 
 namespace psrig::formats {
 namespace {
-
-bool has_extension(const std::filesystem::path& file, const std::string& wanted) {
-  std::string extension = file.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  return extension == wanted;
-}
-bool is_png(const std::filesystem::path& file) {
-  return has_extension(file, ".png");
-}
-
-// OpenCV's PNG compression parameter, if given; psrig's default is the
-// fastest level that still compresses.
-int png_level(const std::vector<int>& params) {
-  for (std::size_t i = 0; i + 1 < params.size(); i += 2)
-    if (params[i] == cv::IMWRITE_PNG_COMPRESSION) return params[i + 1];
-  return 1;
-}
-
-bool is_exr(const std::filesystem::path& file) {
-  return has_extension(file, ".exr");
-}
-
-// The caller's EXR compression, else image_io's default (none, as below).
-int exr_compression(const std::vector<int>& params) {
-  for (std::size_t i = 0; i + 1 < params.size(); i += 2)
-    if (params[i] == cv::IMWRITE_EXR_COMPRESSION) return params[i + 1];
-  return cv::IMWRITE_EXR_COMPRESSION_NO;
-}
-
-bool exr_half(const std::vector<int>& params) {
-  for (std::size_t i = 0; i + 1 < params.size(); i += 2)
-    if (params[i] == cv::IMWRITE_EXR_TYPE) return params[i + 1] == cv::IMWRITE_EXR_TYPE_HALF;
-  return false;
-}
 
 // Float maps barely compress (ZIP saves ~3 % on 12 MP gradients and costs
 // ~1 s), so EXR files are written as 32-bit float, uncompressed, unless the

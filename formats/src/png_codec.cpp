@@ -11,6 +11,7 @@
 #include <isa-l/crc.h>
 #include <isa-l/igzip_lib.h>
 #include <memory>
+#include <optional>
 #include <sys/mman.h>
 #include <sys/stat.h>
 #include <unistd.h>
@@ -267,9 +268,17 @@ std::optional<cv::Mat> read(const fs::path& file) {
   return image;
 }
 
+namespace {
+
+bool can_write_type(int type) {
+  return (CV_MAT_DEPTH(type) == CV_8U || CV_MAT_DEPTH(type) == CV_16U) &&
+         (CV_MAT_CN(type) == 1 || CV_MAT_CN(type) == 3);
+}
+
+}  // namespace
+
 bool can_write(const cv::Mat& image) {
-  return !image.empty() && (image.depth() == CV_8U || image.depth() == CV_16U) &&
-         (image.channels() == 1 || image.channels() == 3);
+  return !image.empty() && can_write_type(image.type());
 }
 
 namespace {
@@ -340,103 +349,153 @@ void png_row(const cv::Mat& image, int r, std::uint8_t* out) {
 
 // Level 0: a zlib stream of stored blocks, produced row by row straight
 // into one IDAT chunk, so no image-sized buffer is ever allocated.
-void write_stored(ChunkWriter& out, const cv::Mat& image) {
-  constexpr std::size_t kBlock = 65535;  // the most a stored block holds
-  const std::size_t row_bytes = image.cols * image.elemSize();
-  const std::size_t raw = static_cast<std::size_t>(image.rows) * (row_bytes + 1);
-  const std::size_t blocks = std::max<std::size_t>(1, (raw + kBlock - 1) / kBlock);
-  out.begin("IDAT", 2 + raw + 5 * blocks + 4);
-  const std::uint8_t zlib_header[2] = {0x78, 0x01};
-  out.data(zlib_header, 2);
+class StoredRows {
+ public:
+  StoredRows(ChunkWriter& out, cv::Size size, std::size_t pixel_bytes)
+      : out_(out),
+        row_bytes_(static_cast<std::size_t>(size.width) * pixel_bytes),
+        raw_(static_cast<std::size_t>(size.height) * (row_bytes_ + 1)),
+        block_(5 + kBlock),
+        row_(row_bytes_ + 1, 0) {  // filter type 0 (none): stored data gains nothing from one
+    const std::size_t blocks = std::max<std::size_t>(1, (raw_ + kBlock - 1) / kBlock);
+    out_.begin("IDAT", 2 + raw_ + 5 * blocks + 4);
+    const std::uint8_t zlib_header[2] = {0x78, 0x01};
+    out_.data(zlib_header, 2);
+  }
 
-  std::vector<std::uint8_t> block(5 + kBlock);
-  std::size_t filled = 0, emitted = 0;
-  std::uint32_t adler = 1;
-  const auto flush = [&] {
-    emitted += filled;
-    block[0] = emitted == raw ? 1 : 0;  // BFINAL on the last block, type 00 (stored)
-    block[1] = static_cast<std::uint8_t>(filled);
-    block[2] = static_cast<std::uint8_t>(filled >> 8);
-    block[3] = static_cast<std::uint8_t>(~filled);
-    block[4] = static_cast<std::uint8_t>(~filled >> 8);
-    adler = isal_adler32(adler, block.data() + 5, filled);
-    out.data(block.data(), 5 + filled);
-    filled = 0;
-  };
-  std::vector<std::uint8_t> row(row_bytes + 1,
-                                0);  // filter type 0 (none): stored data gains nothing from one
-  for (int r = 0; r < image.rows; ++r) {
-    png_row(image, r, row.data() + 1);
-    for (std::size_t taken = 0; taken < row.size();) {
-      const std::size_t n = std::min(row.size() - taken, kBlock - filled);
-      std::memcpy(block.data() + 5 + filled, row.data() + taken, n);
-      filled += n;
-      taken += n;
-      if (filled == kBlock) flush();
+  void rows(const cv::Mat& image) {
+    for (int r = 0; r < image.rows; ++r) {
+      png_row(image, r, row_.data() + 1);
+      for (std::size_t taken = 0; taken < row_.size();) {
+        const std::size_t n = std::min(row_.size() - taken, kBlock - filled_);
+        std::memcpy(block_.data() + 5 + filled_, row_.data() + taken, n);
+        filled_ += n;
+        taken += n;
+        if (filled_ == kBlock) flush();
+      }
     }
   }
-  if (filled > 0 || emitted < raw || raw == 0) flush();
-  std::uint8_t trailer[4];
-  store_be32(trailer, adler);
-  out.data(trailer, 4);
-  out.end();
-}
+
+  void finish() {
+    if (filled_ > 0 || emitted_ < raw_ || raw_ == 0) flush();
+    std::uint8_t trailer[4];
+    store_be32(trailer, adler_);
+    out_.data(trailer, 4);
+    out_.end();
+  }
+
+ private:
+  static constexpr std::size_t kBlock = 65535;  // the most a stored block holds
+
+  void flush() {
+    emitted_ += filled_;
+    block_[0] = emitted_ == raw_ ? 1 : 0;  // BFINAL on the last block, type 00 (stored)
+    block_[1] = static_cast<std::uint8_t>(filled_);
+    block_[2] = static_cast<std::uint8_t>(filled_ >> 8);
+    block_[3] = static_cast<std::uint8_t>(~filled_);
+    block_[4] = static_cast<std::uint8_t>(~filled_ >> 8);
+    adler_ = isal_adler32(adler_, block_.data() + 5, filled_);
+    out_.data(block_.data(), 5 + filled_);
+    filled_ = 0;
+  }
+
+  ChunkWriter& out_;
+  std::size_t row_bytes_;
+  std::size_t raw_;
+  std::vector<std::uint8_t> block_;
+  std::vector<std::uint8_t> row_;
+  std::size_t filled_ = 0;
+  std::size_t emitted_ = 0;
+  std::uint32_t adler_ = 1;
+};
 
 // Level 1 and up: ISA-L's deflate (4x faster than zlib or libdeflate at
 // level 1, for the same size), fed rows filtered with "Up" (the cheap filter
 // that helps most) and emptied into IDAT chunks as it goes, so neither the
-// filtered image nor the compressed one is ever held whole.
-Status write_compressed(ChunkWriter& out, const cv::Mat& image, int level) {
-  constexpr std::size_t kChunk = 1 << 20;   // IDAT payload size
-  constexpr std::size_t kBatch = 1 << 18;   // filtered bytes handed to the compressor at a time
-  const std::size_t row_bytes = image.cols * image.elemSize();
-  // zlib-scale levels onto ISA-L's 1 (fastest) to 3.
-  const int isal_level = level <= 3 ? 1 : level <= 6 ? 2 : 3;
-  const std::size_t level_buffer_size =
-      isal_level == 1 ? ISAL_DEF_LVL1_DEFAULT : isal_level == 2 ? ISAL_DEF_LVL2_DEFAULT : ISAL_DEF_LVL3_DEFAULT;
-  std::vector<std::uint8_t> level_buffer(level_buffer_size), chunk(kChunk), batch, above(row_bytes, 0), row(row_bytes);
-  batch.reserve(kBatch + row_bytes + 1);
+// filtered image nor the compressed one is ever held whole. The compressor
+// gets the same batches however the rows arrive, so the bytes do not depend
+// on how the image is handed over.
+class CompressedRows {
+ public:
+  CompressedRows(ChunkWriter& out, cv::Size size, std::size_t pixel_bytes, int level)
+      : out_(out),
+        row_bytes_(static_cast<std::size_t>(size.width) * pixel_bytes),
+        // zlib-scale levels onto ISA-L's 1 (fastest) to 3.
+        isal_level_(level <= 3   ? 1
+                    : level <= 6 ? 2
+                                 : 3),
+        level_buffer_(isal_level_ == 1   ? ISAL_DEF_LVL1_DEFAULT
+                      : isal_level_ == 2 ? ISAL_DEF_LVL2_DEFAULT
+                                         : ISAL_DEF_LVL3_DEFAULT),
+        chunk_(kChunk),
+        above_(row_bytes_, 0),
+        row_(row_bytes_) {
+    batch_.reserve(kBatch + row_bytes_ + 1);
+    isal_deflate_init(&stream_);
+    stream_.level = static_cast<std::uint32_t>(isal_level_);
+    stream_.level_buf = level_buffer_.data();
+    stream_.level_buf_size = static_cast<std::uint32_t>(level_buffer_.size());
+    stream_.gzip_flag = IGZIP_ZLIB;
+    stream_.flush = NO_FLUSH;
+    stream_.next_out = chunk_.data();
+    stream_.avail_out = static_cast<std::uint32_t>(kChunk);
+  }
+  CompressedRows(const CompressedRows&) = delete;  // the stream points into this
+  CompressedRows& operator=(const CompressedRows&) = delete;
 
-  isal_zstream stream;
-  isal_deflate_init(&stream);
-  stream.level = static_cast<std::uint32_t>(isal_level);
-  stream.level_buf = level_buffer.data();
-  stream.level_buf_size = static_cast<std::uint32_t>(level_buffer.size());
-  stream.gzip_flag = IGZIP_ZLIB;
-  stream.flush = NO_FLUSH;
-  stream.next_out = chunk.data();
-  stream.avail_out = static_cast<std::uint32_t>(kChunk);
-  const auto compress = [&](bool last) -> bool {
-    stream.next_in = batch.data();
-    stream.avail_in = static_cast<std::uint32_t>(batch.size());
-    stream.end_of_stream = last ? 1 : 0;
+  Status rows(const cv::Mat& image) {
+    for (int r = 0; r < image.rows; ++r) {
+      png_row(image, r, row_.data());
+      batch_.push_back(2);  // filter type: Up
+      const std::size_t at = batch_.size();
+      batch_.insert(batch_.end(), row_.begin(), row_.end());
+      subtract_row(batch_.data() + at, above_.data(), row_bytes_);
+      std::swap(above_, row_);
+      if (batch_.size() >= kBatch && !compress(false))
+        return std::unexpected(internal_error("png::write: compression failed"));
+    }
+    return {};
+  }
+
+  Status finish() {
+    if (!compress(true)) return std::unexpected(internal_error("png::write: compression failed"));
+    return {};
+  }
+
+ private:
+  static constexpr std::size_t kChunk = 1 << 20;  // IDAT payload size
+  static constexpr std::size_t kBatch = 1
+                                        << 18;  // filtered bytes handed to the compressor at a time
+
+  bool compress(bool last) {
+    stream_.next_in = batch_.data();
+    stream_.avail_in = static_cast<std::uint32_t>(batch_.size());
+    stream_.end_of_stream = last ? 1 : 0;
     do {
-      if (isal_deflate(&stream) != COMP_OK) return false;
-      const bool full = stream.avail_out == 0;
-      const bool done = last && stream.internal_state.state == ZSTATE_END;
+      if (isal_deflate(&stream_) != COMP_OK) return false;
+      const bool full = stream_.avail_out == 0;
+      const bool done = last && stream_.internal_state.state == ZSTATE_END;
       if (full || done) {
-        out.chunk("IDAT", chunk.data(), kChunk - stream.avail_out);
-        stream.next_out = chunk.data();
-        stream.avail_out = static_cast<std::uint32_t>(kChunk);
+        out_.chunk("IDAT", chunk_.data(), kChunk - stream_.avail_out);
+        stream_.next_out = chunk_.data();
+        stream_.avail_out = static_cast<std::uint32_t>(kChunk);
       }
       if (done) break;
-    } while (stream.avail_in > 0 || (last && stream.internal_state.state != ZSTATE_END));
-    batch.clear();
+    } while (stream_.avail_in > 0 || (last && stream_.internal_state.state != ZSTATE_END));
+    batch_.clear();
     return true;
-  };
-  for (int r = 0; r < image.rows; ++r) {
-    png_row(image, r, row.data());
-    batch.push_back(2);  // filter type: Up
-    const std::size_t at = batch.size();
-    batch.insert(batch.end(), row.begin(), row.end());
-    subtract_row(batch.data() + at, above.data(), row_bytes);
-    std::swap(above, row);
-    if (batch.size() >= kBatch && !compress(false))
-      return std::unexpected(internal_error("png::write: compression failed"));
   }
-  if (!compress(true)) return std::unexpected(internal_error("png::write: compression failed"));
-  return {};
-}
+
+  ChunkWriter& out_;
+  std::size_t row_bytes_;
+  int isal_level_;
+  std::vector<std::uint8_t> level_buffer_;
+  std::vector<std::uint8_t> chunk_;
+  std::vector<std::uint8_t> batch_;
+  std::vector<std::uint8_t> above_;
+  std::vector<std::uint8_t> row_;
+  isal_zstream stream_{};
+};
 
 void put_be32(std::vector<std::uint8_t>& bytes, std::uint32_t v) {
   std::uint8_t b[4];
@@ -506,29 +565,83 @@ void write_metadata(ChunkWriter& out, const ImageMetadata& metadata) {
 
 }  // namespace
 
-Status write(const fs::path& file, const cv::Mat& image, int level, const ImageMetadata& metadata) {
-  if (!can_write(image))
+struct Writer::State {
+  State(const fs::path& path, cv::Size image_size, int image_type, int compression)
+      : file(path), size(image_size), type(image_type), level(compression), out(path) {}
+  fs::path file;
+  cv::Size size;
+  int type;
+  int level;
+  int rows_written = 0;
+  ChunkWriter out;
+  std::optional<StoredRows> stored;
+  std::optional<CompressedRows> compressed;
+};
+
+Writer::Writer(std::unique_ptr<State> state) : state_(std::move(state)) {}
+Writer::Writer(Writer&&) noexcept = default;
+Writer& Writer::operator=(Writer&&) noexcept = default;
+Writer::~Writer() = default;
+
+Result<Writer> Writer::open(const fs::path& file, cv::Size size, int type, int level,
+                            const ImageMetadata& metadata) {
+  if (!can_write_type(type) || size.width <= 0 || size.height <= 0)
     return std::unexpected(internal_error("png::write: unsupported image type"));
-  ChunkWriter out(file);
+  auto state = std::make_unique<State>(file, size, type, level);
+  ChunkWriter& out = state->out;
   if (!out.ok())
     return std::unexpected(io_error(file, std::string("cannot create: ") + std::strerror(errno)));
   std::uint8_t header[13];
-  store_be32(header, static_cast<std::uint32_t>(image.cols));
-  store_be32(header + 4, static_cast<std::uint32_t>(image.rows));
-  header[8] = image.depth() == CV_16U ? 16 : 8;
-  header[9] = image.channels() == 3 ? 2 : 0;
+  store_be32(header, static_cast<std::uint32_t>(size.width));
+  store_be32(header + 4, static_cast<std::uint32_t>(size.height));
+  header[8] = CV_MAT_DEPTH(type) == CV_16U ? 16 : 8;
+  header[9] = CV_MAT_CN(type) == 3 ? 2 : 0;
   header[10] = header[11] = header[12] = 0;
   out.chunk("IHDR", header, sizeof header);
   write_metadata(out, metadata);
-  if (level <= 0) {
-    write_stored(out, image);
-  } else if (auto ok = write_compressed(out, image, level); !ok) {
+  const std::size_t pixel_bytes = CV_ELEM_SIZE(type);
+  if (level <= 0)
+    state->stored.emplace(out, size, pixel_bytes);
+  else
+    state->compressed.emplace(out, size, pixel_bytes, level);
+  return Writer(std::move(state));
+}
+
+Status Writer::write(const cv::Mat& rows) {
+  State& s = *state_;
+  if (rows.type() != s.type || rows.cols != s.size.width ||
+      s.rows_written + rows.rows > s.size.height)
+    return std::unexpected(internal_error("png::Writer: rows of the wrong size or type"));
+  s.rows_written += rows.rows;
+  if (s.stored) {
+    s.stored->rows(rows);
+    return {};
+  }
+  return s.compressed->rows(rows);
+}
+
+Status Writer::finish() {
+  State& s = *state_;
+  if (s.rows_written != s.size.height)
+    return std::unexpected(internal_error("png::Writer: finished before the last row"));
+  if (s.stored) {
+    s.stored->finish();
+  } else if (auto ok = s.compressed->finish(); !ok) {
     return ok;
   }
-  out.chunk("IEND", nullptr, 0);
-  if (!out.close())
-    return std::unexpected(io_error(file, std::string("cannot write: ") + std::strerror(errno)));
+  s.out.chunk("IEND", nullptr, 0);
+  if (!s.out.close())
+    return std::unexpected(io_error(s.file, std::string("cannot write: ") + std::strerror(errno)));
   return {};
+}
+
+Status write(const fs::path& file, const cv::Mat& image, int level, const ImageMetadata& metadata) {
+  if (!can_write(image))
+    return std::unexpected(internal_error("png::write: unsupported image type"));
+  auto writer = Writer::open(file, image.size(), image.type(), level, metadata);
+  if (!writer) return std::unexpected(writer.error());
+  if (auto ok = writer->write(image); !ok) return ok;
+  return writer->finish();
 }
 
 }  // namespace psrig::formats::png

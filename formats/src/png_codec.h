@@ -6,6 +6,7 @@
 // handled here: 8- or 16-bit grey or RGB, not interlaced, no transparency.
 
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -35,5 +36,28 @@ namespace psrig::formats::png {
 // before the image data.
 [[nodiscard]] Status write(const std::filesystem::path& file, const cv::Mat& image, int level,
                            const ImageMetadata& metadata = {});
+
+// write() a band of rows at a time, top to bottom: the same bytes, with no
+// copy of the whole image (filtered or compressed) held at any time.
+class Writer {
+ public:
+  // Creates `file` and writes everything before the pixels: a `size` image of
+  // `type` (as can_write takes), compression `level`, `metadata`.
+  [[nodiscard]] static Result<Writer> open(const std::filesystem::path& file, cv::Size size,
+                                           int type, int level, const ImageMetadata& metadata);
+  // The next rows: `size.width` wide, of `type`.
+  [[nodiscard]] Status write(const cv::Mat& rows);
+  // After the last row: the rest of the file, closed.
+  [[nodiscard]] Status finish();
+
+  Writer(Writer&&) noexcept;
+  Writer& operator=(Writer&&) noexcept;
+  ~Writer();
+
+ private:
+  struct State;
+  explicit Writer(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
 
 }  // namespace psrig::formats::png
