@@ -30,7 +30,6 @@ constexpr std::uint64_t kMaxPixels = std::uint64_t{1} << 30;
 // PNG chunk lengths are 31-bit.
 constexpr std::size_t kMaxChunk = 0x7FFFFFFF;
 constexpr std::array<std::uint8_t, 8> kSignature = {0x89, 'P', 'N', 'G', '\r', '\n', 0x1A, '\n'};
-constexpr int kRowsPerChunk = 32;
 
 std::uint32_t load_be32(const std::uint8_t* p) {
   return (std::uint32_t{p[0]} << 24) | (std::uint32_t{p[1]} << 16) | (std::uint32_t{p[2]} << 8) |
@@ -224,37 +223,56 @@ std::optional<cv::Mat> read(const fs::path& file) {
   // Deflate expands at most 1032:1; a tiny file claiming a huge image is
   // damaged or hostile and must not get a huge buffer.
   if (compressed * 1032 < raw_size) return std::nullopt;
-  // Not zero-filled: inflation writes every byte.
-  const auto raw_buffer = std::make_unique_for_overwrite<std::uint8_t[]>(raw_size);
-  std::uint8_t* const raw = raw_buffer.get();
   // The IDAT payloads are one zlib stream split across chunks; ISA-L
-  // inflates it piece by piece, checking the Adler-32 at the end.
+  // inflates it a batch of rows at a time into a small buffer (no image-sized
+  // one), checking the Adler-32 at the end. Rows depend on the row above, so
+  // unfiltering runs in order; each row goes to the image as it is done.
   inflate_state inflater;
   isal_inflate_init(&inflater);
   inflater.crc_flag = ISAL_ZLIB;
-  inflater.next_out = raw;
-  inflater.avail_out = static_cast<std::uint32_t>(raw_size);
-  for (const auto& [piece, length] : idat) {
-    inflater.next_in = const_cast<std::uint8_t*>(piece);  // ISA-L's API is not const-correct
-    inflater.avail_in = static_cast<std::uint32_t>(length);
-    if (isal_inflate(&inflater) != ISAL_DECOMP_OK) return std::nullopt;
-    if (inflater.block_state == ISAL_BLOCK_FINISH) break;
-  }
-  if (inflater.block_state != ISAL_BLOCK_FINISH || inflater.avail_out != 0) return std::nullopt;
-
-  // Rows depend on the row above, so unfiltering runs in order.
-  std::vector<std::uint8_t> zeros(row_bytes, 0);
-  for (std::uint32_t r = 0; r < height; ++r) {
-    std::uint8_t* row = raw + r * (row_bytes + 1);
-    const std::uint8_t* previous = r ? row - row_bytes : zeros.data();
-    if (!unfilter_row(row[0], row + 1, previous, row_bytes, bpp)) return std::nullopt;
-  }
-
+  std::size_t next_piece = 0;
+  // One call of the inflater, given the next IDAT piece when it has used up
+  // the last; false when the stream is damaged or nothing moved (no data
+  // left: the inflater may still hold a few bytes of input, so it is called
+  // even when none is left to give it).
+  const auto step = [&]() -> bool {
+    if (inflater.avail_in == 0 && next_piece < idat.size()) {
+      // ISA-L's API is not const-correct
+      inflater.next_in = const_cast<std::uint8_t*>(idat[next_piece].first);
+      inflater.avail_in = static_cast<std::uint32_t>(idat[next_piece].second);
+      ++next_piece;
+    }
+    const auto in = inflater.avail_in;
+    const auto out = inflater.avail_out;
+    const auto block = inflater.block_state;
+    if (isal_inflate(&inflater) != ISAL_DECOMP_OK) return false;
+    return inflater.avail_in != in || inflater.avail_out != out || inflater.block_state != block;
+  };
+  // Exactly n bytes of the stream into out; false if it ends before or is damaged.
+  const auto inflate_into = [&](std::uint8_t* out, std::size_t n) -> bool {
+    inflater.next_out = out;
+    inflater.avail_out = static_cast<std::uint32_t>(n);
+    while (inflater.avail_out > 0)
+      if (inflater.block_state == ISAL_BLOCK_FINISH || !step()) return false;
+    return true;
+  };
+  const std::size_t stride = row_bytes + 1;
+  const std::uint32_t batch_rows =
+      std::clamp<std::uint32_t>(static_cast<std::uint32_t>((1U << 20) / stride), 1U, height);
+  // Not zero-filled: inflation writes every byte.
+  const auto buffer = std::make_unique_for_overwrite<std::uint8_t[]>(batch_rows * stride);
+  std::vector<std::uint8_t> above(row_bytes, 0);  // the row before the batch, unfiltered
   cv::Mat image(static_cast<int>(height), static_cast<int>(width),
                 CV_MAKETYPE(bit_depth == 8 ? CV_8U : CV_16U, channels));
-  parallel_chunks(image.rows, kRowsPerChunk, [&](int begin, int end) {
-    for (int r = begin; r < end; ++r) {
-      const std::uint8_t* in = raw + static_cast<std::size_t>(r) * (row_bytes + 1) + 1;
+  for (std::uint32_t first = 0; first < height; first += batch_rows) {
+    const std::uint32_t rows = std::min(batch_rows, height - first);
+    if (!inflate_into(buffer.get(), rows * stride)) return std::nullopt;
+    for (std::uint32_t k = 0; k < rows; ++k) {
+      std::uint8_t* row = buffer.get() + k * stride;
+      const std::uint8_t* previous = k ? row - row_bytes : above.data();
+      if (!unfilter_row(row[0], row + 1, previous, row_bytes, bpp)) return std::nullopt;
+      const int r = static_cast<int>(first + k);
+      const std::uint8_t* in = row + 1;
       if (bit_depth == 16 && channels == 3)
         rgb16_to_bgr(in, image.ptr<std::uint16_t>(r), image.cols);
       else if (bit_depth == 16)
@@ -264,7 +282,14 @@ std::optional<cv::Mat> read(const fs::path& file) {
       else
         std::memcpy(image.ptr(r), in, row_bytes);
     }
-  });
+    std::memcpy(above.data(), buffer.get() + (rows - 1) * stride + 1, row_bytes);
+  }
+  // The end of the stream, its checksum checked, and no more image data.
+  std::uint8_t extra = 0;
+  inflater.next_out = &extra;
+  inflater.avail_out = 1;
+  while (inflater.block_state != ISAL_BLOCK_FINISH)
+    if (!step() || inflater.avail_out == 0) return std::nullopt;
   return image;
 }
 

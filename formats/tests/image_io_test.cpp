@@ -81,6 +81,77 @@ TEST(ImageIo, ReadsWhatLibpngWroteWithEveryFilter) {
   }
 }
 
+// The PNG at `file` with its image data cut into IDAT chunks of 1 to 13
+// bytes; `keep` of the data's bytes kept (all by default).
+std::string rechunked_png(const fs::path& file, std::size_t keep = std::string::npos) {
+  std::ifstream in(file, std::ios::binary);
+  const std::string png((std::istreambuf_iterator<char>(in)), {});
+  const auto be32 = [&](std::size_t at) {
+    return static_cast<std::uint32_t>(static_cast<unsigned char>(png[at])) << 24 |
+           static_cast<std::uint32_t>(static_cast<unsigned char>(png[at + 1])) << 16 |
+           static_cast<std::uint32_t>(static_cast<unsigned char>(png[at + 2])) << 8 |
+           static_cast<unsigned char>(png[at + 3]);
+  };
+  const auto crc32 = [](const std::string& bytes) {
+    std::uint32_t crc = 0xFFFFFFFFU;
+    for (unsigned char b : bytes) {
+      crc ^= b;
+      for (int k = 0; k < 8; ++k)
+        crc = (crc >> 1) ^ (0xEDB88320U & (0U - (crc & 1U)));
+    }
+    return ~crc;
+  };
+  const auto chunk = [&](const std::string& type, const std::string& data) {
+    std::string out;
+    for (std::uint32_t v : {static_cast<std::uint32_t>(data.size())})
+      for (int shift : {24, 16, 8, 0})
+        out += static_cast<char>(v >> shift);
+    const std::uint32_t crc = crc32(type + data);
+    out += type + data;
+    for (int shift : {24, 16, 8, 0})
+      out += static_cast<char>(crc >> shift);
+    return out;
+  };
+  std::string before, data, after;
+  for (std::size_t at = 8; at + 12 <= png.size();) {
+    const std::uint32_t length = be32(at);
+    const std::string type = png.substr(at + 4, 4);
+    if (type == "IDAT")
+      data += png.substr(at + 8, length);
+    else
+      (data.empty() ? before : after) += png.substr(at, 12 + length);
+    at += 12 + length;
+  }
+  data = data.substr(0, keep);
+  std::string out = png.substr(0, 8) + before;
+  for (std::size_t at = 0, size = 1; at < data.size(); at += size, size = size % 13 + 1)
+    out += chunk("IDAT", data.substr(at, size));
+  return out + after;
+}
+
+// Image data cut into thousands of tiny chunks, inflated a batch of rows at
+// a time: every boundary falls somewhere inside a chunk, a row or a symbol.
+TEST(ImageIo, PngDataInTinyChunksAcrossBatchesOfRows) {
+  test::TempDir temp;
+  cv::Mat image(700, 900, CV_16UC3);
+  for (int r = 0; r < image.rows; ++r)
+    for (int c = 0; c < image.cols; ++c)
+      image.at<cv::Vec3w>(r, c) =
+          cv::Vec3w(static_cast<std::uint16_t>(r * 90 + c), static_cast<std::uint16_t>(c * 70),
+                    static_cast<std::uint16_t>((r * c) % 65536));
+  ASSERT_TRUE(formats::write_image(temp / "whole.png", image));
+  const std::string tiny = rechunked_png(temp / "whole.png");
+  std::ofstream(temp / "tiny.png", std::ios::binary) << tiny;
+  auto back = formats::read_image(temp / "tiny.png", "test");
+  ASSERT_TRUE(back) << back.error().describe();
+  EXPECT_EQ(cv::norm(*back, image, cv::NORM_INF), 0);
+  // Its data cut short: an error, never a half-read image.
+  const std::size_t data_bytes = std::filesystem::file_size(temp / "whole.png");
+  std::ofstream(temp / "short.png", std::ios::binary)
+      << rechunked_png(temp / "whole.png", data_bytes / 2);
+  EXPECT_FALSE(formats::read_image(temp / "short.png", "test"));
+}
+
 TEST(ImageIo, PngsOutsideTheFastPathStillRead) {
   test::TempDir temp;
   const cv::Mat rgba(9, 7, CV_16UC4, cv::Scalar(1000, 2000, 3000, 65535));
