@@ -23,7 +23,7 @@ Partial reduce_rows(int rows, Body body, Combine combine, int chunk_rows = kRows
   parallel_chunks(rows, chunk_rows,
                   [&](int begin, int end) { body(begin, end, partials[begin / chunk_rows]); });
   Partial total{};
-  for (const auto& partial : partials)
+  for (auto& partial : partials)
     combine(total, partial);
   return total;
 }
@@ -78,17 +78,31 @@ std::vector<float> kth_smallest(const cv::Mat& values, const cv::Mat& select,
     buckets.push_back(bucket);
     below.push_back(counted);
   }
-  std::vector<std::vector<float>> members(ranks.size());
-  for (int r = 0; r < values.rows; ++r) {
-    const float* v = values.ptr<float>(r);
-    const std::uint8_t* s = select.empty() ? nullptr : select.ptr<std::uint8_t>(r);
-    for (int c = 0; c < values.cols; ++c) {
-      if (!selected_at(s, c) || !std::isfinite(v[c])) continue;
-      const std::uint32_t key = order_key(v[c]) >> 16;
-      for (std::size_t i = 0; i < ranks.size(); ++i)
-        if (key == buckets[i]) members[i].push_back(v[c]);
-    }
-  }
+  // The buckets' members, gathered per chunk of rows on the pool: their
+  // order does not matter to nth_element's answer.
+  using Members = std::vector<std::vector<float>>;
+  Members members = reduce_rows<Members>(
+      values.rows,
+      [&](int begin, int end, Members& found) {
+        found.resize(ranks.size());
+        for (int r = begin; r < end; ++r) {
+          const float* v = values.ptr<float>(r);
+          const std::uint8_t* s = select.empty() ? nullptr : select.ptr<std::uint8_t>(r);
+          for (int c = 0; c < values.cols; ++c) {
+            if (!selected_at(s, c) || !std::isfinite(v[c])) continue;
+            const std::uint32_t key = order_key(v[c]) >> 16;
+            for (std::size_t i = 0; i < ranks.size(); ++i)
+              if (key == buckets[i]) found[i].push_back(v[c]);
+          }
+        }
+      },
+      [](Members& total, Members& found) {
+        total.resize(found.size());
+        for (std::size_t i = 0; i < found.size(); ++i)
+          total[i].insert(total[i].end(), found[i].begin(), found[i].end());
+        found.clear();
+      },
+      std::max(1, values.rows / 8 + 1));
   std::vector<float> result;
   for (std::size_t i = 0; i < ranks.size(); ++i) {
     const auto nth = members[i].begin() + static_cast<std::ptrdiff_t>(ranks[i] - below[i]);
@@ -100,19 +114,25 @@ std::vector<float> kth_smallest(const cv::Mat& values, const cv::Mat& select,
 
 }  // namespace
 
-Distribution describe(const cv::Mat& values, const cv::Mat& select) {
-  struct Sums {
-    std::size_t count = 0;
-    double sum = 0, squares = 0;
-    std::uint32_t largest = 0;
-  };
-  const Sums sums = reduce_rows<Sums>(
-      values.rows,
-      [&](int begin, int end, Sums& out) {
+namespace {
+
+// Count, sum, sum of squares and largest of the selected finite values of
+// value(r, c) (values at row r, column c), per fixed chunk of rows.
+struct Moments {
+  std::size_t count = 0;
+  double sum = 0, squares = 0;
+  std::uint32_t largest = 0;
+};
+template <class Row>
+Moments moments(int rows, int cols, const cv::Mat& select, Row row_of) {
+  return reduce_rows<Moments>(
+      rows,
+      [&](int begin, int end, Moments& out) {
+        std::vector<float> buffer(static_cast<std::size_t>(cols));
         for (int r = begin; r < end; ++r) {
-          const float* v = values.ptr<float>(r);
+          const float* v = row_of(r, buffer.data());
           const std::uint8_t* s = select.empty() ? nullptr : select.ptr<std::uint8_t>(r);
-          for (int c = 0; c < values.cols; ++c) {
+          for (int c = 0; c < cols; ++c) {
             if (!selected_at(s, c) || !std::isfinite(v[c])) continue;
             ++out.count;
             out.sum += v[c];
@@ -121,12 +141,15 @@ Distribution describe(const cv::Mat& values, const cv::Mat& select) {
           }
         }
       },
-      [](Sums& total, const Sums& s) {
+      [](Moments& total, const Moments& s) {
         total.count += s.count;
         total.sum += s.sum;
         total.squares += s.squares;
         total.largest = std::max(total.largest, s.largest);
       });
+}
+
+Distribution of_moments(const Moments& sums) {
   Distribution d;
   d.count = sums.count;
   if (d.count == 0) return d;
@@ -134,6 +157,24 @@ Distribution describe(const cv::Mat& values, const cv::Mat& select) {
   d.mean = sums.sum / n;
   d.rms = std::sqrt(sums.squares / n);
   d.max = from_order_key(sums.largest);
+  return d;
+}
+
+Moments moments_of(const cv::Mat& values, const cv::Mat& select) {
+  return moments(values.rows, values.cols, select,
+                 [&](int r, float*) { return values.ptr<float>(r); });
+}
+
+}  // namespace
+
+Distribution describe_moments(const cv::Mat& values, const cv::Mat& select) {
+  return of_moments(moments_of(values, select));
+}
+
+Distribution describe(const cv::Mat& values, const cv::Mat& select) {
+  Distribution d = of_moments(moments_of(values, select));
+  if (d.count == 0) return d;
+  const auto n = static_cast<double>(d.count);
   const auto rank = [&](double fraction) {
     return static_cast<std::size_t>(std::llround(fraction * (n - 1)));
   };
@@ -225,8 +266,15 @@ double mean_abs_curl(const cv::Mat& p, const cv::Mat& q, const cv::Mat& select) 
 }
 
 double height_rms_error(const cv::Mat& height, const cv::Mat& truth, const cv::Mat& select) {
-  const cv::Mat difference = height - truth;
-  const Distribution d = describe(difference, select);
+  // height - truth a row at a time, never held whole.
+  const Distribution d =
+      of_moments(moments(height.rows, height.cols, select, [&](int r, float* difference) {
+        const float* h = height.ptr<float>(r);
+        const float* t = truth.ptr<float>(r);
+        for (int c = 0; c < height.cols; ++c)
+          difference[c] = h[c] - t[c];
+        return static_cast<const float*>(difference);
+      }));
   // RMS about the mean: sqrt(E[d^2] - E[d]^2).
   return std::sqrt(std::max(0.0, d.rms * d.rms - d.mean * d.mean));
 }
