@@ -335,8 +335,9 @@ Result<ScanDescription> read_scan_description(const fs::path& directory) {
 
 namespace {
 
-// Every image scan.json names, and where in `scan` it goes.
-std::vector<ImageRequest> image_requests(Scan& scan) {
+// Every image scan.json names, and where in `scan` it goes; the ground
+// truth only `with_truth`.
+std::vector<ImageRequest> image_requests(Scan& scan, bool with_truth = true) {
   const auto& d = scan.description;
   std::vector<ImageRequest> requests;
   for (std::size_t i = 0; i < d.lights.size(); ++i)
@@ -346,12 +347,26 @@ std::vector<ImageRequest> image_requests(Scan& scan) {
   if (d.mask) requests.push_back({*d.mask, "mask", &scan.mask});
   for (std::size_t i = 0; i < d.flats.size(); ++i)
     requests.push_back({d.flats[i], "flats[" + std::to_string(i) + "]", &scan.flats[i]});
-  if (d.ground_truth_normal)
+  if (d.ground_truth_normal && with_truth)
     requests.push_back({*d.ground_truth_normal, "ground_truth.normal", &scan.ground_truth_normal});
-  if (d.ground_truth_height)
+  if (d.ground_truth_height && with_truth)
     requests.push_back({*d.ground_truth_height, "ground_truth.height", &scan.ground_truth_height});
 
   return requests;
+}
+
+// A ground-truth image: the frames' size, float, three channels for the
+// normals and one for the height.
+Status check_ground_truth(const ImageRequest& request, const cv::Mat& image, cv::Size frames,
+                          const fs::path& directory) {
+  const int expected = request.key.ends_with("normal") ? CV_32FC3 : CV_32FC1;
+  if (image.size() != frames || image.type() != expected)
+    return std::unexpected(
+        bad_input(directory / request.name, request.key,
+                  "is " + describe_image(image) + "; expected " + std::to_string(frames.width) +
+                      "x" + std::to_string(frames.height) +
+                      (expected == CV_32FC3 ? " 32-bit float 3-channel" : " 32-bit float grey")));
+  return {};
 }
 
 // Cross-checks the images against each other and scan.json, and makes the
@@ -400,13 +415,7 @@ Status check_images(Scan& scan, const std::vector<ImageRequest>& requests,
       continue;
     }
     if (request.key.starts_with("ground_truth")) {
-      const int expected = request.key.ends_with("normal") ? CV_32FC3 : CV_32FC1;
-      if (image.size() != first.size() || image.type() != expected)
-        return std::unexpected(frame_error(
-            request,
-            "is " + describe_image(image) + "; expected " + std::to_string(first.cols) + "x" +
-                std::to_string(first.rows) +
-                (expected == CV_32FC3 ? " 32-bit float 3-channel" : " 32-bit float grey")));
+      if (auto ok = check_ground_truth(request, image, first.size(), directory); !ok) return ok;
       continue;
     }
     if (image.depth() != CV_8U && image.depth() != CV_16U && image.depth() != CV_32F)
@@ -437,7 +446,14 @@ Status check_images(Scan& scan, const std::vector<ImageRequest>& requests,
   return {};
 }
 
-Result<Scan> read_scan_unguarded(const fs::path& directory) {
+// A ground-truth image, read.
+Result<cv::Mat> read_truth_image(const ImageRequest& request, const fs::path& directory) {
+  return request.key == "ground_truth.normal"
+             ? read_vector_exr(directory / request.name, request.key)
+             : read_image(directory / request.name, request.key);
+}
+
+Result<Scan> read_scan_unguarded(const fs::path& directory, bool with_truth) {
   auto description = read_scan_description(directory);
   if (!description) return std::unexpected(description.error());
 
@@ -447,7 +463,7 @@ Result<Scan> read_scan_unguarded(const fs::path& directory) {
   scan.frames.resize(d.lights.size());
   scan.flats.resize(d.flats.size());
 
-  std::vector<ImageRequest> requests = image_requests(scan);
+  std::vector<ImageRequest> requests = image_requests(scan, with_truth);
 
   // Decoding dominates reading time, so the files are decoded in parallel;
   // the first error in request order is the one reported.
@@ -455,8 +471,8 @@ Result<Scan> read_scan_unguarded(const fs::path& directory) {
   parallel_chunks(static_cast<int>(requests.size()), 1, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
       const auto& request = requests[i];
-      auto image = request.destination == &scan.ground_truth_normal
-                       ? read_vector_exr(directory / request.name, request.key)
+      auto image = request.key.starts_with("ground_truth")
+                       ? read_truth_image(request, directory)
                        : read_image(directory / request.name, request.key);
       if (image)
         *request.destination = std::move(*image);
@@ -491,12 +507,32 @@ Result<Scan> as_stored(Scan scan, const fs::path& directory) {
   }
 }
 
-Result<Scan> read_scan(const fs::path& directory) {
+Result<Scan> read_scan(const fs::path& directory, ScanImages images) {
   try {
-    return read_scan_unguarded(directory);
+    return read_scan_unguarded(directory, images == ScanImages::all);
   } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
     return std::unexpected(
         internal_error(directory.string() + ": reading the scan failed: " + e.what()));
+  }
+}
+
+Status read_ground_truth(Scan& scan, GroundTruth which) {
+  const auto& d = scan.description;
+  const bool normal = which == GroundTruth::normal;
+  const std::optional<std::string>& name = normal ? d.ground_truth_normal : d.ground_truth_height;
+  cv::Mat& destination = normal ? scan.ground_truth_normal : scan.ground_truth_height;
+  if (!name || !destination.empty()) return {};
+  const ImageRequest request{*name, normal ? "ground_truth.normal" : "ground_truth.height",
+                             &destination};
+  try {
+    auto image = read_truth_image(request, d.directory);
+    if (!image) return std::unexpected(image.error());
+    if (auto ok = check_ground_truth(request, *image, scan.size(), d.directory); !ok) return ok;
+    destination = std::move(*image);
+    return {};
+  } catch (const std::exception& e) {  // out of memory
+    return std::unexpected(
+        internal_error(d.directory.string() + ": reading the scan failed: " + e.what()));
   }
 }
 
