@@ -516,7 +516,7 @@ Result<Scan> read_scan(const fs::path& directory, ScanImages images) {
   }
 }
 
-Status read_ground_truth(Scan& scan, GroundTruth which) {
+Status read_ground_truth(Scan& scan, GroundTruth which, cv::Size frames) {
   const auto& d = scan.description;
   const bool normal = which == GroundTruth::normal;
   const std::optional<std::string>& name = normal ? d.ground_truth_normal : d.ground_truth_height;
@@ -527,7 +527,7 @@ Status read_ground_truth(Scan& scan, GroundTruth which) {
   try {
     auto image = read_truth_image(request, d.directory);
     if (!image) return std::unexpected(image.error());
-    if (auto ok = check_ground_truth(request, *image, scan.size(), d.directory); !ok) return ok;
+    if (auto ok = check_ground_truth(request, *image, frames, d.directory); !ok) return ok;
     destination = std::move(*image);
     return {};
   } catch (const std::exception& e) {  // out of memory

@@ -77,10 +77,10 @@ TEST_F(ScanReader, GroundTruthCanBeReadWhenNeeded) {
   auto later = formats::read_scan(dir_, formats::ScanImages::without_ground_truth);
   ASSERT_TRUE(whole && later);
   EXPECT_TRUE(later->ground_truth_normal.empty());
-  ASSERT_TRUE(formats::read_ground_truth(*later, formats::GroundTruth::normal));
+  ASSERT_TRUE(formats::read_ground_truth(*later, formats::GroundTruth::normal, later->size()));
   EXPECT_EQ(cv::norm(later->ground_truth_normal, whole->ground_truth_normal, cv::NORM_INF), 0);
   // None named: nothing to do.
-  EXPECT_TRUE(formats::read_ground_truth(*later, formats::GroundTruth::height));
+  EXPECT_TRUE(formats::read_ground_truth(*later, formats::GroundTruth::height, later->size()));
   EXPECT_TRUE(later->ground_truth_height.empty());
 
   // One of the wrong size: refused by read_scan, and by read_ground_truth.
@@ -89,7 +89,7 @@ TEST_F(ScanReader, GroundTruthCanBeReadWhenNeeded) {
   expect_error("gt_normal.exr", "ground_truth.normal");
   auto lazy = formats::read_scan(dir_, formats::ScanImages::without_ground_truth);
   ASSERT_TRUE(lazy) << lazy.error().describe();
-  const auto refused = formats::read_ground_truth(*lazy, formats::GroundTruth::normal);
+  const auto refused = formats::read_ground_truth(*lazy, formats::GroundTruth::normal, {64, 48});
   ASSERT_FALSE(refused);
   EXPECT_EQ(refused.error().kind, ErrorKind::bad_input);
   EXPECT_EQ(refused.error().key, "ground_truth.normal");

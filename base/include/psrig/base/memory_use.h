@@ -2,20 +2,39 @@
 // The process's memory as Linux counts it (/proc/self), for reports: what
 // processing held at most, stage by stage. Elsewhere every figure is 0.
 
+#include <atomic>
+#include <chrono>
 #include <cstddef>
+#include <thread>
 
 namespace psrig {
 
 // Resident set size now, in bytes.
 [[nodiscard]] std::size_t resident_bytes();
 
-// The most resident at any moment (VmHWM) since the process started or since
-// the last reset_peak_resident() that worked.
+// The most resident at any moment since the process started (VmHWM, what
+// getrusage's ru_maxrss and `time -v` report).
 [[nodiscard]] std::size_t peak_resident_bytes();
 
-// Starts the peak afresh from the resident size now (writing 5 to
-// /proc/self/clear_refs, Linux 4.0 on); false where that is refused, and the
-// peak stays the process's own.
-bool reset_peak_resident();
+// The resident size looked at every `interval` on a thread of its own, so
+// that a part of the program can be given its own peak (the process's
+// peak, which the kernel keeps exactly, covers the process's whole life).
+// A peak shorter than the interval can be missed.
+class ResidentSampler {
+ public:
+  explicit ResidentSampler(std::chrono::milliseconds interval = std::chrono::milliseconds(5));
+  ~ResidentSampler();
+  ResidentSampler(const ResidentSampler&) = delete;
+  ResidentSampler& operator=(const ResidentSampler&) = delete;
+
+  // The most seen since the sampler started or the last take_peak(), the
+  // resident size now included; then starts afresh.
+  [[nodiscard]] std::size_t take_peak();
+
+ private:
+  std::atomic<std::size_t> peak_;
+  std::atomic<bool> stop_{false};
+  std::thread thread_;
+};
 
 }  // namespace psrig

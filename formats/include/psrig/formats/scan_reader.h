@@ -26,10 +26,11 @@ enum class ScanImages { all, without_ground_truth };
                                      ScanImages images = ScanImages::all);
 
 // One ground-truth image scan.json names, read into `scan` and checked as
-// read_scan checks it; nothing to do when scan.json names none or `scan`
-// already holds it. `scan.description.directory` is where it is.
+// read_scan checks it against `frames`, the frames' size (the frames may be
+// gone by then); nothing to do when scan.json names none or `scan` already
+// holds it. `scan.description.directory` is where it is.
 enum class GroundTruth { normal, height };
-[[nodiscard]] Status read_ground_truth(Scan& scan, GroundTruth which);
+[[nodiscard]] Status read_ground_truth(Scan& scan, GroundTruth which, cv::Size frames);
 
 // The scan write_scan has just stored in `directory`, as read_scan would
 // read it back, without reading it: scan.json's description parsed from the
