@@ -1,8 +1,11 @@
 #include "psrig/base/memory_use.h"
 
 #include <cstdio>
+#include <fcntl.h>
 #include <fstream>
+#include <pthread.h>
 #include <string>
+#include <thread>
 #include <unistd.h>
 
 namespace psrig {
@@ -34,14 +37,18 @@ void raise_to(std::atomic<std::size_t>& peak, std::size_t value) {
 }  // namespace
 
 std::size_t resident_bytes() {
-  // /proc/self/statm's second field, resident pages: cheaper than status.
-  std::FILE* statm = std::fopen("/proc/self/statm", "r");
-  if (statm == nullptr) return 0;
+  // /proc/self/statm's second field, resident pages: cheaper than status,
+  // and read with no allocation (the sampler's thread then needs no arena).
+  const int fd = ::open("/proc/self/statm", O_RDONLY | O_CLOEXEC);
+  if (fd < 0) return 0;
+  char text[128];
+  const ssize_t n = ::read(fd, text, sizeof text - 1);
+  ::close(fd);
+  if (n <= 0) return 0;
+  text[n] = '\0';
   unsigned long long size = 0;
   unsigned long long resident = 0;
-  const int read = std::fscanf(statm, "%llu %llu", &size, &resident);
-  std::fclose(statm);
-  if (read != 2) return 0;
+  if (std::sscanf(text, "%llu %llu", &size, &resident) != 2) return 0;
   return static_cast<std::size_t>(resident) * static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
 }
 
@@ -49,18 +56,29 @@ std::size_t peak_resident_bytes() {
   return status_kilobytes("VmHWM");
 }
 
-ResidentSampler::ResidentSampler(std::chrono::milliseconds interval) : peak_(resident_bytes()) {
-  thread_ = std::thread([this, interval] {
-    while (!stop_.load()) {
-      raise_to(peak_, resident_bytes());
-      std::this_thread::sleep_for(interval);
-    }
-  });
+ResidentSampler::ResidentSampler(std::chrono::milliseconds interval)
+    : peak_(resident_bytes()), interval_(interval) {
+  // A small stack: the sampler's thread only reads one /proc file (the
+  // default 8 MB would count against an address-space limit).
+  pthread_attr_t attributes;
+  pthread_attr_init(&attributes);
+  pthread_attr_setstacksize(&attributes, 64 * 1024);
+  running_ = pthread_create(&thread_, &attributes, &ResidentSampler::run, this) == 0;
+  pthread_attr_destroy(&attributes);
 }
 
 ResidentSampler::~ResidentSampler() {
   stop_ = true;
-  thread_.join();
+  if (running_) pthread_join(thread_, nullptr);
+}
+
+void* ResidentSampler::run(void* self) {
+  auto& sampler = *static_cast<ResidentSampler*>(self);
+  while (!sampler.stop_.load()) {
+    raise_to(sampler.peak_, resident_bytes());
+    std::this_thread::sleep_for(sampler.interval_);
+  }
+  return nullptr;
 }
 
 std::size_t ResidentSampler::take_peak() {

@@ -5,7 +5,7 @@
 #include <atomic>
 #include <chrono>
 #include <cstddef>
-#include <thread>
+#include <pthread.h>
 
 namespace psrig {
 
@@ -32,9 +32,13 @@ class ResidentSampler {
   [[nodiscard]] std::size_t take_peak();
 
  private:
+  static void* run(void* self);
+
   std::atomic<std::size_t> peak_;
+  std::chrono::milliseconds interval_;
   std::atomic<bool> stop_{false};
-  std::thread thread_;
+  pthread_t thread_{};
+  bool running_ = false;
 };
 
 }  // namespace psrig
