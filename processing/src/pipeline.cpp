@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <ctime>
 #include <fstream>
 #include <optional>
 
@@ -115,18 +116,26 @@ ReportInputs scan_inputs(const formats::Scan& scan, const ProcessOptions& option
 // memory_mb.process_peak).
 class StageClock {
  public:
-  StageClock() : start_(Clock::now()), stage_start_(start_), at_start_(resident_bytes()) {}
+  explicit StageClock(spdlog::logger& log)
+      : log_(log),
+        start_(Clock::now()),
+        stage_start_(start_),
+        stage_cpu_(cpu_ms()),
+        at_start_(resident_bytes()) {}
 
   // A stage begins; the first began with the clock.
   void begin() {
     stage_start_ = Clock::now();
+    stage_cpu_ = cpu_ms();
     (void)sampler_.take_peak();
   }
-  // The stage begun last ends.
+  // The stage begun last ends. The log has its CPU time too (every thread's).
   double end(const std::string& name) {
     const double ms = ms_since(stage_start_);
     stages_.emplace_back(name, ms);
     peaks_.emplace_back(name, megabytes(sampler_.take_peak()));
+    log_.debug("stage {}: {:.0f} ms, {:.0f} ms of CPU, {:.0f} MB at most", name, ms,
+               cpu_ms() - stage_cpu_, peaks_.back().second);
     return ms;
   }
   // A time measured elsewhere, inside a stage.
@@ -142,9 +151,16 @@ class StageClock {
 
  private:
   static double megabytes(std::size_t bytes) { return static_cast<double>(bytes) / (1 << 20); }
+  static double cpu_ms() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) / 1e6;
+  }
 
+  spdlog::logger& log_;
   Clock::time_point start_;
   Clock::time_point stage_start_;
+  double stage_cpu_;
   std::size_t at_start_;
   ResidentSampler sampler_;
   std::vector<std::pair<std::string, double>> stages_;
@@ -384,7 +400,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
                                          std::optional<formats::Scan> loaded,
                                          const ProcessOptions& options) {
   auto log = logger("processing");
-  StageClock clock;
+  StageClock clock(*log);
 
   if (auto ok = check_inputs(scan_directory, options); !ok) return std::unexpected(ok.error());
   // Where the maps go is checked next: a bad --out should not wait for a
