@@ -1,9 +1,9 @@
 #pragma once
 // A fast path for the PNGs psrig moves most: 12 MP 16-bit frames and maps.
-// libpng inflates with zlib and filters adaptively; this path keeps the
-// whole image in one buffer and (de)compresses it with libdeflate, 2-3x
-// faster, with OpenCV's libpng path kept for everything outside the subset
-// handled here: 8- or 16-bit grey or RGB, not interlaced, no transparency.
+// libpng inflates with zlib and filters adaptively; this path (de)compresses
+// with ISA-L a batch of rows at a time, 2-3x faster, with OpenCV's libpng
+// path kept for everything outside the subset handled here: 8- or 16-bit
+// grey or RGB, not interlaced, no transparency.
 
 #include <filesystem>
 #include <memory>
