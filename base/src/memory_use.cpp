@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <fcntl.h>
 #include <fstream>
+#include <malloc.h>
 #include <pthread.h>
 #include <string>
 #include <thread>
@@ -85,6 +86,30 @@ std::size_t ResidentSampler::take_peak() {
   const std::size_t now = resident_bytes();
   raise_to(peak_, now);
   return peak_.exchange(now);
+}
+
+HeapForLargeBlocks::HeapForLargeBlocks() {
+#ifdef __GLIBC__
+  mallopt(M_MMAP_THRESHOLD, 1 << 30);
+  mallopt(M_TRIM_THRESHOLD, 1 << 30);
+#endif
+}
+
+HeapForLargeBlocks::~HeapForLargeBlocks() {
+#ifdef __GLIBC__
+  // Setting a threshold ends glibc's own adjusting of it: these are where
+  // that takes them (blocks from 32 MB on mapped, the heap trimmed above
+  // twice that).
+  mallopt(M_MMAP_THRESHOLD, 32 << 20);
+  mallopt(M_TRIM_THRESHOLD, 64 << 20);
+#endif
+  give_back_free_memory();
+}
+
+void give_back_free_memory() {
+#ifdef __GLIBC__
+  malloc_trim(0);
+#endif
 }
 
 }  // namespace psrig

@@ -51,6 +51,7 @@
 #include <opencv2/imgproc.hpp>
 
 #include "gradient_inputs.h"
+#include "psrig/base/memory_use.h"
 #include "psrig/base/parallel.h"
 #include "psrig/base/vector_clones.h"
 #include "psrig/processing/integration.h"
@@ -913,6 +914,7 @@ Result<cv::Mat> solve_masked(cv::Mat p, cv::Mat q, const cv::Mat& mask,
     });
     p.release();
     q.release();
+    give_back_free_memory();  // what p and q held: none of it kept idle beside the solve's own
     Multigrid multigrid(std::move(fine));
     const MaskedIntegrationStats solved =
         conjugate_gradients(multigrid, std::move(b), height.ptr<float>(), w, h, options);
