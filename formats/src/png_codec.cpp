@@ -169,73 +169,26 @@ void subtract_row(std::uint8_t* __restrict row, const std::uint8_t* __restrict a
 
 }  // namespace
 
-std::optional<cv::Mat> read(const fs::path& file) {
-  const MappedFile mapped(file);
-  const std::uint8_t* data = mapped.data();
-  const std::size_t size = mapped.size();
-  if (!data || size < kSignature.size() + 12 + 13 ||
-      !std::equal(kSignature.begin(), kSignature.end(), data))
-    return std::nullopt;
-
+// The reader's state: the file mapped, its IDAT pieces, the inflater.
+struct Reader::State {
+  explicit State(const fs::path& file) : mapped(file) {}
+  MappedFile mapped;
   std::vector<std::pair<const std::uint8_t*, std::size_t>> idat;  // the zlib stream, in pieces
-  std::size_t at = kSignature.size(), compressed = 0;
-  std::uint32_t width = 0, height = 0;
-  int bit_depth = 0, colour_type = -1;
-  bool seen_header = false, seen_end = false;
-  while (at + 12 <= size) {
-    const std::uint32_t length = load_be32(data + at);
-    const std::uint8_t* type = data + at + 4;
-    if (length > size - at - 12) return std::nullopt;
-    const std::uint8_t* payload = data + at + 8;
-    const bool critical = !(type[0] & 0x20);
-    if (critical && crc32_gzip_refl(0, type, length + 4) != load_be32(payload + length))
-      return std::nullopt;
-    if (std::memcmp(type, "IHDR", 4) == 0) {
-      if (length != 13) return std::nullopt;
-      width = load_be32(payload);
-      height = load_be32(payload + 4);
-      bit_depth = payload[8];
-      colour_type = payload[9];
-      if (payload[10] != 0 || payload[11] != 0 || payload[12] != 0)
-        return std::nullopt;  // interlaced or unknown
-      seen_header = true;
-    } else if (std::memcmp(type, "IDAT", 4) == 0) {
-      idat.emplace_back(payload, length);
-      compressed += length;
-    } else if (std::memcmp(type, "tRNS", 4) == 0 || std::memcmp(type, "PLTE", 4) == 0) {
-      return std::nullopt;  // transparency or palette: OpenCV's job
-    } else if (std::memcmp(type, "IEND", 4) == 0) {
-      seen_end = true;
-      break;
-    } else if (critical) {
-      return std::nullopt;
-    }
-    at += 12 + length;
-  }
-  if (!seen_header || !seen_end || idat.empty() || (bit_depth != 8 && bit_depth != 16) ||
-      (colour_type != 0 && colour_type != 2) || width == 0 || height == 0 ||
-      std::uint64_t{width} * height > kMaxPixels)
-    return std::nullopt;
-  const int channels = colour_type == 2 ? 3 : 1;
-  const std::size_t bpp = static_cast<std::size_t>(channels) * (bit_depth / 8);
-  const std::size_t row_bytes = bpp * width;
-  const std::size_t raw_size = height * (row_bytes + 1);
-  // Deflate expands at most 1032:1; a tiny file claiming a huge image is
-  // damaged or hostile and must not get a huge buffer.
-  if (compressed * 1032 < raw_size) return std::nullopt;
-  // The IDAT payloads are one zlib stream split across chunks; ISA-L
-  // inflates it a batch of rows at a time into a small buffer (no image-sized
-  // one), checking the Adler-32 at the end. Rows depend on the row above, so
-  // unfiltering runs in order; each row goes to the image as it is done.
-  inflate_state inflater;
-  isal_inflate_init(&inflater);
-  inflater.crc_flag = ISAL_ZLIB;
   std::size_t next_piece = 0;
+  std::uint32_t width = 0, height = 0;
+  int bit_depth = 0, channels = 0;
+  std::size_t bpp = 0, row_bytes = 0;
+  std::uint32_t rows_read = 0;
+  inflate_state inflater{};
+  std::vector<std::uint8_t> buffer;  // a batch of raw rows, filter bytes first
+  std::vector<std::uint8_t> above;   // the row before the batch, unfiltered
+  std::size_t given_back = 0;        // bytes of the mapping given back (read already)
+
   // One call of the inflater, given the next IDAT piece when it has used up
   // the last; false when the stream is damaged or nothing moved (no data
   // left: the inflater may still hold a few bytes of input, so it is called
   // even when none is left to give it).
-  const auto step = [&]() -> bool {
+  bool step() {
     if (inflater.avail_in == 0 && next_piece < idat.size()) {
       // ISA-L's API is not const-correct
       inflater.next_in = const_cast<std::uint8_t*>(idat[next_piece].first);
@@ -247,49 +200,158 @@ std::optional<cv::Mat> read(const fs::path& file) {
     const auto block = inflater.block_state;
     if (isal_inflate(&inflater) != ISAL_DECOMP_OK) return false;
     return inflater.avail_in != in || inflater.avail_out != out || inflater.block_state != block;
-  };
+  }
   // Exactly n bytes of the stream into out; false if it ends before or is damaged.
-  const auto inflate_into = [&](std::uint8_t* out, std::size_t n) -> bool {
+  bool inflate_into(std::uint8_t* out, std::size_t n) {
     inflater.next_out = out;
     inflater.avail_out = static_cast<std::uint32_t>(n);
     while (inflater.avail_out > 0)
       if (inflater.block_state == ISAL_BLOCK_FINISH || !step()) return false;
     return true;
-  };
-  const std::size_t stride = row_bytes + 1;
-  const std::uint32_t batch_rows =
-      std::clamp<std::uint32_t>(static_cast<std::uint32_t>((1U << 20) / stride), 1U, height);
-  // Not zero-filled: inflation writes every byte.
-  const auto buffer = std::make_unique_for_overwrite<std::uint8_t[]>(batch_rows * stride);
-  std::vector<std::uint8_t> above(row_bytes, 0);  // the row before the batch, unfiltered
-  cv::Mat image(static_cast<int>(height), static_cast<int>(width),
-                CV_MAKETYPE(bit_depth == 8 ? CV_8U : CV_16U, channels));
-  for (std::uint32_t first = 0; first < height; first += batch_rows) {
-    const std::uint32_t rows = std::min(batch_rows, height - first);
-    if (!inflate_into(buffer.get(), rows * stride)) return std::nullopt;
-    for (std::uint32_t k = 0; k < rows; ++k) {
-      std::uint8_t* row = buffer.get() + k * stride;
-      const std::uint8_t* previous = k ? row - row_bytes : above.data();
-      if (!unfilter_row(row[0], row + 1, previous, row_bytes, bpp)) return std::nullopt;
-      const int r = static_cast<int>(first + k);
-      const std::uint8_t* in = row + 1;
-      if (bit_depth == 16 && channels == 3)
-        rgb16_to_bgr(in, image.ptr<std::uint16_t>(r), image.cols);
-      else if (bit_depth == 16)
-        grey16_from_be(in, image.ptr<std::uint16_t>(r), image.cols);
-      else if (channels == 3)
-        rgb8_to_bgr(in, image.ptr<std::uint8_t>(r), image.cols);
-      else
-        std::memcpy(image.ptr(r), in, row_bytes);
-    }
-    std::memcpy(above.data(), buffer.get() + (rows - 1) * stride + 1, row_bytes);
   }
   // The end of the stream, its checksum checked, and no more image data.
-  std::uint8_t extra = 0;
-  inflater.next_out = &extra;
-  inflater.avail_out = 1;
-  while (inflater.block_state != ISAL_BLOCK_FINISH)
-    if (!step() || inflater.avail_out == 0) return std::nullopt;
+  bool finish() {
+    std::uint8_t extra = 0;
+    inflater.next_out = &extra;
+    inflater.avail_out = 1;
+    while (inflater.block_state != ISAL_BLOCK_FINISH)
+      if (!step() || inflater.avail_out == 0) return false;
+    return true;
+  }
+  // The compressed bytes read so far given back (they are the page cache's
+  // still): a 12 MP frame read a band at a time keeps no 50 MB of it mapped.
+  void give_back_read() {
+    const auto page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
+    if (inflater.next_in == nullptr || mapped.data() == nullptr) return;
+    const auto read = static_cast<std::size_t>(inflater.next_in - mapped.data());
+    const std::size_t whole = read / page * page;
+    if (whole <= given_back) return;
+    ::madvise(const_cast<std::uint8_t*>(mapped.data()) + given_back, whole - given_back,
+              MADV_DONTNEED);
+    given_back = whole;
+  }
+};
+
+Reader::Reader(std::unique_ptr<State> state) : state_(std::move(state)) {}
+Reader::Reader(Reader&&) noexcept = default;
+Reader& Reader::operator=(Reader&&) noexcept = default;
+Reader::~Reader() = default;
+
+std::optional<Reader> Reader::open(const fs::path& file) {
+  auto state = std::make_unique<State>(file);
+  State& s = *state;
+  const std::uint8_t* data = s.mapped.data();
+  const std::size_t size = s.mapped.size();
+  if (!data || size < kSignature.size() + 12 + 13 ||
+      !std::equal(kSignature.begin(), kSignature.end(), data))
+    return std::nullopt;
+
+  std::size_t at = kSignature.size(), compressed = 0;
+  int colour_type = -1;
+  bool seen_header = false, seen_end = false;
+  while (at + 12 <= size) {
+    const std::uint32_t length = load_be32(data + at);
+    const std::uint8_t* type = data + at + 4;
+    if (length > size - at - 12) return std::nullopt;
+    const std::uint8_t* payload = data + at + 8;
+    const bool critical = !(type[0] & 0x20);
+    if (critical && crc32_gzip_refl(0, type, length + 4) != load_be32(payload + length))
+      return std::nullopt;
+    if (std::memcmp(type, "IHDR", 4) == 0) {
+      if (length != 13) return std::nullopt;
+      s.width = load_be32(payload);
+      s.height = load_be32(payload + 4);
+      s.bit_depth = payload[8];
+      colour_type = payload[9];
+      if (payload[10] != 0 || payload[11] != 0 || payload[12] != 0)
+        return std::nullopt;  // interlaced or unknown
+      seen_header = true;
+    } else if (std::memcmp(type, "IDAT", 4) == 0) {
+      s.idat.emplace_back(payload, length);
+      compressed += length;
+    } else if (std::memcmp(type, "tRNS", 4) == 0 || std::memcmp(type, "PLTE", 4) == 0) {
+      return std::nullopt;  // transparency or palette: OpenCV's job
+    } else if (std::memcmp(type, "IEND", 4) == 0) {
+      seen_end = true;
+      break;
+    } else if (critical) {
+      return std::nullopt;
+    }
+    at += 12 + length;
+  }
+  if (!seen_header || !seen_end || s.idat.empty() || (s.bit_depth != 8 && s.bit_depth != 16) ||
+      (colour_type != 0 && colour_type != 2) || s.width == 0 || s.height == 0 ||
+      std::uint64_t{s.width} * s.height > kMaxPixels)
+    return std::nullopt;
+  s.channels = colour_type == 2 ? 3 : 1;
+  s.bpp = static_cast<std::size_t>(s.channels) * (s.bit_depth / 8);
+  s.row_bytes = s.bpp * s.width;
+  const std::size_t raw_size = s.height * (s.row_bytes + 1);
+  // Deflate expands at most 1032:1; a tiny file claiming a huge image is
+  // damaged or hostile and must not get a huge buffer.
+  if (compressed * 1032 < raw_size) return std::nullopt;
+  // The IDAT payloads are one zlib stream split across chunks; ISA-L
+  // inflates it a batch of rows at a time into a small buffer (no image-sized
+  // one), checking the Adler-32 at the end.
+  isal_inflate_init(&s.inflater);
+  s.inflater.crc_flag = ISAL_ZLIB;
+  s.above.assign(s.row_bytes, 0);
+  return Reader(std::move(state));
+}
+
+cv::Size Reader::size() const {
+  return {static_cast<int>(state_->width), static_cast<int>(state_->height)};
+}
+
+int Reader::type() const {
+  return CV_MAKETYPE(state_->bit_depth == 8 ? CV_8U : CV_16U, state_->channels);
+}
+
+bool Reader::read(cv::Mat& rows) {
+  State& s = *state_;
+  if (rows.type() != type() || rows.cols != static_cast<int>(s.width) ||
+      s.rows_read + static_cast<std::uint32_t>(rows.rows) > s.height)
+    return false;
+  const std::size_t stride = s.row_bytes + 1;
+  const auto batch_rows = std::max<std::size_t>(1, (std::size_t{1} << 20) / stride);
+  s.buffer.resize(batch_rows * stride);  // not cleared: inflation writes every byte
+  // Rows depend on the row above, so unfiltering runs in order; each row
+  // goes to the image as it is done.
+  for (int first = 0; first < rows.rows;) {
+    const int n = static_cast<int>(std::min<std::size_t>(batch_rows, rows.rows - first));
+    if (!s.inflate_into(s.buffer.data(), n * stride)) return false;
+    for (int k = 0; k < n; ++k) {
+      std::uint8_t* row = s.buffer.data() + k * stride;
+      const std::uint8_t* previous = k ? row - s.row_bytes : s.above.data();
+      if (!unfilter_row(row[0], row + 1, previous, s.row_bytes, s.bpp)) return false;
+      const std::uint8_t* in = row + 1;
+      const int r = first + k;
+      if (s.bit_depth == 16 && s.channels == 3)
+        rgb16_to_bgr(in, rows.ptr<std::uint16_t>(r), rows.cols);
+      else if (s.bit_depth == 16)
+        grey16_from_be(in, rows.ptr<std::uint16_t>(r), rows.cols);
+      else if (s.channels == 3)
+        rgb8_to_bgr(in, rows.ptr<std::uint8_t>(r), rows.cols);
+      else
+        std::memcpy(rows.ptr(r), in, s.row_bytes);
+    }
+    std::memcpy(s.above.data(), s.buffer.data() + (n - 1) * stride + 1, s.row_bytes);
+    first += n;
+  }
+  s.rows_read += static_cast<std::uint32_t>(rows.rows);
+  s.give_back_read();
+  if (s.rows_read == s.height) {
+    s.buffer = {};
+    return s.finish();
+  }
+  return true;
+}
+
+std::optional<cv::Mat> read(const fs::path& file) {
+  auto reader = Reader::open(file);
+  if (!reader) return std::nullopt;
+  cv::Mat image(reader->size(), reader->type());
+  if (!reader->read(image)) return std::nullopt;
   return image;
 }
 

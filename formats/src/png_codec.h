@@ -22,6 +22,32 @@ namespace psrig::formats::png {
 // then cv::imread decides, so every PNG is judged as OpenCV would.
 [[nodiscard]] std::optional<cv::Mat> read(const std::filesystem::path& file);
 
+// read() a band of rows at a time, top to bottom: the same pixels, with no
+// buffer the size of the image and the compressed bytes already read given
+// back as it goes (the file is mapped while the reader lives).
+class Reader {
+ public:
+  // Nothing for a file read() gives nothing for from its chunks alone (not
+  // a PNG, damaged chunks, a kind this path leaves to OpenCV); damage in
+  // the compressed data shows only as it is read.
+  [[nodiscard]] static std::optional<Reader> open(const std::filesystem::path& file);
+  [[nodiscard]] cv::Size size() const;
+  [[nodiscard]] int type() const;  // as read() gives it: BGR, native-endian 16-bit
+  // The next rows.rows rows into `rows` (size().width wide, of type());
+  // false when the data is damaged or ends early, and, with the last row,
+  // when the stream does not end there with its checksum right.
+  [[nodiscard]] bool read(cv::Mat& rows);
+
+  Reader(Reader&&) noexcept;
+  Reader& operator=(Reader&&) noexcept;
+  ~Reader();
+
+ private:
+  struct State;
+  explicit Reader(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
+
 // Where a chunk of the PNG `file` declares more bytes than the file holds
 // after it, which chunk and how much; nothing when every chunk fits (or the
 // file is no PNG). libpng would first allocate the declared length, up to
