@@ -6,6 +6,8 @@
 #include <mutex>
 #include <sstream>
 
+#include "frame_bands_state.h"
+#include "png_codec.h"
 #include "psrig/base/parallel.h"
 #include "psrig/formats/image_io.h"
 #include "psrig/formats/light_matrix.h"
@@ -453,7 +455,28 @@ Result<cv::Mat> read_truth_image(const ImageRequest& request, const fs::path& di
              : read_image(directory / request.name, request.key);
 }
 
-Result<Scan> read_scan_unguarded(const fs::path& directory, bool with_truth) {
+// A frame psrig's PNG path can decode a band at a time, allocated for it
+// and left to `bands`; false for any other (read whole then).
+bool leave_to_bands(const ImageRequest& request, const fs::path& directory,
+                    FrameBands::State::Frame& frame) {
+  if (!request.key.starts_with("lights[")) return false;
+  const fs::path file = directory / request.name;
+  auto reader = png::Reader::open(file);
+  if (!reader) return false;
+  *request.destination = cv::Mat(reader->size(), reader->type());  // not decoded yet
+  frame.file = file;
+  frame.key = request.key;
+  frame.data = request.destination->data;
+  frame.step = request.destination->step[0];
+  frame.size = reader->size();
+  frame.type = reader->type();
+  frame.reader.emplace(std::move(*reader));
+  return true;
+}
+
+// With `bands`, the frames it can decode a band at a time are left to it.
+Result<Scan> read_scan_unguarded(const fs::path& directory, bool with_truth,
+                                 FrameBands::State* bands = nullptr) {
   auto description = read_scan_description(directory);
   if (!description) return std::unexpected(description.error());
 
@@ -464,6 +487,7 @@ Result<Scan> read_scan_unguarded(const fs::path& directory, bool with_truth) {
   scan.flats.resize(d.flats.size());
 
   std::vector<ImageRequest> requests = image_requests(scan, with_truth);
+  if (bands) bands->frames.resize(scan.frames.size());
 
   // Decoding dominates reading time, so the files are decoded in parallel;
   // the first error in request order is the one reported.
@@ -471,6 +495,9 @@ Result<Scan> read_scan_unguarded(const fs::path& directory, bool with_truth) {
   parallel_chunks(static_cast<int>(requests.size()), 1, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
       const auto& request = requests[i];
+      if (bands && static_cast<std::size_t>(i) < scan.frames.size() &&
+          leave_to_bands(request, directory, bands->frames[static_cast<std::size_t>(i)]))
+        continue;
       auto image = request.key.starts_with("ground_truth")
                        ? read_truth_image(request, directory)
                        : read_image(directory / request.name, request.key);
@@ -533,6 +560,18 @@ Status read_ground_truth(Scan& scan, GroundTruth which, cv::Size frames) {
   } catch (const std::exception& e) {  // out of memory
     return std::unexpected(
         internal_error(d.directory.string() + ": reading the scan failed: " + e.what()));
+  }
+}
+
+Result<BandedScan> read_scan_by_band(const fs::path& directory, ScanImages images) {
+  try {
+    auto state = std::make_unique<FrameBands::State>();
+    auto scan = read_scan_unguarded(directory, images == ScanImages::all, state.get());
+    if (!scan) return std::unexpected(scan.error());
+    return BandedScan{std::move(*scan), FrameBands(std::move(state))};
+  } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
+    return std::unexpected(
+        internal_error(directory.string() + ": reading the scan failed: " + e.what()));
   }
 }
 
