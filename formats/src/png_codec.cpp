@@ -190,9 +190,13 @@ struct Reader::State {
   // even when none is left to give it).
   bool step() {
     if (inflater.avail_in == 0 && next_piece < idat.size()) {
+      const auto [payload, length] = idat[next_piece];
+      // Each IDAT's CRC checked as it comes: open() leaves the image data
+      // unread, so a frame read a band at a time is never mapped in whole.
+      if (crc32_gzip_refl(0, payload - 4, length + 4) != load_be32(payload + length)) return false;
       // ISA-L's API is not const-correct
-      inflater.next_in = const_cast<std::uint8_t*>(idat[next_piece].first);
-      inflater.avail_in = static_cast<std::uint32_t>(idat[next_piece].second);
+      inflater.next_in = const_cast<std::uint8_t*>(payload);
+      inflater.avail_in = static_cast<std::uint32_t>(length);
       ++next_piece;
     }
     const auto in = inflater.avail_in;
@@ -255,7 +259,9 @@ std::optional<Reader> Reader::open(const fs::path& file) {
     if (length > size - at - 12) return std::nullopt;
     const std::uint8_t* payload = data + at + 8;
     const bool critical = !(type[0] & 0x20);
-    if (critical && crc32_gzip_refl(0, type, length + 4) != load_be32(payload + length))
+    const bool image_data = std::memcmp(type, "IDAT", 4) == 0;  // checked as it is read
+    if (critical && !image_data &&
+        crc32_gzip_refl(0, type, length + 4) != load_be32(payload + length))
       return std::nullopt;
     if (std::memcmp(type, "IHDR", 4) == 0) {
       if (length != 13) return std::nullopt;
@@ -266,7 +272,7 @@ std::optional<Reader> Reader::open(const fs::path& file) {
       if (payload[10] != 0 || payload[11] != 0 || payload[12] != 0)
         return std::nullopt;  // interlaced or unknown
       seen_header = true;
-    } else if (std::memcmp(type, "IDAT", 4) == 0) {
+    } else if (image_data) {
       s.idat.emplace_back(payload, length);
       compressed += length;
     } else if (std::memcmp(type, "tRNS", 4) == 0 || std::memcmp(type, "PLTE", 4) == 0) {
