@@ -104,9 +104,9 @@ void give_back_rows(const cv::Mat& image, int rows) {
 
 }  // namespace
 
-Result<BandStage> solve_and_encode(formats::Scan& scan, const SolveOptions& options,
-                                   const MapFiles& files, const std::optional<cv::Matx33d>& colour,
-                                   spdlog::logger& log) {
+Result<BandStage> solve_and_encode(formats::Scan& scan, formats::FrameBands& frames,
+                                   const SolveOptions& options, const MapFiles& files,
+                                   const std::optional<cv::Matx33d>& colour, spdlog::logger& log) {
   auto solver = RowSolver::create(scan, options);
   if (!solver) return std::unexpected(solver.error());
   const cv::Size size = scan.size();
@@ -157,25 +157,38 @@ Result<BandStage> solve_and_encode(formats::Scan& scan, const SolveOptions& opti
     return {};
   };
 
-  // The first band alone, its solve on every thread; then each band's maps
-  // beside the next band's solve (which runs on one thread, OpenCV's pool
-  // running one parallel region at a time: stage_tasks.h).
-  const auto first_start = std::chrono::steady_clock::now();
-  if (auto ok = solve_band(0); !ok) return std::unexpected(ok.error());
-  stage.solve_ms +=
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - first_start)
-          .count();
+  // Bands in flight: one decoded, the one before it solved, the one before
+  // that encoded, side by side on the pool (each solve then on one thread:
+  // OpenCV's pool runs one parallel region at a time, stage_tasks.h). The
+  // first band's frames are decoded alone; a solve with nothing beside it
+  // (whole frames) has every thread.
   const int count = chunk_count(size.height, kBandRows);
-  for (int index = 0; index < count; ++index) {
-    std::vector<StageTask> tasks;
+  const auto decoding = [&](int index, std::vector<StageTask>& tasks) {
+    if (index >= count) return;
+    const int first = index * kBandRows;
+    const int rows = std::min(kBandRows, size.height - first);
+    for (std::size_t k = 0; k < scan.frames.size(); ++k)
+      if (frames.pending(k))
+        tasks.push_back({"decode",
+                         [&frames, k, first, rows] { return frames.decode(k, first, rows); },
+                         &stage.decode_ms});
+  };
+  std::vector<StageTask> tasks;
+  decoding(0, tasks);
+  if (auto ok = run_tasks(tasks, log); !ok) return std::unexpected(ok.error());
+  for (int index = -1; index < count; ++index) {
+    tasks.clear();
     if (index + 1 < count)
-      tasks.push_back({"solve", [&solve_band, index] { return solve_band(index + 1); },
-                       &stage.solve_ms});
-    const Band& band = bands[static_cast<std::size_t>(index % 2)];
-    for (MapStream& stream : *streams)
-      tasks.push_back({stream.name,
-                       [&stream, &band] { return stream.writer.write(stream.rows(band)); },
-                       &stream.ms});
+      tasks.push_back(
+          {"solve", [&solve_band, index] { return solve_band(index + 1); }, &stage.solve_ms});
+    decoding(index + 2, tasks);
+    if (index >= 0) {
+      const Band& band = bands[static_cast<std::size_t>(index % 2)];
+      for (MapStream& stream : *streams)
+        tasks.push_back({stream.name,
+                         [&stream, &band] { return stream.writer.write(stream.rows(band)); },
+                         &stream.ms});
+    }
     if (auto ok = run_tasks(tasks, log); !ok) return std::unexpected(ok.error());
   }
   std::vector<StageTask> finishing;
@@ -183,7 +196,8 @@ Result<BandStage> solve_and_encode(formats::Scan& scan, const SolveOptions& opti
     finishing.push_back({stream.name, [&stream] { return stream.writer.finish(); }, &stream.ms});
   if (auto ok = run_tasks(finishing, log); !ok) return std::unexpected(ok.error());
 
-  log.debug("solve: {:.0f} ms in {} bands", stage.solve_ms, count);
+  log.debug("solve: {:.0f} ms in {} bands; decoding frames: {:.0f} ms", stage.solve_ms, count,
+            stage.decode_ms);
   for (const MapStream& stream : *streams) {
     log.debug("{}: {:.0f} ms", stream.name, stream.ms);
     stage.encode_ms.emplace_back(stream.name, stream.ms);

@@ -18,6 +18,7 @@
 #include "map_files.h"
 #include "psrig/base/error.h"
 #include "psrig/base/log.h"
+#include "psrig/formats/frame_bands.h"
 #include "psrig/processing/woodham.h"
 
 namespace psrig::processing {
@@ -29,20 +30,22 @@ struct SolvedPlanes {
 
 struct BandStage {
   SolvedPlanes planes;
-  double solve_ms = 0;  // solving, summed over the bands
+  double solve_ms = 0;   // solving, summed over the bands
+  double decode_ms = 0;  // decoding the frames' bands, summed over frames and bands
   // Each map's encoder (encoding its rows and writing them), summed over the
   // bands, in the order the maps are listed above.
   std::vector<std::pair<std::string, double>> encode_ms;
 };
 
-// Solves `scan` into `files.dir`'s maps. `colour`: the rig's colour
-// calibration (camera RGB to linear sRGB), applied to the albedo the maps
-// hold (not to albedo_centre). The scan's frames (and dark frame and mask)
-// are used up: the memory of their rows goes back as the bands pass, where
-// the scan alone holds them, and those rows read as 0 after.
-[[nodiscard]] Result<BandStage> solve_and_encode(formats::Scan& scan,
-                                                 const SolveOptions& options,
-                                                 const MapFiles& files,
+// Solves `scan` into `files.dir`'s maps. `frames`: the scan's frames still
+// to decode (formats::read_scan_by_band's), each band decoded beside the
+// solve of the band before and the maps of the one before that. `colour`:
+// the rig's colour calibration (camera RGB to linear sRGB), applied to the
+// albedo the maps hold (not to albedo_centre). The scan's frames (and dark
+// frame and mask) are used up: the memory of their rows goes back as the
+// bands pass, where the scan alone holds them, and those rows read as 0 after.
+[[nodiscard]] Result<BandStage> solve_and_encode(formats::Scan& scan, formats::FrameBands& frames,
+                                                 const SolveOptions& options, const MapFiles& files,
                                                  const std::optional<cv::Matx33d>& colour,
                                                  spdlog::logger& log);
 

@@ -12,6 +12,7 @@
 #include "psrig/base/log.h"
 #include "psrig/base/memory_use.h"
 #include "psrig/formats/atomic_directory.h"
+#include "psrig/formats/frame_bands.h"
 #include "psrig/formats/image_io.h"
 #include "psrig/formats/image_metadata.h"
 #include "psrig/formats/map_encoding.h"
@@ -411,11 +412,14 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   auto destination = prepare_output(scan_directory, options);
   if (!destination) return std::unexpected(destination.error());
 
-  auto scan = loaded
-                  ? Result<formats::Scan>(std::move(*loaded))
-                  : formats::read_scan(scan_directory, formats::ScanImages::without_ground_truth);
+  // Read from the directory, the PNG frames are decoded a band at a time as
+  // the solve needs them (formats/frame_bands.h), beside it.
+  auto banded = loaded ? Result<formats::BandedScan>(formats::BandedScan{std::move(*loaded), {}})
+                       : formats::read_scan_by_band(scan_directory,
+                                                    formats::ScanImages::without_ground_truth);
   loaded.reset();
-  if (!scan) return std::unexpected(scan.error());
+  if (!banded) return std::unexpected(banded.error());
+  formats::Scan* const scan = &banded->scan;
   clock.end("read");
 
   // The rig's colour calibration, when the scan carries one: the albedo
@@ -429,7 +433,7 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   ReportInputs inputs = scan_inputs(*scan, options);
   const MapFiles files = map_files(*scan, options, destination->staging.path());
   clock.begin();
-  auto band = solve_and_encode(*scan, options.solve, files, matrix, *log);
+  auto band = solve_and_encode(*scan, banded->frames, options.solve, files, matrix, *log);
   if (!band) return std::unexpected(band.error());
   clock.end("solve_and_encode");
   clock.add("solve", band->solve_ms);
