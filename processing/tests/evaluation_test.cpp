@@ -4,7 +4,9 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <limits>
+#include <numbers>
 #include <thread>
 #include <vector>
 
@@ -76,6 +78,42 @@ TEST(Evaluation, HeightRmsErrorIsTheRmsOfTheDifferenceAboutItsMean) {
   const Distribution d = describe(difference, sample.select);
   EXPECT_EQ(height_rms_error(sample.values, truth, sample.select),
             std::sqrt(std::max(0.0, d.rms * d.rms - d.mean * d.mean)));
+}
+
+// The angle between the normals of (p, q) and the truth: atan2 of their
+// cross product's length and their dot product, bit for bit as the C
+// library's atan2f gives it, for every case: tiny and large angles, beyond
+// 90 degrees, normals at right angles, NaN.
+TEST(Evaluation, AngularErrorIsTheLibrarysAtan2ToTheBit) {
+  cv::Mat p(97, 131, CV_32F), q(97, 131, CV_32F), truth(97, 131, CV_32FC3);
+  cv::RNG rng(11);
+  for (int r = 0; r < p.rows; ++r)
+    for (int c = 0; c < p.cols; ++c) {
+      const int kind = (r * p.cols + c) % 5;
+      const double scale = kind == 0 ? 1e-4 : kind == 1 ? 1.0 : kind == 2 ? 30.0 : 1e-7;
+      p.at<float>(r, c) = static_cast<float>(rng.uniform(-1.0, 1.0) * scale);
+      q.at<float>(r, c) = static_cast<float>(rng.uniform(-1.0, 1.0) * scale);
+      cv::Vec3f t(static_cast<float>(rng.uniform(-0.3, 0.3)),
+                  static_cast<float>(rng.uniform(-0.3, 0.3)), 1.0F);
+      if (kind == 3) t = cv::Vec3f(1, 0, 0);  // at right angles, or beyond
+      if (kind == 4) t = -t;                  // beyond 90 degrees
+      truth.at<cv::Vec3f>(r, c) = t / cv::norm(t);
+    }
+  p.at<float>(3, 4) = std::numeric_limits<float>::quiet_NaN();
+  const cv::Mat error = angular_error_deg(p, q, truth);
+  for (int r = 0; r < p.rows; ++r)
+    for (int c = 0; c < p.cols; ++c) {
+      const float nx = -p.at<float>(r, c), ny = -q.at<float>(r, c), nz = 1;
+      const cv::Vec3f t = truth.at<cv::Vec3f>(r, c);
+      const float cx = ny * t[2] - nz * t[1], cy = nz * t[0] - nx * t[2],
+                  cz = nx * t[1] - ny * t[0];
+      const float angle =
+          std::atan2(std::sqrt(cx * cx + cy * cy + cz * cz), nx * t[0] + ny * t[1] + nz * t[2]);
+      const float expected = angle * static_cast<float>(180 / std::numbers::pi);
+      const float got = error.at<float>(r, c);
+      ASSERT_TRUE(std::memcmp(&expected, &got, sizeof got) == 0)
+          << "at " << r << ", " << c << ": " << got << " against " << expected;
+    }
 }
 
 TEST(Evaluation, TheSameWhateverTheThreadCount) {
