@@ -29,7 +29,10 @@
 // where it is not: blocks with no edge between them stay unconnected.
 // Restriction sums a block's residuals, prolongation copies the coarse
 // correction into the block's pixels inside the mask. Everything is
-// symmetric, so the V-cycle is a valid CG preconditioner.
+// symmetric, so the V-cycle is a valid CG preconditioner. The four
+// half-sweeps before (and the prolongation and four after) go over memory
+// once, as a wavefront down the rows (fused_pass), with the values of four
+// passes: the solve is bound by memory bandwidth.
 // References: W. L. Briggs, V. E. Henson, S. F. McCormick, "A Multigrid
 // Tutorial", SIAM 2000; Y. Notay, "An aggregation-based algebraic multigrid
 // method", ETNA 37, 2010 (aggregation and the scaled coarse correction);
@@ -60,6 +63,9 @@ namespace psrig::processing {
 namespace {
 
 constexpr int kRowsPerChunk = 16;
+// A fused pass's chunks (fused_pass): the rows around their edges are done
+// twice over, so longer ones.
+constexpr int kFusedRows = 64;
 // Below this relative residual, a rise means float rounding has taken over.
 constexpr double kFloorZone = 1e-3;
 
@@ -330,53 +336,6 @@ void start_row(const Level& l, float* x, const float* b, int i) {
   }
 }
 
-// smooth_colour(colour) then smooth_colour(1 - colour), with the same
-// result, in one pass over memory: row i - 1 gets its second colour as soon
-// as row i has its first. The first and last row of each chunk of rows
-// wait for a second, short pass, when their neighbours in the chunks beside
-// have their first colour. With `dot`, returns b.x as smooth_colour does.
-// With `from_zero`, the first half-sweep is start_row's (colour 0).
-double smooth_pair(const Level& l, float* x, const float* b, int colour, bool dot = false,
-                   bool from_zero = false) {
-  const auto chunks = static_cast<std::size_t>(chunk_count(l.h, kRowsPerChunk));
-  std::vector<double> inner(dot ? chunks : 0U, 0.0);
-  const int second = 1 - colour;
-  parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
-    std::vector<float> values(static_cast<std::size_t>(l.w));
-    for (int i = begin; i < end; ++i) {
-      if (from_zero)
-        start_row(l, x, b, i);
-      else
-        smooth_row(l, x, b, i, colour, values.data());
-      if (i - 1 > begin) smooth_row(l, x, b, i - 1, second, values.data());
-    }
-    if (dot && end - begin > 2)
-      inner[static_cast<std::size_t>(begin / kRowsPerChunk)] = dot_range(
-          b, x, static_cast<std::size_t>(begin + 1) * l.w, static_cast<std::size_t>(end - 1) * l.w);
-  });
-  std::vector<double> edge(dot ? chunks : 0U, 0.0);
-  parallel_chunks(chunk_count(l.h, kRowsPerChunk), 1, [&](int first_chunk, int last_chunk) {
-    std::vector<float> values(static_cast<std::size_t>(l.w));
-    for (int chunk = first_chunk; chunk < last_chunk; ++chunk) {
-      const int begin = chunk * kRowsPerChunk;
-      const int end = std::min(l.h, begin + kRowsPerChunk);
-      smooth_row(l, x, b, begin, second, values.data());
-      if (end - 1 > begin) smooth_row(l, x, b, end - 1, second, values.data());
-      if (dot) {
-        const auto row = [&](int i) {
-          return dot_range(b, x, static_cast<std::size_t>(i) * l.w,
-                           static_cast<std::size_t>(i + 1) * l.w);
-        };
-        edge[static_cast<std::size_t>(chunk)] = row(begin) + (end - 1 > begin ? row(end - 1) : 0.0);
-      }
-    }
-  });
-  double total = 0.0;
-  for (std::size_t chunk = 0; chunk < inner.size(); ++chunk)
-    total += inner[chunk] + edge[chunk];
-  return total;
-}
-
 // Row i of r = b - A x, into out (w values).
 void residual_of_row(const Level& l, const float* x, const float* b, int i, float* out) {
   const std::size_t row = static_cast<std::size_t>(i) * l.w;
@@ -490,22 +449,96 @@ void prolong_row_packed(const std::uint8_t* __restrict edges, const float* __res
   if (w % 2 != 0) x[w - 1] += (edges[w - 1] >> 2U) != 0 ? coarse[pairs] : 0.0F;
 }
 
-// Adds the coarse correction to each fine pixel inside the mask.
-void prolong_add(const Level& coarse, const Level& fine, float* x) {
-  parallel_chunks(fine.h, kRowsPerChunk, [&](int begin, int end) {
-    for (int i = begin; i < end; ++i) {
-      const float* c = coarse.x.data() + static_cast<std::size_t>(i / 2) * coarse.w;
-      float* row = x + static_cast<std::size_t>(i) * fine.w;
-      const std::size_t start = static_cast<std::size_t>(i) * fine.w;
-      if (fine.packed()) {
-        prolong_row_packed(fine.edges.data() + start, c, row, fine.w);
-      } else {
-        const float* d = fine.diag.data() + start;
-        for (int j = 0; j < fine.w; ++j)
-          row[j] += d[j] > 0 ? c[j / 2] : 0.0F;
+// Row i of the coarse correction added to the fine pixels inside the mask.
+void prolong_row(const Level& coarse, const Level& fine, float* x, int i) {
+  const float* c = coarse.x.data() + static_cast<std::size_t>(i / 2) * coarse.w;
+  float* row = x + static_cast<std::size_t>(i) * fine.w;
+  const std::size_t start = static_cast<std::size_t>(i) * fine.w;
+  if (fine.packed()) {
+    prolong_row_packed(fine.edges.data() + start, c, row, fine.w);
+  } else {
+    const float* d = fine.diag.data() + start;
+    for (int j = 0; j < fine.w; ++j)
+      row[j] += d[j] > 0 ? c[j / 2] : 0.0F;
+  }
+}
+
+// What a stage of a fused pass does to a row: the first half-sweep from
+// x = 0 (start_row), the coarse correction added (prolong_row), or a
+// Gauss-Seidel half-sweep of one colour (smooth_row).
+struct Stage {
+  enum class Kind { from_zero, prolong, sweep } kind;
+  int colour = 0;
+};
+
+// The stages one after another, each over the whole grid, in one pass over
+// memory with the same result. A half-sweep's values depend only on the
+// other colour's from the stage before, on its own row and the rows beside
+// (start_row and prolong_row on their own row alone), so within a chunk of
+// rows stage s can take row i - s as soon as stage 0 has taken row i: a
+// wavefront. Near the edge between two chunks a stage waits for the chunk
+// beside, so those few rows (s each side for stage s) are done after, stage
+// by stage, around each edge. `coarse`: the level prolong_row takes from.
+void fused_pass(const Level& l, float* x, const float* b, const Level* coarse,
+                const std::vector<Stage>& stages) {
+  const int n = static_cast<int>(stages.size());
+  const auto apply = [&](const Stage& stage, int i, float* values) {
+    switch (stage.kind) {
+      case Stage::Kind::from_zero:
+        start_row(l, x, b, i);
+        break;
+      case Stage::Kind::prolong:
+        prolong_row(*coarse, l, x, i);
+        break;
+      case Stage::Kind::sweep:
+        smooth_row(l, x, b, i, stage.colour, values);
+        break;
+    }
+  };
+  parallel_chunks(l.h, kFusedRows, [&](int begin, int end) {
+    std::vector<float> values(static_cast<std::size_t>(l.w));
+    for (int step = begin; step < end + n - 1; ++step)
+      for (int s = 0; s < n; ++s) {
+        const int i = step - s;
+        const int lo = begin == 0 ? 0 : begin + s;
+        const int hi = end == l.h ? l.h : end - s;
+        if (i >= lo && i < hi) apply(stages[static_cast<std::size_t>(s)], i, values.data());
       }
+  });
+  const int edges = chunk_count(l.h, kFusedRows) - 1;
+  parallel_chunks(edges, 1, [&](int first, int last) {
+    std::vector<float> values(static_cast<std::size_t>(l.w));
+    for (int edge = first; edge < last; ++edge) {
+      const int e = (edge + 1) * kFusedRows;
+      for (int s = 1; s < n; ++s)
+        for (int i = std::max(0, e - s); i < std::min(l.h, e + s); ++i)
+          apply(stages[static_cast<std::size_t>(s)], i, values.data());
     }
   });
+}
+
+// b.x summed per chunk of rows (its inner rows, then its first and last),
+// chunk after chunk: the order the V-cycle has always summed it in, so CG
+// takes the very same steps.
+double chunk_dot(const Level& l, const float* b, const float* x) {
+  const auto chunks = static_cast<std::size_t>(chunk_count(l.h, kRowsPerChunk));
+  std::vector<double> inner(chunks, 0.0);
+  std::vector<double> edge(chunks, 0.0);
+  parallel_chunks(l.h, kRowsPerChunk, [&](int begin, int end) {
+    const auto chunk = static_cast<std::size_t>(begin / kRowsPerChunk);
+    const auto row = [&](int i) {
+      return dot_range(b, x, static_cast<std::size_t>(i) * l.w,
+                       static_cast<std::size_t>(i + 1) * l.w);
+    };
+    if (end - begin > 2)
+      inner[chunk] = dot_range(b, x, static_cast<std::size_t>(begin + 1) * l.w,
+                               static_cast<std::size_t>(end - 1) * l.w);
+    edge[chunk] = row(begin) + (end - 1 > begin ? row(end - 1) : 0.0);
+  });
+  double total = 0.0;
+  for (std::size_t chunk = 0; chunk < chunks; ++chunk)
+    total += inner[chunk] + edge[chunk];
+  return total;
 }
 
 class Multigrid {
@@ -545,14 +578,18 @@ class Multigrid {
       project_pieces(l, x);
       return index == 0 ? dot_range(b, x, 0, l.size()) : 0.0;
     }
-    smooth_pair(l, x, b, 0, false, true);  // from x = 0
-    smooth_pair(l, x, b, 0);
+    using Kind = Stage::Kind;
     Level& c = levels_[index + 1];
+    // Red then black twice before (the first from x = 0), black then red
+    // twice after, each four in one pass.
+    fused_pass(l, x, b, nullptr,
+               {{Kind::from_zero}, {Kind::sweep, 1}, {Kind::sweep, 0}, {Kind::sweep, 1}});
     restrict_residual(l, x, b, c);
     cycle(index + 1, c.b.data(), c.x.data());
-    prolong_add(c, l, x);
-    smooth_pair(l, x, b, 1);
-    return smooth_pair(l, x, b, 1, index == 0);
+    fused_pass(
+        l, x, b, &c,
+        {{Kind::prolong}, {Kind::sweep, 1}, {Kind::sweep, 0}, {Kind::sweep, 1}, {Kind::sweep, 0}});
+    return index == 0 ? chunk_dot(l, b, x) : 0.0;
   }
 
   // Removes from v its mean over each connected piece of the coarsest grid.
