@@ -169,12 +169,52 @@ void subtract_row(std::uint8_t* __restrict row, const std::uint8_t* __restrict a
 
 }  // namespace
 
-// The reader's state: the file mapped, its IDAT pieces, the inflater.
+// A file read where asked (pread): the reader holds no mapping of it, so
+// a frame read a band at a time takes no address space for its bytes.
+class ReadFile {
+ public:
+  explicit ReadFile(const fs::path& file) : fd_(::open(file.c_str(), O_RDONLY | O_CLOEXEC)) {
+    struct stat info {};
+    if (fd_ >= 0 && ::fstat(fd_, &info) == 0 && S_ISREG(info.st_mode))
+      size_ = static_cast<std::size_t>(info.st_size);
+  }
+  ~ReadFile() {
+    if (fd_ >= 0) ::close(fd_);
+  }
+  ReadFile(const ReadFile&) = delete;
+  ReadFile& operator=(const ReadFile&) = delete;
+  [[nodiscard]] std::size_t size() const { return size_; }
+  // n bytes at `offset`, all of them, or false.
+  bool read(std::size_t offset, void* out, std::size_t n) const {
+    auto* bytes = static_cast<std::uint8_t*>(out);
+    while (n > 0) {
+      const ssize_t got = ::pread(fd_, bytes, n, static_cast<off_t>(offset));
+      if (got <= 0) return false;
+      bytes += got;
+      offset += static_cast<std::size_t>(got);
+      n -= static_cast<std::size_t>(got);
+    }
+    return true;
+  }
+
+ private:
+  int fd_;
+  std::size_t size_ = 0;
+};
+
+// The reader's state: the file, its IDAT pieces, the inflater.
 struct Reader::State {
-  explicit State(const fs::path& file) : mapped(file) {}
-  MappedFile mapped;
-  std::vector<std::pair<const std::uint8_t*, std::size_t>> idat;  // the zlib stream, in pieces
+  explicit State(const fs::path& path) : file(path) {}
+  struct Piece {
+    std::size_t offset;  // of the payload in the file
+    std::uint32_t length;
+  };
+  ReadFile file;
+  std::vector<Piece> idat;  // the zlib stream, in pieces
   std::size_t next_piece = 0;
+  std::uint32_t piece_read = 0;  // bytes of idat[next_piece] read so far
+  std::uint32_t crc = 0;         // of idat[next_piece] so far, its type first
+  std::vector<std::uint8_t> input;
   std::uint32_t width = 0, height = 0;
   int bit_depth = 0, channels = 0;
   std::size_t bpp = 0, row_bytes = 0;
@@ -182,23 +222,43 @@ struct Reader::State {
   inflate_state inflater{};
   std::vector<std::uint8_t> buffer;  // a batch of raw rows, filter bytes first
   std::vector<std::uint8_t> above;   // the row before the batch, unfiltered
-  std::size_t given_back = 0;        // bytes of the mapping given back (read already)
 
-  // One call of the inflater, given the next IDAT piece when it has used up
-  // the last; false when the stream is damaged or nothing moved (no data
+  // The next stretch of image data (up to 1 MB) given to the inflater; each
+  // IDAT's CRC checked once its last byte is read. False when the data
+  // cannot be read or a CRC is wrong; true with nothing given at the end.
+  bool refill() {
+    constexpr std::size_t kInput = std::size_t{1} << 20;
+    while (next_piece < idat.size()) {
+      const Piece& piece = idat[next_piece];
+      if (piece_read == 0)
+        crc = crc32_gzip_refl(0, reinterpret_cast<const std::uint8_t*>("IDAT"), 4);
+      const auto n =
+          static_cast<std::uint32_t>(std::min<std::size_t>(kInput, piece.length - piece_read));
+      input.resize(std::max<std::size_t>(input.size(), n));
+      if (n > 0 && !file.read(piece.offset + piece_read, input.data(), n)) return false;
+      crc = crc32_gzip_refl(crc, input.data(), n);
+      piece_read += n;
+      if (piece_read == piece.length) {
+        std::uint8_t stored[4];
+        if (!file.read(piece.offset + piece.length, stored, 4) || load_be32(stored) != crc)
+          return false;
+        ++next_piece;
+        piece_read = 0;
+      }
+      if (n > 0) {
+        inflater.next_in = input.data();
+        inflater.avail_in = n;
+        return true;
+      }
+    }
+    return true;
+  }
+  // One call of the inflater, given more image data when it has used up
+  // what it had; false when the stream is damaged or nothing moved (no data
   // left: the inflater may still hold a few bytes of input, so it is called
   // even when none is left to give it).
   bool step() {
-    if (inflater.avail_in == 0 && next_piece < idat.size()) {
-      const auto [payload, length] = idat[next_piece];
-      // Each IDAT's CRC checked as it comes: open() leaves the image data
-      // unread, so a frame read a band at a time is never mapped in whole.
-      if (crc32_gzip_refl(0, payload - 4, length + 4) != load_be32(payload + length)) return false;
-      // ISA-L's API is not const-correct
-      inflater.next_in = const_cast<std::uint8_t*>(payload);
-      inflater.avail_in = static_cast<std::uint32_t>(length);
-      ++next_piece;
-    }
+    if (inflater.avail_in == 0 && !refill()) return false;
     const auto in = inflater.avail_in;
     const auto out = inflater.avail_out;
     const auto block = inflater.block_state;
@@ -222,18 +282,6 @@ struct Reader::State {
       if (!step() || inflater.avail_out == 0) return false;
     return true;
   }
-  // The compressed bytes read so far given back (they are the page cache's
-  // still): a 12 MP frame read a band at a time keeps no 50 MB of it mapped.
-  void give_back_read() {
-    const auto page = static_cast<std::size_t>(::sysconf(_SC_PAGESIZE));
-    if (inflater.next_in == nullptr || mapped.data() == nullptr) return;
-    const auto read = static_cast<std::size_t>(inflater.next_in - mapped.data());
-    const std::size_t whole = read / page * page;
-    if (whole <= given_back) return;
-    ::madvise(const_cast<std::uint8_t*>(mapped.data()) + given_back, whole - given_back,
-              MADV_DONTNEED);
-    given_back = whole;
-  }
 };
 
 Reader::Reader(std::unique_ptr<State> state) : state_(std::move(state)) {}
@@ -241,28 +289,33 @@ Reader::Reader(Reader&&) noexcept = default;
 Reader& Reader::operator=(Reader&&) noexcept = default;
 Reader::~Reader() = default;
 
+// The chunks walked from their headers: IHDR and IEND checked whole (CRC
+// included), the IDATs' places noted, each checked as it is read.
 std::optional<Reader> Reader::open(const fs::path& file) {
   auto state = std::make_unique<State>(file);
   State& s = *state;
-  const std::uint8_t* data = s.mapped.data();
-  const std::size_t size = s.mapped.size();
-  if (!data || size < kSignature.size() + 12 + 13 ||
-      !std::equal(kSignature.begin(), kSignature.end(), data))
+  const std::size_t size = s.file.size();
+  std::uint8_t signature[8];
+  if (size < kSignature.size() + 12 + 13 || !s.file.read(0, signature, 8) ||
+      !std::equal(kSignature.begin(), kSignature.end(), signature))
     return std::nullopt;
 
   std::size_t at = kSignature.size(), compressed = 0;
   int colour_type = -1;
   bool seen_header = false, seen_end = false;
+  std::uint8_t chunk[8 + 13 + 4];  // a header, and the most of a chunk read whole
   while (at + 12 <= size) {
-    const std::uint32_t length = load_be32(data + at);
-    const std::uint8_t* type = data + at + 4;
+    if (!s.file.read(at, chunk, 8)) return std::nullopt;
+    const std::uint32_t length = load_be32(chunk);
+    const std::uint8_t* type = chunk + 4;
     if (length > size - at - 12) return std::nullopt;
-    const std::uint8_t* payload = data + at + 8;
     const bool critical = !(type[0] & 0x20);
-    const bool image_data = std::memcmp(type, "IDAT", 4) == 0;  // checked as it is read
-    if (critical && !image_data &&
-        crc32_gzip_refl(0, type, length + 4) != load_be32(payload + length))
-      return std::nullopt;
+    if (std::memcmp(type, "IHDR", 4) == 0 || std::memcmp(type, "IEND", 4) == 0) {
+      if (length > 13 || !s.file.read(at + 8, chunk + 8, length + 4) ||
+          crc32_gzip_refl(0, type, length + 4) != load_be32(chunk + 8 + length))
+        return std::nullopt;
+    }
+    const std::uint8_t* payload = chunk + 8;
     if (std::memcmp(type, "IHDR", 4) == 0) {
       if (length != 13) return std::nullopt;
       s.width = load_be32(payload);
@@ -272,8 +325,8 @@ std::optional<Reader> Reader::open(const fs::path& file) {
       if (payload[10] != 0 || payload[11] != 0 || payload[12] != 0)
         return std::nullopt;  // interlaced or unknown
       seen_header = true;
-    } else if (image_data) {
-      s.idat.emplace_back(payload, length);
+    } else if (std::memcmp(type, "IDAT", 4) == 0) {
+      s.idat.push_back({at + 8, length});
       compressed += length;
     } else if (std::memcmp(type, "tRNS", 4) == 0 || std::memcmp(type, "PLTE", 4) == 0) {
       return std::nullopt;  // transparency or palette: OpenCV's job
@@ -345,7 +398,6 @@ bool Reader::read(cv::Mat& rows) {
     first += n;
   }
   s.rows_read += static_cast<std::uint32_t>(rows.rows);
-  s.give_back_read();
   if (s.rows_read == s.height) {
     s.buffer = {};
     return s.finish();
