@@ -163,6 +163,7 @@ Result<BandStage> solve_and_encode(formats::Scan& scan, formats::FrameBands& fra
   // first band's frames are decoded alone; a solve with nothing beside it
   // (whole frames) has every thread.
   const int count = chunk_count(size.height, kBandRows);
+  std::vector<double> decode_ms(scan.frames.size(), 0.0);  // each frame's, its tasks one at a time
   const auto decoding = [&](int index, std::vector<StageTask>& tasks) {
     if (index >= count) return;
     const int first = index * kBandRows;
@@ -171,7 +172,7 @@ Result<BandStage> solve_and_encode(formats::Scan& scan, formats::FrameBands& fra
       if (frames.pending(k))
         tasks.push_back({"decode",
                          [&frames, k, first, rows] { return frames.decode(k, first, rows); },
-                         &stage.decode_ms});
+                         &decode_ms[k]});
   };
   std::vector<StageTask> tasks;
   decoding(0, tasks);
@@ -196,6 +197,8 @@ Result<BandStage> solve_and_encode(formats::Scan& scan, formats::FrameBands& fra
     finishing.push_back({stream.name, [&stream] { return stream.writer.finish(); }, &stream.ms});
   if (auto ok = run_tasks(finishing, log); !ok) return std::unexpected(ok.error());
 
+  for (double ms : decode_ms)
+    stage.decode_ms += ms;
   log.debug("solve: {:.0f} ms in {} bands; decoding frames: {:.0f} ms", stage.solve_ms, count,
             stage.decode_ms);
   for (const MapStream& stream : *streams) {

@@ -506,21 +506,29 @@ std::string_view to_string(Flatten flatten) {
   return "unknown";
 }
 
+// Every plane of the processing freed, what malloc keeps of them goes back
+// too: a daemon returns to its idle size.
 Result<ProcessSummary> process_scan(const fs::path& scan_directory, const ProcessOptions& options) {
+  Result<ProcessSummary> summary = std::unexpected(internal_error("processing did not run"));
   try {
-    return process_unguarded(scan_directory, std::nullopt, options);
+    summary = process_unguarded(scan_directory, std::nullopt, options);
   } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
-    return std::unexpected(internal_error(std::string("processing failed: ") + e.what()));
+    summary = std::unexpected(internal_error(std::string("processing failed: ") + e.what()));
   }
+  give_back_free_memory();
+  return summary;
 }
 
 Result<ProcessSummary> process_scan(formats::Scan scan, const fs::path& scan_directory,
                                     const ProcessOptions& options) {
+  Result<ProcessSummary> summary = std::unexpected(internal_error("processing did not run"));
   try {
-    return process_unguarded(scan_directory, std::move(scan), options);
+    summary = process_unguarded(scan_directory, std::move(scan), options);
   } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
-    return std::unexpected(internal_error(std::string("processing failed: ") + e.what()));
+    summary = std::unexpected(internal_error(std::string("processing failed: ") + e.what()));
   }
+  give_back_free_memory();
+  return summary;
 }
 
 }  // namespace psrig::processing
