@@ -372,9 +372,7 @@ struct Prepared {
 
 Prepared prepare(const cv::Mat& height, const cv::Mat& albedo) {
   Prepared out;
-  const int w = std::min(height.cols, kMaxWorkingSide);
-  const int h = std::min(height.rows, kMaxWorkingSide);
-  const cv::Rect centre((height.cols - w) / 2, (height.rows - h) / 2, w, h);
+  const cv::Rect centre = measured_region(height.size());
   cv::Mat hgt;
   height(centre).convertTo(hgt, CV_32F);
   cv::Mat wh;
@@ -539,6 +537,12 @@ std::optional<RepeatLattice> find_repeat_lattice(const cv::Mat& height, const cv
     return std::nullopt;
   }
   return lattice_of(prepared, lag_map(prepared.details, prepared.weight), why);
+}
+
+cv::Rect measured_region(cv::Size maps) {
+  const int w = std::min(maps.width, kMaxWorkingSide);
+  const int h = std::min(maps.height, kMaxWorkingSide);
+  return {(maps.width - w) / 2, (maps.height - h) / 2, w, h};
 }
 
 Result<FabricMeasurement> measure_fabric(const cv::Mat& height, const cv::Mat& albedo,

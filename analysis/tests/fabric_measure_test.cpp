@@ -92,6 +92,21 @@ TEST(FabricMeasure, LargeScanIsMeasuredAtFullResolution) {
   EXPECT_NEAR(m->rotation_deg, 3.0, 0.5) << analysis::summary_line(*m);
 }
 
+// Maps cut to measured_region measure the same, to the last bit: the
+// pipeline keeps only that much of a 12 MP albedo.
+TEST(FabricMeasure, MapsCutToTheMeasuredRegionMeasureTheSame) {
+  const sim::Swatch swatch = swatch_of({"jersey", 2}, {1500, 1350});
+  const cv::Rect region = analysis::measured_region(swatch.height_mm.size());
+  EXPECT_EQ(region, cv::Rect(110, 35, 1280, 1280));
+  EXPECT_EQ(analysis::measured_region({900, 2000}), cv::Rect(0, 360, 900, 1280));
+  const analysis::MeasureOptions options{0.025, {analysis::Construction::knit, "jersey"}};
+  const auto whole = analysis::measure_fabric(swatch.height_mm, swatch.albedo, options);
+  const auto cut =
+      analysis::measure_fabric(swatch.height_mm(region), swatch.albedo(region), options);
+  ASSERT_TRUE(whole && cut && whole->periodic);
+  EXPECT_EQ(to_json(*whole).dump(), to_json(*cut).dump());
+}
+
 // Without metadata the construction comes from the structure: a weave's
 // centred or oblique cell of alike threads, a knit's plain rectangle.
 TEST(FabricMeasure, TellsKnitFromWovenByStructure) {

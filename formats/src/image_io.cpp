@@ -3,50 +3,18 @@
 #include <algorithm>
 #include <cctype>
 #include <system_error>
+#include <utility>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "exr_codec.h"
+#include "image_params.h"
 #include "png_codec.h"
+#include "psrig/base/parallel.h"
 
 namespace psrig::formats {
 namespace {
-
-bool has_extension(const std::filesystem::path& file, const std::string& wanted) {
-  std::string extension = file.extension().string();
-  std::transform(extension.begin(), extension.end(), extension.begin(),
-                 [](unsigned char c) { return std::tolower(c); });
-  return extension == wanted;
-}
-bool is_png(const std::filesystem::path& file) {
-  return has_extension(file, ".png");
-}
-
-// OpenCV's PNG compression parameter, if given; psrig's default is the
-// fastest level that still compresses.
-int png_level(const std::vector<int>& params) {
-  for (std::size_t i = 0; i + 1 < params.size(); i += 2)
-    if (params[i] == cv::IMWRITE_PNG_COMPRESSION) return params[i + 1];
-  return 1;
-}
-
-bool is_exr(const std::filesystem::path& file) {
-  return has_extension(file, ".exr");
-}
-
-// The caller's EXR compression, else image_io's default (none, as below).
-int exr_compression(const std::vector<int>& params) {
-  for (std::size_t i = 0; i + 1 < params.size(); i += 2)
-    if (params[i] == cv::IMWRITE_EXR_COMPRESSION) return params[i + 1];
-  return cv::IMWRITE_EXR_COMPRESSION_NO;
-}
-
-bool exr_half(const std::vector<int>& params) {
-  for (std::size_t i = 0; i + 1 < params.size(); i += 2)
-    if (params[i] == cv::IMWRITE_EXR_TYPE) return params[i + 1] == cv::IMWRITE_EXR_TYPE_HALF;
-  return false;
-}
 
 // Float maps barely compress (ZIP saves ~3 % on 12 MP gradients and costs
 // ~1 s), so EXR files are written as 32-bit float, uncompressed, unless the
@@ -79,6 +47,8 @@ Result<cv::Mat> read_image(const std::filesystem::path& file, const std::string&
       if (auto fast = png::read(file)) return std::move(*fast);
       if (const auto damage = png::chunk_past_end(file))
         return std::unexpected(bad_input(file, key, "damaged PNG: " + *damage));
+    } else if (is_exr(file)) {
+      if (auto fast = exr::read(file)) return std::move(*fast);
     }
     image = cv::imread(file.string(), cv::IMREAD_UNCHANGED);
   } catch (const cv::Exception& e) {
@@ -125,9 +95,16 @@ Result<cv::Mat> read_vector_exr(const std::filesystem::path& file, const std::st
   if (!image) return image;
   if (image->type() != CV_32FC3)
     return std::unexpected(bad_input(file, key, "expected a 3-channel 32-bit float image"));
-  cv::Mat xyz;
-  cv::cvtColor(*image, xyz, cv::COLOR_BGR2RGB);  // cannot throw for CV_32FC3
-  return xyz;
+  // B, G, R -> x, y, z in place: no second copy of a 12 MP vector image.
+  cv::Mat& xyz = *image;
+  parallel_chunks(xyz.rows, 64, [&](int begin, int end) {
+    for (int r = begin; r < end; ++r) {
+      auto* pixel = xyz.ptr<cv::Vec3f>(r);
+      for (int c = 0; c < xyz.cols; ++c)
+        std::swap(pixel[c][0], pixel[c][2]);
+    }
+  });
+  return image;
 }
 
 }  // namespace psrig::formats

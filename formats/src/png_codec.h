@@ -1,11 +1,12 @@
 #pragma once
 // A fast path for the PNGs psrig moves most: 12 MP 16-bit frames and maps.
-// libpng inflates with zlib and filters adaptively; this path keeps the
-// whole image in one buffer and (de)compresses it with libdeflate, 2-3x
-// faster, with OpenCV's libpng path kept for everything outside the subset
-// handled here: 8- or 16-bit grey or RGB, not interlaced, no transparency.
+// libpng inflates with zlib and filters adaptively; this path (de)compresses
+// with ISA-L a batch of rows at a time, 2-3x faster, with OpenCV's libpng
+// path kept for everything outside the subset handled here: 8- or 16-bit
+// grey or RGB, not interlaced, no transparency.
 
 #include <filesystem>
+#include <memory>
 #include <optional>
 #include <string>
 
@@ -21,6 +22,32 @@ namespace psrig::formats::png {
 // then cv::imread decides, so every PNG is judged as OpenCV would.
 [[nodiscard]] std::optional<cv::Mat> read(const std::filesystem::path& file);
 
+// read() a band of rows at a time, top to bottom: the same pixels, with no
+// buffer the size of the image and the compressed bytes already read given
+// back as it goes (the file is mapped while the reader lives).
+class Reader {
+ public:
+  // Nothing for a file read() gives nothing for from its chunks alone (not
+  // a PNG, damaged chunks, a kind this path leaves to OpenCV); damage in
+  // the compressed data shows only as it is read.
+  [[nodiscard]] static std::optional<Reader> open(const std::filesystem::path& file);
+  [[nodiscard]] cv::Size size() const;
+  [[nodiscard]] int type() const;  // as read() gives it: BGR, native-endian 16-bit
+  // The next rows.rows rows into `rows` (size().width wide, of type());
+  // false when the data is damaged or ends early, and, with the last row,
+  // when the stream does not end there with its checksum right.
+  [[nodiscard]] bool read(cv::Mat& rows);
+
+  Reader(Reader&&) noexcept;
+  Reader& operator=(Reader&&) noexcept;
+  ~Reader();
+
+ private:
+  struct State;
+  explicit Reader(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
+
 // Where a chunk of the PNG `file` declares more bytes than the file holds
 // after it, which chunk and how much; nothing when every chunk fits (or the
 // file is no PNG). libpng would first allocate the declared length, up to
@@ -35,5 +62,28 @@ namespace psrig::formats::png {
 // before the image data.
 [[nodiscard]] Status write(const std::filesystem::path& file, const cv::Mat& image, int level,
                            const ImageMetadata& metadata = {});
+
+// write() a band of rows at a time, top to bottom: the same bytes, with no
+// copy of the whole image (filtered or compressed) held at any time.
+class Writer {
+ public:
+  // Creates `file` and writes everything before the pixels: a `size` image of
+  // `type` (as can_write takes), compression `level`, `metadata`.
+  [[nodiscard]] static Result<Writer> open(const std::filesystem::path& file, cv::Size size,
+                                           int type, int level, const ImageMetadata& metadata);
+  // The next rows: `size.width` wide, of `type`.
+  [[nodiscard]] Status write(const cv::Mat& rows);
+  // After the last row: the rest of the file, closed.
+  [[nodiscard]] Status finish();
+
+  Writer(Writer&&) noexcept;
+  Writer& operator=(Writer&&) noexcept;
+  ~Writer();
+
+ private:
+  struct State;
+  explicit Writer(std::unique_ptr<State> state);
+  std::unique_ptr<State> state_;
+};
 
 }  // namespace psrig::formats::png

@@ -6,6 +6,8 @@
 #include <mutex>
 #include <sstream>
 
+#include "frame_bands_state.h"
+#include "png_codec.h"
 #include "psrig/base/parallel.h"
 #include "psrig/formats/image_io.h"
 #include "psrig/formats/light_matrix.h"
@@ -335,8 +337,9 @@ Result<ScanDescription> read_scan_description(const fs::path& directory) {
 
 namespace {
 
-// Every image scan.json names, and where in `scan` it goes.
-std::vector<ImageRequest> image_requests(Scan& scan) {
+// Every image scan.json names, and where in `scan` it goes; the ground
+// truth only `with_truth`.
+std::vector<ImageRequest> image_requests(Scan& scan, bool with_truth = true) {
   const auto& d = scan.description;
   std::vector<ImageRequest> requests;
   for (std::size_t i = 0; i < d.lights.size(); ++i)
@@ -346,12 +349,26 @@ std::vector<ImageRequest> image_requests(Scan& scan) {
   if (d.mask) requests.push_back({*d.mask, "mask", &scan.mask});
   for (std::size_t i = 0; i < d.flats.size(); ++i)
     requests.push_back({d.flats[i], "flats[" + std::to_string(i) + "]", &scan.flats[i]});
-  if (d.ground_truth_normal)
+  if (d.ground_truth_normal && with_truth)
     requests.push_back({*d.ground_truth_normal, "ground_truth.normal", &scan.ground_truth_normal});
-  if (d.ground_truth_height)
+  if (d.ground_truth_height && with_truth)
     requests.push_back({*d.ground_truth_height, "ground_truth.height", &scan.ground_truth_height});
 
   return requests;
+}
+
+// A ground-truth image: the frames' size, float, three channels for the
+// normals and one for the height.
+Status check_ground_truth(const ImageRequest& request, const cv::Mat& image, cv::Size frames,
+                          const fs::path& directory) {
+  const int expected = request.key.ends_with("normal") ? CV_32FC3 : CV_32FC1;
+  if (image.size() != frames || image.type() != expected)
+    return std::unexpected(
+        bad_input(directory / request.name, request.key,
+                  "is " + describe_image(image) + "; expected " + std::to_string(frames.width) +
+                      "x" + std::to_string(frames.height) +
+                      (expected == CV_32FC3 ? " 32-bit float 3-channel" : " 32-bit float grey")));
+  return {};
 }
 
 // Cross-checks the images against each other and scan.json, and makes the
@@ -400,13 +417,7 @@ Status check_images(Scan& scan, const std::vector<ImageRequest>& requests,
       continue;
     }
     if (request.key.starts_with("ground_truth")) {
-      const int expected = request.key.ends_with("normal") ? CV_32FC3 : CV_32FC1;
-      if (image.size() != first.size() || image.type() != expected)
-        return std::unexpected(frame_error(
-            request,
-            "is " + describe_image(image) + "; expected " + std::to_string(first.cols) + "x" +
-                std::to_string(first.rows) +
-                (expected == CV_32FC3 ? " 32-bit float 3-channel" : " 32-bit float grey")));
+      if (auto ok = check_ground_truth(request, image, first.size(), directory); !ok) return ok;
       continue;
     }
     if (image.depth() != CV_8U && image.depth() != CV_16U && image.depth() != CV_32F)
@@ -437,7 +448,35 @@ Status check_images(Scan& scan, const std::vector<ImageRequest>& requests,
   return {};
 }
 
-Result<Scan> read_scan_unguarded(const fs::path& directory) {
+// A ground-truth image, read.
+Result<cv::Mat> read_truth_image(const ImageRequest& request, const fs::path& directory) {
+  return request.key == "ground_truth.normal"
+             ? read_vector_exr(directory / request.name, request.key)
+             : read_image(directory / request.name, request.key);
+}
+
+// A frame psrig's PNG path can decode a band at a time, allocated for it
+// and left to `bands`; false for any other (read whole then).
+bool leave_to_bands(const ImageRequest& request, const fs::path& directory,
+                    FrameBands::State::Frame& frame) {
+  if (!request.key.starts_with("lights[")) return false;
+  const fs::path file = directory / request.name;
+  auto reader = png::Reader::open(file);
+  if (!reader) return false;
+  *request.destination = cv::Mat(reader->size(), reader->type());  // not decoded yet
+  frame.file = file;
+  frame.key = request.key;
+  frame.data = request.destination->data;
+  frame.step = request.destination->step[0];
+  frame.size = reader->size();
+  frame.type = reader->type();
+  frame.reader.emplace(std::move(*reader));
+  return true;
+}
+
+// With `bands`, the frames it can decode a band at a time are left to it.
+Result<Scan> read_scan_unguarded(const fs::path& directory, bool with_truth,
+                                 FrameBands::State* bands = nullptr) {
   auto description = read_scan_description(directory);
   if (!description) return std::unexpected(description.error());
 
@@ -447,7 +486,8 @@ Result<Scan> read_scan_unguarded(const fs::path& directory) {
   scan.frames.resize(d.lights.size());
   scan.flats.resize(d.flats.size());
 
-  std::vector<ImageRequest> requests = image_requests(scan);
+  std::vector<ImageRequest> requests = image_requests(scan, with_truth);
+  if (bands) bands->frames.resize(scan.frames.size());
 
   // Decoding dominates reading time, so the files are decoded in parallel;
   // the first error in request order is the one reported.
@@ -455,8 +495,11 @@ Result<Scan> read_scan_unguarded(const fs::path& directory) {
   parallel_chunks(static_cast<int>(requests.size()), 1, [&](int begin, int end) {
     for (int i = begin; i < end; ++i) {
       const auto& request = requests[i];
-      auto image = request.destination == &scan.ground_truth_normal
-                       ? read_vector_exr(directory / request.name, request.key)
+      if (bands && static_cast<std::size_t>(i) < scan.frames.size() &&
+          leave_to_bands(request, directory, bands->frames[static_cast<std::size_t>(i)]))
+        continue;
+      auto image = request.key.starts_with("ground_truth")
+                       ? read_truth_image(request, directory)
                        : read_image(directory / request.name, request.key);
       if (image)
         *request.destination = std::move(*image);
@@ -491,9 +534,41 @@ Result<Scan> as_stored(Scan scan, const fs::path& directory) {
   }
 }
 
-Result<Scan> read_scan(const fs::path& directory) {
+Result<Scan> read_scan(const fs::path& directory, ScanImages images) {
   try {
-    return read_scan_unguarded(directory);
+    return read_scan_unguarded(directory, images == ScanImages::all);
+  } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
+    return std::unexpected(
+        internal_error(directory.string() + ": reading the scan failed: " + e.what()));
+  }
+}
+
+Status read_ground_truth(Scan& scan, GroundTruth which, cv::Size frames) {
+  const auto& d = scan.description;
+  const bool normal = which == GroundTruth::normal;
+  const std::optional<std::string>& name = normal ? d.ground_truth_normal : d.ground_truth_height;
+  cv::Mat& destination = normal ? scan.ground_truth_normal : scan.ground_truth_height;
+  if (!name || !destination.empty()) return {};
+  const ImageRequest request{*name, normal ? "ground_truth.normal" : "ground_truth.height",
+                             &destination};
+  try {
+    auto image = read_truth_image(request, d.directory);
+    if (!image) return std::unexpected(image.error());
+    if (auto ok = check_ground_truth(request, *image, frames, d.directory); !ok) return ok;
+    destination = std::move(*image);
+    return {};
+  } catch (const std::exception& e) {  // out of memory
+    return std::unexpected(
+        internal_error(d.directory.string() + ": reading the scan failed: " + e.what()));
+  }
+}
+
+Result<BandedScan> read_scan_by_band(const fs::path& directory, ScanImages images) {
+  try {
+    auto state = std::make_unique<FrameBands::State>();
+    auto scan = read_scan_unguarded(directory, images == ScanImages::all, state.get());
+    if (!scan) return std::unexpected(scan.error());
+    return BandedScan{std::move(*scan), FrameBands(std::move(state))};
   } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
     return std::unexpected(
         internal_error(directory.string() + ": reading the scan failed: " + e.what()));

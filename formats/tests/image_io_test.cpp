@@ -3,7 +3,9 @@
 
 #include "psrig/formats/image_io.h"
 
+#include <cstring>
 #include <fstream>
+#include <limits>
 #include <random>
 
 #include <gtest/gtest.h>
@@ -79,6 +81,77 @@ TEST(ImageIo, ReadsWhatLibpngWroteWithEveryFilter) {
   }
 }
 
+// The PNG at `file` with its image data cut into IDAT chunks of 1 to 13
+// bytes; `keep` of the data's bytes kept (all by default).
+std::string rechunked_png(const fs::path& file, std::size_t keep = std::string::npos) {
+  std::ifstream in(file, std::ios::binary);
+  const std::string png((std::istreambuf_iterator<char>(in)), {});
+  const auto be32 = [&](std::size_t at) {
+    return static_cast<std::uint32_t>(static_cast<unsigned char>(png[at])) << 24 |
+           static_cast<std::uint32_t>(static_cast<unsigned char>(png[at + 1])) << 16 |
+           static_cast<std::uint32_t>(static_cast<unsigned char>(png[at + 2])) << 8 |
+           static_cast<unsigned char>(png[at + 3]);
+  };
+  const auto crc32 = [](const std::string& bytes) {
+    std::uint32_t crc = 0xFFFFFFFFU;
+    for (unsigned char b : bytes) {
+      crc ^= b;
+      for (int k = 0; k < 8; ++k)
+        crc = (crc >> 1) ^ (0xEDB88320U & (0U - (crc & 1U)));
+    }
+    return ~crc;
+  };
+  const auto chunk = [&](const std::string& type, const std::string& data) {
+    std::string out;
+    for (std::uint32_t v : {static_cast<std::uint32_t>(data.size())})
+      for (int shift : {24, 16, 8, 0})
+        out += static_cast<char>(v >> shift);
+    const std::uint32_t crc = crc32(type + data);
+    out += type + data;
+    for (int shift : {24, 16, 8, 0})
+      out += static_cast<char>(crc >> shift);
+    return out;
+  };
+  std::string before, data, after;
+  for (std::size_t at = 8; at + 12 <= png.size();) {
+    const std::uint32_t length = be32(at);
+    const std::string type = png.substr(at + 4, 4);
+    if (type == "IDAT")
+      data += png.substr(at + 8, length);
+    else
+      (data.empty() ? before : after) += png.substr(at, 12 + length);
+    at += 12 + length;
+  }
+  data = data.substr(0, keep);
+  std::string out = png.substr(0, 8) + before;
+  for (std::size_t at = 0, size = 1; at < data.size(); at += size, size = size % 13 + 1)
+    out += chunk("IDAT", data.substr(at, size));
+  return out + after;
+}
+
+// Image data cut into thousands of tiny chunks, inflated a batch of rows at
+// a time: every boundary falls somewhere inside a chunk, a row or a symbol.
+TEST(ImageIo, PngDataInTinyChunksAcrossBatchesOfRows) {
+  test::TempDir temp;
+  cv::Mat image(700, 900, CV_16UC3);
+  for (int r = 0; r < image.rows; ++r)
+    for (int c = 0; c < image.cols; ++c)
+      image.at<cv::Vec3w>(r, c) =
+          cv::Vec3w(static_cast<std::uint16_t>(r * 90 + c), static_cast<std::uint16_t>(c * 70),
+                    static_cast<std::uint16_t>((r * c) % 65536));
+  ASSERT_TRUE(formats::write_image(temp / "whole.png", image));
+  const std::string tiny = rechunked_png(temp / "whole.png");
+  std::ofstream(temp / "tiny.png", std::ios::binary) << tiny;
+  auto back = formats::read_image(temp / "tiny.png", "test");
+  ASSERT_TRUE(back) << back.error().describe();
+  EXPECT_EQ(cv::norm(*back, image, cv::NORM_INF), 0);
+  // Its data cut short: an error, never a half-read image.
+  const std::size_t data_bytes = std::filesystem::file_size(temp / "whole.png");
+  std::ofstream(temp / "short.png", std::ios::binary)
+      << rechunked_png(temp / "whole.png", data_bytes / 2);
+  EXPECT_FALSE(formats::read_image(temp / "short.png", "test"));
+}
+
 TEST(ImageIo, PngsOutsideTheFastPathStillRead) {
   test::TempDir temp;
   const cv::Mat rgba(9, 7, CV_16UC4, cv::Scalar(1000, 2000, 3000, 65535));
@@ -141,6 +214,53 @@ TEST(ImageIo, AChunkLongerThanTheFileIsRefusedBeforeAnyoneAllocatesIt) {
   EXPECT_NE(read.error().message.find("damaged PNG: chunk 'tEXt' at byte 33 declares 976158745 bytes"),
             std::string::npos)
       << read.error().describe();
+}
+
+// psrig's EXR path reads what OpenCV reads, bit for bit (NaN and
+// infinities too), for every file it takes: Y or R, G, B, half or float,
+// written by OpenEXR with attributes or by OpenCV, any compression; files
+// with other channels go to OpenCV's reader as before.
+TEST(ImageIo, ExrsReadAsOpenCvReadsThem) {
+  test::TempDir temp;
+  const auto same_bits = [](const cv::Mat& a, const cv::Mat& b) {
+    if (a.type() != b.type() || a.size() != b.size()) return false;
+    for (int r = 0; r < a.rows; ++r)
+      if (std::memcmp(a.ptr(r), b.ptr(r), a.cols * a.elemSize()) != 0) return false;
+    return true;
+  };
+  formats::ImageMetadata metadata;
+  metadata.text.emplace_back("psrig:test", "yes");
+  int written = 0;
+  for (int channels : {1, 3}) {
+    cv::Mat image(37, 53, CV_32FC(channels));
+    cv::RNG(channels).fill(image, cv::RNG::UNIFORM, -4, 4);
+    image.at<float>(3, 5) = std::numeric_limits<float>::quiet_NaN();
+    image.at<float>(7, 2) = std::numeric_limits<float>::infinity();
+    for (int type : {cv::IMWRITE_EXR_TYPE_FLOAT, cv::IMWRITE_EXR_TYPE_HALF})
+      for (int compression : {cv::IMWRITE_EXR_COMPRESSION_NO, cv::IMWRITE_EXR_COMPRESSION_ZIP,
+                              cv::IMWRITE_EXR_COMPRESSION_PIZ})
+        for (bool with_metadata : {false, true}) {
+          const fs::path file = temp / ("e" + std::to_string(written++) + ".exr");
+          const std::vector<int> params = {cv::IMWRITE_EXR_TYPE, type, cv::IMWRITE_EXR_COMPRESSION,
+                                           compression};
+          ASSERT_TRUE(with_metadata ? formats::write_image(file, image, params, metadata)
+                                    : formats::write_image(file, image, params));
+          auto read = formats::read_image(file, "test");
+          ASSERT_TRUE(read) << read.error().describe();
+          EXPECT_TRUE(same_bits(*read, cv::imread(file.string(), cv::IMREAD_UNCHANGED)))
+              << file << " channels " << channels << " type " << type << " compression "
+              << compression;
+        }
+  }
+  // Grey and alpha: not the fast path's, read by OpenCV.
+  cv::Mat grey_alpha(20, 30, CV_32FC4, cv::Scalar(0.25, 0.5, 0.75, 1.0));
+  ASSERT_TRUE(formats::write_image(temp / "alpha.exr", grey_alpha));
+  auto read = formats::read_image(temp / "alpha.exr", "test");
+  ASSERT_TRUE(read) << read.error().describe();
+  EXPECT_TRUE(same_bits(*read, cv::imread((temp / "alpha.exr").string(), cv::IMREAD_UNCHANGED)));
+  // A damaged EXR is OpenCV's to refuse, as before.
+  std::ofstream(temp / "damaged.exr", std::ios::binary) << "v/1\x01not an exr";
+  EXPECT_FALSE(formats::read_image(temp / "damaged.exr", "test"));
 }
 
 TEST(ImageIo, WriteErrorsNameTheFile) {

@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <opencv2/imgcodecs.hpp>
 
+#include "psrig/formats/image_io.h"
 #include "psrig/formats/scan_writer.h"
 #include "synthetic_scene.h"
 #include "test_support.h"
@@ -67,6 +68,35 @@ TEST_F(ScanReader, ReadsWhatTheWriterWrote) {
   const cv::Vec3f up = scan->ground_truth_normal.at<cv::Vec3f>(10, 32);
   EXPECT_GT(up[1], 0.3f);
   EXPECT_GT(up[2], 0.3f);
+}
+
+// Processing reads the ground truth when it needs it: the same images, and
+// the same checks then.
+TEST_F(ScanReader, GroundTruthCanBeReadWhenNeeded) {
+  auto whole = formats::read_scan(dir_);
+  auto later = formats::read_scan(dir_, formats::ScanImages::without_ground_truth);
+  ASSERT_TRUE(whole && later);
+  EXPECT_TRUE(later->ground_truth_normal.empty());
+  ASSERT_TRUE(formats::read_ground_truth(*later, formats::GroundTruth::normal, later->size()));
+  EXPECT_EQ(cv::norm(later->ground_truth_normal, whole->ground_truth_normal, cv::NORM_INF), 0);
+  // None named: nothing to do.
+  EXPECT_TRUE(formats::read_ground_truth(*later, formats::GroundTruth::height, later->size()));
+  EXPECT_TRUE(later->ground_truth_height.empty());
+
+  // One of the wrong size: refused by read_scan, and by read_ground_truth.
+  ASSERT_TRUE(formats::write_vector_exr(dir_ / "gt_normal.exr",
+                                        cv::Mat(10, 10, CV_32FC3, cv::Scalar(0, 0, 1))));
+  expect_error("gt_normal.exr", "ground_truth.normal");
+  auto lazy = formats::read_scan(dir_, formats::ScanImages::without_ground_truth);
+  ASSERT_TRUE(lazy) << lazy.error().describe();
+  const auto refused = formats::read_ground_truth(*lazy, formats::GroundTruth::normal, {64, 48});
+  ASSERT_FALSE(refused);
+  EXPECT_EQ(refused.error().kind, ErrorKind::bad_input);
+  EXPECT_EQ(refused.error().key, "ground_truth.normal");
+  EXPECT_EQ(refused.error().file.filename(), "gt_normal.exr");
+  EXPECT_NE(refused.error().message.find("expected 64x48 32-bit float 3-channel"),
+            std::string::npos)
+      << refused.error().describe();
 }
 
 TEST_F(ScanReader, KeepsUnknownKeys) {

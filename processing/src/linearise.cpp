@@ -199,7 +199,11 @@ Result<ScanLineariser> ScanLineariser::create(const formats::Scan& scan) {
     return planes;
   };
 
-  if (!scan.dark.empty()) result.dark_planes_ = linear_planes(scan.dark);
+  // The dark frame is linearised a row at a time as each row is (row()),
+  // not kept whole in floats (144 MB at 12 MP colour); the flats need it
+  // whole for a moment.
+  std::vector<cv::Mat> dark_planes;
+  if (!scan.dark.empty() && !scan.flats.empty()) dark_planes = linear_planes(scan.dark);
 
   // Flat fields: F_k, a white target facing the camera under LED k, holds
   // the LED's pattern and brightness times the target's incidence term
@@ -213,7 +217,7 @@ Result<ScanLineariser> ScanLineariser::create(const formats::Scan& scan) {
     const double incidence = scan.description.lights[k].direction[2];
     for (int c = 0; c < channels; ++c) {
       cv::Mat& flat = planes[c];
-      if (!result.dark_planes_.empty()) flat -= result.dark_planes_[c];
+      if (!dark_planes.empty()) flat -= dark_planes[c];
       cv::GaussianBlur(flat, flat, cv::Size(), kFlatBlurSigma);
       flat /= incidence;
       const double mean = cv::mean(flat)[0];
@@ -254,7 +258,8 @@ void ScanLineariser::row(int light, int row, float* const* planes, std::uint8_t*
   const void* src = frame.ptr(row);
   const int n = cols_;
   // Without dark or flat the light's intensity folds into the conversion.
-  const bool corrected = !dark_planes_.empty() || !gains_.empty();
+  const bool dark = !scan_->dark.empty();
+  const bool corrected = dark || !gains_.empty();
   const cv::Vec3f& inverse_intensity = inverse_intensity_[light];
   const auto white_u8 = static_cast<std::uint8_t>(std::min<std::uint64_t>(white_code_, 255));
   const auto white_u16 = static_cast<std::uint16_t>(std::min<std::uint64_t>(white_code_, 65535));
@@ -299,8 +304,20 @@ void ScanLineariser::row(int light, int row, float* const* planes, std::uint8_t*
   }
   if (!corrected) return;
 
+  // The dark row, linear, one plane after another.
+  thread_local std::vector<float> dark_row, dark_plane;
+  if (dark) {
+    dark_row.resize(static_cast<std::size_t>(n) * channels_);
+    codes_.convert(scan_->dark.ptr(row), n * channels_, dark_row.data());
+    dark_plane.resize(static_cast<std::size_t>(n));
+  }
   for (int c = 0; c < channels_; ++c) {
-    if (!dark_planes_.empty()) subtract(planes[c], dark_planes_[c].ptr<float>(row), n);
+    if (dark) {
+      for (int i = 0; i < n; ++i)
+        dark_plane[static_cast<std::size_t>(i)] =
+            dark_row[static_cast<std::size_t>(i) * channels_ + c];
+      subtract(planes[c], dark_plane.data(), n);
+    }
     if (!gains_.empty())
       multiply(planes[c], gains_[light][c].ptr<float>(row), inverse_intensity[c], n);
     else

@@ -2,18 +2,17 @@
 
 #include <chrono>
 #include <cmath>
-#include <cstdio>
+#include <ctime>
 #include <fstream>
-#include <functional>
-#include <future>
 #include <optional>
 
-#include <opencv2/imgcodecs.hpp>
-
+#include "band_maps.h"
+#include "map_files.h"
 #include "psrig/analysis/fabric_measure.h"
 #include "psrig/base/log.h"
-#include "psrig/base/parallel.h"
+#include "psrig/base/memory_use.h"
 #include "psrig/formats/atomic_directory.h"
+#include "psrig/formats/frame_bands.h"
 #include "psrig/formats/image_io.h"
 #include "psrig/formats/image_metadata.h"
 #include "psrig/formats/map_encoding.h"
@@ -24,6 +23,7 @@
 #include "psrig/processing/flatten.h"
 #include "psrig/processing/hole_fill.h"
 #include "psrig/processing/report.h"
+#include "stage_tasks.h"
 
 namespace psrig::processing {
 namespace {
@@ -62,13 +62,6 @@ Result<formats::AtomicDirectory::Existing> check_output(const fs::path& output) 
       bad_input(output, "",
                 "exists and is not a psrig maps directory; refusing to replace it "
                 "(choose another --out, or remove it)"));
-}
-
-// A number for a text chunk: enough digits to give the double back.
-std::string fmt_number(double v) {
-  char text[32];
-  std::snprintf(text, sizeof text, "%.9g", v);
-  return text;
 }
 
 // The options' values, and the scan directory: there, and a directory.
@@ -119,118 +112,110 @@ ReportInputs scan_inputs(const formats::Scan& scan, const ProcessOptions& option
   return inputs;
 }
 
-// What every map task reads: the solve, the scan's description, and how and
-// where the maps are written.
-struct MapContext {
-  const formats::Scan& scan;
-  const SolveResult& result;
-  const ProcessOptions& options;
-  fs::path dir;
-  cv::Mat albedo;  // in sRGB D65 after a colour calibration
-  cv::Mat valid;
-  double pixel_size = 1.0;
-  bool in_mm = false;
-  // The fabric measurement runs beside the map writes, from the height on.
-  analysis::MeasureOptions measure;
-  // Every map losslessly compressed as [storage] says (report.json's
-  // options record it).
-  std::vector<int> png_out;
-  // Half floats hold albedo (linear, about 0..1) to 1 part in 2000, at half
-  // the bytes of a float map; p, q and height as [storage] map_precision
-  // says (storage_options.h: why half is the default).
-  std::vector<int> half_exr;
-  std::vector<int> map_exr;
-  formats::ImageMetadata gradient_meta;
+// How long each stage took, and the most memory it held, sampled while it
+// ran (the kernel's exact peak covers the process's whole life: report.json's
+// memory_mb.process_peak).
+class StageClock {
+ public:
+  explicit StageClock(spdlog::logger& log)
+      : log_(log),
+        start_(Clock::now()),
+        stage_start_(start_),
+        stage_cpu_(cpu_ms()),
+        at_start_(resident_bytes()) {}
 
-  // What every map file says about itself (image_metadata.h): its scale,
-  // the sample and when it was scanned.
-  [[nodiscard]] formats::ImageMetadata metadata(formats::ImageMetadata::ColourSpace space) const {
-    formats::ImageMetadata m;
-    m.pixel_size_mm = scan.description.pixel_size_mm;
-    m.colour_space = space;
-    if (!scan.description.sample_id.empty())
-      m.text.emplace_back(formats::metadata_keys::kSample, scan.description.sample_id);
-    const auto& doc = scan.description.document;
-    if (doc.contains("capture") && doc["capture"].is_object() &&
-        doc["capture"].contains("started") && doc["capture"]["started"].is_string())
-      m.text.emplace_back(formats::metadata_keys::kScanTime,
-                          doc["capture"]["started"].get<std::string>());
-    if (in_mm) m.text.emplace_back(formats::metadata_keys::kPixelSize, fmt_number(pixel_size));
-    m.text.emplace_back(formats::metadata_keys::kSoftware, "psrig");
-    return m;
+  // A stage begins; the first began with the clock.
+  void begin() {
+    stage_start_ = Clock::now();
+    stage_cpu_ = cpu_ms();
+    (void)sampler_.take_peak();
   }
+  // The stage begun last ends. The log has its CPU time too (every thread's).
+  double end(const std::string& name) {
+    const double ms = ms_since(stage_start_);
+    stages_.emplace_back(name, ms);
+    peaks_.emplace_back(name, megabytes(sampler_.take_peak()));
+    log_.debug("stage {}: {:.0f} ms, {:.0f} ms of CPU, {:.0f} MB at most", name, ms,
+               cpu_ms() - stage_cpu_, peaks_.back().second);
+    return ms;
+  }
+  // A time measured elsewhere, inside a stage.
+  void add(const std::string& name, double ms) { stages_.emplace_back(name, ms); }
+  [[nodiscard]] Clock::time_point start() const { return start_; }
+
+  [[nodiscard]] const std::vector<std::pair<std::string, double>>& stages() const {
+    return stages_;
+  }
+  [[nodiscard]] MemoryFigures memory() const {
+    return {megabytes(at_start_), megabytes(peak_resident_bytes()), peaks_};
+  }
+
+ private:
+  static double megabytes(std::size_t bytes) { return static_cast<double>(bytes) / (1 << 20); }
+  static double cpu_ms() {
+    timespec t{};
+    clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+    return static_cast<double>(t.tv_sec) * 1e3 + static_cast<double>(t.tv_nsec) / 1e6;
+  }
+
+  spdlog::logger& log_;
+  Clock::time_point start_;
+  Clock::time_point stage_start_;
+  double stage_cpu_;
+  std::size_t at_start_;
+  ResidentSampler sampler_;
+  std::vector<std::pair<std::string, double>> stages_;
+  std::vector<std::pair<std::string, double>> peaks_;
 };
 
-MapContext map_context(const formats::Scan& scan, const SolveResult& result,
-                       const ProcessOptions& options, const fs::path& dir, cv::Mat albedo) {
-  const auto& description = scan.description;
-  const auto& storage = options.storage;
-  MapContext maps{
-      .scan = scan,
-      .result = result,
-      .options = options,
-      .dir = dir,
-      .albedo = std::move(albedo),
-      .valid = encode_valid_mask(result.flags),
-      .pixel_size = description.pixel_size_mm.value_or(1.0),
-      .in_mm = description.pixel_size_mm.has_value(),
-      .measure = {},
-      .png_out = formats::png_params(storage.png_level),
-      .half_exr = formats::exr_params(storage.exr_compression, true),
-      .map_exr = formats::exr_params(storage.exr_compression,
-                                     storage.map_precision == formats::MapPrecision::half),
-      .gradient_meta = {},
-  };
-  maps.measure.pixel_size_mm = description.pixel_size_mm;
-  maps.measure.hints = analysis::fabric_hints(description.document);
-  maps.gradient_meta = maps.metadata(formats::ImageMetadata::ColourSpace::unspecified);
-  maps.gradient_meta.text.emplace_back(formats::metadata_keys::kUnits,
-                                       "dz/dx, dz/dy (y up), unitless");
-  return maps;
-}
-
-// What the map tasks leave for the report, each field written by one task.
-struct TaskResults {
-  GroundTruthSummary truth;  // the statistics' fields and the integration's
-  double evaluate_ms = 0;
-  double integrate_ms = 0;
+// What the stages after the solve leave for the report.
+struct StageResults {
+  GroundTruthSummary truth;
   std::optional<HeightSummary> height;
   std::optional<BendSummary> bend;
-  std::future<Result<analysis::FabricMeasurement>> fabric;  // reads the context's measure
+  std::optional<Result<analysis::FabricMeasurement>> fabric;
+  double measure_ms = 0;
 };
 
-// The report's statistics, and the ground truth's when the scan has one.
-Status evaluate(const MapContext& maps, ReportInputs& inputs, TaskResults& results) {
-  const auto evaluate_start = Clock::now();
-  const SolveResult& result = maps.result;
+// The report's statistics, and the ground truth's when the scan has one
+// (read now, and let go once used). The residual goes once described.
+Status evaluate(formats::Scan& scan, SolvedPlanes& planes, ReportInputs& inputs,
+                StageResults& results) {
   cv::Mat solved_pixels;
-  cv::compare(result.flags & (kOutsideMask | kLowSignal | kNoSolution), 0, solved_pixels,
+  cv::compare(planes.flags & (kOutsideMask | kLowSignal | kNoSolution), 0, solved_pixels,
               cv::CMP_EQ);
-  inputs.pixels = count_pixels(result.flags);
-  inputs.residual = describe(result.residual, solved_pixels);
-  inputs.mean_abs_curl = mean_abs_curl(result.p, result.q, maps.valid);
-  if (!maps.scan.ground_truth_normal.empty()) {
-    const cv::Mat error = angular_error_deg(result.p, result.q, maps.scan.ground_truth_normal);
-    results.truth.angular_error_deg = describe(error, maps.valid);
-    results.truth.mean_angular_error_all_deg = describe(error, solved_pixels).mean;
+  const cv::Mat valid = encode_valid_mask(planes.flags);
+  inputs.pixels = count_pixels(planes.flags);
+  inputs.residual = describe(planes.residual, solved_pixels);
+  planes.residual.release();
+  inputs.mean_abs_curl = mean_abs_curl(planes.p, planes.q, valid);
+  if (auto ok = formats::read_ground_truth(scan, formats::GroundTruth::normal, planes.flags.size());
+      !ok)
+    return ok;
+  if (!scan.ground_truth_normal.empty()) {
+    const cv::Mat error = angular_error_deg(planes.p, planes.q, scan.ground_truth_normal);
+    scan.ground_truth_normal.release();
+    results.truth.angular_error_deg = describe(error, valid);
+    results.truth.mean_angular_error_all_deg = describe_moments(error, solved_pixels).mean;
   }
-  results.evaluate_ms = ms_since(evaluate_start);
   return {};
 }
 
 // The height from the gradients, by the method asked for (or the one
-// `automatic` picks), in mm where the pixel size is known.
-Result<cv::Mat> integrate_height(const MapContext& maps, HeightSummary& summary) {
-  const SolveResult& result = maps.result;
+// `automatic` picks), in mm where the pixel size is known. p and q are
+// handed to the masked solver, which lets them go once it has what it
+// needs; no later stage reads them.
+Result<cv::Mat> integrate_height(const MapFiles& files, SolvedPlanes& planes,
+                                 HeightSummary& summary) {
   // Heights for the solved pixels: the masked solver leaves the
   // others out (NaN), the whole-rectangle methods take their
   // gradients as 0.
   cv::Mat domain;
-  cv::compare(result.flags & (kOutsideMask | kLowSignal | kNoSolution), 0, domain, cv::CMP_EQ);
-  summary.units = maps.in_mm ? "mm" : "px";
-  summary.method = maps.options.integration;
+  cv::compare(planes.flags & (kOutsideMask | kLowSignal | kNoSolution), 0, domain, cv::CMP_EQ);
+  summary.units = files.in_mm ? "mm" : "px";
+  summary.method = files.options.integration;
   if (summary.method == IntegrationMethod::automatic)
-    summary.method = needs_masked_integration(result.p, result.q, domain)
+    summary.method = needs_masked_integration(planes.p, planes.q, domain)
                          ? IntegrationMethod::masked
                          : IntegrationMethod::frankot_chellappa;
   Result<cv::Mat> height = cv::Mat();
@@ -238,23 +223,25 @@ Result<cv::Mat> integrate_height(const MapContext& maps, HeightSummary& summary)
     MaskedIntegrationOptions masked;
     masked.max_slope = kMaxSlope;
     MaskedIntegrationStats stats;
-    height = integrate_masked(result.p, result.q, domain, masked, &stats);
+    height = integrate_masked(std::move(planes.p), std::move(planes.q), domain, masked, &stats);
     summary.solver = stats;
   } else {
-    height = integrate(summary.method, result.p, result.q, kMaxSlope);
+    height = integrate(summary.method, planes.p, planes.q, kMaxSlope);
+    planes.p.release();
+    planes.q.release();
   }
   // The solve's own gradients cannot be bad input: a failure is ours.
   if (!height) return std::unexpected(internal_error("integration: " + height.error().describe()));
-  if (maps.in_mm) *height *= maps.pixel_size;
+  if (files.in_mm) *height *= files.pixel_size;
   if (summary.method == IntegrationMethod::masked) {
     // Specks inside the swatch (up to 0.25 mm², or 64 pixels where
     // the size is unknown) are filled; the mask's outside and
     // larger unsolved regions stay holes.
     cv::Mat inside;
-    cv::compare(result.flags & kOutsideMask, 0, inside, cv::CMP_EQ);
+    cv::compare(planes.flags & kOutsideMask, 0, inside, cv::CMP_EQ);
     const int max_area =
-        maps.in_mm
-            ? std::max(16, static_cast<int>(kSpeckAreaMm2 / (maps.pixel_size * maps.pixel_size)))
+        files.in_mm
+            ? std::max(16, static_cast<int>(kSpeckAreaMm2 / (files.pixel_size * files.pixel_size)))
             : 64;
     summary.filled_pixels = fill_specks(*height, inside, max_area);
   }
@@ -262,173 +249,133 @@ Result<cv::Mat> integrate_height(const MapContext& maps, HeightSummary& summary)
 }
 
 // The low-frequency bend taken off the height, where the options say so.
-Result<BendSummary> flatten_height(const MapContext& maps, cv::Mat& height,
-                                   const std::string& units, spdlog::logger& log) {
-  const ProcessOptions& options = maps.options;
+Result<BendSummary> flatten_height(const MapFiles& files, cv::Mat& height, const std::string& units,
+                                   spdlog::logger& log) {
+  const ProcessOptions& options = files.options;
   const bool flatten =
-      options.flatten == Flatten::on || (options.flatten == Flatten::automatic && maps.in_mm);
+      options.flatten == Flatten::on || (options.flatten == Flatten::automatic && files.in_mm);
   BendSummary bend;
   if (flatten) {
     const double cutoff_px =
-        maps.in_mm ? options.flatten_cutoff_mm / maps.pixel_size : options.flatten_cutoff_mm;
-    auto removed = remove_bend(height, cutoff_px);
+        files.in_mm ? options.flatten_cutoff_mm / files.pixel_size : options.flatten_cutoff_mm;
+    auto removed = remove_bend(height, cutoff_px, false);
     if (!removed) return std::unexpected(internal_error("flatten: " + removed.error().describe()));
-    bend = {true, options.flatten_cutoff_mm, maps.in_mm ? "mm" : "px", removed->peak_to_valley,
+    bend = {true, options.flatten_cutoff_mm, files.in_mm ? "mm" : "px", removed->peak_to_valley,
             removed->rms};
     log.debug("bend removed: {:.4g} {} peak to valley", removed->peak_to_valley, units);
   }
   return bend;
 }
 
-// height.exr as it is, and height.png spread over [low, high] (which its
-// metadata records), 0 where the height is not finite.
-Status write_height_maps(const MapContext& maps, const cv::Mat& height, const cv::Mat& finite,
-                         double low, double high, const std::string& units) {
-  formats::ImageMetadata height_meta = maps.metadata(formats::ImageMetadata::ColourSpace::data);
-  height_meta.text.emplace_back(formats::metadata_keys::kUnits, units);
-  if (auto ok = formats::write_image(maps.dir / formats::map_files::kHeightExr, height,
-                                     maps.map_exr, height_meta);
-      !ok)
-    return ok;
-  cv::Mat png = formats::encode_height16(height, low, high);
-  png.setTo(0, ~finite);
-  height_meta.text.emplace_back(formats::metadata_keys::kHeightRange,
-                                fmt_number(low) + " " + fmt_number(high));
-  return formats::write_image(maps.dir / formats::map_files::kHeightPng, png, maps.png_out,
-                              height_meta);
-}
-
-// The longest task: the height, flattened, its summary and the height
-// maps. The fabric measurement starts from it, beside the other writes.
-Status integrate_and_write_height(const MapContext& maps, TaskResults& results,
-                                  spdlog::logger& log) {
-  const auto integrate_start = Clock::now();
+// The height, flattened, with its summary and its error against the ground
+// truth (read now, let go once used); `finite` where it has a value.
+Result<cv::Mat> height_of(formats::Scan& scan, const MapFiles& files, SolvedPlanes& planes,
+                          StageResults& results, cv::Mat& finite, spdlog::logger& log) {
+  const auto start = Clock::now();
   HeightSummary summary;
-  auto height = integrate_height(maps, summary);
+  auto height = integrate_height(files, planes, summary);
   if (!height) return std::unexpected(height.error());
-  const cv::Mat finite = *height == *height;  // NaN outside what was integrated
+  finite = *height == *height;  // NaN outside what was integrated
   summary.pixels = cv::countNonZero(finite);
-
-  const auto bend = flatten_height(maps, *height, summary.units, log);
+  const auto bend = flatten_height(files, *height, summary.units, log);
   if (!bend) return std::unexpected(bend.error());
   results.bend = *bend;
-  results.fabric =
-      std::async(std::launch::async, [&measure = maps.measure, &result = maps.result, h = *height] {
-        return analysis::measure_fabric(h, result.albedo, measure);
-      });
-
-  double low = 0, high = 0;
-  if (summary.pixels > 0) cv::minMaxLoc(*height, &low, &high, nullptr, nullptr, finite);
-  summary.low = low;
-  summary.high = high;
+  if (summary.pixels > 0)
+    cv::minMaxLoc(*height, &summary.low, &summary.high, nullptr, nullptr, finite);
+  // What the solve and the flattening freed goes back before the truth is
+  // read: kept beside it, it would raise the peak.
+  give_back_free_memory();
+  if (auto ok = formats::read_ground_truth(scan, formats::GroundTruth::height, height->size()); !ok)
+    return std::unexpected(ok.error());
+  if (!scan.ground_truth_height.empty()) {
+    results.truth.height_rms_error = height_rms_error(*height, scan.ground_truth_height, finite);
+    scan.ground_truth_height.release();
+  }
+  log.debug("integration ({}): {:.0f} ms", to_string(summary.method), ms_since(start));
   results.height = summary;
-  if (!maps.scan.ground_truth_height.empty())
-    results.truth.height_rms_error =
-        height_rms_error(*height, maps.scan.ground_truth_height, finite);
-  results.integrate_ms = ms_since(integrate_start);
-  log.debug("integration ({}): {:.0f} ms", to_string(summary.method), results.integrate_ms);
-  return write_height_maps(maps, *height, finite, low, high, summary.units);
+  return height;
 }
 
-// normal.png, in OpenGL's convention, and DirectX's beside it when asked.
-Status write_normal_maps(const MapContext& maps) {
-  const cv::Mat normal = formats::encode_normal16(maps.result.p, maps.result.q);
-  formats::ImageMetadata m = maps.metadata(formats::ImageMetadata::ColourSpace::data);
-  m.text.emplace_back(formats::metadata_keys::kNormalConvention, "OpenGL (+Y up)");
-  if (auto ok =
-          formats::write_image(maps.dir / formats::map_files::kNormalPng, normal, maps.png_out, m);
-      !ok || !maps.options.directx_normal)
-    return ok;
-  m.text.back().second = "DirectX (+Y down)";
-  return formats::write_image(maps.dir / formats::map_files::kNormalDirectxPng,
-                              formats::flip_normal_green(normal), maps.png_out, m);
+// height.exr as it is, and height.png spread over [low, high] (which its
+// metadata records), 0 where the height is not finite.
+Status write_height_exr(const MapFiles& files, const cv::Mat& height, const std::string& units) {
+  formats::ImageMetadata meta = files.metadata(formats::ImageMetadata::ColourSpace::data);
+  meta.text.emplace_back(formats::metadata_keys::kUnits, units);
+  return formats::write_image(files.dir / formats::map_files::kHeightExr, height, files.map_exr,
+                              meta);
+}
+Status write_height_png(const MapFiles& files, const cv::Mat& height, const cv::Mat& finite,
+                        double low, double high, const std::string& units) {
+  formats::ImageMetadata meta = files.metadata(formats::ImageMetadata::ColourSpace::data);
+  meta.text.emplace_back(formats::metadata_keys::kUnits, units);
+  cv::Mat png = formats::encode_height16(height, low, high);
+  png.setTo(0, ~finite);
+  meta.text.emplace_back(formats::metadata_keys::kHeightRange,
+                         metadata_number(low) + " " + metadata_number(high));
+  return formats::write_image(files.dir / formats::map_files::kHeightPng, png, files.png_out, meta);
 }
 
-struct Task {
-  std::string name;
-  std::function<Status()> run;
-};
-
-// Integration runs beside the statistics and the encoding and writing of
-// the other maps: one task list on the one pool, the longest chain first.
-std::vector<Task> map_tasks(const MapContext& maps, ReportInputs& inputs, TaskResults& results,
-                            spdlog::logger& log) {
-  using ColourSpace = formats::ImageMetadata::ColourSpace;
-  const fs::path& dir = maps.dir;
-  std::vector<Task> tasks;
-  if (maps.options.integration != IntegrationMethod::none)
-    tasks.push_back({"integrate + height maps", [&maps, &results, &log] {
-                       return integrate_and_write_height(maps, results, log);
-                     }});
-  tasks.push_back(
-      {"statistics", [&maps, &inputs, &results] { return evaluate(maps, inputs, results); }});
-  tasks.push_back({formats::map_files::kNormalPng, [&maps] { return write_normal_maps(maps); }});
-  tasks.push_back({formats::map_files::kAlbedoPng, [&maps, &dir] {
-                     return formats::write_image(dir / formats::map_files::kAlbedoPng,
-                                                 formats::encode_albedo_srgb8(maps.albedo),
-                                                 maps.png_out, maps.metadata(ColourSpace::colour));
-                   }});
-  tasks.push_back({formats::map_files::kAlbedoExr, [&maps, &dir] {
-                     return formats::write_image(dir / formats::map_files::kAlbedoExr, maps.albedo,
-                                                 maps.half_exr,
-                                                 maps.metadata(ColourSpace::unspecified));
-                   }});
-  tasks.push_back({formats::map_files::kP, [&maps, &dir] {
-                     return formats::write_image(dir / formats::map_files::kP, maps.result.p,
-                                                 maps.map_exr, maps.gradient_meta);
-                   }});
-  tasks.push_back({formats::map_files::kQ, [&maps, &dir] {
-                     return formats::write_image(dir / formats::map_files::kQ, maps.result.q,
-                                                 maps.map_exr, maps.gradient_meta);
-                   }});
-  tasks.push_back({formats::map_files::kMask, [&maps, &dir] {
-                     return formats::write_image(dir / formats::map_files::kMask, maps.valid,
-                                                 maps.png_out, maps.metadata(ColourSpace::data));
-                   }});
-  return tasks;
-}
-
-// Every task on the pool, each timed in the log; the first failure (in the
-// tasks' order) is the error.
-Status run_tasks(const std::vector<Task>& tasks, spdlog::logger& log) {
-  std::vector<std::optional<Error>> errors(tasks.size());
-  parallel_chunks(static_cast<int>(tasks.size()), 1, [&](int begin, int end) {
-    for (int i = begin; i < end; ++i) {
-      const auto task_start = Clock::now();
-      try {
-        if (auto ok = tasks[i].run(); !ok) errors[i] = ok.error();
-      } catch (const std::exception& e) {
-        errors[i] = internal_error(tasks[i].name + ": " + e.what());
-      }
-      log.debug("{}: {:.0f} ms", tasks[i].name, ms_since(task_start));
-    }
-  });
-  for (const auto& error : errors)
-    if (error) return std::unexpected(*error);
+// The height maps and the fabric measurement side by side. The fabric is
+// measured on the height, or on p without one, with the albedo as solved.
+Status write_height_and_measure(const MapFiles& files, const cv::Mat& height, const cv::Mat& finite,
+                                SolvedPlanes& planes, StageResults& results,
+                                std::vector<std::pair<std::string, double>>& encode_ms,
+                                spdlog::logger& log) {
+  analysis::MeasureOptions measure;
+  measure.pixel_size_mm = files.scan.description.pixel_size_mm;
+  measure.hints = analysis::fabric_hints(files.scan.description.document);
+  const cv::Mat& relief = height.empty() ? planes.p : height;
+  const cv::Mat measured = relief(analysis::measured_region(relief.size()));
+  std::vector<StageTask> tasks;
+  double exr_ms = 0;
+  double png_ms = 0;
+  tasks.push_back({"fabric",
+                   [&] {
+                     results.fabric =
+                         analysis::measure_fabric(measured, planes.albedo_centre, measure);
+                     return Status{};
+                   },
+                   &results.measure_ms});
+  if (!height.empty()) {
+    const HeightSummary& summary = *results.height;
+    tasks.push_back({formats::map_files::kHeightExr,
+                     [&] { return write_height_exr(files, height, summary.units); }, &exr_ms});
+    tasks.push_back({formats::map_files::kHeightPng,
+                     [&] {
+                       return write_height_png(files, height, finite, summary.low, summary.high,
+                                               summary.units);
+                     },
+                     &png_ms});
+  }
+  if (auto ok = run_tasks(tasks, log); !ok) return ok;
+  if (!height.empty()) {
+    encode_ms.emplace_back(formats::map_files::kHeightExr, exr_ms);
+    encode_ms.emplace_back(formats::map_files::kHeightPng, png_ms);
+    log.debug("{}: {:.0f} ms, {}: {:.0f} ms", formats::map_files::kHeightExr, exr_ms,
+              formats::map_files::kHeightPng, png_ms);
+  }
+  log.debug("fabric: {:.0f} ms", results.measure_ms);
   return {};
 }
 
 // report.json's contents: the statistics and summaries, what the albedo's
 // colours mean, and the fabric measured on the maps.
-nlohmann::json build_report(ReportInputs& inputs, const TaskResults& results,
-                            const std::vector<std::pair<std::string, double>>& stages,
-                            const cv::Mat& albedo, const std::optional<ColourCorrection>& colour,
-                            const Result<analysis::FabricMeasurement>& fabric) {
-  const bool colour_corrected = colour && albedo.channels() == 3;
+nlohmann::json build_report(ReportInputs& inputs, const StageResults& results, int channels,
+                            const std::optional<ColourCorrection>& colour) {
+  const bool colour_corrected = colour && channels == 3;
   inputs.height = results.height;
   inputs.bend = results.bend;
   inputs.ground_truth = results.truth;
-  inputs.stage_ms = stages;
   nlohmann::json report = make_report(inputs);
   // What the albedo's colours mean: sRGB D65 after a colour calibration,
   // the camera's own RGB without one (processing/colour_correction.h).
-  report["albedo_colour_space"] = colour_corrected         ? kAlbedoColourSpace
-                                  : albedo.channels() == 3 ? "camera RGB"
-                                                           : "grey";
+  report["albedo_colour_space"] = colour_corrected ? kAlbedoColourSpace
+                                  : channels == 3  ? "camera RGB"
+                                                   : "grey";
   report["colour_calibration"] = colour_corrected && !colour->calibration.empty()
                                      ? nlohmann::json(colour->calibration)
                                      : nlohmann::json(nullptr);
-  if (fabric) report["fabric"] = to_json(*fabric);
+  if (results.fabric && *results.fabric) report["fabric"] = to_json(**results.fabric);
   return report;
 }
 
@@ -442,13 +389,22 @@ Status write_report(const nlohmann::json& report, const fs::path& dir) {
 }
 
 // `loaded`: the scan already in memory (the rig's, as_stored), else it is
-// read from `scan_directory`.
+// read from `scan_directory`, all but its ground truth, which is read when
+// the statistics need it.
+//
+// The stages, one after another, each with the whole pool (stage_tasks.h):
+// read; solve and encode (band_maps.h: the solve a band at a time, each
+// band's albedo, gradient, normal and mask maps written as it is solved);
+// evaluate (the statistics); integrate (the height, filled and flattened);
+// height maps (height.exr, height.png and the fabric measurement side by
+// side). Each stage's memory goes back before the next: the frames after
+// the solve, the residual and the ground truth once described, p and q once
+// the height's system is assembled.
 Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
                                          std::optional<formats::Scan> loaded,
                                          const ProcessOptions& options) {
   auto log = logger("processing");
-  const auto start = Clock::now();
-  std::vector<std::pair<std::string, double>> stages;
+  StageClock clock(*log);
 
   if (auto ok = check_inputs(scan_directory, options); !ok) return std::unexpected(ok.error());
   // Where the maps go is checked next: a bad --out should not wait for a
@@ -456,53 +412,73 @@ Result<ProcessSummary> process_unguarded(const fs::path& scan_directory,
   auto destination = prepare_output(scan_directory, options);
   if (!destination) return std::unexpected(destination.error());
 
-  auto scan =
-      loaded ? Result<formats::Scan>(std::move(*loaded)) : formats::read_scan(scan_directory);
+  // Read from the directory, the PNG frames are decoded a band at a time as
+  // the solve needs them (formats/frame_bands.h), beside it.
+  auto banded = loaded ? Result<formats::BandedScan>(formats::BandedScan{std::move(*loaded), {}})
+                       : formats::read_scan_by_band(scan_directory,
+                                                    formats::ScanImages::without_ground_truth);
   loaded.reset();
-  if (!scan) return std::unexpected(scan.error());
-  stages.emplace_back("read", ms_since(start));
-
-  auto stage_start = Clock::now();
-  auto solved = solve(*scan, options.solve);
-  if (!solved) return std::unexpected(solved.error());
-  const SolveResult& result = *solved;
-  stages.emplace_back("solve", ms_since(stage_start));
-  ReportInputs inputs = scan_inputs(*scan, options);
-  scan->frames.clear();  // their memory goes back before the maps are made
+  if (!banded) return std::unexpected(banded.error());
+  formats::Scan* const scan = &banded->scan;
+  clock.end("read");
 
   // The rig's colour calibration, when the scan carries one: the albedo
   // in linear light, before it is encoded, becomes linear sRGB D65.
   auto colour = read_colour_correction(scan->description.document,
                                        scan_directory / formats::scan_files::kDescription);
   if (!colour) return std::unexpected(colour.error());
-  cv::Mat albedo = result.albedo;
-  if (*colour && albedo.channels() == 3) {
-    albedo = albedo.clone();
-    apply_colour_matrix((*colour)->rgb_matrix, albedo);
+  std::optional<cv::Matx33d> matrix;
+  if (*colour) matrix = (*colour)->rgb_matrix;
+
+  ReportInputs inputs = scan_inputs(*scan, options);
+  const MapFiles files = map_files(*scan, options, destination->staging.path());
+  clock.begin();
+  auto band = solve_and_encode(*scan, banded->frames, options.solve, files, matrix, *log);
+  if (!band) return std::unexpected(band.error());
+  clock.end("solve_and_encode");
+  clock.add("solve", band->solve_ms);
+  std::vector<std::pair<std::string, double>> encode_ms = std::move(band->encode_ms);
+  SolvedPlanes& planes = band->planes;
+  // The frames' memory goes back before the maps that follow are made.
+  scan->frames.clear();
+  scan->frames.shrink_to_fit();
+  scan->dark.release();
+  scan->mask.release();
+  scan->flats.clear();
+
+  const auto after_solve = Clock::now();
+  StageResults results;
+  clock.begin();
+  if (auto ok = evaluate(*scan, planes, inputs, results); !ok) return std::unexpected(ok.error());
+  clock.end("evaluate");
+
+  cv::Mat height;
+  cv::Mat finite;
+  if (options.integration != IntegrationMethod::none) {
+    clock.begin();
+    // The solver, the hole fill and the flattening take and drop some 600 MB
+    // of planes at 12 MP: kept in the heap, they are cleared once instead of
+    // page by page for each (base/memory_use.h).
+    const HeapForLargeBlocks heap;
+    auto made = height_of(*scan, files, planes, results, finite, *log);
+    if (!made) return std::unexpected(made.error());
+    height = std::move(*made);
+    clock.end("integrate");
   }
+  clock.begin();
+  if (auto ok = write_height_and_measure(files, height, finite, planes, results, encode_ms, *log);
+      !ok)
+    return std::unexpected(ok.error());
+  clock.end("height_maps");
+  clock.add("measure", results.measure_ms);
+  clock.add("integrate_and_write", ms_since(after_solve));
+  clock.add("total", ms_since(clock.start()));
 
-  const MapContext maps =
-      map_context(*scan, result, options, destination->staging.path(), std::move(albedo));
-  TaskResults results;  // after the context: the fabric's task reads its measure
-  const std::vector<Task> tasks = map_tasks(maps, inputs, results, *log);
-  stage_start = Clock::now();
-  if (auto ok = run_tasks(tasks, *log); !ok) return std::unexpected(ok.error());
-  // Statistics and integration ran inside the last stage, beside the writes.
-  stages.emplace_back("evaluate", results.evaluate_ms);
-  if (options.integration != IntegrationMethod::none)
-    stages.emplace_back("integrate", results.integrate_ms);
-  stages.emplace_back("integrate_and_write", ms_since(stage_start));
-  // The fabric's repeat and densities, from the maps just made (from p
-  // where there is no height).
-  const auto measure_start = Clock::now();  // what is left of it after the writes
-  const auto fabric = results.fabric.valid()
-                          ? results.fabric.get()
-                          : analysis::measure_fabric(result.p, result.albedo, maps.measure);
-  stages.emplace_back("measure", ms_since(measure_start));
-  stages.emplace_back("total", ms_since(start));
-
-  const nlohmann::json report = build_report(inputs, results, stages, maps.albedo, *colour, fabric);
-  if (auto ok = write_report(report, maps.dir); !ok) return std::unexpected(ok.error());
+  inputs.stage_ms = clock.stages();
+  inputs.encode_ms = encode_ms;
+  inputs.memory = clock.memory();
+  const nlohmann::json report = build_report(inputs, results, inputs.channels, *colour);
+  if (auto ok = write_report(report, files.dir); !ok) return std::unexpected(ok.error());
   if (auto ok = destination->staging.commit(destination->existing, false); !ok)
     return std::unexpected(ok.error());
   log->debug("maps of {} written to {}", scan_directory.string(), destination->output.string());
@@ -530,21 +506,29 @@ std::string_view to_string(Flatten flatten) {
   return "unknown";
 }
 
+// Every plane of the processing freed, what malloc keeps of them goes back
+// too: a daemon returns to its idle size.
 Result<ProcessSummary> process_scan(const fs::path& scan_directory, const ProcessOptions& options) {
+  Result<ProcessSummary> summary = std::unexpected(internal_error("processing did not run"));
   try {
-    return process_unguarded(scan_directory, std::nullopt, options);
+    summary = process_unguarded(scan_directory, std::nullopt, options);
   } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
-    return std::unexpected(internal_error(std::string("processing failed: ") + e.what()));
+    summary = std::unexpected(internal_error(std::string("processing failed: ") + e.what()));
   }
+  give_back_free_memory();
+  return summary;
 }
 
 Result<ProcessSummary> process_scan(formats::Scan scan, const fs::path& scan_directory,
                                     const ProcessOptions& options) {
+  Result<ProcessSummary> summary = std::unexpected(internal_error("processing did not run"));
   try {
-    return process_unguarded(scan_directory, std::move(scan), options);
+    summary = process_unguarded(scan_directory, std::move(scan), options);
   } catch (const std::exception& e) {  // out of memory, or a library throwing where it should not
-    return std::unexpected(internal_error(std::string("processing failed: ") + e.what()));
+    summary = std::unexpected(internal_error(std::string("processing failed: ") + e.what()));
   }
+  give_back_free_memory();
+  return summary;
 }
 
 }  // namespace psrig::processing

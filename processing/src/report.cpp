@@ -1,5 +1,7 @@
 #include "psrig/processing/report.h"
 
+#include <algorithm>
+
 #include "psrig/base/parallel.h"
 #include "psrig/formats/light_matrix.h"
 
@@ -72,6 +74,25 @@ json make_report(const ReportInputs& in) {
   for (const auto& [stage, ms] : in.stage_ms)
     times[stage] = ms;
   report["timings_ms"] = times;
+  if (!in.encode_ms.empty()) {
+    json encode = json::object();
+    for (const auto& [file, ms] : in.encode_ms)
+      encode[file] = ms;
+    report["encode_ms"] = encode;
+  }
+  if (in.memory) {
+    double peak = in.memory->at_start_mb;
+    json stages = json::object();
+    for (const auto& [stage, mb] : in.memory->stage_peak_mb) {
+      stages[stage] = mb;
+      peak = std::max(peak, mb);
+    }
+    report["memory_mb"] = {{"at_start", in.memory->at_start_mb},
+                           {"peak", peak},
+                           {"growth", peak - in.memory->at_start_mb},
+                           {"stage_peaks", stages},
+                           {"process_peak", in.memory->process_peak_mb}};
+  }
 
   const formats::LightMatrix matrix = formats::make_light_matrix(d);
   json rows = json::array();

@@ -764,38 +764,63 @@ const char* reject_method(const SolveOptions& options, int lights) {
   return options.reject_outliers && lights >= 4 ? "lts-reweighted" : "none";
 }
 
-Status solve_into(const formats::Scan& scan, const SolveOptions& options, SolveResult& result) {
-  auto lineariser = ScanLineariser::create(scan);
-  if (!lineariser) return std::unexpected(lineariser.error());
-  const int lights = static_cast<int>(scan.frames.size());
-  const int channels = scan.channels();
-  const cv::Size size = scan.size();
-  const Coefficients co = make_coefficients(scan);
+struct RowSolver::Setup {
+  Setup(const formats::Scan& s, const SolveOptions& o, ScanLineariser l)
+      : scan(s), options(o), lineariser(std::move(l)) {}
+  const formats::Scan& scan;
+  SolveOptions options;
+  ScanLineariser lineariser;
+  Coefficients co;
   // Near-field lights: per-pixel rows of L, each pixel its own least squares
   // (three lights: the same normal equations, exact up to rounding).
   std::optional<NearField> near;
+  bool three = false;
+  ThreeLightInverse inverse{};
+};
+
+RowSolver::RowSolver(std::unique_ptr<Setup> setup) : setup_(std::move(setup)) {}
+RowSolver::RowSolver(RowSolver&&) noexcept = default;
+RowSolver& RowSolver::operator=(RowSolver&&) noexcept = default;
+RowSolver::~RowSolver() = default;
+
+Result<RowSolver> RowSolver::create(const formats::Scan& scan, const SolveOptions& options) {
+  auto lineariser = ScanLineariser::create(scan);
+  if (!lineariser) return std::unexpected(lineariser.error());
+  auto setup = std::make_unique<Setup>(scan, options, std::move(*lineariser));
+  const int lights = static_cast<int>(scan.frames.size());
+  setup->co = make_coefficients(scan);
   if (scan.description.near_field()) {
     if (!scan.description.pixel_size_mm)
       return std::unexpected(bad_input(
           scan.description.directory / formats::scan_files::kDescription, "lights[0].position_mm",
           "needs pixel_size_mm to place the pixels on the swatch"));
-    near.emplace();
+    NearField& near = setup->near.emplace();
     for (const auto& light : scan.description.lights)
-      near->position.push_back(*light.position_mm);
-    near->pixel_size_mm = *scan.description.pixel_size_mm;
-    near->principal_point = scan.description.principal_point_px.value_or(
+      near.position.push_back(*light.position_mm);
+    near.pixel_size_mm = *scan.description.pixel_size_mm;
+    near.principal_point = scan.description.principal_point_px.value_or(
         cv::Point2d(0.5 * (scan.size().width - 1), 0.5 * (scan.size().height - 1)));
   }
-  const bool three = lights == 3 && !options.force_least_squares && !near;
-  const ThreeLightInverse inverse = three ? three_light_inverse(co) : ThreeLightInverse{};
+  setup->three = lights == 3 && !options.force_least_squares && !setup->near;
+  if (setup->three) setup->inverse = three_light_inverse(setup->co);
+  return RowSolver(std::move(setup));
+}
 
-  result.p.create(size, CV_32F);
-  result.q.create(size, CV_32F);
-  result.albedo.create(size, CV_32FC(channels));
-  result.residual.create(size, CV_32F);
-  result.flags.create(size, CV_8U);
+void RowSolver::solve(int first, int rows, SolveResult& result) const {
+  const Setup& s = *setup_;
+  const formats::Scan& scan = s.scan;
+  const SolveOptions& options = s.options;
+  const int lights = static_cast<int>(scan.frames.size());
+  const int channels = scan.channels();
+  const cv::Size size = scan.size();
+  const cv::Size band(size.width, rows);
+  result.p.create(band, CV_32F);
+  result.q.create(band, CV_32F);
+  result.albedo.create(band, CV_32FC(channels));
+  result.residual.create(band, CV_32F);
+  result.flags.create(band, CV_8U);
 
-  parallel_chunks(size.height, kSolveRowsPerChunk, [&](int begin, int end) {
+  parallel_chunks(rows, kSolveRowsPerChunk, [&](int begin, int end) {
     // Per-thread scratch for one row of every light's measurements.
     // Thread-local scratch is safe because nothing in this body opens a
     // nested parallel region (which could run another chunk on this thread
@@ -818,17 +843,18 @@ Status solve_into(const formats::Scan& scan, const SolveOptions& options, SolveR
     row.channels = channels;
     row.measurement = measurements.data();
     row.saturated = saturation.data();
-    for (int r = begin; r < end; ++r) {
+    for (int i = begin; i < end; ++i) {
+      const int r = first + i;
       for (int k = 0; k < lights; ++k)
-        lineariser->row(k, r, planes.data() + static_cast<std::size_t>(k) * channels,
-                        saturation.data() + k * stride);
+        s.lineariser.row(k, r, planes.data() + static_cast<std::size_t>(k) * channels,
+                         saturation.data() + k * stride);
       row.mask = scan.mask.empty() ? everywhere.data() : scan.mask.ptr<std::uint8_t>(r);
-      row.p = result.p.ptr<float>(r);
-      row.q = result.q.ptr<float>(r);
-      row.albedo = result.albedo.ptr<float>(r);
-      row.residual = result.residual.ptr<float>(r);
-      row.flags = result.flags.ptr<std::uint8_t>(r);
-      if (three) {
+      row.p = result.p.ptr<float>(i);
+      row.q = result.q.ptr<float>(i);
+      row.albedo = result.albedo.ptr<float>(i);
+      row.residual = result.residual.ptr<float>(i);
+      row.flags = result.flags.ptr<std::uint8_t>(i);
+      if (s.three) {
         // The next row is usually this thread's too: the pool hands out
         // runs of consecutive chunks.
         NextRow next;
@@ -838,13 +864,19 @@ Status solve_into(const formats::Scan& scan, const SolveOptions& options, SolveR
           next.pixel_bytes = static_cast<std::ptrdiff_t>(scan.frames[0].elemSize());
           next.bytes = next.pixel_bytes * size.width;
         }
-        solve_row_three(row, inverse, options, next);
+        solve_row_three(row, s.inverse, options, next);
       } else {
-        solve_row_general(row, co, options, near ? &*near : nullptr, r);
+        solve_row_general(row, s.co, options, s.near ? &*s.near : nullptr, r);
       }
     }
     stream_fence();
   });
+}
+
+Status solve_into(const formats::Scan& scan, const SolveOptions& options, SolveResult& result) {
+  auto solver = RowSolver::create(scan, options);
+  if (!solver) return std::unexpected(solver.error());
+  solver->solve(0, scan.size().height, result);
   return {};
 }
 

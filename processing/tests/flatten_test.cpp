@@ -116,6 +116,23 @@ TEST(Flatten, HolesAndBordersStayAsTheyAre) {
   EXPECT_LT(left, 0.08 * rms_about_mean(bend(w, h)));
 }
 
+// Without the bend returned, the same height and the same sizes.
+TEST(Flatten, WithoutTheBendReturnedTheHeightIsTheSame) {
+  cv::Mat height = relief(300, 200) + bend(300, 200);
+  height.at<float>(50, 60) = std::numeric_limits<float>::quiet_NaN();
+  height.at<float>(70, 80) = std::numeric_limits<float>::infinity();
+  cv::Mat lean = height.clone();
+  const auto kept = remove_bend(height, 10.0 / kPixelMm);
+  const auto sizes_only = remove_bend(lean, 10.0 / kPixelMm, false);
+  ASSERT_TRUE(kept && sizes_only);
+  EXPECT_TRUE(sizes_only->bend.empty());
+  EXPECT_EQ(cv::norm(height == height, lean == lean, cv::NORM_INF), 0);  // NaN where it was
+  const cv::Mat finite = (height == height) & (cv::abs(height) < 1e30);
+  EXPECT_EQ(cv::norm(height, lean, cv::NORM_INF, finite), 0);
+  EXPECT_EQ(kept->peak_to_valley, sizes_only->peak_to_valley);
+  EXPECT_EQ(kept->rms, sizes_only->rms);
+}
+
 TEST(Flatten, RejectsBadInputs) {
   cv::Mat height(10, 10, CV_32F, cv::Scalar(0));
   EXPECT_FALSE(remove_bend(height, 0.0));

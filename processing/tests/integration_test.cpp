@@ -794,6 +794,24 @@ TEST(IntegrationMasked, IsBitIdenticalForAnyThreadCount) {
   EXPECT_EQ(cv::norm(*reference, *z, cv::NORM_INF, mask), 0.0);
 }
 
+// Handed over (moved in), the gradients give the same heights, and the
+// caller's headers are left empty: the solver let them go.
+TEST(IntegrationMasked, HandedOverGradientsGiveTheSameHeights) {
+  const cv::Mat p = random_field(123, 77, 31, 0.2F);
+  const cv::Mat q = random_field(123, 77, 32, 0.2F);
+  const cv::Mat mask = disk_mask(123, 77, 60, 40, 35);
+  MaskedIntegrationStats kept_stats, handed_stats;
+  const auto kept = integrate_masked(p, q, mask, {}, &kept_stats);
+  cv::Mat p_own = p.clone();
+  cv::Mat q_own = q.clone();
+  const auto handed = integrate_masked(std::move(p_own), std::move(q_own), mask, {}, &handed_stats);
+  ASSERT_TRUE(kept && handed);
+  EXPECT_TRUE(p_own.empty() && q_own.empty());
+  EXPECT_EQ(cv::norm(*kept, *handed, cv::NORM_INF, mask), 0.0);
+  EXPECT_EQ(kept_stats.iterations, handed_stats.iterations);
+  EXPECT_FALSE(integrate_masked(cv::Mat(), cv::Mat(), cv::Mat()));  // still checked
+}
+
 TEST(IntegrationMasked, RecoversTheVaseDepth) {
   const auto folder = test::real_dataset("vase");
   if (!folder) GTEST_SKIP() << "real dataset 'vase' not present";

@@ -295,5 +295,51 @@ TEST(Woodham, ResultsDoNotDependOnThreadCount) {
   }
 }
 
+// The pipeline solves a band of rows at a time, into views of its planes
+// and into band-sized buffers: the very values of the whole solve, for the
+// three-light kernel (with a dark frame and a mask) and the general one.
+TEST(Woodham, SolvedBandByBandEqualsSolvedWhole) {
+  const auto surface = sphere_surface({131, 97}, 40, 3);
+  formats::Scan three = render_scan(surface, ring_lights(3, 45), CV_16U, 0.01, 5);
+  three.dark = cv::Mat(three.size(), three.frames[0].type(), cv::Scalar::all(300));
+  for (auto& frame : three.frames)
+    frame += three.dark;
+  three.mask = cv::Mat(three.size(), CV_8U, cv::Scalar(255));
+  three.mask(cv::Rect(10, 12, 25, 20)).setTo(0);
+  const formats::Scan five = render_scan(surface, ring_lights(5, 50), CV_16U, 0.01, 5);
+  const std::vector<std::pair<const formats::Scan*, SolveOptions>> cases = {
+      {&three, {}}, {&five, {.reject_outliers = true}}};
+  for (const auto& [scan, options] : cases) {
+    auto whole = solve(*scan, options);
+    ASSERT_TRUE(whole);
+    auto solver = RowSolver::create(*scan, options);
+    ASSERT_TRUE(solver);
+    SolveResult views;  // into whole-size planes
+    views.p.create(scan->size(), CV_32F);
+    views.q.create(scan->size(), CV_32F);
+    views.albedo.create(scan->size(), CV_32FC3);
+    views.residual.create(scan->size(), CV_32F);
+    views.flags.create(scan->size(), CV_8U);
+    for (int first = 0; first < scan->size().height; first += 23) {
+      const int rows = std::min(23, scan->size().height - first);
+      SolveResult band;  // band-sized, made by the solver
+      solver->solve(first, rows, band);
+      SolveResult view{views.p.rowRange(first, first + rows), views.q.rowRange(first, first + rows),
+                       views.albedo.rowRange(first, first + rows),
+                       views.residual.rowRange(first, first + rows),
+                       views.flags.rowRange(first, first + rows)};
+      solver->solve(first, rows, view);
+      EXPECT_EQ(view.p.data, views.p.ptr(first));  // stayed a view
+      EXPECT_EQ(cv::norm(band.albedo, whole->albedo.rowRange(first, first + rows), cv::NORM_INF),
+                0);
+    }
+    EXPECT_EQ(cv::norm(views.p, whole->p, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(views.q, whole->q, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(views.albedo, whole->albedo, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(views.residual, whole->residual, cv::NORM_INF), 0);
+    EXPECT_EQ(cv::norm(views.flags, whole->flags, cv::NORM_INF), 0);
+  }
+}
+
 }  // namespace
 }  // namespace psrig::processing

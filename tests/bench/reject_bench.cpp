@@ -7,12 +7,10 @@
 // goal is at most 3); `x_plain_cpu` the same ratio of the process's CPU
 // time (all threads), steadier than wall time on a machine others share.
 
-#include <chrono>
-#include <ctime>
-
 #include <benchmark/benchmark.h>
 
 #include "bench_sizes.h"
+#include "bench_timing.h"
 #include "psrig/processing/woodham.h"
 #include "synthetic_scene.h"
 
@@ -21,6 +19,8 @@ namespace {
 using psrig::formats::Scan;
 
 using psrig::bench::k12MP;
+using psrig::bench::timed;
+using psrig::bench::Times;
 
 const Scan& scan_8_lights_12mp() {
   static const Scan scan = [] {
@@ -31,31 +31,13 @@ const Scan& scan_8_lights_12mp() {
   return scan;
 }
 
-// The CPU time of the whole process (every pool thread), in ms.
-double process_cpu_ms() {
-  timespec t{};
-  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
-  return t.tv_sec * 1e3 + t.tv_nsec / 1e6;
-}
-
-struct Times {
-  double wall_ms = 0, cpu_ms = 0;
-  Times& operator+=(const Times& o) {
-    wall_ms += o.wall_ms, cpu_ms += o.cpu_ms;
-    return *this;
-  }
-};
-
 Times solve_ms(const Scan& scan, const psrig::processing::SolveOptions& options,
                psrig::processing::SolveResult& result, benchmark::State& state) {
-  const double cpu = process_cpu_ms();
-  const auto start = std::chrono::steady_clock::now();
-  if (auto ok = psrig::processing::solve_into(scan, options, result); !ok)
-    state.SkipWithError(ok.error().describe().c_str());
-  benchmark::DoNotOptimize(result.p.data);
-  return {
-      std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count(),
-      process_cpu_ms() - cpu};
+  return timed([&] {
+    if (auto ok = psrig::processing::solve_into(scan, options, result); !ok)
+      state.SkipWithError(ok.error().describe().c_str());
+    benchmark::DoNotOptimize(result.p.data);
+  });
 }
 
 void BM_Woodham8(benchmark::State& state) {

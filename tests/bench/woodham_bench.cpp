@@ -11,23 +11,16 @@
 
 #include <benchmark/benchmark.h>
 
-#include "bench_sizes.h"
 #include "psrig/base/parallel.h"
 #include "psrig/processing/woodham.h"
-#include "synthetic_scene.h"
+#include "stream_copy.h"
 
 namespace {
 
 using psrig::formats::Scan;
 
-using psrig::bench::k12MP;
-
 const Scan& frames_12mp() {
-  static const Scan scan = [] {
-    const auto surface = psrig::test::sphere_surface(k12MP, k12MP.height * 0.45, 3);
-    return psrig::test::render_scan(surface, psrig::test::ring_lights(3, 45), CV_16U, 0.002);
-  }();
-  return scan;
+  return psrig::test::stream_copy_scan();
 }
 
 std::size_t input_bytes(const Scan& scan) {
@@ -37,9 +30,8 @@ std::size_t input_bytes(const Scan& scan) {
   return bytes;
 }
 
-// p, q, residual (float), albedo (3 floats), flags (1 byte) per pixel.
 std::size_t output_bytes_per_pixel() {
-  return 3 * sizeof(float) + 3 * sizeof(float) + 1;
+  return psrig::test::solve_output_bytes_per_pixel();
 }
 
 void BM_Woodham3(benchmark::State& state) {
@@ -61,21 +53,10 @@ void BM_Woodham3(benchmark::State& state) {
 void BM_StreamCopy(benchmark::State& state) {
   const Scan& scan = frames_12mp();
   const cv::Size size = scan.size();
-  const std::size_t out_row = static_cast<std::size_t>(size.width) * output_bytes_per_pixel();
-  const std::size_t in_row = scan.frames[0].cols * scan.frames[0].elemSize();
-  std::vector<unsigned char> output(out_row * size.height);
+  std::vector<unsigned char> output;
+  psrig::test::stream_copy(scan, output);  // the output made and touched before timing
   for (auto _ : state) {
-    psrig::parallel_chunks(size.height, 8, [&](int begin, int end) {
-      for (int r = begin; r < end; ++r) {
-        unsigned char* out = output.data() + out_row * r;
-        std::size_t written = 0;
-        for (int k = 0; written < out_row; k = (k + 1) % 3) {
-          const std::size_t n = std::min(in_row, out_row - written);
-          std::memcpy(out + written, scan.frames[k].ptr(r), n);
-          written += n;
-        }
-      }
-    });
+    psrig::test::stream_copy(scan, output);
     benchmark::DoNotOptimize(output.data());
     benchmark::ClobberMemory();
   }

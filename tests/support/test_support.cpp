@@ -8,8 +8,10 @@
 #include <random>
 #include <spawn.h>
 #include <sstream>
+#include <sys/resource.h>
 #include <sys/wait.h>
 #include <system_error>
+#include <unistd.h>
 
 namespace psrig::test {
 
@@ -116,6 +118,46 @@ std::size_t calibration_versions(const std::filesystem::path& state) {
        !ec && it != std::filesystem::directory_iterator(); it.increment(ec))
     ++n;
   return n;
+}
+
+ProgramRun run_program_limited(const std::string& name, const std::vector<std::string>& args,
+                               std::size_t address_space,
+                               const std::vector<std::string>& environment) {
+  TempDir capture("psrig-run");
+  const auto out = capture / "out", err = capture / "err";
+  // Everything the child needs is made before the fork: between fork and
+  // exec a child of a threaded process may only make system calls.
+  const std::string path = program(name).string();
+  std::vector<char*> argv{const_cast<char*>(path.c_str())};
+  for (const auto& arg : args)
+    argv.push_back(const_cast<char*>(arg.c_str()));
+  argv.push_back(nullptr);
+  std::vector<char*> envp;
+  for (char** variable = environ; *variable != nullptr; ++variable)
+    envp.push_back(*variable);
+  for (const auto& variable : environment)
+    envp.push_back(const_cast<char*>(variable.c_str()));
+  envp.push_back(nullptr);
+  const rlimit limit{address_space, address_space};
+  ProgramRun run;
+  const pid_t pid = fork();
+  if (pid == 0) {
+    const int out_fd = open(out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    const int err_fd = open(err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
+    if (out_fd < 0 || err_fd < 0 || dup2(out_fd, 1) < 0 || dup2(err_fd, 2) < 0 ||
+        setrlimit(RLIMIT_AS, &limit) != 0)
+      _exit(127);
+    execve(path.c_str(), argv.data(), envp.data());
+    _exit(127);
+  }
+  if (pid > 0) {
+    int status = 0;
+    waitpid(pid, &status, 0);
+    run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);
+  }
+  run.out = read_all(out);
+  run.err = read_all(err);
+  return run;
 }
 
 std::string file_contents(const std::filesystem::path& file) {

@@ -57,6 +57,13 @@ struct ProgramRun {
 // Runs a built program with `args` and waits for it.
 [[nodiscard]] ProgramRun run_program(const std::string& name, const std::vector<std::string>& args);
 
+// The same under an address-space limit (setrlimit(RLIMIT_AS) in the child,
+// in bytes), with `environment` (NAME=VALUE each) added to the child's.
+[[nodiscard]] ProgramRun run_program_limited(const std::string& name,
+                                             const std::vector<std::string>& args,
+                                             std::size_t address_space,
+                                             const std::vector<std::string>& environment = {});
+
 // `psrig synth --pattern PATTERN` at SIZE (WxH) and PIXEL_SIZE mm into
 // `scan`, then `psrig process`: the maps directory, or the failing step's
 // stderr.

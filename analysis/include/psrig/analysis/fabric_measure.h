@@ -72,6 +72,11 @@ struct MeasureOptions {
   FabricHints hints;
 };
 
+// The part of the maps measure_fabric reads: the central 1280 pixels a side
+// (all of a smaller side). Measuring maps cut to it gives the same result,
+// so a caller short of memory keeps only that much (the pipeline's albedo).
+[[nodiscard]] cv::Rect measured_region(cv::Size maps);
+
 // height: CV_32F (NaN = no height); albedo: CV_32FC3/CV_32FC1 or 8-bit, or
 // empty. Returns a measurement with periodic = false when no repeat is found
 // (a note says why); errors only for unusable input.

@@ -20,6 +20,8 @@ struct Distribution {
 
 // Of the finite CV_32F values where `select` (CV_8U) is nonzero; all when empty.
 [[nodiscard]] Distribution describe(const cv::Mat& values, const cv::Mat& select = {});
+// The same but for the quantiles (median and p95 stay 0): one pass.
+[[nodiscard]] Distribution describe_moments(const cv::Mat& values, const cv::Mat& select = {});
 
 // How many pixels carry each of the solve's flags (see woodham.h).
 struct PixelCounts {

@@ -27,13 +27,17 @@ inline constexpr double kDefaultFlattenCutoffMm = 10.0;
 
 struct BendRemoved {
   cv::Mat bend;               // CV_32F, what was subtracted; NaN where the height is
+                              // (empty unless keep_bend)
   double peak_to_valley = 0;  // max - min of the bend over the valid pixels
   double rms = 0;             // RMS of the bend about its mean there
 };
 
 // Subtracts the bend from `height` (CV_32FC1; non-finite = no data, left
 // as is) in place. `cutoff` is in pixels (the caller converts millimetres
-// with the scan's pixel size) and must be positive.
-[[nodiscard]] Result<BendRemoved> remove_bend(cv::Mat& height, double cutoff_px);
+// with the scan's pixel size) and must be positive. Without keep_bend the
+// bend itself is not returned, only its size (the pipeline's case: a plane
+// less).
+[[nodiscard]] Result<BendRemoved> remove_bend(cv::Mat& height, double cutoff_px,
+                                              bool keep_bend = true);
 
 }  // namespace psrig::processing

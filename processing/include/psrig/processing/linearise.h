@@ -47,7 +47,8 @@ class CodeLineariser {
 // Holds a pointer to the scan: it must not outlive it or see it move.
 class ScanLineariser {
  public:
-  // Precomputes the linear dark frame and the flat-field gains.
+  // Precomputes the flat-field gains; the dark frame is linearised a row at
+  // a time, as each row is.
   [[nodiscard]] static Result<ScanLineariser> create(const formats::Scan& scan);
 
   // Row `row` of light `light`: channel c goes to planes[c][0..cols) (BGR
@@ -71,7 +72,6 @@ class ScanLineariser {
   int cols_ = 0;
   int rows_ = 0;
   std::vector<cv::Vec3f> inverse_intensity_;  // per light, BGR
-  std::vector<cv::Mat> dark_planes_;          // per channel, CV_32F, linear; empty without a dark
   std::vector<std::vector<cv::Mat>> gains_;   // per light, per channel, CV_32F; empty without flats
   std::uint64_t white_code_ = 0;              // integer frames: first saturated code
 };

@@ -1,7 +1,7 @@
 #pragma once
 // report.json of a maps directory (docs/design.md "Maps directory"): inputs,
-// per-stage times, the light matrix and its condition number, mask counts,
-// residual, height range, and errors against ground truth when there is one.
+// per-stage times and memory, each map's encoding time, the light matrix and its condition number,
+// mask counts, residual, height range, and errors against ground truth when there is one.
 
 #include <optional>
 #include <string>
@@ -42,6 +42,15 @@ struct GroundTruthSummary {
   std::optional<double> height_rms_error;  // in the height's units
 };
 
+// Resident memory while processing (base/memory_use.h), in MB: at the
+// start, the process's peak (its whole life: a daemon's earlier work too),
+// and each stage's peak as sampled while it ran.
+struct MemoryFigures {
+  double at_start_mb = 0;
+  double process_peak_mb = 0;
+  std::vector<std::pair<std::string, double>> stage_peak_mb;  // in the order they ran
+};
+
 struct ReportInputs {
   const formats::Scan* scan = nullptr;  // its frames may already be released
   cv::Size size;               // of the frames
@@ -55,6 +64,8 @@ struct ReportInputs {
   std::optional<BendSummary> bend;  // with a height
   GroundTruthSummary ground_truth;
   std::vector<std::pair<std::string, double>> stage_ms;  // in the order they ran
+  std::vector<std::pair<std::string, double>> encode_ms;  // each map file's encoder
+  std::optional<MemoryFigures> memory;
 };
 
 [[nodiscard]] nlohmann::json make_report(const ReportInputs& inputs);

@@ -7,6 +7,7 @@
 // rho_c with that normal fixed.
 
 #include <cstdint>
+#include <memory>
 
 #include <opencv2/core.hpp>
 
@@ -69,6 +70,29 @@ struct SolveResult {
   cv::Mat albedo;    // CV_32FC(channels), BGR for colour; 0 where not solved
   cv::Mat residual;  // CV_32F, RMS misfit of the Lambertian model, fraction of full scale
   cv::Mat flags;     // CV_8U, PixelFlag bits
+};
+
+// A scan's solve prepared once (its linearisation, the light matrix) and run
+// a band of rows at a time: the pipeline makes each band's maps as soon as it
+// is solved, and never holds the whole albedo. Holds a reference to the scan:
+// it must not outlive it or see it move.
+class RowSolver {
+ public:
+  [[nodiscard]] static Result<RowSolver> create(const formats::Scan& scan,
+                                                const SolveOptions& options = {});
+  // Rows [first, first + rows) of the scan into `out`, a row at a time on the
+  // thread pool; out's planes are made `rows` high unless they already are
+  // (views into larger planes stay views). The same values as solve().
+  void solve(int first, int rows, SolveResult& out) const;
+
+  RowSolver(RowSolver&&) noexcept;
+  RowSolver& operator=(RowSolver&&) noexcept;
+  ~RowSolver();
+
+ private:
+  struct Setup;
+  explicit RowSolver(std::unique_ptr<Setup> setup);
+  std::unique_ptr<Setup> setup_;
 };
 
 // Linearises and solves a whole scan, a row at a time on the thread pool.
