@@ -12,6 +12,7 @@
 #include "image_params.h"
 #include "png_codec.h"
 #include "psrig/base/parallel.h"
+#include "psrig/formats/row_writer.h"
 
 namespace psrig::formats {
 namespace {
@@ -85,9 +86,18 @@ Status write_image(const std::filesystem::path& file, const cv::Mat& image,
 Status write_vector_exr(const std::filesystem::path& file, const cv::Mat& xyz) {
   if (xyz.type() != CV_32FC3)
     return std::unexpected(internal_error("write_vector_exr: expected CV_32FC3"));
+  // A band at a time in the file's channel order: at 12 MP a reordered copy
+  // of the whole image would be 137 MB.
+  auto writer = RowWriter::open(file, xyz.size(), CV_32FC3, with_exr_defaults({}), {});
+  if (!writer) return std::unexpected(writer.error());
+  constexpr int kBandRows = 64;
   cv::Mat zyx;
-  cv::cvtColor(xyz, zyx, cv::COLOR_RGB2BGR);  // cannot throw for CV_32FC3
-  return write_image(file, zyx);
+  for (int top = 0; top < xyz.rows; top += kBandRows) {
+    cv::cvtColor(xyz.rowRange(top, std::min(top + kBandRows, xyz.rows)), zyx,
+                 cv::COLOR_RGB2BGR);  // cannot throw for CV_32FC3
+    if (auto ok = writer->write(zyx); !ok) return ok;
+  }
+  return writer->finish();
 }
 
 Result<cv::Mat> read_vector_exr(const std::filesystem::path& file, const std::string& key) {

@@ -3,6 +3,7 @@
 #include <cctype>
 #include <cmath>
 #include <ctime>
+#include <optional>
 #include <thread>
 
 #include <opencv2/imgproc.hpp>
@@ -302,15 +303,24 @@ Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Li
       ++timing.frames_skipped;
     } else {
       if (sum.empty()) {
+        // Its settings only: at 12 MP a frame held to the end is 72 MB.
         first = *frame;
-        sum = cv::Mat::zeros(frame->image.size(), CV_MAKETYPE(CV_32F, frame->image.channels()));
-      } else if (frame->image.size() != first.image.size() ||
-                 frame->image.channels() != first.image.channels()) {
+        first.image = cv::Mat();
+        // In 16 bits where the frames cannot overflow them (a 12-bit sensor
+        // averaging up to 16), else in float: at 12 MP that halves the sum.
+        const bool exact_in_16 = frame->image.depth() <= CV_16U &&
+                                 frame->white_level * config_.camera.frames_average <= 65535;
+        sum = cv::Mat::zeros(frame->image.size(),
+                             CV_MAKETYPE(exact_in_16 ? CV_16U : CV_32F, frame->image.channels()));
+      } else if (frame->image.size() != sum.size() || frame->image.channels() != sum.channels()) {
         return std::unexpected(
             io_error(camera_.describe(), "the frame size or format changed mid-scan")
                 .with(ErrorCode::camera));
       }
-      cv::accumulate(frame->image, sum);
+      if (sum.depth() == CV_16U)
+        cv::add(frame->image, sum, sum, cv::noArray(), CV_16U);
+      else
+        cv::accumulate(frame->image, sum);
       ++timing.frames_kept;
     }
     if (switched) {
@@ -320,7 +330,6 @@ Result<cv::Mat> ScanSequencer::collect(const Phase& phase, const Phase* next, Li
   }
   if (lighting.channel == phase.channel)
     if (auto ok = still_lit(); !ok) return std::unexpected(ok.error());
-  sum.convertTo(sum, CV_32F, 1.0 / config_.camera.frames_average);
   return sum;
 }
 
@@ -345,10 +354,11 @@ Result<formats::Scan> ScanSequencer::acquire(
   const auto start = lights::Clock::now();
   if (auto ok = camera_.start(); !ok) return std::unexpected(ok.error());
 
-  // Frames are averaged in float and stored as 16-bit integers scaled up to
-  // use the whole range, so the averaging's extra precision is kept.
+  // Each phase's frames are summed, then stored as their mean in 16-bit
+  // integers scaled up to use the whole range, so the averaging's extra
+  // precision is kept.
   formats::Scan scan;
-  cameras::Frame reference;
+  std::optional<cameras::Frame> reference;  // the first frame's settings
   double scale = 1;
   for (std::size_t p = 0; p < phases.size(); ++p) {
     const Phase& phase = phases[p];
@@ -361,15 +371,16 @@ Result<formats::Scan> ScanSequencer::acquire(
       lighting = *now_lit;
     }
     cameras::Frame first;
-    auto mean =
+    auto sum =
         collect(phase, p + 1 < phases.size() ? &phases[p + 1] : nullptr, lighting, timing, first);
-    if (!mean) return std::unexpected(mean.error());
-    if (reference.image.empty()) {
+    if (!sum) return std::unexpected(sum.error());
+    if (!reference) {
       reference = first;
-      scale = std::max(1.0, std::floor(65535.0 / reference.white_level));
+      scale = std::max(1.0, std::floor(65535.0 / reference->white_level));
     }
     cv::Mat stored;
-    mean->convertTo(stored, CV_16U, scale);
+    sum->convertTo(stored, CV_16U, scale / config_.camera.frames_average);
+    sum->release();
     if (phase.channel < 0) {
       scan.dark = stored;
     } else {
@@ -380,7 +391,7 @@ Result<formats::Scan> ScanSequencer::acquire(
   }
   if (auto ok = lights_.all_off(); !ok) return std::unexpected(ok.error());
   timing.total = lights::Clock::now() - start;
-  describe_scan(request, reference, scale, timing, static_cast<int>(phases.size()), started, scan);
+  describe_scan(request, *reference, scale, timing, static_cast<int>(phases.size()), started, scan);
   return scan;
 }
 

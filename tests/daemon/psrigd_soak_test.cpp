@@ -41,14 +41,6 @@ int soak_scans() {
   return scans >= 3 * kWarmUpScans ? scans : kDefaultScans;
 }
 
-// The daemon's resident set, in KiB (VmRSS of /proc/PID/status).
-long rss_kib(pid_t pid) {
-  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-  for (std::string line; std::getline(status, line);)
-    if (line.starts_with("VmRSS:")) return std::stol(line.substr(6));
-  return -1;
-}
-
 // The daemon's open file descriptors. The least of a few looks: an HTTP
 // worker may not have closed the socket of the request just answered yet
 // (the test's client asks for "Connection: close" each time).
@@ -101,7 +93,7 @@ TEST(PsrigdSoak, ConsecutiveScansKeepMemoryFilesAndLedsSteady) {
     ASSERT_GT(id, 0) << daemon.log();
     const auto entry = daemon.wait_finished(id);
     ASSERT_EQ(entry["status"], "done") << "scan " << n << ": " << entry.dump() << daemon.log();
-    rss.push_back(rss_kib(daemon.pid()));
+    rss.push_back(process_status_kb(daemon.pid(), "VmRSS"));
     if (n == kWarmUpScans) fds_warm = open_fds(daemon.pid());
   }
   const double seconds =

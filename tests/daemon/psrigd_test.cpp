@@ -30,24 +30,6 @@
 namespace psrig::test {
 namespace {
 
-// A memory figure of process `pid` from /proc/PID/status, in kB: `field`
-// "VmRSS" (resident now) or "VmHWM" (the peak); -1 where there is none.
-long status_kb(pid_t pid, const std::string& field) {
-  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
-  for (std::string line; std::getline(status, line);)
-    if (line.starts_with(field + ":")) return std::stol(line.substr(field.size() + 1));
-  return -1;
-}
-
-// Resets the peak (VmHWM) of process `pid` to its resident set now
-// (clear_refs); false where that cannot be done.
-bool reset_peak_rss(pid_t pid) {
-  std::ofstream clear_refs("/proc/" + std::to_string(pid) + "/clear_refs");
-  clear_refs << "5" << std::flush;
-  return clear_refs.good();
-}
-
-
 // A psrigd whose LEDs are on a simulated Modbus LED driver the test holds
 // (modbus_lights with `modbus_extra`, then `edits`), started but not yet
 // ready. The test asserts `driver` started before it uses `led_driver()` or
@@ -795,11 +777,11 @@ TEST(Psrigd, AChunkedBodyIsBoundedLikeAnyOther) {
     for (const auto& request : requests) {
       // The peak where it can be had: a body read whole, then freed, leaves
       // the resident set as it was.
-      const bool peak = reset_peak_rss(daemon.pid());
-      const long before = status_kb(daemon.pid(), "VmRSS");
+      const bool peak = reset_peak_resident(daemon.pid());
+      const long before = process_status_kb(daemon.pid(), "VmRSS");
       ASSERT_GT(before, 0);
       const auto [status, answer] = chunked_http(port, request, 8 << 20, 64 << 10);
-      const long after = status_kb(daemon.pid(), peak ? "VmHWM" : "VmRSS");
+      const long after = process_status_kb(daemon.pid(), peak ? "VmHWM" : "VmRSS");
       const int expected = with_token && !contains(request, "Authorization") ? 401 : 413;
       if (status != -1) {  // -1: closed before the answer was read
         EXPECT_EQ(status, expected) << request << answer;

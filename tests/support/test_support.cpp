@@ -120,6 +120,19 @@ std::size_t calibration_versions(const std::filesystem::path& state) {
   return n;
 }
 
+long process_status_kb(int pid, const std::string& field) {
+  std::ifstream status("/proc/" + std::to_string(pid) + "/status");
+  for (std::string line; std::getline(status, line);)
+    if (line.starts_with(field + ":")) return std::stol(line.substr(field.size() + 1));
+  return -1;
+}
+
+bool reset_peak_resident(int pid) {
+  std::ofstream clear_refs("/proc/" + std::to_string(pid) + "/clear_refs");
+  clear_refs << "5" << std::flush;
+  return clear_refs.good();
+}
+
 ProgramRun run_program_limited(const std::string& name, const std::vector<std::string>& args,
                                std::size_t address_space,
                                const std::vector<std::string>& environment) {

@@ -64,6 +64,14 @@ struct ProgramRun {
                                              std::size_t address_space,
                                              const std::vector<std::string>& environment = {});
 
+// A field of another process's /proc/PID/status in kB ("VmRSS": resident
+// now, "VmHWM": its peak); -1 where there is none.
+[[nodiscard]] long process_status_kb(int pid, const std::string& field);
+
+// Resets process `pid`'s peak (VmHWM) to its resident set now (clear_refs);
+// false where that cannot be done.
+bool reset_peak_resident(int pid);
+
 // `psrig synth --pattern PATTERN` at SIZE (WxH) and PIXEL_SIZE mm into
 // `scan`, then `psrig process`: the maps directory, or the failing step's
 // stderr.

@@ -111,6 +111,7 @@ class ScanSequencer {
   struct Lighting;
   struct Phase;
   Result<Lighting> switch_lights(int channel, Lighting& previous);
+  // The sum of the phase's frames kept (camera.frames_average of them).
   Result<cv::Mat> collect(const Phase& phase, const Phase* next, Lighting& lighting,
                           CaptureTiming& timing, cameras::Frame& first);
   Result<cameras::Frame> grab();
