@@ -60,6 +60,10 @@ std::filesystem::path program(const std::string& name) {
   return std::filesystem::path(PSRIG_BIN_DIR) / name;
 }
 
+bool programs_run_under_emulator() {
+  return std::string_view(PSRIG_EMULATOR).size() > 0;
+}
+
 ProgramCommand::ProgramCommand(const std::string& name, const std::vector<std::string>& args) {
   // PSRIG_EMULATOR: its words joined by '|', empty in a native build.
   const std::string_view emulator = PSRIG_EMULATOR;

@@ -48,6 +48,10 @@ class TempDir {
 // A program built into build/bin, e.g. "psrig".
 [[nodiscard]] std::filesystem::path program(const std::string& name);
 
+// Whether the built programs run under an emulator (a cross build's tests,
+// through qemu): then their memory and timing are the emulator's too.
+[[nodiscard]] bool programs_run_under_emulator();
+
 // How to start a built program: its path then `args`, behind the
 // emulator's words in a cross build (its tests run through qemu, which
 // runs only the first program itself). argv() points into it, for exec.
