@@ -5,18 +5,23 @@
 #   psrig_module_tests(formats
 #     SOURCES scan_reader_test.cpp ...
 #     LIBRARIES psrig_formats ...
-#     [ENVIRONMENT "NAME=value"])
+#     [ENVIRONMENT "NAME=value"]
+#     [NOT_UNDER_EMULATOR "why"])   (cmake/EmulatedTests.cmake)
 function(psrig_module_tests module)
-  cmake_parse_arguments(PARSE_ARGV 1 arg "" "" "SOURCES;LIBRARIES;ENVIRONMENT")
+  cmake_parse_arguments(PARSE_ARGV 1 arg "" "NOT_UNDER_EMULATOR" "SOURCES;LIBRARIES;ENVIRONMENT")
   set(target psrig_${module}_tests)
   add_executable(${target} ${arg_SOURCES})
   target_link_libraries(${target} PRIVATE
     ${arg_LIBRARIES} psrig_test_support GTest::gtest_main GTest::gmock psrig_warnings)
   target_compile_definitions(${target} PRIVATE PSRIG_SOURCE_DIR="${PROJECT_SOURCE_DIR}"
     PSRIG_VERSION="${PROJECT_VERSION}")
+  set(skip "")
+  if(arg_NOT_UNDER_EMULATOR)
+    set(skip NOT_UNDER_EMULATOR "${arg_NOT_UNDER_EMULATOR}")
+  endif()
   if(arg_ENVIRONMENT)
-    gtest_discover_tests(${target} DISCOVERY_TIMEOUT 60 PROPERTIES ENVIRONMENT "${arg_ENVIRONMENT}")
+    psrig_discover_tests(${target} ${skip} DISCOVERY_TIMEOUT 60 PROPERTIES ENVIRONMENT "${arg_ENVIRONMENT}")
   else()
-    gtest_discover_tests(${target} DISCOVERY_TIMEOUT 60)
+    psrig_discover_tests(${target} ${skip} DISCOVERY_TIMEOUT 60)
   endif()
 endfunction()

@@ -73,19 +73,17 @@ std::string scan(httplib::Client& client) {
 void BM_DaemonScan(benchmark::State& state) {
   psrig::test::TempDir temp("psrig-bench-daemon");
   const fs::path config = write_config(temp.path());
-  const std::string binary = psrig::test::program("psrigd").string();
-  const std::string config_arg = config.string();
-  char* argv[] = {const_cast<char*>(binary.c_str()), const_cast<char*>("--config"),
-                  const_cast<char*>(config_arg.c_str()), nullptr};
+  const psrig::test::ProgramCommand command("psrigd", {"--config", config.string()});
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   const std::string log = (temp.path() / "psrigd.log").string();
   posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT, 0644);
   pid_t pid = -1;
-  const int spawned = posix_spawn(&pid, binary.c_str(), &actions, nullptr, argv, environ);
+  const int spawned =
+      posix_spawn(&pid, command.file().c_str(), &actions, nullptr, command.argv(), environ);
   posix_spawn_file_actions_destroy(&actions);
   if (spawned != 0) {
-    state.SkipWithError(("cannot start " + binary).c_str());
+    state.SkipWithError(("cannot start " + command.file()).c_str());
     return;
   }
   httplib::Client client("127.0.0.1", kDaemonPort);

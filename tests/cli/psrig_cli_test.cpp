@@ -658,16 +658,12 @@ TEST(PsrigCli, SignalMidScanTurnsEveryLedOffAndLeavesNoScan) {
                         {"exposure_us = 20000", "exposure_us = 200000"}});  // a slow scan
 
   const std::string out = (temp / "scan").string(), err = (temp / "stderr.txt").string();
-  const std::string psrig = program("psrig").string();
-  std::vector<const char*> argv = {psrig.c_str(), "scan",      "--config", config.c_str(),
-                                   "--out",       out.c_str(), nullptr};
+  const ProgramCommand psrig("psrig", {"scan", "--config", config.string(), "--out", out});
   posix_spawn_file_actions_t actions;
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   pid_t pid = 0;
-  ASSERT_EQ(posix_spawn(&pid, psrig.c_str(), &actions, nullptr,
-                        const_cast<char* const*>(argv.data()), environ),
-            0);
+  ASSERT_EQ(posix_spawn(&pid, psrig.file().c_str(), &actions, nullptr, psrig.argv(), environ), 0);
   posix_spawn_file_actions_destroy(&actions);
 
   const auto deadline = std::chrono::steady_clock::now() + std::chrono::seconds(10);

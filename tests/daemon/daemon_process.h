@@ -130,17 +130,16 @@ class Daemon {
   Daemon(const fs::path& config, int port, const fs::path& log,
          const std::optional<PrivateTmpfs>& tmpfs = std::nullopt)
       : port_(port), log_(log), client_("127.0.0.1", port) {
-    const std::string binary = program("psrigd").string(), config_arg = config.string();
-    std::vector<const char*> argv = {binary.c_str(), "--config", config_arg.c_str(), nullptr};
+    const ProgramCommand command("psrigd", {"--config", config.string()});
     if (tmpfs) {
-      spawn_with_tmpfs(binary, argv, *tmpfs);
+      spawn_with_tmpfs(command, *tmpfs);
     } else {
       posix_spawn_file_actions_t actions;
       posix_spawn_file_actions_init(&actions);
       posix_spawn_file_actions_addopen(&actions, 2, log.c_str(), O_WRONLY | O_CREAT | O_APPEND,
                                        0644);
-      if (posix_spawn(&pid_, binary.c_str(), &actions, nullptr,
-                      const_cast<char* const*>(argv.data()), environ) != 0)
+      if (posix_spawn(&pid_, command.file().c_str(), &actions, nullptr, command.argv(), environ) !=
+          0)
         pid_ = 0;
       posix_spawn_file_actions_destroy(&actions);
     }
@@ -240,8 +239,7 @@ class Daemon {
 
  private:
   // fork, not posix_spawn: the child must enter its namespace before exec.
-  void spawn_with_tmpfs(const std::string& binary, std::vector<const char*>& argv,
-                        const PrivateTmpfs& tmpfs) {
+  void spawn_with_tmpfs(const ProgramCommand& command, const PrivateTmpfs& tmpfs) {
     const std::string at = tmpfs.at.string(), log = log_.string();
     pid_ = ::fork();
     if (pid_ == 0) {
@@ -251,7 +249,7 @@ class Daemon {
         ::dup2(fd, 2);
         ::close(fd);
       }
-      ::execve(binary.c_str(), const_cast<char* const*>(argv.data()), environ);
+      ::execve(command.file().c_str(), command.argv(), environ);
       ::_exit(127);
     }
     if (pid_ < 0) pid_ = 0;

@@ -129,10 +129,19 @@ TEST(PsrigdSoak, ConsecutiveScansKeepMemoryFilesAndLedsSteady) {
   // reuses any, so the RSS climbs until the quarantine is full whatever
   // the daemon frees: the bound holds for glibc's allocator only. Under
   // ASan, LeakSanitizer checks for leaks when the daemon exits instead.
-  const bool rss_measures_leaks = false;
+  bool rss_measures_leaks = false;
 #else
-  const bool rss_measures_leaks = true;
+  bool rss_measures_leaks = true;
 #endif
+  // qemu-aarch64 (Debian 12's 7.2) keeps about 280 KiB for every thread a
+  // program has started and joined (an aarch64 program doing nothing else
+  // grows so; an x86-64 one under qemu-x86_64 by a tenth of it), and the
+  // daemon starts threads every scan: under emulation the RSS counts qemu.
+  if (programs_run_under_emulator()) {
+    rss_measures_leaks = false;
+    std::cout << "soak: RSS bound not checked: psrigd runs under an emulator, whose own "
+                 "memory grows with every thread started\n";
+  }
   if (rss_measures_leaks) {
     EXPECT_LE(end - baseline, allowed_kib)
         << "RSS floor grew from " << baseline << " to " << end << " KiB over " << scans

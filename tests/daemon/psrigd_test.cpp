@@ -908,12 +908,9 @@ TEST(Psrigd, InterruptingARemoteScanCancelsIt) {
   Daemon daemon(daemon_config(temp, port, {{"exposure_us = 20000", "exposure_us = 200000"}}), port,
                 temp / "psrigd.log");
   ASSERT_TRUE(daemon.wait_ready()) << daemon.log();
-  const std::string psrig = program("psrig").string(), url = daemon.url();
-  std::vector<const char*> argv = {psrig.c_str(), "scan", "--remote", url.c_str(), "-q", nullptr};
+  const ProgramCommand psrig("psrig", {"scan", "--remote", daemon.url(), "-q"});
   pid_t pid = 0;
-  ASSERT_EQ(posix_spawn(&pid, psrig.c_str(), nullptr, nullptr,
-                        const_cast<char* const*>(argv.data()), environ),
-            0);
+  ASSERT_EQ(posix_spawn(&pid, psrig.file().c_str(), nullptr, nullptr, psrig.argv(), environ), 0);
   ASSERT_TRUE(daemon.wait_status([](const json& s) { return s["state"] == "scanning"; }));
   ::kill(pid, SIGINT);
   int status = 0;

@@ -8,6 +8,7 @@
 #include <random>
 #include <spawn.h>
 #include <sstream>
+#include <string_view>
 #include <sys/resource.h>
 #include <sys/wait.h>
 #include <system_error>
@@ -61,6 +62,25 @@ std::filesystem::path program(const std::string& name) {
   return std::filesystem::path(PSRIG_BIN_DIR) / name;
 }
 
+bool programs_run_under_emulator() {
+  return std::string_view(PSRIG_EMULATOR).size() > 0;
+}
+
+ProgramCommand::ProgramCommand(const std::string& name, const std::vector<std::string>& args) {
+  // PSRIG_EMULATOR: its words joined by '|', empty in a native build.
+  const std::string_view emulator = PSRIG_EMULATOR;
+  for (std::size_t at = 0; at < emulator.size();) {
+    const std::size_t end = std::min(emulator.find('|', at), emulator.size());
+    words_.emplace_back(emulator.substr(at, end - at));
+    at = end + 1;
+  }
+  words_.push_back(program(name).string());
+  words_.insert(words_.end(), args.begin(), args.end());
+  for (auto& word : words_)
+    pointers_.push_back(word.data());
+  pointers_.push_back(nullptr);
+}
+
 namespace {
 std::string read_all(const std::filesystem::path& file) {
   std::ifstream in(file);
@@ -88,14 +108,10 @@ ProgramRun run_program(const std::string& name, const std::vector<std::string>& 
   posix_spawn_file_actions_init(&actions);
   posix_spawn_file_actions_addopen(&actions, 1, out.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
   posix_spawn_file_actions_addopen(&actions, 2, err.c_str(), O_WRONLY | O_CREAT | O_TRUNC, 0644);
-  const std::string path = program(name).string();
-  std::vector<char*> argv{const_cast<char*>(path.c_str())};
-  for (const auto& arg : args)
-    argv.push_back(const_cast<char*>(arg.c_str()));
-  argv.push_back(nullptr);
+  const ProgramCommand command(name, args);
   pid_t pid = 0;
   ProgramRun run;
-  if (posix_spawn(&pid, path.c_str(), &actions, nullptr, argv.data(), environ) == 0) {
+  if (posix_spawn(&pid, command.file().c_str(), &actions, nullptr, command.argv(), environ) == 0) {
     int status = 0;
     waitpid(pid, &status, 0);
     run.exit_code = WIFEXITED(status) ? WEXITSTATUS(status) : 128 + WTERMSIG(status);

@@ -48,6 +48,24 @@ class TempDir {
 // A program built into build/bin, e.g. "psrig".
 [[nodiscard]] std::filesystem::path program(const std::string& name);
 
+// Whether the built programs run under an emulator (a cross build's tests,
+// through qemu): then their memory and timing are the emulator's too.
+[[nodiscard]] bool programs_run_under_emulator();
+
+// How to start a built program: its path then `args`, behind the
+// emulator's words in a cross build (its tests run through qemu, which
+// runs only the first program itself). argv() points into it, for exec.
+class ProgramCommand {
+ public:
+  ProgramCommand(const std::string& name, const std::vector<std::string>& args);
+  [[nodiscard]] const std::string& file() const { return words_.front(); }
+  [[nodiscard]] char* const* argv() const { return pointers_.data(); }
+
+ private:
+  std::vector<std::string> words_;
+  std::vector<char*> pointers_;
+};
+
 struct ProgramRun {
   int exit_code = -1;
   std::string out;  // standard output
