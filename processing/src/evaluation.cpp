@@ -270,11 +270,19 @@ void cross_and_dot(const float* __restrict p, const float* __restrict q, const f
 }
 
 // Where atan2(y, x) is atan(y / x) as glibc computes it: x positive and
-// finite, y finite and at most 2^60 times x (glibc's own cut-off).
+// finite, y finite and at most 2^60 times x (glibc's own cut-off). Only on
+// x86-64, whose glibc is built without FMA, is atan_row its atanf to the
+// bit; elsewhere (aarch64's glibc contracts into FMAs) the library decides
+// every case.
 bool plain_quotient(float y, float x) {
+#if defined(__x86_64__)
   const auto hy = static_cast<std::int32_t>(std::bit_cast<std::uint32_t>(y));
   const auto hx = static_cast<std::int32_t>(std::bit_cast<std::uint32_t>(x));
   return x > 0 && std::isfinite(x) && std::isfinite(y) && y >= 0 && ((hy - hx) >> 23) <= 60;
+#else
+  static_cast<void>(y), static_cast<void>(x);
+  return false;
+#endif
 }
 
 }  // namespace
