@@ -37,6 +37,7 @@ struct KnitArgs {
   std::string yarn_colour;
   std::string from_scan;
   std::string environment = "studio";
+  std::string lod = "auto";
   double yaw = 0, pitch = 0, distance = 0;
   double light_tilt = 45, light_slant = 45;
   int samples = kDefaultSamples;
@@ -135,6 +136,9 @@ Result<YarnCanvas> open_canvas(const KnitArgs& args, cv::Size size) {
   if (!canvas) return std::unexpected(canvas.error());
   YarnRendererOptions options;
   options.environment = *environment;
+  options.level = args.lod == "near"  ? YarnLevel::near
+                  : args.lod == "far" ? YarnLevel::far
+                                      : YarnLevel::automatic;
   auto renderer = YarnRenderer::create(options);
   if (!renderer) return std::unexpected(renderer.error());
   return YarnCanvas{std::move(*canvas), std::move(*renderer)};
@@ -292,6 +296,10 @@ Command add_knit_command(CLI::App& parent) {
       ->capture_default_str();
   app->add_option("--light-slant", args->light_slant, "Light slant in degrees from the normal")
       ->check(CLI::Range(0.0, 90.0))
+      ->capture_default_str();
+  app->add_option("--lod", args->lod,
+                  "Level of detail: auto (from each yarn's width in pixels), or near or far forced")
+      ->check(CLI::IsMember({"auto", "near", "far"}))
       ->capture_default_str();
   add_samples_option(*app, args->samples);
   app->add_flag("--no-shadows", args->no_shadows,
