@@ -52,7 +52,7 @@ struct Comparison {
   double rmse = 0;        // of the sRGB codes, 0-255, every channel
 };
 
-Comparison compare(const cv::Mat& far, const cv::Mat& reference, const cv::Mat& mask) {
+Comparison compare_to_reference(const cv::Mat& far, const cv::Mat& reference, const cv::Mat& mask) {
   const cv::Scalar far_mean = cv::mean(linear_light(far), mask);
   const cv::Scalar reference_mean = cv::mean(linear_light(reference), mask);
   Comparison result;
@@ -139,7 +139,7 @@ TEST_P(FarLevelPatternTest, DISABLED_FarLevelIsTheNearLevelFiltered) {
     reference = testing::srgb_codes(reference);
     const cv::Mat mask = cloth_mask(yarns.bounds(), view, kFar, 4);
     ASSERT_GT(cv::countNonZero(mask), 20000) << named.name;
-    const Comparison result = compare(far, reference, mask);
+    const Comparison result = compare_to_reference(far, reference, mask);
     std::printf(
         "far level: %-12s %3d %-8s yarn %.2f px: mean colour %.3fx (channel furthest off), "
         "brightness %.3fx, RMSE %.1f\n",
