@@ -16,6 +16,7 @@
 #include "psrig/preview/scan_cloth.h"
 #include "psrig/preview/scene_view.h"
 #include "psrig/preview/swatch_renderer.h"
+#include "psrig/preview/yarn_renderer.h"
 
 namespace psrig::preview::cli {
 
@@ -81,5 +82,8 @@ inline double milliseconds(Clock::duration duration) {
 }
 // --samples, 0 (off) to 16, for every command that draws.
 void add_samples_option(CLI::App& app, int& samples);
+// --lod auto|near|far, for the commands that draw yarns, and the level it names.
+void add_lod_option(CLI::App& app, std::string& lod);
+[[nodiscard]] YarnLevel yarn_level(const std::string& lod);
 
 }  // namespace psrig::preview::cli

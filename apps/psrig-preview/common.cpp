@@ -1,4 +1,5 @@
 #include <GLES3/gl3.h>
+#include <string>
 
 #include "command.h"
 #include "psrig/base/width_height.h"
@@ -32,6 +33,18 @@ void add_samples_option(CLI::App& app, int& samples) {
   app.add_option("--samples", samples, "Multisampling (0: off)")
       ->check(CLI::Range(0, 16))
       ->capture_default_str();
+}
+
+void add_lod_option(CLI::App& app, std::string& lod) {
+  app.add_option("--lod", lod,
+                 "Yarns' level of detail: auto (from their width in pixels), or near or far "
+                 "forced")
+      ->check(CLI::IsMember({"auto", "near", "far"}))
+      ->capture_default_str();
+}
+
+YarnLevel yarn_level(const std::string& lod) {
+  return lod == "near" ? YarnLevel::near : lod == "far" ? YarnLevel::far : YarnLevel::automatic;
 }
 
 SceneView scene_view(const ViewArgs& args) {

@@ -32,6 +32,7 @@ struct DrapeArgs {
   double seconds = 4, fps = 30;
   double yaw = 20, pitch = 25;
   int samples = kDefaultSamples;
+  std::string lod = "auto";
   bool bench = false;
   ClothSize cloth_size;
 };
@@ -45,6 +46,12 @@ Result<cloth::KnitFabric> fabric_argument(const DrapeArgs& args, int stitches, i
   auto scan = read_scan_cloth_argument(args.pattern);
   if (!scan) return std::unexpected(scan.error());
   return knit_of_scan(*scan, stitches, rows, args.cloth_size);
+}
+
+YarnRendererOptions yarn_options(const DrapeArgs& args) {
+  YarnRendererOptions options;
+  options.level = yarn_level(args.lod);
+  return options;
 }
 
 Result<cloth::DrapeAnimation> animation(const DrapeArgs& args, int stitches, int rows) {
@@ -85,7 +92,7 @@ int render(const DrapeArgs& args) {
   if (!scene) return report_error("drape", scene.error());
   auto canvas = open_headless_canvas(*size, args.samples);
   if (!canvas) return report_error("drape", canvas.error());
-  auto renderers = drape_renderers();
+  auto renderers = drape_renderers(yarn_options(args));
   if (!renderers) return report_error("drape", renderers.error());
   const std::filesystem::path out(args.out);
   if (out.has_parent_path()) std::filesystem::create_directories(out.parent_path());
@@ -124,7 +131,7 @@ int bench(const DrapeArgs& args) {
   if (!size) return report_error("drape", size.error());
   auto canvas = open_headless_canvas(*size, args.samples);
   if (!canvas) return report_error("drape", canvas.error());
-  auto renderers = drape_renderers();
+  auto renderers = drape_renderers(yarn_options(args));
   if (!renderers) return report_error("drape", renderers.error());
   std::cout << "{\"renderer\": \"" << canvas->context->describe() << "\", \"scene\": \"" << args.scene
             << "\", \"size\": [" << size->width << ", " << size->height << "], \"runs\": [";
@@ -193,6 +200,7 @@ Command add_drape_command(CLI::App& parent) {
   app->add_option("--yarn-mm", args->cloth_size.yarn_mm, "Yarn diameter in mm")
       ->check(psrig::cli::positive_number());
   add_samples_option(*app, args->samples);
+  add_lod_option(*app, args->lod);
   auto* timed = app->add_flag("--bench", args->bench,
                               "Time the step, the yarn update and the frame at 1 K and 10 K stitches; prints JSON");
   out->excludes(timed);

@@ -37,6 +37,7 @@ struct KnitArgs {
   std::string yarn_colour;
   std::string from_scan;
   std::string environment = "studio";
+  std::string lod = "auto";
   double yaw = 0, pitch = 0, distance = 0;
   double light_tilt = 45, light_slant = 45;
   int samples = kDefaultSamples;
@@ -135,6 +136,7 @@ Result<YarnCanvas> open_canvas(const KnitArgs& args, cv::Size size) {
   if (!canvas) return std::unexpected(canvas.error());
   YarnRendererOptions options;
   options.environment = *environment;
+  options.level = yarn_level(args.lod);
   auto renderer = YarnRenderer::create(options);
   if (!renderer) return std::unexpected(renderer.error());
   return YarnCanvas{std::move(*canvas), std::move(*renderer)};
@@ -293,6 +295,7 @@ Command add_knit_command(CLI::App& parent) {
   app->add_option("--light-slant", args->light_slant, "Light slant in degrees from the normal")
       ->check(CLI::Range(0.0, 90.0))
       ->capture_default_str();
+  add_lod_option(*app, args->lod);
   add_samples_option(*app, args->samples);
   app->add_flag("--no-shadows", args->no_shadows,
                 "No yarn-on-yarn shadows (no shadow map: cheaper on a weak GPU)");

@@ -508,7 +508,11 @@ void use_yarn_program(const GlProgram& program, const YarnUniforms& u) {
   const FibreSurface mean =
       u.view.fibre_detail ? slice_surface(u.slice.core_mean) : plain_surface(u.style);
   glUniform3f(program.uniform("u_mean_surface"), mean.ply_offset, mean.tilt_sin, mean.light);
-  glUniform2f(program.uniform("u_far_px"), options.detail_from_px, options.detail_full_px);
+  // Forced near: the fibre detail at full strength whatever the width.
+  if (options.level == YarnLevel::near)
+    glUniform2f(program.uniform("u_far_px"), -2.0f, -1.0f);
+  else
+    glUniform2f(program.uniform("u_far_px"), options.detail_from_px, options.detail_full_px);
   glUniform1f(program.uniform("u_prefilter_px"), options.prefilter_px);
   glUniform2f(program.uniform("u_prefilter_fade_px"), options.prefilter_from_px,
               options.prefilter_until_px);
@@ -559,7 +563,8 @@ YarnRenderer::FramePlan YarnRenderer::plan_frame(const KnitFrame& frame, const K
   const float widest_px = 2 * plan.radius * frame.focal_px / nearest;
   const float narrowest_px = 2 * plan.radius * frame.focal_px / farthest;
   last_halo_ = plan.drawing && view.fibre_detail && widest_px > options.halo_from_px;
-  last_far_ = widest_px <= options.detail_from_px;
+  last_far_ = options.level == YarnLevel::far ||
+              (options.level == YarnLevel::automatic && widest_px <= options.detail_from_px);
   // The far view's widening at its narrowest yarn (yarn.vert's `prefilter`).
   const float widest_prefilter_px =
       options.prefilter_px *

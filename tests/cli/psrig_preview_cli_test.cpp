@@ -292,6 +292,30 @@ double yarn_share(const cv::Mat& image) {
   return box.area() == 0 ? 0.0 : cv::countNonZero(yarn(box)) / static_cast<double>(box.area());
 }
 
+TEST(PsrigPreviewCli, KnitLodForcesALevel) {
+  // Far enough that auto draws the far level (yarns about 1.5 px): --lod
+  // far draws the same frame, --lod near another; a level not offered is
+  // bad input.
+  TempDir temp;
+  const auto knit = [&](const std::string& lod) {
+    const fs::path out = temp / (lod + ".png");
+    const auto run =
+        run_program("psrig-preview",
+                    {"knit", shipped_pattern("stockinette.chart").string(), "--out", out.string(),
+                     "--size", "240x180", "--stitches", "30", "--rows", "30", "--lod", lod});
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    return cv::imread(out.string());
+  };
+  const cv::Mat automatic = knit("auto"), far = knit("far"), near = knit("near");
+  ASSERT_FALSE(automatic.empty() || far.empty() || near.empty());
+  EXPECT_EQ(cv::norm(automatic, far, cv::NORM_L1), 0.0) << "auto draws the far level here";
+  EXPECT_GT(cv::norm(automatic, near, cv::NORM_L1), 0.0) << "near is another level";
+  const auto bad =
+      run_program("psrig-preview", {"knit", "x.chart", "--out", "x.png", "--lod", "medium"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--lod"), std::string::npos) << bad.err;
+}
+
 TEST(PsrigPreviewCli, KnitDrawsYarnsAndStretchOpensGaps) {
   TempDir temp;
   const auto knit = [&](const std::string& name, std::vector<std::string> extra,

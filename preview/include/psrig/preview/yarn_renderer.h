@@ -29,7 +29,12 @@
 
 namespace psrig::preview {
 
+// Which level of detail draws the yarns: chosen from their width in pixels,
+// or forced (`--lod near|far`: tests hold the far level to the near one).
+enum class YarnLevel { automatic, near, far };
+
 struct YarnRendererOptions {
+  YarnLevel level = YarnLevel::automatic;
   FibreShading shading;
   EnvironmentLight environment = EnvironmentLight::studio();
   YarnSliceOptions slice;
