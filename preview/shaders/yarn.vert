@@ -158,9 +158,11 @@ void main() {
   // strip is what 4x MSAA would make of the yarn alone.
   float prefilter = u_prefilter_px * clamp(u_prefilter_fade_px.x / (2.5 * half_px), 1.0, 1.25) *
                     (1.0 - smoothstep(u_prefilter_fade_px.x, u_prefilter_fade_px.y, 2.0 * half_px));
-  // Soft edges grow in with the prefilter: without it the samples draw
-  // the yarn's own edges, as the opaque far frames do.
-  float soft = u_soft_edges * clamp(prefilter / 0.5, 0.0, 1.0);
+  // Soft edges grow in with the prefilter, over its whole fade (a quick
+  // switch to the samples' hard edges shows as a step as a view recedes):
+  // without it the samples draw the yarn's own edges, as the opaque far
+  // frames do.
+  float soft = u_soft_edges * clamp(prefilter, 0.0, 1.0);
   float spread = soft * sqrt(prefilter * prefilter + 0.5);
   vec3 position = a_point.xyz + across * ((half_px + spread) / px_per_mm) * side;
   v_far_coverage = vec4(across * (half_px + spread), half_px, spread, soft);

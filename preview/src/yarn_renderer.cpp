@@ -598,14 +598,25 @@ PieceLimits YarnRenderer::piece_limits(const FramePlan& plan) const {
   // as a jump in the points drawn would show.
   const float fine = smoothstep(2.0f, 6.0f, last_width_px_);
   limits.lift_tolerance += (options.near_lift_tolerance - limits.lift_tolerance) * fine;
-  const float cap = options.min_piece_cap_px + (1.0f - options.min_piece_cap_px) * fine;
-  limits.min_px = std::clamp(options.min_piece_widths * last_width_px_, limits.min_px,
-                             std::max(limits.min_px, cap));
+  // Short pieces once the yarn is over half a pixel wide (the options' note).
+  const float shorter =
+      smoothstep(options.short_pieces_from_px, options.short_pieces_full_px, last_width_px_) *
+      (1.0f - smoothstep(options.short_pieces_until_px, options.short_pieces_off_px, last_width_px_));
+  const auto toward = [shorter](float from, float to) { return from + (to - from) * shorter; };
+  const float widths = toward(options.min_piece_widths, options.short_piece_widths);
+  const float cap_px = toward(options.min_piece_cap_px, options.short_piece_cap_px);
+  limits.max_px = toward(limits.max_px, options.short_piece_max_px);
+  limits.tolerance_px = toward(limits.tolerance_px, options.short_piece_tolerance_px);
+  const float cap = cap_px + (1.0f - cap_px) * fine;
+  limits.min_px = std::clamp(widths * last_width_px_, limits.min_px, std::max(limits.min_px, cap));
   limits.tolerance_px = std::min(limits.tolerance_px, options.tolerance_widths * last_width_px_);
   limits.half_width_px = last_width_px_ / 2;
-  // Where the points kept change the loops' look (under a pixel the
-  // prefilter hides it, and there dithering only adds noise).
+  // Where the points kept change the loops' look (with the long pieces,
+  // under a pixel the prefilter hides it, and there dithering only adds noise).
   limits.dither = options.piece_dither * smoothstep(1.5f, 3.0f, last_width_px_);
+  // Short pieces change their points as the scale changes, every loop at
+  // once with one limit: dithered from the start.
+  limits.dither = std::max(limits.dither, options.short_piece_dither * shorter);
   // As the map takes over, shorter pieces (continuously: a jump in the
   // points drawn would show).
   if (plan.shadows)

@@ -118,7 +118,10 @@ struct NamedView {
 constexpr NamedView kViews[] = {{"head-on", 0, 0}, {"oblique", 25, 35}};
 
 // Disabled until the far level meets it (issue 30): run it with
-// --gtest_also_run_disabled_tests; it prints each case's figures.
+// --gtest_also_run_disabled_tests; it prints each case's figures. With the
+// short pieces (issue 30's first fault) no case passes yet: mean colour
+// 0.96x to 1.18x (rib-1x1 head on the furthest off), RMSE 9.9 (stockinette
+// oblique) to 39.2 (twill-2x2 oblique); preview/README.md has the table.
 TEST_P(FarLevelPatternTest, DISABLED_FarLevelIsTheNearLevelFiltered) {
   const FarCase& param = GetParam();
   const cloth::YarnSet yarns = cloth_yarns(param.pattern, param.stitches);
@@ -167,8 +170,8 @@ TEST(FarLevelCases, EveryShippedPatternHasACase) {
     })) << name;
 }
 
-// Disabled until the far level meets it (issue 30), as the test above.
-TEST_F(FarLevelTest, DISABLED_DollyChangesTheMeanColourSmoothly) {
+// Enabled since the short pieces (issue 30): worst step 0.982x.
+TEST_F(FarLevelTest, DollyChangesTheMeanColourSmoothly) {
   // The camera backs away from 5 cm to 1 m from a stockinette panel, about
   // 5 % further each frame: the yarns shrink from about 10 pixels to a
   // fifth of one, through every level. The cloth's mean colour (its pixels,

@@ -55,11 +55,13 @@ struct YarnRendererOptions {
   // 4 samples cannot be for a yarn under a pixel wide, which then shows as
   // its share of a soft band, not as samples hit or missed). The widening
   // fades out as the yarn widens from `prefilter_from_px` to
-  // `prefilter_until_px`; once under a quarter pixel everywhere, far frames
-  // draw opaque strips and test depth as near ones do.
+  // `prefilter_until_px` (up to where the near level takes over: with the
+  // short pieces, hard 4x MSAA edges on 1-2 px yarns step visibly from
+  // frame to frame as a view recedes); once under a quarter pixel
+  // everywhere, far frames draw opaque strips and test depth as near ones do.
   float prefilter_px = 1.0f;
   float prefilter_from_px = 0.8f;
-  float prefilter_until_px = 1.5f;
+  float prefilter_until_px = 3.0f;
   // A yarn narrower than this (pixels) is drawn this wide and as
   // transparent as it is narrower: thinner strips alias under 4x MSAA.
   float min_strip_px = 1.5f;
@@ -87,6 +89,28 @@ struct YarnRendererOptions {
   float tolerance_widths = 0.0625f;
   float near_lift_tolerance = 0.15f;
   float piece_dither = 0.3f;  // PieceLimits::dither once the yarn is 3 px wide
+  // Short pieces (issue 30): a strip's sides take turns, so a piece longer
+  // than the yarn is wide cuts across the loops' bends and opens the
+  // stitch gaps into a net, at either level (stockinette 0.61x as bright
+  // as the near level filtered: preview/README.md). As a yarn widens from
+  // `short_pieces_from_px` to `short_pieces_full_px` the limits above go
+  // over (continuously: a jump in the points drawn would show) to pieces of
+  // at most `short_piece_max_px`, no shorter than `short_piece_widths` yarn
+  // widths up to `short_piece_cap_px`, their chord within
+  // `short_piece_tolerance_px` of the curve. Thinner yarns keep the long
+  // pieces: their prefiltered strips hide the bends, and short pieces there
+  // only add sparkle. From `short_pieces_until_px` to `short_pieces_off_px`
+  // the long pieces come back: a yarn that wide keeps its shape with the
+  // tolerance alone, and a piece a pixel long there is only cost.
+  float short_pieces_from_px = 0.3f;
+  float short_pieces_full_px = 0.6f;
+  float short_pieces_until_px = 9.6f;
+  float short_pieces_off_px = 13.0f;
+  float short_piece_widths = 0.1f;
+  float short_piece_cap_px = 0.25f;
+  float short_piece_max_px = 1.0f;
+  float short_piece_tolerance_px = 0.1f;
+  float short_piece_dither = 0.8f;  // PieceLimits::dither at least this, with short pieces
 };
 
 class YarnRenderer {
