@@ -18,6 +18,7 @@
 #include "psrig/preview/egl_context.h"
 #include "psrig/preview/offscreen_target.h"
 #include "psrig/preview/shading.h"
+#include "cloth_pixels.h"
 #include "psrig/preview/texture_levels.h"
 #include "test_support.h"
 #include "yarn_fixture.h"
@@ -97,17 +98,6 @@ Eigen::Vector3f packed_colour(const Eigen::Vector3f& linear) {
 }
 float packed_lift(float lift) {
   return std::round(std::clamp(lift, -1.0f, 1.0f) * 127.0f) / 127.0f;
-}
-
-// The frame in linear light, as floats.
-cv::Mat linear(const cv::Mat& frame) {
-  cv::Mat out;
-  frame.convertTo(out, CV_32F, 1.0 / 255.0);
-  out.forEach<cv::Vec3f>([](cv::Vec3f& pixel, const int*) {
-    for (int c = 0; c < 3; ++c)
-      pixel[c] = srgb_decode(pixel[c]);
-  });
-  return out;
 }
 
 // A straight yarn head on, along x through the origin, every covered pixel
@@ -335,7 +325,7 @@ TEST_F(YarnRendererTest, YarnBetweenTheLayersIsDarker) {
 // camera of that many fewer pixels would record.
 cv::Mat shrunk(const cv::Mat& frame, int factor) {
   cv::Mat out;
-  cv::resize(linear(frame), out, frame.size() / factor, 0, 0, cv::INTER_AREA);
+  cv::resize(testing::linear_light(frame), out, frame.size() / factor, 0, 0, cv::INTER_AREA);
   return out;
 }
 
@@ -434,7 +424,7 @@ TEST_F(YarnRendererTest, FarViewHasNoAliasing) {
     const cv::Rect region = cloth_interior(set.bounds(), view, kFrame);
     ASSERT_GT(region.area(), 2000);
     const cv::Mat reference = shrunk(render(options, kFrame * 8), 8);
-    const AliasingMeasure far = measure_aliasing(linear(render(options, kFrame)), reference, region);
+    const AliasingMeasure far = measure_aliasing(testing::linear_light(render(options, kFrame)), reference, region);
     const AliasingMeasure twice =
         measure_aliasing(shrunk(render(options, kFrame * 2), 2), reference, region);
     EXPECT_LT(far.moire, 0.006) << "beating against the pixel grid, yarn " << yarn_px << " px";
@@ -445,7 +435,7 @@ TEST_F(YarnRendererTest, FarViewHasNoAliasing) {
     // The measures catch aliasing where there is some: the same yarns'
     // strips at their own width (a third of a pixel), samples hit or missed.
     const AliasingMeasure aliased =
-        measure_aliasing(linear(render(unfiltered, kFrame)), reference, region);
+        measure_aliasing(testing::linear_light(render(unfiltered, kFrame)), reference, region);
     EXPECT_TRUE(aliased.moire >= 0.006 || aliased.sparkle_ratio >= 1.3 * twice.sparkle_ratio)
         << "moire " << aliased.moire << ", sparkle " << aliased.sparkle_ratio;
   }
@@ -477,7 +467,7 @@ TEST_F(YarnRendererTest, LevelsOfDetailBlendWithoutPopping) {
     auto target = make_target(4, size);
     ASSERT_TRUE(target);
     cv::Mat frame;
-    cv::resize(linear(draw(*renderer, *target, view)), frame, small, 0, 0, cv::INTER_AREA);
+    cv::resize(testing::linear_light(draw(*renderer, *target, view)), frame, small, 0, 0, cv::INTER_AREA);
     cv::GaussianBlur(frame, frame, cv::Size(), 2.0);
     const float yarn_px = renderer->last_yarn_width_px();
     prefiltered |= yarn_px < renderer->options().prefilter_from_px;
