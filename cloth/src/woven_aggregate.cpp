@@ -94,6 +94,95 @@ WovenComponents aggregate_samples(const FootprintSamples& samples,
           static_cast<float>(s_warp / area), static_cast<float>(s_weft / area)};
 }
 
+namespace {
+
+// What one direction alone decides for each sample: its cosine about n_p,
+// L(w) of eq. (2), and whether it is seen (or lit).
+struct DirectionTerms {
+  std::vector<float> cosine, lambda;
+  std::vector<std::uint8_t> visible;
+};
+
+DirectionTerms direction_terms(const WovenSurface& surface, const FootprintSamples& samples,
+                               const Eigen::Vector3f& w, const WovenShading& shading) {
+  DirectionTerms terms;
+  terms.visible = sample_visibility(surface, samples, w);
+  const std::size_t n = samples.points.size();
+  terms.cosine.resize(n);
+  terms.lambda.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const WovenPoint& p = samples.points[k];
+    terms.cosine[k] = w.dot(p.normal);
+    if (p.yarn == YarnType::gap || terms.cosine[k] <= 0) continue;
+    const float alpha = p.yarn == YarnType::warp ? shading.warp_alpha : shading.weft_alpha;
+    terms.lambda[k] = microflake_projected_area(w, p.orientation, alpha) / terms.cosine[k];
+  }
+  return terms;
+}
+
+constexpr float kPairsPi = 3.14159265358979f;
+
+}  // namespace
+
+std::vector<WovenComponents> aggregate_direction_pairs(const WovenSurface& surface,
+                                                       const FootprintSamples& samples,
+                                                       const std::vector<Eigen::Vector3f>& incoming,
+                                                       const std::vector<Eigen::Vector3f>& outgoing,
+                                                       const WovenShading& shading) {
+  const std::size_t n = samples.points.size();
+  std::vector<DirectionTerms> seen;
+  std::vector<double> area(outgoing.size(), 0);
+  seen.reserve(outgoing.size());
+  for (std::size_t o = 0; o < outgoing.size(); ++o) {
+    seen.push_back(direction_terms(surface, samples, outgoing[o], shading));
+    // A(p, wo) in place of the cosine: <wo . n_p> / <n_s . n_p> V, 0 hidden.
+    DirectionTerms& terms = seen.back();
+    for (std::size_t k = 0; k < n; ++k) {
+      const float projected = terms.cosine[k] * samples.jacobian[k];
+      terms.visible[k] = terms.visible[k] && projected > 0;
+      if (terms.visible[k]) area[o] += projected;
+    }
+  }
+  std::vector<WovenComponents> result(incoming.size() * outgoing.size());
+  std::vector<float> diffuse(n);
+  for (std::size_t i = 0; i < incoming.size(); ++i) {
+    const Eigen::Vector3f& wi = incoming[i];
+    const DirectionTerms lit = direction_terms(surface, samples, wi, shading);
+    for (std::size_t k = 0; k < n; ++k)
+      diffuse[k] =
+          (shading.diffuse_blend * lit.cosine[k] / wi.z() + (1 - shading.diffuse_blend)) / kPairsPi;
+    for (std::size_t o = 0; o < outgoing.size(); ++o) {
+      if (area[o] <= 0) continue;
+      const DirectionTerms& eye = seen[o];
+      const Eigen::Vector3f sum = wi + outgoing[o];
+      const float length = sum.norm();
+      if (length < 1e-6f) continue;
+      const Eigen::Vector3f half = sum / length;
+      double c_warp = 0, c_weft = 0, s_warp = 0, s_weft = 0;
+      for (std::size_t k = 0; k < n; ++k) {
+        const WovenPoint& p = samples.points[k];
+        if (p.yarn == YarnType::gap || !eye.visible[k] || !lit.visible[k] || lit.cosine[k] <= 0)
+          continue;
+        const bool warp = p.yarn == YarnType::warp;
+        const float alpha = warp ? shading.warp_alpha : shading.weft_alpha;
+        const float projected = eye.cosine[k] * samples.jacobian[k];
+        const float weight = lit.cosine[k] * projected;
+        const float along = half.dot(p.orientation);
+        const float q = 1 + (1 / (alpha * alpha) - 1) * along * along;
+        const float lambda = lit.lambda[k] + eye.lambda[k];
+        const float g = -std::expm1(-kFabricDensityThickness * lambda) / lambda;
+        const float specular = g / (kPairsPi * alpha * q * q * 4 * lit.cosine[k] * eye.cosine[k]);
+        (warp ? c_warp : c_weft) += static_cast<double>(weight * diffuse[k]);
+        (warp ? s_warp : s_weft) += static_cast<double>(weight * specular);
+      }
+      result[i * outgoing.size() + o] = {
+          static_cast<float>(c_warp / area[o]), static_cast<float>(c_weft / area[o]),
+          static_cast<float>(s_warp / area[o]), static_cast<float>(s_weft / area[o])};
+    }
+  }
+  return result;
+}
+
 WovenComponents aggregate_woven_bsdf(const WovenSurface& surface, const WovenShading& shading,
                                      const Footprint& footprint, const Eigen::Vector3f& wi,
                                      const Eigen::Vector3f& wo, int count, std::uint64_t seed) {

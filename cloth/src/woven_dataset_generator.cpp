@@ -119,17 +119,14 @@ Result<std::vector<WovenQuery>> generate_woven_queries(const WeaveMatrix& weave,
           stratified_directions(options.direction_grid, options.min_cosine, random);
       const auto outgoing =
           stratified_directions(options.direction_grid, options.min_cosine, random);
-      std::vector<std::vector<std::uint8_t>> seen_from;
-      seen_from.reserve(outgoing.size());
-      for (const Eigen::Vector3f& wo : outgoing)
-        seen_from.push_back(sample_visibility(*surface, samples, wo));
+      const std::vector<WovenComponents> answers =
+          aggregate_direction_pairs(*surface, samples, incoming, outgoing, shading);
       std::vector<WovenQuery>& queries = per_footprint[static_cast<std::size_t>(index)];
-      queries.reserve(incoming.size() * outgoing.size());
-      for (const Eigen::Vector3f& wi : incoming) {
-        const std::vector<std::uint8_t> lit = sample_visibility(*surface, samples, wi);
+      queries.reserve(answers.size());
+      for (std::size_t i = 0; i < incoming.size(); ++i)
         for (std::size_t o = 0; o < outgoing.size(); ++o) {
-          const Eigen::Vector3f& wo = outgoing[o];
-          const WovenComponents c = aggregate_samples(samples, lit, seen_from[o], wi, wo, shading);
+          const Eigen::Vector3f &wi = incoming[i], &wo = outgoing[o];
+          const WovenComponents& c = answers[i * outgoing.size() + o];
           WovenQuery q;
           q.material = material;
           q.u = u;
@@ -143,7 +140,6 @@ Result<std::vector<WovenQuery>> generate_woven_queries(const WeaveMatrix& weave,
           q.s_weft = c.s_weft;
           queries.push_back(q);
         }
-      }
     }
   });
 

@@ -162,6 +162,34 @@ TEST(WovenAggregate, AFootprintReflectsNoMoreThanItReceivesWhereTheModelCanNot) 
       }
 }
 
+// The generator's loop over direction pairs sums what aggregate_samples
+// sums, pair by pair.
+TEST(WovenAggregate, EveryPairAtOnceIsEachPairAlone) {
+  const WovenSurface surface = aggregate_surface(satin_weave(5, 2, 2), 1.3f);
+  const WovenShading shading{0.25f, 0.7f, 0.5f};
+  const FootprintSamples samples =
+      sample_footprint(surface, footprint_in_repeats(surface, 0.4f, 0.1f, 0.8f), 512, 13);
+  const std::vector<Eigen::Vector3f> incoming = {direction_at(10, 0), direction_at(60, 100),
+                                                 direction_at(85, 200)};
+  const std::vector<Eigen::Vector3f> outgoing = {direction_at(30, 45), direction_at(75, 280)};
+  const std::vector<WovenComponents> pairs =
+      aggregate_direction_pairs(surface, samples, incoming, outgoing, shading);
+  ASSERT_EQ(pairs.size(), 6U);
+  for (std::size_t i = 0; i < incoming.size(); ++i)
+    for (std::size_t o = 0; o < outgoing.size(); ++o) {
+      const WovenComponents alone = aggregate_samples(
+          samples, sample_visibility(surface, samples, incoming[i]),
+          sample_visibility(surface, samples, outgoing[o]), incoming[i], outgoing[o], shading);
+      const WovenComponents& both = pairs[i * outgoing.size() + o];
+      const float scale = 1e-4f * total(alone) + 1e-9f;
+      EXPECT_NEAR(both.c_warp, alone.c_warp, scale);
+      EXPECT_NEAR(both.c_weft, alone.c_weft, scale);
+      EXPECT_NEAR(both.s_warp, alone.s_warp, scale);
+      EXPECT_NEAR(both.s_weft, alone.s_weft, scale);
+      EXPECT_GT(total(alone), 0.0f);
+    }
+}
+
 TEST(WovenAggregate, TheSeedDecides) {
   const WovenSurface surface = aggregate_surface(twill_weave(3, 1), 1);
   const WovenShading shading{};

@@ -81,6 +81,16 @@ struct FootprintSamples {
                                                 const Eigen::Vector3f& wo,
                                                 const WovenShading& shading);
 
+// Eq. (3) for every pair of `incoming` x `outgoing` directions over one
+// footprint's samples, wi-major (pair i * outgoing.size() + o): the same
+// sums as aggregate_samples, what each direction alone decides (V, A,
+// L(w), the diffuse lobe) worked out once per direction rather than per
+// pair; the data set generator's loop.
+[[nodiscard]] std::vector<WovenComponents> aggregate_direction_pairs(
+    const WovenSurface& surface, const FootprintSamples& samples,
+    const std::vector<Eigen::Vector3f>& incoming, const std::vector<Eigen::Vector3f>& outgoing,
+    const WovenShading& shading);
+
 // One query from scratch: `count` samples (chen2024: 2048).
 [[nodiscard]] WovenComponents aggregate_woven_bsdf(
     const WovenSurface& surface, const WovenShading& shading, const Footprint& footprint,
