@@ -124,7 +124,8 @@ TEST(WovenReferenceRender, OneSampleAPixelIsNoisierThanMany) {
 }
 
 // PSRIG_WOVEN_RENDER_DIR=dir: the shipped plain, twill and satin and the
-// unseen 3/1 twill and 2/2 basket, near and far, 256 samples a pixel,
+// unseen 3/1 twill and 2/2 basket, near (about 12 pixels a yarn spacing),
+// mid (1.6) and far (0.4), 256 samples a pixel (PSRIG_WOVEN_RENDER_SPP),
 // written there as PNG (sRGB) to look at.
 TEST(WovenReferenceRender, PicturesToLookAtWhenAsked) {
   const char* dir = std::getenv("PSRIG_WOVEN_RENDER_DIR");
@@ -156,7 +157,7 @@ TEST(WovenReferenceRender, PicturesToLookAtWhenAsked) {
     WovenLight light;
     light.direction = light_from(50, 135);
     light.irradiance = 2.5f;
-    for (const auto& [label, distance] : {std::pair{"near", 40.0f}, std::pair{"far", 1200.0f}}) {
+    for (const auto& [label, distance] : {std::pair{"near", 40.0f}, std::pair{"mid", 300.0f}, std::pair{"far", 1200.0f}}) {
       WovenView view;
       view.distance = distance;
       view.tilt_deg = 35;
