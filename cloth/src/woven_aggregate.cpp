@@ -25,6 +25,19 @@ std::uint64_t mix_seed(std::uint64_t seed, std::uint64_t key) {
   return random.next();
 }
 
+WovenComponents woven_point_components(const WovenPoint& point, const Eigen::Vector3f& wi,
+                                       const Eigen::Vector3f& wo, const WovenShading& shading) {
+  if (point.yarn == YarnType::gap) return {};
+  const bool warp = point.yarn == YarnType::warp;
+  const float diffuse = woven_diffuse(wi, wo, point.normal, shading.diffuse_blend);
+  const float specular = woven_specular(wi, wo, point.normal, point.orientation,
+                                        warp ? shading.warp_alpha : shading.weft_alpha);
+  WovenComponents c;
+  (warp ? c.c_warp : c.c_weft) = diffuse;
+  (warp ? c.s_warp : c.s_weft) = specular;
+  return c;
+}
+
 Footprint footprint_in_repeats(const WovenSurface& surface, float u, float v, float size) {
   const Eigen::Vector2f repeat = surface.repeat_size();
   Footprint footprint;

@@ -45,11 +45,11 @@ Eigen::Vector3f front_direction(std::mt19937& random) {
 void BM_WovenPointBsdf(benchmark::State& state) {
   std::mt19937 random(1);
   const WovenSurface surface = bench_surface();
-  struct Input {
+  struct PointBsdfInput {
     Eigen::Vector3f wi, wo;
     WovenPoint p;
   };
-  std::vector<Input> inputs;
+  std::vector<PointBsdfInput> inputs;
   std::uniform_real_distribution<float> position(0, 5);
   while (inputs.size() < 1024) {
     const WovenPoint p = surface.point({position(random), position(random)});
@@ -58,7 +58,7 @@ void BM_WovenPointBsdf(benchmark::State& state) {
   }
   std::size_t k = 0;
   for (auto _ : state) {
-    const Input& in = inputs[k++ & 1023];
+    const PointBsdfInput& in = inputs[k++ & 1023];
     benchmark::DoNotOptimize(woven_specular(in.wi, in.wo, in.p.normal, in.p.orientation, 0.5f) +
                              woven_diffuse(in.wi, in.wo, in.p.normal));
   }

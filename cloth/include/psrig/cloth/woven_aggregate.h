@@ -43,6 +43,14 @@ struct WovenComponents {
   float c_warp = 0, c_weft = 0, s_warp = 0, s_weft = 0;
 };
 
+// Eq. (1) at one point in eq. (7)'s components: the yarn there (warp or
+// weft) gets f_d / k_d and f_s / k_s with its own alpha, the other yarn
+// type and a gap nothing. This is f itself, without eq. (3)'s <wi . n_p>.
+[[nodiscard]] WovenComponents woven_point_components(const WovenPoint& point,
+                                                     const Eigen::Vector3f& wi,
+                                                     const Eigen::Vector3f& wo,
+                                                     const WovenShading& shading);
+
 // A patch of the plane, spacings: centre + a e_u + b e_v for a, b in
 // [-1/2, 1/2].
 struct Footprint {
