@@ -113,11 +113,11 @@ double albedo(F&& f, int grid = 700) {
 // The specular lobe is a slab's single scattering (SpongeCake): with k_s = 1
 // it never reflects more than it receives, for any roughness, light and ply
 // direction (in the cloth's plane or leaving it). The largest we find is
-// 0.44.
+// 0.48, at alpha 0.1 and a light 89 degrees from the normal.
 TEST(WovenBsdf, SpecularAloneNeverReflectsMoreThanItReceives) {
   double largest = 0;
   for (float alpha : {0.1f, 0.3f, 0.6f, 1.0f})
-    for (float light : {0.0f, 40.0f, 70.0f, 85.0f})
+    for (float light : {0.0f, 40.0f, 70.0f, 85.0f, 89.0f})
       for (float ply_lift : {0.0f, 45.0f, 80.0f})
         for (float ply_turn : {0.0f, 60.0f, 90.0f}) {
           const float lift = ply_lift * std::numbers::pi_v<float> / 180;
@@ -127,7 +127,7 @@ TEST(WovenBsdf, SpecularAloneNeverReflectsMoreThanItReceives) {
           const Eigen::Vector3f wi = at_angle(light);
           const double a = albedo(
               [&](const Eigen::Vector3f& wo) { return woven_specular(wi, wo, kUp, t, alpha); },
-              alpha < 0.2f ? 900 : 400);
+              alpha < 0.2f ? 500 : 300);
           EXPECT_LE(a, 1.0) << "alpha " << alpha << " light " << light << " ply " << ply_lift
                             << ", " << ply_turn;
           EXPECT_GT(a, 0.0);

@@ -19,15 +19,15 @@
 // w; ours is 0.5 (WovenShading::diffuse_blend).
 //
 // Energy (woven_bsdf_test.cpp measures it): f_s with k_s = 1 is a slab's
-// single scattering and reflects at most 0.44 of what it receives (the
-// largest found: alpha = 0.1, light 85 degrees from the normal, across the
-// ply). f_d with k_d = 1 reflects w <wi . n_p> / <wi . n_s> + (1 - w) about
-// n_p: exactly 1 where the ply lies flat, more where it leans towards a
-// grazing light (w = 0.5, ply at 45 degrees, light at 80: 2.44). The model
-// adds the two with no split, so k_d = k_s = 1 reflects more than 1 even on
-// a flat ply (1.15 head-on at alpha = 1, up to about 1.44): it conserves
-// energy for k_d + k_s <= 1 on flat plies, which is what the tests hold it
-// to; k_d and k_s are the artist's albedos, not a budget.
+// single scattering and reflects at most about half of what it receives
+// (0.48 found, alpha = 0.1, light 89 degrees from the normal, across the
+// ply; towards grazing it tends to the share of the microflakes' phase
+// function sent upwards, below 1). f_d with k_d = 1 reflects w <wi . n_p> / <wi . n_s> + (1 - w)
+// about n_p: exactly 1 where the ply lies flat, more where it leans towards a grazing light (w =
+// 0.5, ply at 45 degrees, light at 80: 2.44). The model adds the two with no split, so k_d = k_s =
+// 1 reflects more than 1 even on a flat ply (1.15 head-on at alpha = 1, up to about 1.5): it
+// conserves energy for k_d + k_s <= 1 on flat plies, which is what the tests hold it to; k_d and
+// k_s are the artist's albedos, not a budget.
 //
 // Functions return the four per-unit components: f = k_d * diffuse + k_s *
 // specular, as eq. (7)-(8) separate them.
