@@ -157,7 +157,8 @@ TEST(WovenReferenceRender, PicturesToLookAtWhenAsked) {
     WovenLight light;
     light.direction = light_from(50, 135);
     light.irradiance = 2.5f;
-    for (const auto& [label, distance] : {std::pair{"near", 40.0f}, std::pair{"mid", 300.0f}, std::pair{"far", 1200.0f}}) {
+    for (const auto& [label, distance] :
+         {std::pair{"near", 40.0f}, std::pair{"mid", 300.0f}, std::pair{"far", 1200.0f}}) {
       WovenView view;
       view.distance = distance;
       view.tilt_deg = 35;
