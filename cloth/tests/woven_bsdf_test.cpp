@@ -6,6 +6,7 @@
 #include <numbers>
 #include <random>
 
+#include <Eigen/Geometry>
 #include <gtest/gtest.h>
 
 namespace psrig::cloth {
