@@ -13,13 +13,20 @@ namespace {
 
 constexpr float kRenderDegree = std::numbers::pi_v<float> / 180;
 
-// One camera ray's radiance over E: the point it meets, lit or not.
-Eigen::Vector3f trace_pixel_ray(const WovenSurface& surface, const WovenShading& shading,
-                                const YarnColours& colours, const Eigen::Vector3f& eye,
-                                const Eigen::Vector3f& direction, const Eigen::Vector3f& wi) {
+// How far below the height field a ray's landing may be and still be on
+// it: deeper, it met the step at a yarn's side.
+constexpr float kStepDepth = 1e-3f;
+
+// One camera ray's radiance over E where it lands, or nothing where it
+// meets a yarn's side step (eq. 3 has no such point: the ray is drawn
+// again, so that the rays land as eq. 3's A(p, wo) weighs the points).
+std::optional<Eigen::Vector3f> trace_pixel_ray(
+    const WovenSurface& surface, const WovenShading& shading, const YarnColours& colours,
+    const Eigen::Vector3f& eye, const Eigen::Vector3f& direction, const Eigen::Vector3f& wi) {
   const std::optional<Eigen::Vector3f> hit = surface.first_hit(eye, direction);
   if (!hit) return Eigen::Vector3f::Zero();
   const WovenPoint p = surface.point(hit->head<2>());
+  if (hit->z() < p.height - kStepDepth) return std::nullopt;
   if (p.yarn == YarnType::gap) return Eigen::Vector3f::Zero();
   const float lit = wi.dot(p.normal);
   if (lit <= 0 || !surface.visible(*hit, wi)) return Eigen::Vector3f::Zero();
@@ -110,15 +117,22 @@ WovenImage render_woven_reference(const WovenSurface& surface, const WovenShadin
         // A randomly shifted R2 sequence over the pixel (as woven_aggregate).
         const double shift_a = random.uniform(), shift_b = random.uniform();
         Eigen::Vector3f sum = Eigen::Vector3f::Zero();
-        for (int k = 0; k < spp; ++k) {
+        // Rays that meet a side step are drawn again, the sequence going
+        // on, at most 4 spp draws in all.
+        int landed = 0;
+        for (int k = 0; landed < spp && k < 4 * spp; ++k) {
           double a = shift_a + 0.7548776662466927 * k, b = shift_b + 0.5698402909980532 * k;
           a -= std::floor(a);
           b -= std::floor(b);
           const Eigen::Vector3f d =
               camera.ray(static_cast<float>(x + a), static_cast<float>(y + b));
-          sum += trace_pixel_ray(surface, shading, colours, camera.eye, d, wi);
+          if (const auto radiance = trace_pixel_ray(surface, shading, colours, camera.eye, d, wi)) {
+            sum += *radiance;
+            ++landed;
+          }
         }
-        const Eigen::Vector3f value = light.irradiance * sum / static_cast<float>(spp);
+        if (landed == 0) continue;
+        const Eigen::Vector3f value = light.irradiance * sum / static_cast<float>(landed);
         image.rgb[i] = value.x();
         image.rgb[i + 1] = value.y();
         image.rgb[i + 2] = value.z();

@@ -46,11 +46,11 @@ YarnColours separating_colours() {
 
 // One pixel seen from far, its footprint about two repeats of twill: the
 // camera rays' mean and eq. (3) over the same footprint are two estimators
-// of one integral, apart from the yarns' side steps, which a ray can meet
-// and eq. (3)'s points never are (woven_reference_render.h). With low
-// yarns (beta = 0.3) the steps are small and the two agree within a few per
-// cent (0.96 to 0.99); at beta = 1 the rays see the warps darker, by the
-// steps' share (0.87).
+// of one integral (rays that meet a yarn's side step drawn again, as eq.
+// (3) has no point there). They differ by parallax (a ray lands on the
+// yarns, eq. (3)'s footprint is on the mid-plane) and the Monte Carlo:
+// measured 0.99 to 1.01 at beta = 0.3, 0.97 to 1.02 at beta = 1 (shading
+// the steps instead gave 0.87 for the warp at beta = 1).
 TEST(WovenReferenceRender, APixelIsTheAggregateOverItsFootprint) {
   for (float beta : {0.3f, 1.0f}) {
     const WovenSurface surface = render_surface(twill_weave(2, 2), beta);
@@ -79,10 +79,10 @@ TEST(WovenReferenceRender, APixelIsTheAggregateOverItsFootprint) {
     EXPECT_FLOAT_EQ(point.z(), c.s_warp);
     std::printf("beta %.1f: rays / eq. (3): c_warp %.3f, c_weft %.3f, s_warp %.3f\n", beta,
                 ray.x() / c.c_warp, ray.y() / c.c_weft, ray.z() / c.s_warp);
-    const float tolerance = beta < 0.5f ? 0.05f : 0.2f;
+    const float tolerance = beta < 0.5f ? 0.03f : 0.05f;
     EXPECT_NEAR(ray.x(), c.c_warp, tolerance * c.c_warp);
     EXPECT_NEAR(ray.y(), c.c_weft, tolerance * c.c_weft);
-    EXPECT_NEAR(ray.z(), c.s_warp, 1.5f * tolerance * c.s_warp);
+    EXPECT_NEAR(ray.z(), c.s_warp, tolerance * c.s_warp);
   }
 }
 

@@ -11,9 +11,11 @@
 //   mean estimates eq. (3), and one ray is an honest one-sample render. A
 //   ray can also meet the step where a yarn stands above its neighbour (the
 //   rest of the yarn's side, which the model's flattened section leaves
-//   out); it is shaded with the yarn's edge, and it is in no eq. (3) sum:
-//   at beta = 1 this makes a twill's warps about 13 % darker seen at 35
-//   degrees than eq. (3) says (woven_reference_render_test.cpp).
+//   out and eq. 3 has no point on); such a ray is drawn again (at most 4
+//   spp draws a pixel), as eq. (3)'s A_P leaves the steps out. Shading the
+//   steps with the yarn's edge instead made a twill's warps 13 % darker at
+//   beta = 1 than eq. (3); drawn again, the two agree within 3 %
+//   (woven_reference_render_test.cpp).
 // - footprint: eq. (3) itself over the pixel's footprint on the mid-plane,
 //   woven_aggregate.h's estimator with `spp` points: exactly what the data
 //   set holds and a network learns. At one point a pixel it is biased (a
