@@ -187,9 +187,11 @@ WovenDecoderMaterial WovenNetwork::prepare(std::vector<float> latent) const {
 std::array<float, 4> WovenNetwork::decode_raw(const WovenDecoderMaterial& material,
                                               const WovenLookup& lookup) const {
   const WovenNetworkShape& s = shape();
-  std::array<float, widest_decoder_layer + woven_angular_inputs> joined{};
-  std::array<float, 2 * widest_decoder_layer> scratch{};
-  std::array<float, widest_decoder_layer> spatial{}, angular{};
+  // Left uninitialised: each layer writes all it reads next (zeroing them
+  // cost more than the layers at the default sizes).
+  std::array<float, widest_decoder_layer + woven_angular_inputs> joined;
+  std::array<float, 2 * widest_decoder_layer> scratch;
+  std::array<float, widest_decoder_layer> spatial, angular;
   float blob[3 * 64];
   const int blobs = decoder_blob_inputs(s);
   one_blob_footprint(lookup.u, lookup.v, lookup.size, s.blob_bins, std::span(blob, blobs));
