@@ -1,0 +1,134 @@
+// The neural woven BSDF's decoder (issue 31), seeded random weights of the
+// real layer sizes (the cost does not depend on the values):
+//   BM_WovenDecoderCpu: cloth::WovenNetwork::decode, one query (the CPU twin);
+//   BM_WovenEncoderCpu/T: the encoder on a T x T material (once per
+//     material, or per pattern or (alpha, beta) edit);
+//   BM_WovenDecoderGlsl: the GLSL pass over a 1920x1080 frame on llvmpipe,
+//     glFinish'ed (ms per frame; per pixel = that / 2 073 600);
+//   BM_WovenClearFrame: the same target cleared and finished, the floor.
+
+#include <GLES3/gl3.h>
+#include <memory>
+#include <random>
+
+#include <benchmark/benchmark.h>
+
+#include "psrig/cloth/woven_network.h"
+#include "psrig/preview/egl_context.h"
+#include "psrig/preview/offscreen_target.h"
+#include "psrig/preview/woven_decoder_pass.h"
+#include "woven_standin.h"
+
+namespace {
+
+using namespace psrig;
+
+const cv::Size kWovenFrame(1920, 1080);
+
+const cloth::WovenNetwork& woven_network() {
+  static const cloth::WovenNetwork network = *cloth::WovenNetwork::from_weights(
+      *cloth::random_woven_network(cloth::WovenNetworkShape{}, 5));
+  return network;
+}
+
+void BM_WovenDecoderCpu(benchmark::State& state) {
+  const cloth::WovenNetwork& network = woven_network();
+  const cloth::WovenDecoderMaterial material =
+      network.prepare(*network.encode(test::analytic_woven_material(2, 32, 0.4F, 1.0F)));
+  std::mt19937 random(1);
+  std::uniform_real_distribution<float> unit(0.0F, 1.0F);
+  std::vector<cloth::WovenLookup> lookups(1024);
+  for (auto& l : lookups) {
+    l = {unit(random), unit(random), 5 * unit(random), {0.3F, 0.2F, 0.93F}, {-0.1F, 0.4F, 0.91F}};
+  }
+  std::size_t i = 0;
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(network.decode(material, lookups[i++ & 1023]));
+  }
+  state.SetItemsProcessed(state.iterations());
+}
+BENCHMARK(BM_WovenDecoderCpu);
+
+void BM_WovenEncoderCpu(benchmark::State& state) {
+  const cloth::WovenNetwork& network = woven_network();
+  const cloth::WovenMaterialSample material =
+      test::analytic_woven_material(2, static_cast<int>(state.range(0)), 0.4F, 1.0F);
+  for (auto _ : state) {
+    benchmark::DoNotOptimize(network.encode(material));
+  }
+}
+BENCHMARK(BM_WovenEncoderCpu)->Arg(32)->Arg(64)->Unit(benchmark::kMillisecond);
+
+struct WovenCanvas {
+  std::unique_ptr<preview::EglContext> context;
+  std::unique_ptr<preview::OffscreenTarget> target;
+  std::unique_ptr<preview::WovenDecoderPass> pass;
+};
+
+WovenCanvas* woven_canvas() {
+  static WovenCanvas* opened = [] {
+    auto* made = new WovenCanvas;
+    auto context = preview::EglContext::open_surfaceless();
+    if (!context) return made;
+    made->context = std::move(*context);
+    auto target = preview::OffscreenTarget::create(kWovenFrame, 0, preview::ColourStorage::linear);
+    auto pass = preview::WovenDecoderPass::create(woven_network());
+    if (!target || !pass) return made;
+    made->target = std::move(*target);
+    made->pass = std::move(*pass);
+    const cloth::WovenNetwork& network = woven_network();
+    made->pass->set_material(
+        network.prepare(*network.encode(test::analytic_woven_material(2, 32, 0.4F, 1.0F))));
+    cv::Mat footprints(kWovenFrame, CV_32FC3), incoming(kWovenFrame, CV_32FC3),
+        outgoing(kWovenFrame, CV_32FC3);
+    cv::randu(footprints, 0.0F, 1.0F);
+    incoming.setTo(cv::Scalar(0.3F, 0.2F, 0.93F));
+    outgoing.setTo(cv::Scalar(-0.1F, 0.4F, 0.91F));
+    if (!made->pass->set_queries(footprints, incoming, outgoing)) {
+      made->pass.reset();
+      return made;
+    }
+    // llvmpipe compiles a shader at its first draw (seconds for this one):
+    // not part of a frame.
+    made->target->bind();
+    made->pass->draw(preview::WovenColours{});
+    glFinish();
+    return made;
+  }();
+  return opened;
+}
+
+void BM_WovenDecoderGlsl(benchmark::State& state) {
+  WovenCanvas* canvas = woven_canvas();
+  if (!canvas->pass) {
+    state.SkipWithError("no EGL context or the pass did not build");
+    return;
+  }
+  canvas->target->bind();
+  const preview::WovenColours colours;
+  for (auto _ : state) {
+    canvas->pass->draw(colours);
+    glFinish();
+  }
+  state.counters["ns_per_pixel"] = benchmark::Counter(
+      static_cast<double>(kWovenFrame.area()),
+      benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
+}
+BENCHMARK(BM_WovenDecoderGlsl)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+void BM_WovenClearFrame(benchmark::State& state) {
+  WovenCanvas* canvas = woven_canvas();
+  if (!canvas->target) {
+    state.SkipWithError("no EGL context");
+    return;
+  }
+  canvas->target->bind();
+  for (auto _ : state) {
+    glClearColor(0.1F, 0.2F, 0.3F, 1.0F);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    glFinish();
+  }
+}
+BENCHMARK(BM_WovenClearFrame)->Unit(benchmark::kMillisecond)->UseRealTime();
+
+}  // namespace
