@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <tuple>
 #include <fmt/format.h>
 
 namespace psrig::cloth {
@@ -35,6 +36,40 @@ void residual(const DenseLayer& first, const DenseLayer& second, float* x, float
   for (int i = 0; i < second.outputs; ++i) {
     x[i] = leaky(x[i] + back[i]);
   }
+}
+
+// out = W in + b for an input-major layer (`bias` replaces the layer's own
+// when given), optionally through the leaky ReLU.
+void dense_input_major(const WovenDecoderLayer& layer, const float* in, float* out, bool activate,
+                       const float* bias = nullptr) {
+  const int outputs = layer.outputs;
+  std::copy_n(bias != nullptr ? bias : layer.bias.data(), outputs, out);
+  for (int i = 0; i < layer.inputs; ++i) {
+    const float* column = layer.weight.data() + static_cast<std::size_t>(i) * outputs;
+    const float x = in[i];
+    for (int o = 0; o < outputs; ++o) {
+      out[o] += column[o] * x;
+    }
+  }
+  if (activate) {
+    for (int o = 0; o < outputs; ++o)
+      out[o] = leaky(out[o]);
+  }
+}
+
+// The columns [first, first + count) of `layer`, input-major.
+WovenDecoderLayer input_major(const DenseLayer& layer, int first = 0, int count = -1) {
+  if (count < 0) count = layer.inputs - first;
+  WovenDecoderLayer out{count, layer.outputs,
+                        std::vector<float>(static_cast<std::size_t>(count) * layer.outputs),
+                        layer.bias};
+  for (int o = 0; o < layer.outputs; ++o) {
+    for (int i = 0; i < count; ++i) {
+      out.weight[static_cast<std::size_t>(i) * layer.outputs + o] =
+          layer.weight[static_cast<std::size_t>(o) * layer.inputs + first + i];
+    }
+  }
+  return out;
 }
 
 // A channels x size x size map, row-major.
@@ -122,6 +157,17 @@ void one_blob_footprint(float u, float v, float size, int bins, std::span<float>
   }
 }
 
+WovenNetwork::WovenNetwork(WovenNetworkWeights weights) : weights_(std::move(weights)) {
+  const WovenNetworkWeights& w = weights_;
+  decoder_ = {input_major(w.fuse1, w.shape.latent_size),
+              input_major(w.fuse2),
+              input_major(w.ang_in),
+              input_major(w.ang_res1),
+              input_major(w.ang_res2),
+              input_major(w.ang_mid),
+              input_major(w.ang_out)};
+}
+
 Result<WovenNetwork> WovenNetwork::load(const std::filesystem::path& file) {
   auto weights = read_woven_network(file);
   if (!weights) {
@@ -187,40 +233,33 @@ WovenDecoderMaterial WovenNetwork::prepare(std::vector<float> latent) const {
 std::array<float, 4> WovenNetwork::decode_raw(const WovenDecoderMaterial& material,
                                               const WovenLookup& lookup) const {
   const WovenNetworkShape& s = shape();
-  // Left uninitialised: each layer writes all it reads next (zeroing them
-  // cost more than the layers at the default sizes).
+  // Left uninitialised: each layer writes all it reads next.
   std::array<float, widest_decoder_layer + woven_angular_inputs> joined;
-  std::array<float, 2 * widest_decoder_layer> scratch;
-  std::array<float, widest_decoder_layer> spatial, angular;
+  std::array<float, widest_decoder_layer> first, second, third;
   float blob[3 * 64];
-  const int blobs = decoder_blob_inputs(s);
-  one_blob_footprint(lookup.u, lookup.v, lookup.size, s.blob_bins, std::span(blob, blobs));
+  one_blob_footprint(lookup.u, lookup.v, lookup.size, s.blob_bins,
+                     std::span(blob, static_cast<std::size_t>(decoder_blob_inputs(s))));
+  const auto& [fuse1, fuse2, ang_in, ang_res1, ang_res2, ang_mid, ang_out] = std::tie(
+      decoder_[0], decoder_[1], decoder_[2], decoder_[3], decoder_[4], decoder_[5], decoder_[6]);
 
   // fuse1: the latent's share is the material's fusion bias.
-  const DenseLayer& fuse = weights_.fuse1;
-  for (int o = 0; o < fuse.outputs; ++o) {
-    const float* row =
-        fuse.weight.data() + static_cast<std::size_t>(o) * fuse.inputs + s.latent_size;
-    float sum = material.fusion_bias[o];
-    for (int i = 0; i < blobs; ++i) {
-      sum += row[i] * blob[i];
-    }
-    joined[o] = leaky(sum);
-  }
-  dense(weights_.fuse2, joined.data(), spatial.data(), true);
-
-  std::copy_n(spatial.begin(), s.fusion_width, joined.begin());
+  dense_input_major(fuse1, blob, first.data(), true, material.fusion_bias.data());
+  dense_input_major(fuse2, first.data(), joined.data(), true);
   float* directions = joined.data() + s.fusion_width;
   directions[0] = lookup.wi[0];
   directions[1] = lookup.wi[1];
   directions[2] = lookup.wi[2];
   directions[3] = lookup.wo[0];
   directions[4] = lookup.wo[1];
-  dense(weights_.ang_in, joined.data(), angular.data(), true);
-  residual(weights_.ang_res1, weights_.ang_res2, angular.data(), scratch.data());
-  dense(weights_.ang_mid, angular.data(), spatial.data(), true);
-  std::array<float, 4> out{};
-  dense(weights_.ang_out, spatial.data(), out.data(), false);
+  dense_input_major(ang_in, joined.data(), first.data(), true);
+  // The residual block: leaky(x + W2 leaky(W1 x + b1) + b2).
+  dense_input_major(ang_res1, first.data(), second.data(), true);
+  dense_input_major(ang_res2, second.data(), third.data(), false);
+  for (int i = 0; i < s.angular_width; ++i)
+    first[i] = leaky(first[i] + third[i]);
+  dense_input_major(ang_mid, first.data(), second.data(), true);
+  std::array<float, 4> out;
+  dense_input_major(ang_out, second.data(), out.data(), false);
   return out;
 }
 

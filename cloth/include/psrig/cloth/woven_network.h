@@ -54,6 +54,15 @@ struct WovenDecoderMaterial {
   std::vector<float> fusion_bias;  // fusion_width values
 };
 
+// A decoder layer stored input-major (weight[i * outputs + o]), so that a
+// query's inner loop runs over the outputs and vectorises; each output
+// still sums its inputs in order, so the results are those of the
+// output-major layout bit for bit.
+struct WovenDecoderLayer {
+  int inputs = 0, outputs = 0;
+  std::vector<float> weight, bias;
+};
+
 class WovenNetwork {
  public:
   [[nodiscard]] static Result<WovenNetwork> load(const std::filesystem::path& file);
@@ -75,8 +84,10 @@ class WovenNetwork {
                                        const WovenLookup& lookup) const;
 
  private:
-  explicit WovenNetwork(WovenNetworkWeights weights) : weights_(std::move(weights)) {}
+  explicit WovenNetwork(WovenNetworkWeights weights);
   WovenNetworkWeights weights_;
+  // fuse1's footprint columns, fuse2, ang_in, ang_res1, ang_res2, ang_mid, ang_out.
+  std::vector<WovenDecoderLayer> decoder_;
 };
 
 }  // namespace psrig::cloth
