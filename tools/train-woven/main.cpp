@@ -96,7 +96,7 @@ int main(int argc, char** argv) {
   if (auto wrote = cloth::write_woven_network(weights_file, trained->weights); !wrote) {
     return fail(wrote.error());
   }
-  std::fprintf(stderr, "loss %.5f -> %.5f%s; wrote %s\n", trained->initial_loss,
+  std::fprintf(stderr, "evaluation loss %.5f -> %.5f%s; wrote %s\n", trained->initial_loss,
                trained->final_loss, trained->resumed_at > 0 ? " (resumed)" : "",
                weights_file.c_str());
   return cli::exit_done;

@@ -125,8 +125,14 @@ class ProgressBar {
   ProgressBar(std::int64_t first, std::int64_t last, bool shown)
       : first_(first), last_(last), shown_(shown), terminal_(isatty(STDERR_FILENO) != 0) {}
 
-  void update(std::int64_t step, double loss, bool final = false) {
+  // Ends the bar's line on a terminal (the last step is always drawn).
+  void finish() {
+    if (shown_ && terminal_) std::fputc('\n', stderr);
+  }
+
+  void update(std::int64_t step, double loss) {
     if (!shown_) return;
+    const bool final = step == last_;
     const auto now = Clock::now();
     const std::int64_t every = std::max<std::int64_t>(1, (last_ - first_) / 20);
     if (!final && (terminal_ ? now - drawn_ < std::chrono::milliseconds(250)
@@ -141,8 +147,7 @@ class ProgressBar {
     std::fprintf(stderr, "%s[%-30s] step %lld/%lld  loss %.5f  %s, ETA %s%s", terminal_ ? "\r" : "",
                  std::string(static_cast<std::size_t>(filled), '#').c_str(),
                  static_cast<long long>(step), static_cast<long long>(last_), loss,
-                 duration_text(elapsed).c_str(), duration_text(eta).c_str(),
-                 terminal_ && !final ? "" : "\n");
+                 duration_text(elapsed).c_str(), duration_text(eta).c_str(), terminal_ ? "" : "\n");
     std::fflush(stderr);
   }
 
@@ -251,7 +256,7 @@ Result<TrainingResult> train(const cloth::WovenDataset& dataset, const TrainingO
     }
   }
   result.final_loss = evaluate(model, data, evaluation);
-  bar.update(last, result.final_loss, true);
+  bar.finish();
 
   result.weights = to_weights(model);
   result.weights.command = command;
