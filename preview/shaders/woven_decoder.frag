@@ -8,10 +8,10 @@
 // footprint's share.
 //
 // The weights are a flat array of vec4s (woven_decoder_pass.cpp lays it
-// out): each layer's 4x4 blocks as mat4 columns, then its biases. In a
-// uniform block where the context allows its size (WEIGHTS_IN_UNIFORM_BLOCK;
-// llvmpipe does, and reads uniforms far faster than texels), else in an
-// RGBA32F texture WEIGHT_TEXTURE_WIDTH texels wide. Sizes and offsets (in
+// out): each layer's 4x4 blocks as mat4 columns, then its biases. In an
+// RGBA32F texture WEIGHT_TEXTURE_WIDTH texels wide, or in a uniform block
+// (WEIGHTS_IN_UNIFORM_BLOCK), which llvmpipe reads 1.5x slower here
+// (probably lane by lane, the loops' indices not being constant). Sizes and offsets (in
 // vec4s) are #defines: FUSION4, ANGULAR4, JOINED4 (= FUSION4 + 2), BLOB4,
 // BLOB_BINS, WEIGHT_VECTORS, and per layer *_W (blocks) and *_B (biases).
 precision highp float;

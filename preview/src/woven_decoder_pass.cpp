@@ -118,9 +118,12 @@ cv::Vec3f woven_radiance(const cloth::WovenComponents& c, const WovenColours& co
 Result<std::unique_ptr<WovenDecoderPass>> WovenDecoderPass::create(
     const cloth::WovenNetwork& network, WovenWeightStorage storage) {
   const WeightVectors weights = decoder_vectors(network.weights());
-  const bool uniform_block =
-      storage == WovenWeightStorage::uniform_block ||
-      (storage == WovenWeightStorage::automatic && fits_a_uniform_block(weights.vectors.size()));
+  const bool uniform_block = storage == WovenWeightStorage::uniform_block;
+  if (uniform_block && !fits_a_uniform_block(weights.vectors.size())) {
+    return std::unexpected(internal_error(
+        "the woven decoder's weights (" + std::to_string(weights.vectors.size() * 16) +
+        " bytes) are more than this context's uniform blocks take: use the texture"));
+  }
   const std::string defines =
       weights.defines + (uniform_block ? "#define WEIGHTS_IN_UNIFORM_BLOCK 1\n" : "");
   auto program =

@@ -3,8 +3,10 @@
 //   BM_WovenDecoderCpu: cloth::WovenNetwork::decode, one query (the CPU twin);
 //   BM_WovenEncoderCpu/T: the encoder on a T x T material (once per
 //     material, or per pattern or (alpha, beta) edit);
-//   BM_WovenDecoderGlsl: the GLSL pass over a 1920x1080 frame on llvmpipe,
-//     glFinish'ed (ms per frame; per pixel = that / 2 073 600);
+//   BM_WovenDecoderGlsl/uniform_block:0|1: the GLSL pass over a 1920x1080
+//     frame on llvmpipe, glFinish'ed (ms per frame; per pixel = that /
+//     2 073 600), the weights in a texture (0, the default) or a uniform
+//     block (1);
 //   BM_WovenClearFrame: the same target cleared and finished, the floor.
 
 #include <GLES3/gl3.h>
@@ -59,20 +61,31 @@ void BM_WovenEncoderCpu(benchmark::State& state) {
 }
 BENCHMARK(BM_WovenEncoderCpu)->Arg(32)->Arg(64)->Unit(benchmark::kMillisecond);
 
+// One context for every benchmark here (opening EGL is slow).
+preview::EglContext* woven_context() {
+  static std::unique_ptr<preview::EglContext> context = [] {
+    auto opened = preview::EglContext::open_surfaceless();
+    return opened ? std::move(*opened) : nullptr;
+  }();
+  return context.get();
+}
+
 struct WovenCanvas {
-  std::unique_ptr<preview::EglContext> context;
   std::unique_ptr<preview::OffscreenTarget> target;
   std::unique_ptr<preview::WovenDecoderPass> pass;
 };
 
-WovenCanvas* woven_canvas() {
-  static WovenCanvas* opened = [] {
+// One per weight storage (0: a texture, 1: a uniform block).
+WovenCanvas* woven_canvas(int storage) {
+  static WovenCanvas* opened[2] = {nullptr, nullptr};
+  if (opened[storage] != nullptr) return opened[storage];
+  opened[storage] = [storage] {
     auto* made = new WovenCanvas;
-    auto context = preview::EglContext::open_surfaceless();
-    if (!context) return made;
-    made->context = std::move(*context);
+    if (woven_context() == nullptr) return made;
     auto target = preview::OffscreenTarget::create(kWovenFrame, 0, preview::ColourStorage::linear);
-    auto pass = preview::WovenDecoderPass::create(woven_network());
+    auto pass = preview::WovenDecoderPass::create(
+        woven_network(), storage == 0 ? preview::WovenWeightStorage::texture
+                                      : preview::WovenWeightStorage::uniform_block);
     if (!target || !pass) return made;
     made->target = std::move(*target);
     made->pass = std::move(*pass);
@@ -95,11 +108,11 @@ WovenCanvas* woven_canvas() {
     glFinish();
     return made;
   }();
-  return opened;
+  return opened[storage];
 }
 
 void BM_WovenDecoderGlsl(benchmark::State& state) {
-  WovenCanvas* canvas = woven_canvas();
+  WovenCanvas* canvas = woven_canvas(static_cast<int>(state.range(0)));
   if (!canvas->pass) {
     state.SkipWithError("no EGL context or the pass did not build");
     return;
@@ -114,10 +127,15 @@ void BM_WovenDecoderGlsl(benchmark::State& state) {
       static_cast<double>(kWovenFrame.area()),
       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
-BENCHMARK(BM_WovenDecoderGlsl)->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(BM_WovenDecoderGlsl)
+    ->ArgName("uniform_block")
+    ->Arg(0)
+    ->Arg(1)
+    ->Unit(benchmark::kMillisecond)
+    ->UseRealTime();
 
 void BM_WovenClearFrame(benchmark::State& state) {
-  WovenCanvas* canvas = woven_canvas();
+  WovenCanvas* canvas = woven_canvas(0);
   if (!canvas->target) {
     state.SkipWithError("no EGL context");
     return;

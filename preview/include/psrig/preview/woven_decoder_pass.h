@@ -5,9 +5,9 @@
 // centre and size, wi, wo) come as float images, shaded as
 // f cos(theta_i) E with the material's colours and written sRGB encoded
 // into the bound target. The yarn renderer's far view is where it goes
-// next. The decoder's weights live in a uniform block where the context
-// takes one that large (llvmpipe does), else in an RGBA32F texture; the
-// material's latent in uniforms (folded into the first fusion
+// next. The decoder's weights live in an RGBA32F texture (or a uniform
+// block, where the context takes one that large); the material's latent
+// in uniforms (folded into the first fusion
 // layer's bias, WovenDecoderMaterial): a colour edit is a uniform, a
 // pattern or (alpha, beta) edit re-runs the encoder on the CPU.
 
@@ -33,9 +33,8 @@ struct WovenColours {
                                        const WovenColours& colours, float cos_incoming);
 
 enum class WovenWeightStorage {
-  automatic,      // a uniform block if GL_MAX_UNIFORM_BLOCK_SIZE allows, else a texture
-  uniform_block,  // fails to build where the context's blocks are too small
-  texture,
+  texture,        // any GLES 3.0; on llvmpipe 1.5x faster than the uniform block
+  uniform_block,  // 26 KB at the default sizes: an error where GL_MAX_UNIFORM_BLOCK_SIZE is less
 };
 
 class WovenDecoderPass {
@@ -43,8 +42,7 @@ class WovenDecoderPass {
   // Compiles the shader for the network's sizes and uploads its decoder
   // weights. Needs a current GLES 3 context.
   [[nodiscard]] static Result<std::unique_ptr<WovenDecoderPass>> create(
-      const cloth::WovenNetwork& network,
-      WovenWeightStorage storage = WovenWeightStorage::automatic);
+      const cloth::WovenNetwork& network, WovenWeightStorage storage = WovenWeightStorage::texture);
   ~WovenDecoderPass();
   WovenDecoderPass(const WovenDecoderPass&) = delete;
   WovenDecoderPass& operator=(const WovenDecoderPass&) = delete;
