@@ -3,13 +3,15 @@
 //   BM_WovenDecoderCpu: cloth::WovenNetwork::decode, one query (the CPU twin);
 //   BM_WovenEncoderCpu/T: the encoder on a T x T material (once per
 //     material, or per pattern or (alpha, beta) edit);
-//   BM_WovenDecoderGlsl/uniform_block:0|1: the GLSL pass over a 1920x1080
-//     frame on llvmpipe, glFinish'ed (ms per frame; per pixel = that /
-//     2 073 600), the weights in a texture (0, the default) or a uniform
-//     block (1);
+//   BM_WovenDecoderGlsl/uniform_block:0|1/decoder_width:32|16: the GLSL
+//     pass over a 1920x1080 frame on llvmpipe, glFinish'ed (ms per frame;
+//     per pixel = that / 2 073 600), the weights in a texture (0, the
+//     default) or a uniform block (1), the decoder's layers 32 wide (the
+//     default) or 16;
 //   BM_WovenClearFrame: the same target cleared and finished, the floor.
 
 #include <GLES3/gl3.h>
+#include <map>
 #include <memory>
 #include <random>
 
@@ -27,10 +29,20 @@ using namespace psrig;
 
 const cv::Size kWovenFrame(1920, 1080);
 
-const cloth::WovenNetwork& woven_network() {
-  static const cloth::WovenNetwork network = *cloth::WovenNetwork::from_weights(
-      *cloth::random_woven_network(cloth::WovenNetworkShape{}, 5));
-  return network;
+// The default sizes, or with the decoder's fusion and angular layers
+// `decoder_width` wide (what a narrower network would cost).
+const cloth::WovenNetwork& woven_network(int decoder_width = 32) {
+  static std::map<int, cloth::WovenNetwork> networks;
+  auto found = networks.find(decoder_width);
+  if (found == networks.end()) {
+    cloth::WovenNetworkShape shape;
+    shape.fusion_width = shape.angular_width = decoder_width;
+    found = networks
+                .emplace(decoder_width,
+                         *cloth::WovenNetwork::from_weights(*cloth::random_woven_network(shape, 5)))
+                .first;
+  }
+  return found->second;
 }
 
 void BM_WovenDecoderCpu(benchmark::State& state) {
@@ -75,21 +87,22 @@ struct WovenCanvas {
   std::unique_ptr<preview::WovenDecoderPass> pass;
 };
 
-// One per weight storage (0: a texture, 1: a uniform block).
-WovenCanvas* woven_canvas(int storage) {
-  static WovenCanvas* opened[2] = {nullptr, nullptr};
-  if (opened[storage] != nullptr) return opened[storage];
-  opened[storage] = [storage] {
+// One per weight storage (0: a texture, 1: a uniform block) and decoder width.
+WovenCanvas* woven_canvas(int storage, int decoder_width = 32) {
+  static std::map<std::pair<int, int>, WovenCanvas*> opened;
+  WovenCanvas*& canvas = opened[{storage, decoder_width}];
+  if (canvas != nullptr) return canvas;
+  canvas = [storage, decoder_width] {
     auto* made = new WovenCanvas;
     if (woven_context() == nullptr) return made;
     auto target = preview::OffscreenTarget::create(kWovenFrame, 0, preview::ColourStorage::linear);
+    const cloth::WovenNetwork& network = woven_network(decoder_width);
     auto pass = preview::WovenDecoderPass::create(
-        woven_network(), storage == 0 ? preview::WovenWeightStorage::texture
-                                      : preview::WovenWeightStorage::uniform_block);
+        network, storage == 0 ? preview::WovenWeightStorage::texture
+                              : preview::WovenWeightStorage::uniform_block);
     if (!target || !pass) return made;
     made->target = std::move(*target);
     made->pass = std::move(*pass);
-    const cloth::WovenNetwork& network = woven_network();
     made->pass->set_material(
         network.prepare(*network.encode(test::analytic_woven_material(2, 32, 0.4F, 1.0F))));
     cv::Mat footprints(kWovenFrame, CV_32FC3), incoming(kWovenFrame, CV_32FC3),
@@ -108,11 +121,12 @@ WovenCanvas* woven_canvas(int storage) {
     glFinish();
     return made;
   }();
-  return opened[storage];
+  return canvas;
 }
 
 void BM_WovenDecoderGlsl(benchmark::State& state) {
-  WovenCanvas* canvas = woven_canvas(static_cast<int>(state.range(0)));
+  WovenCanvas* canvas =
+      woven_canvas(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   if (!canvas->pass) {
     state.SkipWithError("no EGL context or the pass did not build");
     return;
@@ -128,9 +142,10 @@ void BM_WovenDecoderGlsl(benchmark::State& state) {
       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_WovenDecoderGlsl)
-    ->ArgName("uniform_block")
-    ->Arg(0)
-    ->Arg(1)
+    ->ArgNames({"uniform_block", "decoder_width"})
+    ->Args({0, 32})
+    ->Args({1, 32})
+    ->Args({0, 16})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
