@@ -27,6 +27,8 @@ class GlProgram {
   ~GlProgram();
 
   void use() const;
+  // GL's name for it, for the calls this class does not wrap (uniform blocks).
+  [[nodiscard]] unsigned id() const { return id_; }
   // -1 when the program has no such active uniform (GL then ignores the set).
   [[nodiscard]] int uniform(const std::string& name) const;
 

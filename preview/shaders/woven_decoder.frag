@@ -1,0 +1,159 @@
+#version 300 es
+// The neural woven BSDF's decoder (chen2024 4.2-4.3) per pixel, the twin of
+// cloth/woven_network.cpp's WovenNetwork::decode: one-blob footprint ->
+// spatial fusion -> angular decoder -> C_warp, C_weft, g(S_warp), g(S_weft),
+// g inverted, shaded as f cos(theta_i) E with the material's colours and
+// written sRGB encoded. The per-material latent comes folded into the first
+// fusion layer's bias (u_fusion_bias), so a pixel pays only for the
+// footprint's share.
+//
+// The weights are a flat array of vec4s (woven_decoder_pass.cpp lays it
+// out): each layer's 4x4 blocks as mat4 columns, then its biases. In an
+// RGBA32F texture WEIGHT_TEXTURE_WIDTH texels wide, or in a uniform block
+// (WEIGHTS_IN_UNIFORM_BLOCK), which llvmpipe reads 1.5x slower here
+// (probably lane by lane, the loops' indices not being constant). Sizes and offsets (in
+// vec4s) are #defines: FUSION4, ANGULAR4, JOINED4 (= FUSION4 + 2), BLOB4,
+// BLOB_BINS, WEIGHT_VECTORS, and per layer *_W (blocks) and *_B (biases).
+precision highp float;
+precision highp int;
+precision highp sampler2D;
+
+#ifdef WEIGHTS_IN_UNIFORM_BLOCK
+layout(std140) uniform WovenWeights {
+  vec4 u_vectors[WEIGHT_VECTORS];
+};
+vec4 weight_vector(int i) { return u_vectors[i]; }
+#else
+uniform sampler2D u_weights;
+vec4 weight_vector(int i) {
+  return texelFetch(u_weights, ivec2(i % WEIGHT_TEXTURE_WIDTH, i / WEIGHT_TEXTURE_WIDTH), 0);
+}
+#endif
+
+uniform sampler2D u_footprints;  // per pixel: u, v (repeats), size (repeats)
+uniform sampler2D u_incoming;    // per pixel: wi, cloth frame
+uniform sampler2D u_outgoing;    // per pixel: wo, cloth frame
+uniform vec4 u_fusion_bias[FUSION4];
+uniform vec3 u_kd_warp, u_kd_weft, u_ks_warp, u_ks_weft;  // linear
+uniform float u_irradiance;      // the light's, at normal incidence
+// FUSION4 and ANGULAR4 again, as uniforms: the loops over a layer's outputs
+// run to these, so the compiler cannot unroll them. Unrolled, the decoder
+// is thousands of straight-line instructions that llvmpipe's LLVM takes
+// minutes to compile; rolled, it takes about a second and runs as fast.
+uniform int u_fusion4, u_angular4;
+
+out vec4 fragment;
+
+const float kLeaky = 0.01;
+const float kSpecularK = 100.0;       // g(x) = ln(k x + 1)
+const float kLargestFootprint = 5.0;  // repeats
+
+vec4 leaky(vec4 x) { return max(x, kLeaky * x); }
+
+// Rows 4g..4g+3 and columns 4k..4k+3 of a layer's weights.
+mat4 block(int first) {
+  return mat4(weight_vector(first), weight_vector(first + 1), weight_vector(first + 2),
+              weight_vector(first + 3));
+}
+
+// The layers, one function per input width (GLSL has no generic arrays);
+// W and B the layer's offsets, no activation (the callers apply it).
+void fusion_first(vec4 x[BLOB4], out vec4 y[FUSION4]) {
+  for (int g = 0; g < u_fusion4; ++g) {
+    vec4 sum = u_fusion_bias[g];
+    for (int k = 0; k < BLOB4; ++k) sum += block(FUSE1_W + 4 * (g * BLOB4 + k)) * x[k];
+    y[g] = sum;
+  }
+}
+void fusion_second(vec4 x[FUSION4], out vec4 y[FUSION4]) {
+  for (int g = 0; g < u_fusion4; ++g) {
+    vec4 sum = weight_vector(FUSE2_B + g);
+    for (int k = 0; k < FUSION4; ++k) sum += block(FUSE2_W + 4 * (g * FUSION4 + k)) * x[k];
+    y[g] = sum;
+  }
+}
+void angular_first(vec4 x[JOINED4], out vec4 y[ANGULAR4]) {
+  for (int g = 0; g < u_angular4; ++g) {
+    vec4 sum = weight_vector(ANG_IN_B + g);
+    for (int k = 0; k < JOINED4; ++k) sum += block(ANG_IN_W + 4 * (g * JOINED4 + k)) * x[k];
+    y[g] = sum;
+  }
+}
+void angular_layer(int w, int b, vec4 x[ANGULAR4], out vec4 y[ANGULAR4]) {
+  for (int g = 0; g < u_angular4; ++g) {
+    vec4 sum = weight_vector(b + g);
+    for (int k = 0; k < ANGULAR4; ++k) sum += block(w + 4 * (g * ANGULAR4 + k)) * x[k];
+    y[g] = sum;
+  }
+}
+vec4 angular_last(vec4 x[ANGULAR4]) {
+  vec4 sum = weight_vector(ANG_OUT_B);
+  for (int k = 0; k < ANGULAR4; ++k) sum += block(ANG_OUT_W + 4 * k) * x[k];
+  return sum;
+}
+
+// Mueller et al.'s one-blob, as cloth::one_blob_footprint: u and v wrap.
+float blob(float x, int bin, bool periodic) {
+  float width = 1.0 / float(BLOB_BINS);
+  float d = x - (float(bin) + 0.5) * width;
+  if (periodic) d -= floor(d + 0.5);
+  return exp(-0.5 * d * d / (width * width));
+}
+
+float specular_from_g(float g) { return max(0.0, (exp(g) - 1.0) / kSpecularK); }
+
+float srgb_encode(float linear) {
+  linear = clamp(linear, 0.0, 1.0);
+  return linear <= 0.0031308 ? 12.92 * linear : 1.055 * pow(linear, 1.0 / 2.4) - 0.055;
+}
+
+void main() {
+  // Row 0 of the inputs is the frame's top row, as OffscreenTarget::read gives it.
+  ivec2 size = textureSize(u_footprints, 0);
+  ivec2 pixel = ivec2(gl_FragCoord.xy);
+  pixel.y = size.y - 1 - pixel.y;
+  vec3 footprint = texelFetch(u_footprints, pixel, 0).xyz;
+  vec3 wi = texelFetch(u_incoming, pixel, 0).xyz;
+  vec3 wo = texelFetch(u_outgoing, pixel, 0).xyz;
+
+  float encoded[4 * BLOB4];
+  vec2 position = footprint.xy - floor(footprint.xy);
+  float span = clamp(footprint.z / kLargestFootprint, 0.0, 1.0);
+  for (int k = 0; k < BLOB_BINS; ++k) {
+    encoded[k] = blob(position.x, k, true);
+    encoded[BLOB_BINS + k] = blob(position.y, k, true);
+    encoded[2 * BLOB_BINS + k] = blob(span, k, false);
+  }
+  vec4 blobs[BLOB4];
+  for (int k = 0; k < BLOB4; ++k) {
+    blobs[k] = vec4(encoded[4 * k], encoded[4 * k + 1], encoded[4 * k + 2], encoded[4 * k + 3]);
+  }
+
+  // The spatial fusion, then the angular inputs beside it: wi xyz, wo xy.
+  vec4 fused[FUSION4], spatial[FUSION4];
+  fusion_first(blobs, fused);
+  for (int g = 0; g < FUSION4; ++g) fused[g] = leaky(fused[g]);
+  fusion_second(fused, spatial);
+  vec4 joined[JOINED4];
+  for (int g = 0; g < FUSION4; ++g) joined[g] = leaky(spatial[g]);
+  joined[FUSION4] = vec4(wi, wo.x);
+  joined[FUSION4 + 1] = vec4(wo.y, 0.0, 0.0, 0.0);
+
+  // The angular decoder: in, a residual block, mid, out.
+  vec4 x[ANGULAR4], hidden[ANGULAR4], back[ANGULAR4];
+  angular_first(joined, x);
+  for (int g = 0; g < ANGULAR4; ++g) x[g] = leaky(x[g]);
+  angular_layer(ANG_RES1_W, ANG_RES1_B, x, hidden);
+  for (int g = 0; g < ANGULAR4; ++g) hidden[g] = leaky(hidden[g]);
+  angular_layer(ANG_RES2_W, ANG_RES2_B, hidden, back);
+  for (int g = 0; g < ANGULAR4; ++g) x[g] = leaky(x[g] + back[g]);
+  angular_layer(ANG_MID_W, ANG_MID_B, x, hidden);
+  for (int g = 0; g < ANGULAR4; ++g) hidden[g] = leaky(hidden[g]);
+  vec4 raw = angular_last(hidden);
+
+  float c_warp = max(raw.x, 0.0), c_weft = max(raw.y, 0.0);
+  float s_warp = specular_from_g(raw.z), s_weft = specular_from_g(raw.w);
+  vec3 f = u_kd_warp * c_warp + u_kd_weft * c_weft + u_ks_warp * s_warp + u_ks_weft * s_weft;
+  vec3 radiance = f * max(wi.z, 0.0) * u_irradiance;
+  fragment = vec4(srgb_encode(radiance.r), srgb_encode(radiance.g), srgb_encode(radiance.b), 1.0);
+}
