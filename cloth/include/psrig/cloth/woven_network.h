@@ -35,10 +35,6 @@ inline constexpr float woven_specular_k = 100.0F;
 // over [0, woven_largest_footprint]. The trainer feeds the same values.
 void one_blob_footprint(float u, float v, float size, int bins, std::span<float> out);
 
-struct WovenComponents {
-  float c_warp = 0, c_weft = 0, s_warp = 0, s_weft = 0;
-};
-
 // One decoder query: footprint centre (repeats), width (repeats) and the
 // two directions in the cloth's frame (as WovenQuery).
 struct WovenLookup {
