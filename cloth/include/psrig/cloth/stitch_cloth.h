@@ -12,14 +12,24 @@
 // stretch is the material's, not the solver's.
 //
 // The springs are chen2003-lumislice-knitwear.txt's (section 4.1): along
-// the courses and the wales (structural), across each stitch's diagonals
-// (shear), and over two stitches (bending), with the knit's own features:
+// the courses and the wales (structural) and across each stitch's
+// diagonals (shear), with the knit's own features below. Bending is not
+// chen2003's spring over two stitches, which resists a uniform squeeze in
+// the plane as much as a fold, so that cloth over a ball, with more
+// material than the ball's surface, cannot gather: its corners stood out
+// like wings. It is the flat cloth's curvature along each course and wale
+// (the three-point Laplacian, linear in the positions: Bergou et al.,
+// "Discrete quadratic curvature energies", 2006, for a flat rest shape),
+// which a squeeze in the plane leaves untouched, so the cloth folds as
+// cloth does, and the term sits in the constant matrix.
 // - the balance interval (section 4.1.1): a loop can change its length by
 //   a few percent with little resistance before the yarn itself is
-//   stretched or compressed: within it a soft spring (in the implicit
-//   step), at its ends a limit the yarn does not pass (strain limiting,
-//   Provot 1995: each structural spring brought back within the interval
-//   after the step);
+//   stretched: within it a soft spring (in the implicit step), at its
+//   stretched end a limit the yarn does not pass (strain limiting, Provot
+//   1995: each structural spring brought back within the interval after
+//   the step). Squeezed, cloth buckles rather than shortens its yarn, so
+//   no limit holds it apart (one did, and pushed the cloth on a ball
+//   outwards);
 // - stiffness different along courses and wales: a knit stretches far more
 //   across (the loops open) than along (the yarn straightens);
 // - thickness (section 4.1.2): colliders keep the cloth half its thickness
@@ -31,6 +41,7 @@
 //
 // Units: millimetres, grams, seconds (forces in g mm/s^2, 1 uN).
 
+#include <algorithm>
 #include <memory>
 #include <span>
 #include <vector>
@@ -48,10 +59,18 @@ struct KnitMaterial {
   float course_stiffness_n_per_m = 3;  // stretching across, along the courses
   float wale_stiffness_n_per_m = 15;   // along the wales
   float shear_stiffness_n_per_m = 0.5f;
-  // Bending, carried by springs over two stitches, as a share of the
-  // structural stiffness: a knit is limp.
-  float bending_share = 0.05f;
+  // Bending rigidity per unit width, uN m (KES-FB2's B: 1 gf cm^2/cm is
+  // 98 uN m). Single jersey is limp, about 0.01-0.03 gf cm^2/cm, and bends
+  // more readily across its courses than along its wales.
+  float course_bending_un_m = 1.0f;  // bending the courses (the fold's axis along the wales)
+  float wale_bending_un_m = 2.0f;
   float balance_interval = 0.05f;  // +-5 % before the yarn itself gives (chen2003)
+  // A course or wale squeezed shorter by up to this share pushes back
+  // with nothing: cloth buckles in wrinkles finer than a stitch rather than
+  // shorten its yarn (Choi and Ko, "Stable but responsive cloth", 2002:
+  // compression is buckling's business). Without it, cloth on a ball,
+  // more of it than the ball's surface, stood out in a stiff cone.
+  float free_squeeze = 0.2f;
   float areal_density_g_per_m2 = 220;
   float damping_per_s = 0.8f;  // air and inner friction: velocity lost per second, a share
   float static_friction = 0.6f, dynamic_friction = 0.4f;
@@ -97,11 +116,28 @@ class StitchCloth {
     int a = 0, b = 0;
     float rest = 0;
     float stiffness = 0;  // g/s^2
+    float slack = 0;      // the share of its length it gives up unresisted
+    // The length it pulls towards from `length`: its rest, or anything
+    // down to its slack's end when squeezed.
+    [[nodiscard]] float relaxed(float length) const {
+      return length >= rest ? rest : std::max(length, (1 - slack) * rest);
+    }
   };
 
  private:
   struct Solver;
   void collide(bool friction);
+  // The masses lying on a collider (within kResting of its surface, or in it).
+  [[nodiscard]] std::vector<bool> resting() const;
+  // How far `point` is from the nearest collider, less half the cloth's
+  // thickness (negative: in it).
+  [[nodiscard]] float clearance(const Eigen::Vector3f& point) const;
+  // `point` pushed out of every collider, its slide along the surface
+  // since `from` held back by friction.
+  [[nodiscard]] Eigen::Vector3f held_on_surface(const Eigen::Vector3f& point,
+                                                const Eigen::Vector3f& from) const;
+  // `point` pushed out of every collider, half the cloth's thickness clear.
+  [[nodiscard]] Eigen::Vector3f outside(const Eigen::Vector3f& point) const;
 
   StitchMesh mesh_;
   KnitMaterial material_;
@@ -111,6 +147,13 @@ class StitchCloth {
   std::vector<Eigen::Vector3f> pin_target_;
   std::vector<Eigen::Vector3f> previous_, velocity_;
   std::vector<Spring> springs_;
+  // Three neighbours along a course or a wale, a-b-c, and the stiffness
+  // of their curvature (a - 2b + c): the bending term.
+  struct Bend {
+    int a = 0, b = 0, c = 0;
+    float stiffness = 0;  // g/s^2
+  };
+  std::vector<Bend> bends_;
   // The structural springs again, in groups that share no vertex, for the
   // strain limit.
   std::vector<std::vector<Spring>> limited_;
