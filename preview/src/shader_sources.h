@@ -20,5 +20,7 @@ extern const ShaderSource yarn_depth_frag;
 extern const ShaderSource yarn_fibres_glsl;  // inserted into both yarn shaders
 extern const ShaderSource prop_vert;
 extern const ShaderSource prop_frag;
+extern const ShaderSource far_cloth_vert;  // the far level (far_cloth.h)
+extern const ShaderSource far_cloth_frag;
 
 }  // namespace psrig::preview::shaders
