@@ -1,7 +1,6 @@
 #version 300 es
 // The repeat's texel, premultiplied linear colour and coverage, averaged
-// over the pixel's footprint by the mipmaps (trilinear, anisotropic where
-// the context offers it). Drawn alone it is blended over what lies beneath
+// over the pixel's footprint by the mipmaps. Drawn alone it is blended over what lies beneath
 // (GL_ONE, GL_ONE_MINUS_SRC_ALPHA); over yarns still drawn at the near
 // level it takes over as the yarn narrows from u_fade_px.x to u_fade_px.y
 // pixels, the cloth over the cleared background cross-faded with them.
@@ -11,10 +10,6 @@ in vec2 v_repeat;
 in float v_yarn_px;
 
 uniform sampler2D u_repeat_texture;
-// A trilinear tap's level has texels a pixel wide, then interpolated: a
-// tent two pixels wide that blurs the stitches away. A level finer keeps
-// the tap about a pixel (far_level_test: stockinette's RMSE 15.7 -> 13.1).
-uniform float u_lod_bias;
 uniform vec2 u_fade_px;       // the far level from none (x) to all (y), x > y
 uniform bool u_over_yarns;    // the near level's yarns are drawn beneath
 uniform vec3 u_background;    // linear, what the bake's gaps show
@@ -30,7 +25,16 @@ vec3 srgb_encode(vec3 linear) {
 }
 
 void main() {
-  vec4 texel = texture(u_repeat_texture, v_repeat, u_lod_bias);
+  // Four taps a half pixel apart, each from the level a half pixel calls
+  // for (bias -1): a box over the pixel, as a frame drawn finer and
+  // box-filtered is. One trilinear tap is a tent two pixels wide (its
+  // level's texels are a pixel, then interpolated) and blurs the stitches
+  // away; one tap a level finer aliases (the dolly steps 2.9 %).
+  vec2 dx = 0.25 * dFdx(v_repeat), dy = 0.25 * dFdy(v_repeat);
+  vec4 texel = 0.25 * (texture(u_repeat_texture, v_repeat - dx - dy, -1.0) +
+                       texture(u_repeat_texture, v_repeat + dx - dy, -1.0) +
+                       texture(u_repeat_texture, v_repeat - dx + dy, -1.0) +
+                       texture(u_repeat_texture, v_repeat + dx + dy, -1.0));
   vec3 colour = texel.rgb;
   float alpha = texel.a;
   if (u_over_yarns || u_encode_srgb) {

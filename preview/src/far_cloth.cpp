@@ -6,13 +6,10 @@
 #include <optional>
 
 #include "gl_program.h"
-#include "psrig/preview/extension_list.h"
 
 namespace psrig::preview {
 namespace {
 
-constexpr GLenum kFarTextureMaxAnisotropy = 0x84FE;  // GL_EXT_texture_filter_anisotropic
-constexpr GLenum kFarMaxTextureMaxAnisotropy = 0x84FF;
 constexpr int kFarFloatsPerVertex = 5;  // position, (u, v)
 
 }  // namespace
@@ -20,7 +17,6 @@ constexpr int kFarFloatsPerVertex = 5;  // position, (u, v)
 struct FarCloth::Gl {
   std::optional<GlProgram> program;
   GLuint array = 0, vertices = 0, indices = 0, texture = 0;
-  float anisotropy = 1;
   ~Gl() {
     glDeleteBuffers(1, &vertices);
     glDeleteBuffers(1, &indices);
@@ -40,11 +36,6 @@ Result<std::unique_ptr<FarCloth>> FarCloth::create() {
   glGenBuffers(1, &gl.vertices);
   glGenBuffers(1, &gl.indices);
   glGenTextures(1, &gl.texture);
-  const auto* extensions = reinterpret_cast<const char*>(glGetString(GL_EXTENSIONS));
-  if (extensions && extension_listed(extensions, "GL_EXT_texture_filter_anisotropic")) {
-    glGetFloatv(kFarMaxTextureMaxAnisotropy, &gl.anisotropy);
-    gl.anisotropy = std::min(gl.anisotropy, 16.0f);
-  }
   return cloth;
 }
 
@@ -113,7 +104,9 @@ void FarCloth::upload(const std::vector<cv::Mat>& levels) {
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
-  if (gl.anisotropy > 1) glTexParameterf(GL_TEXTURE_2D, kFarTextureMaxAnisotropy, gl.anisotropy);
+  // No anisotropic filtering: on llvmpipe it blurred the stitches (every
+  // RMSE of far_level_test 2-5 higher) and doubled the far frame's time;
+  // far_cloth.frag's four taps do the box filter.
   glBindTexture(GL_TEXTURE_2D, 0);
   has_texture_ = true;
 }
@@ -130,7 +123,6 @@ void FarCloth::draw(const KnitFrame& frame, const FarClothDraw& how) const {
   glUniform3f(program.uniform("u_background"), how.background[0], how.background[1],
               how.background[2]);
   glUniform1i(program.uniform("u_encode_srgb"), how.encode_srgb ? 1 : 0);
-  glUniform1f(program.uniform("u_lod_bias"), how.lod_bias);
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, gl.texture);
   glUniform1i(program.uniform("u_repeat_texture"), 0);

@@ -27,7 +27,6 @@ struct FarClothDraw {
   bool over_yarns = false;
   cv::Vec3f background{0, 0, 0};
   bool encode_srgb = false;
-  float lod_bias = -1;  // far_cloth.frag's u_lod_bias
 };
 
 class FarCloth {

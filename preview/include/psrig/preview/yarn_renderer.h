@@ -128,7 +128,7 @@ struct YarnRendererOptions {
   float far_cloth_full_px = 2.5f;
   float bake_yarn_texels = 8.0f;
   float rebake_degrees = 2.0f;
-  float rebake_strain = 0.05f;
+  float rebake_strain = 0.1f;
 };
 
 class FarLevel;
