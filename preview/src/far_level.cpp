@@ -16,6 +16,21 @@ int repeat_side(float texels) {
   return static_cast<int>(std::bit_ceil(wanted));
 }
 
+// Every face within `degrees` of facing as the window does: the bake is lit
+// and seen as the window is, so it stands for flat cloth only (a drape's
+// folds would all be shaded alike; its far level is left to do).
+bool flat_like(const cloth::StitchMesh& mesh, const Eigen::Vector3f& normal, float degrees) {
+  const float least = std::cos(degrees * static_cast<float>(M_PI) / 180);
+  for (int row = 0; row < mesh.rows; ++row)
+    for (int column = 0; column < mesh.columns; ++column) {
+      const Eigen::Vector3f face =
+          (mesh.vertex(column + 1, row + 1) - mesh.vertex(column, row))
+              .cross(mesh.vertex(column, row + 1) - mesh.vertex(column + 1, row));
+      if (face.squaredNorm() > 0 && face.normalized().dot(normal) < least) return false;
+    }
+  return true;
+}
+
 }  // namespace
 
 Result<std::unique_ptr<FarLevel>> FarLevel::create(const YarnRendererOptions& options) {
@@ -46,6 +61,8 @@ bool FarLevel::same_shape(const RepeatWindow& window) const {
 
 bool FarLevel::update(const cloth::YarnSet& yarns) {
   window_ = middle_repeat(yarns.surface);
+  if (window_ && !flat_like(yarns.surface.mesh, window_->normal(), options_.far_cloth_flat_degrees))
+    window_.reset();
   if (!window_) return false;
   const bool same_style = taken_window_ && same_slice(yarns.style, near_yarns_.style) &&
                           yarns.style.colour == near_yarns_.style.colour;

@@ -129,6 +129,9 @@ struct YarnRendererOptions {
   float bake_yarn_texels = 8.0f;
   float rebake_degrees = 2.0f;
   float rebake_strain = 0.1f;
+  // Only cloth whose faces all turn less than this from the middle
+  // repeat's has the far level: the bake is lit and seen as that repeat is.
+  float far_cloth_flat_degrees = 10.0f;
 };
 
 class FarLevel;
