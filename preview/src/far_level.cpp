@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <bit>
 #include <cmath>
+#include <numbers>
 
 #include "psrig/preview/yarn_slice.h"
 
@@ -20,7 +21,7 @@ int repeat_side(float texels) {
 // and seen as the window is, so it stands for flat cloth only (a drape's
 // folds would all be shaded alike; its far level is left to do).
 bool flat_like(const cloth::StitchMesh& mesh, const Eigen::Vector3f& normal, float degrees) {
-  const float least = std::cos(degrees * static_cast<float>(M_PI) / 180);
+  const float least = std::cos(degrees * std::numbers::pi_v<float> / 180);
   for (int row = 0; row < mesh.rows; ++row)
     for (int column = 0; column < mesh.columns; ++column) {
       const Eigen::Vector3f face =
@@ -80,7 +81,7 @@ bool FarLevel::update(const cloth::YarnSet& yarns) {
 bool FarLevel::stands_for(const BakeKey& key) const {
   if (!baked_) return false;
   const float turned = std::acos(std::clamp(key.toward_eye.dot(baked_->toward_eye), -1.0f, 1.0f));
-  return turned <= options_.rebake_degrees * static_cast<float>(M_PI) / 180 &&
+  return turned <= options_.rebake_degrees * std::numbers::pi_v<float> / 180 &&
          (key.light - baked_->light).cwiseAbs().maxCoeff() < 1e-4f &&
          key.shadows == baked_->shadows && key.fibre_detail == baked_->fibre_detail;
 }
