@@ -104,6 +104,7 @@ void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
   const float radius = 0.5f * dimensions_.yarn_diameter_mm;
   const bool coloured = !colours_.empty();
   yarns.style = style();
+  yarns.surface = {mesh, repeat_columns, repeat_rows};
   yarns.curves.resize(static_cast<std::size_t>(rows_));
 
   // Each course: every stitch's loop from the repeat at rest, moved by its

@@ -59,6 +59,7 @@ void WovenFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
   const placement::MeshPlacement on_mesh(mesh, shaped.inverse());
   const float depth = dimensions_.half_thickness_mm;
   yarns.style = style();
+  yarns.surface = {mesh, weave_.warps, weave_.wefts};
   yarns.curves.resize(static_cast<std::size_t>(warps_ + wefts_));
   psrig::parallel_chunks(warps_ + wefts_, 8, [&](int begin, int end) {
     for (int thread = begin; thread < end; ++thread) {

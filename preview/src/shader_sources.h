@@ -22,5 +22,7 @@ extern const ShaderSource prop_vert;
 extern const ShaderSource prop_frag;
 extern const ShaderSource woven_decoder_vert;  // the neural woven BSDF's decoder pass
 extern const ShaderSource woven_decoder_frag;
+extern const ShaderSource far_cloth_vert;  // the far level (far_cloth.h)
+extern const ShaderSource far_cloth_frag;
 
 }  // namespace psrig::preview::shaders

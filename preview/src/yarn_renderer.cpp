@@ -11,6 +11,7 @@
 #include <utility>
 #include <vector>
 
+#include "far_level.h"
 #include "gl_program.h"
 #include "psrig/base/parallel.h"
 #include "psrig/cloth/srgb.h"
@@ -181,6 +182,11 @@ Result<std::unique_ptr<YarnRenderer>> YarnRenderer::create(const YarnRendererOpt
   if (!complete)
     return std::unexpected(internal_error("the yarn shadow map's framebuffer is incomplete"));
 
+  if (options.level != YarnLevel::near) {
+    auto far = FarLevel::create(options);
+    if (!far) return std::unexpected(far.error());
+    renderer->far_ = std::move(*far);
+  }
   renderer->slice_ = bake_yarn_slice(renderer->style_, options.slice);
   renderer->upload_slice();
   if (const GLenum error = glGetError(); error != GL_NO_ERROR)
@@ -190,6 +196,10 @@ Result<std::unique_ptr<YarnRenderer>> YarnRenderer::create(const YarnRendererOpt
 }
 
 YarnRenderer::~YarnRenderer() = default;
+
+int YarnRenderer::repeat_bakes() const {
+  return far_ ? far_->bakes() : 0;
+}
 
 // The slice and its mipmaps, made on the CPU (chen2003 eq. 11), as a
 // texture that repeats along the yarn and stops at the halo's edge.
@@ -268,6 +278,7 @@ void YarnRenderer::pack_yarn(const cloth::YarnCurve& curve, std::size_t index, s
 }
 
 void YarnRenderer::update(const cloth::YarnSet& yarns) {
+  if (far_) far_->update(yarns);
   if (!same_slice(yarns.style, slice_.style)) {
     slice_ = bake_yarn_slice(yarns.style, options_.slice);
     upload_slice();
@@ -426,6 +437,7 @@ void draw_strips(GLenum mode, const std::array<GLsizei, kLayers>& count,
 // The nearest and farthest the bounds lie from the eye along its axis,
 // the nearest no closer than a hundredth of the camera's distance.
 std::pair<float, float> depth_range(const Eigen::AlignedBox3f& bounds, const KnitFrame& frame) {
+  if (frame.orthographic) return {frame.distance, frame.distance};
   float nearest = std::numeric_limits<float>::max(), farthest = 0;
   if (!bounds.isEmpty())
     for (int corner = 0; corner < 8; ++corner) {
@@ -538,6 +550,9 @@ struct YarnRenderer::FramePlan {
   float radius = 0;
   float flatness = 1;
   float pixels_per_mm = 0;  // at the bounds centre
+  float widest_px = 0, narrowest_px = 0;  // the yarn at the bounds' nearest and farthest
+  bool far_cloth = false;                 // the far level's textured mesh
+  bool yarns = false;                     // the yarns, at whichever level
   bool drawing = false;     // there are yarns to draw
   bool blending = false;    // strips blended, as transparent as they are thin
   // The shadow map: drawn at all, its extent in use (texels a side), its
@@ -562,7 +577,19 @@ YarnRenderer::FramePlan YarnRenderer::plan_frame(const KnitFrame& frame, const K
   const auto [nearest, farthest] = depth_range(bounds_, frame);
   const float widest_px = 2 * plan.radius * frame.focal_px / nearest;
   const float narrowest_px = 2 * plan.radius * frame.focal_px / farthest;
-  last_halo_ = plan.drawing && view.fibre_detail && widest_px > options.halo_from_px;
+  plan.widest_px = widest_px;
+  plan.narrowest_px = narrowest_px;
+  // The far level's mesh wherever a yarn is under far_cloth_from_px, and
+  // nothing else once every one is under far_cloth_full_px.
+  const bool surface = far_ && far_->has_surface();
+  plan.far_cloth = plan.drawing && surface &&
+                   (options.level == YarnLevel::far || (options.level == YarnLevel::automatic &&
+                                                        narrowest_px < options.far_cloth_from_px));
+  plan.yarns = plan.drawing && (!plan.far_cloth || (options.level == YarnLevel::automatic &&
+                                                    widest_px > options.far_cloth_full_px));
+  last_far_cloth_ = plan.far_cloth;
+  last_yarns_ = plan.yarns;
+  last_halo_ = plan.yarns && view.fibre_detail && widest_px > options.halo_from_px;
   last_far_ = options.level == YarnLevel::far ||
               (options.level == YarnLevel::automatic && widest_px <= options.detail_from_px);
   // The far view's widening at its narrowest yarn (yarn.vert's `prefilter`).
@@ -579,7 +606,7 @@ YarnRenderer::FramePlan YarnRenderer::plan_frame(const KnitFrame& frame, const K
   plan.texels_per_mm = static_cast<float>(plan.shadow_extent) / frame.shadow_depth_range;
   plan.map_strength = smoothstep(options.map_from_texels, options.map_full_texels,
                                  2 * plan.radius * plan.texels_per_mm);
-  plan.shadows = view.shadows && plan.drawing && plan.map_strength > 0;
+  plan.shadows = view.shadows && plan.yarns && plan.map_strength > 0;
   last_shadow_map_ = plan.shadows;
   return plan;
 }
@@ -716,11 +743,17 @@ void YarnRenderer::draw_yarns(const KnitFrame& frame, const KnitView& view, cons
 
 void YarnRenderer::render(const KnitView& view, cv::Size viewport,
                           const std::function<void(const KnitFrame&)>& beneath) {
+  render(knit_frame(bounds_, view, viewport), view, viewport, beneath);
+}
+
+void YarnRenderer::render(const KnitFrame& frame, const KnitView& view, cv::Size viewport,
+                          const std::function<void(const KnitFrame&)>& beneath) {
   GLint target = 0;
   glGetIntegerv(GL_DRAW_FRAMEBUFFER_BINDING, &target);
   const Gl& gl = *gl_;
-  const KnitFrame frame = knit_frame(bounds_, view, viewport);
   const FramePlan plan = plan_frame(frame, view);
+  // A bake draws into its own framebuffer first.
+  if (plan.far_cloth) far_->prepare(frame, view, static_cast<unsigned>(target), viewport);
 
   yarn_state();
   glEnable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
@@ -737,7 +770,20 @@ void YarnRenderer::render(const KnitView& view, cv::Size viewport,
     glBindVertexArray(gl.array);
     glBindBuffer(GL_ARRAY_BUFFER, gl.buffer);
   }
-  if (plan.drawing) draw_yarns(frame, view, plan, limits);
+  if (plan.yarns) {
+    draw_yarns(frame, view, plan, limits);
+  } else {
+    last_strip_vertices_ = 0;
+  }
+  if (plan.far_cloth) {
+    const bool forced = options_.level == YarnLevel::far;
+    far_->draw(frame, {.yarn_width_mm = 2 * plan.radius,
+                       .from_px = forced ? 2e9f : options_.far_cloth_from_px,
+                       .full_px = forced ? 1e9f : options_.far_cloth_full_px,
+                       .over_yarns = plan.yarns,
+                       .background = view.background,
+                       .encode_srgb = options_.encode_srgb});
+  }
   glDisable(GL_PRIMITIVE_RESTART_FIXED_INDEX);
   glBindVertexArray(0);
   glBindBuffer(GL_ARRAY_BUFFER, 0);

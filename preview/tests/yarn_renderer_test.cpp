@@ -400,8 +400,8 @@ TEST_F(YarnRendererTest, FarViewHasNoAliasing) {
   // that its yarn is 0.8 and then 0.4 pixels wide in a 320x240 frame:
   // stitches under two pixels, the loops' legs and the courses past the
   // pixels' Nyquist limit. Against the same views drawn 8x as large and
-  // shrunk (64 times the samples): the far view's level of detail (the far
-  // colour, strips prefiltered and blended through the cloth's layers) must
+  // shrunk (64 times the samples): the far view's level of detail (the
+  // stitch mesh textured with the repeat baked at the near level) must
   // leave no beating, be no noisier than the same renderer supersampled 2x,
   // and keep the cloth's brightness.
   const cloth::YarnSet set = knitted_panel(140, 160);
@@ -418,6 +418,7 @@ TEST_F(YarnRendererTest, FarViewHasNoAliasing) {
   const YarnRendererOptions options;
   YarnRendererOptions unfiltered = options;  // strips at the yarns' own width
   unfiltered.prefilter_px = 0;
+  unfiltered.far_cloth_from_px = 0;  // no textured far level
   const float focal_px = knit_frame(set.bounds(), view, kFrame).focal_px;
   for (const double yarn_px : {0.8, 0.4}) {
     view.distance_mm = 2 * set.style.radius_mm * focal_px / yarn_px;
@@ -445,8 +446,8 @@ TEST_F(YarnRendererTest, LevelsOfDetailBlendWithoutPopping) {
   // A small stockinette panel drawn ever larger, each frame shrunk back to
   // one small size and softened (what stays of it is its look, not its
   // pixels): the yarns grow from under a pixel to a dozen across, through
-  // the prefiltered far frames, the opaque far frames, the near detail
-  // growing in, the halo and the shadow map taking over. Each step to the
+  // the textured far level alone, the yarns growing in over it (2.5 to 5
+  // px), the near detail growing in, the halo and the shadow map taking over. Each step to the
   // next size changes the shrunk frame about as much as the last: no step
   // jumps.
   const cloth::YarnSet set = knitted_panel(40, 46);
@@ -462,6 +463,7 @@ TEST_F(YarnRendererTest, LevelsOfDetailBlendWithoutPopping) {
   std::vector<double> steps;
   std::vector<float> widths;
   bool prefiltered = false, far_only = false, near = false, halo = false, map = false;
+  bool far_cloth = false, cross_faded = false;
   for (double width = 64; width <= 1600; width *= 1.06) {
     const cv::Size size(static_cast<int>(width) / 4 * 4, static_cast<int>(width * 0.75) / 4 * 4);
     auto target = make_target(4, size);
@@ -475,6 +477,8 @@ TEST_F(YarnRendererTest, LevelsOfDetailBlendWithoutPopping) {
     near |= !renderer->last_drew_far_only();
     halo |= renderer->last_drew_halo();
     map |= renderer->last_drew_shadow_map();
+    far_cloth |= renderer->last_drew_far_cloth() && !renderer->last_drew_yarns();
+    cross_faded |= renderer->last_drew_far_cloth() && renderer->last_drew_yarns();
     if (!previous.empty()) {
       cv::Mat difference;
       cv::absdiff(frame(region), previous(region), difference);
@@ -484,7 +488,7 @@ TEST_F(YarnRendererTest, LevelsOfDetailBlendWithoutPopping) {
     }
     previous = frame;
   }
-  ASSERT_TRUE(prefiltered && far_only && near && halo && map)
+  ASSERT_TRUE(prefiltered && far_only && near && halo && map && far_cloth && cross_faded)
       << "the sweep crosses every change of detail";
   std::vector<double> sorted = steps;
   std::sort(sorted.begin(), sorted.end());

@@ -8,6 +8,8 @@
 #include <Eigen/Core>
 #include <Eigen/Geometry>
 
+#include "psrig/cloth/stitch_mesh.h"
+
 namespace psrig::cloth {
 
 // How a yarn looks, the same for every yarn of a fabric.
@@ -37,9 +39,25 @@ struct YarnCurve {
   std::vector<Eigen::Vector3f> colours;  // linear RGB per point; empty: the style's colour
 };
 
+// The surface the yarns lie on: the stitch mesh, and how many of its faces
+// one repeat of the pattern spans (the yarns of faces repeat_columns apart,
+// or repeat_rows apart, are the same yarns moved by the faces). What a
+// renderer needs to draw cloth too far off to show its yarns as a surface
+// textured with one repeat (preview's far level). No faces: none given.
+struct YarnSurface {
+  StitchMesh mesh;
+  int repeat_columns = 0, repeat_rows = 0;
+
+  [[nodiscard]] bool empty() const {
+    return mesh.columns < repeat_columns || mesh.rows < repeat_rows || repeat_columns <= 0 ||
+           repeat_rows <= 0;
+  }
+};
+
 struct YarnSet {
   std::vector<YarnCurve> curves;
   YarnStyle style;
+  YarnSurface surface;
 
   // Every point's bounding box, grown by the yarn radius.
   [[nodiscard]] Eigen::AlignedBox3f bounds() const {

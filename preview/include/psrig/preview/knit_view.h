@@ -31,6 +31,9 @@ struct KnitFrame {
   Eigen::Vector3f eye;     // the camera's position
   float distance = 1;      // eye to centre
   float focal_px = 1;      // pixels per millimetre at unit distance
+  // Orthographic (the far level's bakes, repeat_texture.h): clip w is 1, and
+  // every point is `distance` from the eye as far as yarn widths go.
+  bool orthographic = false;
   // Position (w = 1) or direction toward the light (w = 0).
   Eigen::Vector4f light;
   float light_reference_distance = 1;  // a point light is at full strength this far away

@@ -111,7 +111,30 @@ struct YarnRendererOptions {
   float short_piece_max_px = 1.0f;
   float short_piece_tolerance_px = 0.1f;
   float short_piece_dither = 0.8f;  // PieceLimits::dither at least this, with short pieces
+  // The far level (issue 30; repeat_texture.h, far_cloth.h): where its
+  // yarns are narrower than `far_cloth_from_px`, cloth that gives its
+  // surface (cloth::YarnSet::surface) is drawn as its stitch mesh textured
+  // with one repeat baked at the near level, cross-faded per fragment with
+  // the yarns until they are `far_cloth_full_px` wide, then alone (no
+  // yarns drawn). Cloth without a surface keeps the far view of the yarns
+  // above. The repeat is baked at the near level as for a yarn
+  // `far_cloth_from_px` wide (where the two levels meet), rasterised at
+  // `bake_yarn_texels` a yarn (as a finer frame filtered down), again when the
+  // view turns by more than `rebake_degrees` from the bake's, the light or
+  // the style changes, or the repeat's edges change by more than
+  // `rebake_strain` of their length (less, and the texture stretches with
+  // the mesh).
+  float far_cloth_from_px = 5.0f;
+  float far_cloth_full_px = 2.5f;
+  float bake_yarn_texels = 8.0f;
+  float rebake_degrees = 2.0f;
+  float rebake_strain = 0.1f;
+  // Only cloth whose faces all turn less than this from the middle
+  // repeat's has the far level: the bake is lit and seen as that repeat is.
+  float far_cloth_flat_degrees = 10.0f;
 };
+
+class FarLevel;
 
 class YarnRenderer {
  public:
@@ -134,12 +157,21 @@ class YarnRenderer {
   // with this frame's camera (what the cloth lies on: prop_renderer.h).
   void render(const KnitView& view, cv::Size viewport,
               const std::function<void(const KnitFrame&)>& beneath = {});
+  // The same with a frame made elsewhere (the far level's bakes draw an
+  // orthographic one: repeat_texture.h).
+  void render(const KnitFrame& frame, const KnitView& view, cv::Size viewport,
+              const std::function<void(const KnitFrame&)>& beneath = {});
 
   // The last frame's yarn width in pixels at the bounds centre, and what it drew.
   [[nodiscard]] float last_yarn_width_px() const { return last_width_px_; }
   [[nodiscard]] bool last_drew_shadow_map() const { return last_shadow_map_; }
   [[nodiscard]] bool last_drew_halo() const { return last_halo_; }
   [[nodiscard]] bool last_drew_far_only() const { return last_far_; }
+  // The far level's textured stitch mesh, and the yarns (either or both).
+  [[nodiscard]] bool last_drew_far_cloth() const { return last_far_cloth_; }
+  [[nodiscard]] bool last_drew_yarns() const { return last_yarns_; }
+  // How often the far level's repeat was baked.
+  [[nodiscard]] int repeat_bakes() const;
   // Vertices (and restarts) of the last frame's strips.
   [[nodiscard]] int last_strip_vertices() const { return last_strip_vertices_; }
   // How often update() had to allocate GL storage (the point count changed).
@@ -174,6 +206,7 @@ class YarnRenderer {
 
   std::unique_ptr<Gl> gl_;
   std::unique_ptr<Packed> packed_;
+  std::unique_ptr<FarLevel> far_;  // none when the level is forced near
   YarnRendererOptions options_;
   cloth::YarnStyle style_;
   YarnSlice slice_;
@@ -182,6 +215,8 @@ class YarnRenderer {
   bool last_shadow_map_ = false;
   bool last_halo_ = false;
   bool last_far_ = false;
+  bool last_far_cloth_ = false;
+  bool last_yarns_ = false;
   int last_strip_vertices_ = 0;
   int allocations_ = 0;
   int bakes_ = 0;

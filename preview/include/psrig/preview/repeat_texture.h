@@ -1,0 +1,62 @@
+#pragma once
+// The far level's texture (issue 30): one repeat of the cloth drawn at the
+// near level, flat, orthographic along the view's direction, into a
+// texture whose mipmaps the stitch mesh is drawn with from afar
+// (far_cloth.h). This is chen2003-lumislice-knitwear.txt section 5.2.2's
+// prefiltered slices taken to the cloth's repeat: each coarser level
+// averages density (the paper's rho', eq. 11: here coverage, the mean of
+// the four texels') and colour weighted by it (premultiplied colour, the
+// plain mean), so coverage is resolved in depth by the near level itself
+// (loops over loops hide what lies behind them) and only then averaged,
+// never composited as if the yarns were independent. The colour comes from
+// two bakes, over black and over white: what shows through a texel is
+// their difference, whatever blending the near level does (its halo is
+// blended "over").
+
+#include <optional>
+#include <vector>
+
+#include <Eigen/Core>
+#include <opencv2/core.hpp>
+
+#include "psrig/cloth/yarn_curves.h"
+#include "psrig/preview/knit_view.h"
+
+namespace psrig::preview {
+
+// One repeat of the stitch mesh, the one nearest its middle: its corner
+// and edges (a parallelogram, mm) and the faces it spans.
+struct RepeatWindow {
+  Eigen::Vector3f origin, across, up;
+  int first_column = 0, first_row = 0, columns = 0, rows = 0;
+
+  [[nodiscard]] Eigen::Vector3f centre() const { return origin + 0.5f * (across + up); }
+  [[nodiscard]] Eigen::Vector3f normal() const { return across.cross(up).normalized(); }
+};
+
+[[nodiscard]] std::optional<RepeatWindow> middle_repeat(const cloth::YarnSurface& surface);
+
+// The yarns near `window` (within `margin_mm` of it, what can be seen or
+// cast a shadow there): runs of at least three points of each curve, the
+// style, no surface.
+[[nodiscard]] cloth::YarnSet window_yarns(const cloth::YarnSet& yarns, const RepeatWindow& window,
+                                          float margin_mm);
+
+// The frame that draws `window` onto a whole viewport looking back along
+// `toward_eye` (unit), orthographic (KnitFrame::orthographic): a point of
+// the window's plane lands where its (s, t) in the window say, whatever the
+// direction, so the texture maps onto the mesh by face coordinates. The
+// light and the shadow map are `seen`'s (the frame the cloth is drawn in).
+[[nodiscard]] KnitFrame repeat_frame(const KnitFrame& seen, const RepeatWindow& window,
+                                     const Eigen::Vector3f& toward_eye, float texels_per_mm,
+                                     float depth_mm);
+
+// The texture's levels from the two bakes (8-bit sRGB BGR frames as
+// OffscreenTarget::read gives them, top row first): CV_32FC4, premultiplied
+// linear R, G, B and coverage, bottom row first (GL's t up the window), down
+// to 1x1. Sides must be powers of two (each level halves them exactly, so
+// the repeat stays periodic at every level).
+[[nodiscard]] std::vector<cv::Mat> repeat_levels(const cv::Mat& over_black,
+                                                 const cv::Mat& over_white);
+
+}  // namespace psrig::preview

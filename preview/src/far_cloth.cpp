@@ -1,0 +1,149 @@
+#include "psrig/preview/far_cloth.h"
+
+#include <GLES3/gl3.h>
+#include <algorithm>
+#include <cstdint>
+#include <optional>
+
+#include "gl_program.h"
+
+namespace psrig::preview {
+namespace {
+
+constexpr int kFarFloatsPerVertex = 5;  // position, (u, v)
+
+}  // namespace
+
+struct FarCloth::Gl {
+  std::optional<GlProgram> program;
+  GLuint array = 0, vertices = 0, indices = 0, texture = 0;
+  ~Gl() {
+    glDeleteBuffers(1, &vertices);
+    glDeleteBuffers(1, &indices);
+    glDeleteVertexArrays(1, &array);
+    glDeleteTextures(1, &texture);
+  }
+};
+
+Result<std::unique_ptr<FarCloth>> FarCloth::create() {
+  std::unique_ptr<FarCloth> cloth(new FarCloth);
+  cloth->gl_ = std::make_unique<Gl>();
+  Gl& gl = *cloth->gl_;
+  auto program = GlProgram::build(shaders::far_cloth_vert, shaders::far_cloth_frag);
+  if (!program) return std::unexpected(program.error());
+  gl.program = std::move(*program);
+  glGenVertexArrays(1, &gl.array);
+  glGenBuffers(1, &gl.vertices);
+  glGenBuffers(1, &gl.indices);
+  glGenTextures(1, &gl.texture);
+  return cloth;
+}
+
+FarCloth::~FarCloth() = default;
+
+void FarCloth::update(const cloth::YarnSurface& surface, const RepeatWindow& window) {
+  const cloth::StitchMesh& mesh = surface.mesh;
+  Gl& gl = *gl_;
+  vertices_.resize(static_cast<std::size_t>((mesh.columns + 1) * (mesh.rows + 1)) *
+                   kFarFloatsPerVertex);
+  std::size_t at = 0;
+  for (int row = 0; row <= mesh.rows; ++row)
+    for (int column = 0; column <= mesh.columns; ++column) {
+      const Eigen::Vector3f& p = mesh.vertex(column, row);
+      vertices_[at++] = p.x();
+      vertices_[at++] = p.y();
+      vertices_[at++] = p.z();
+      vertices_[at++] =
+          static_cast<float>(column - window.first_column) / static_cast<float>(window.columns);
+      vertices_[at++] =
+          static_cast<float>(row - window.first_row) / static_cast<float>(window.rows);
+    }
+  glBindVertexArray(gl.array);
+  glBindBuffer(GL_ARRAY_BUFFER, gl.vertices);
+  glBufferData(GL_ARRAY_BUFFER, static_cast<GLsizeiptr>(vertices_.size() * sizeof(float)),
+               vertices_.data(), GL_DYNAMIC_DRAW);
+  glEnableVertexAttribArray(0);
+  glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, kFarFloatsPerVertex * sizeof(float), nullptr);
+  glEnableVertexAttribArray(1);
+  glVertexAttribPointer(1, 2, GL_FLOAT, GL_FALSE, kFarFloatsPerVertex * sizeof(float),
+                        reinterpret_cast<const void*>(3 * sizeof(float)));
+  if (mesh.columns != columns_ || mesh.rows != rows_) {
+    columns_ = mesh.columns;
+    rows_ = mesh.rows;
+    std::vector<std::uint32_t> indices;
+    indices.reserve(static_cast<std::size_t>(columns_ * rows_) * 6);
+    const auto vertex = [&](int column, int row) {
+      return static_cast<std::uint32_t>(row * (columns_ + 1) + column);
+    };
+    for (int row = 0; row < rows_; ++row)
+      for (int column = 0; column < columns_; ++column)
+        for (const std::uint32_t index :
+             {vertex(column, row), vertex(column + 1, row), vertex(column + 1, row + 1),
+              vertex(column, row), vertex(column + 1, row + 1), vertex(column, row + 1)})
+          indices.push_back(index);
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, gl.indices);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER,
+                 static_cast<GLsizeiptr>(indices.size() * sizeof(std::uint32_t)), indices.data(),
+                 GL_STATIC_DRAW);
+    index_count_ = static_cast<int>(indices.size());
+  }
+  glBindVertexArray(0);
+  glBindBuffer(GL_ARRAY_BUFFER, 0);
+}
+
+void FarCloth::upload(const std::vector<cv::Mat>& levels) {
+  if (levels.empty()) return;
+  const Gl& gl = *gl_;
+  glBindTexture(GL_TEXTURE_2D, gl.texture);
+  glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+  for (std::size_t level = 0; level < levels.size(); ++level)
+    glTexImage2D(GL_TEXTURE_2D, static_cast<GLint>(level), GL_RGBA16F, levels[level].cols,
+                 levels[level].rows, 0, GL_RGBA, GL_FLOAT, levels[level].ptr<float>());
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, static_cast<GLint>(levels.size()) - 1);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
+  // No anisotropic filtering: on llvmpipe it blurred the stitches (every
+  // RMSE of far_level_test 2-5 higher) and doubled the far frame's time;
+  // far_cloth.frag's four taps do the box filter.
+  glBindTexture(GL_TEXTURE_2D, 0);
+  has_texture_ = true;
+}
+
+void FarCloth::draw(const KnitFrame& frame, const FarClothDraw& how) const {
+  if (!ready()) return;
+  const Gl& gl = *gl_;
+  const GlProgram& program = *gl.program;
+  program.use();
+  set_matrix(program.uniform("u_view_projection"), frame.projection * frame.view);
+  glUniform1f(program.uniform("u_yarn_px_mm"), how.yarn_width_mm * frame.focal_px);
+  glUniform2f(program.uniform("u_fade_px"), how.from_px, how.full_px);
+  glUniform1i(program.uniform("u_over_yarns"), how.over_yarns ? 1 : 0);
+  glUniform3f(program.uniform("u_background"), how.background[0], how.background[1],
+              how.background[2]);
+  glUniform1i(program.uniform("u_encode_srgb"), how.encode_srgb ? 1 : 0);
+  glActiveTexture(GL_TEXTURE0);
+  glBindTexture(GL_TEXTURE_2D, gl.texture);
+  glUniform1i(program.uniform("u_repeat_texture"), 0);
+  glDisable(GL_CULL_FACE);
+  // Over yarns: cross-faded, no depth (the mesh lies amid its yarns).
+  // Alone: depth tested against what lies beneath, folds hiding folds.
+  if (how.over_yarns) {
+    glDisable(GL_DEPTH_TEST);
+  } else {
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LEQUAL);
+    glDepthMask(GL_TRUE);
+  }
+  glEnable(GL_BLEND);
+  glBlendFunc(GL_ONE, GL_ONE_MINUS_SRC_ALPHA);
+  glBindVertexArray(gl.array);
+  glDrawElements(GL_TRIANGLES, index_count_, GL_UNSIGNED_INT, nullptr);
+  glBindVertexArray(0);
+  glDisable(GL_BLEND);
+  glEnable(GL_DEPTH_TEST);
+  glBindTexture(GL_TEXTURE_2D, 0);
+}
+
+}  // namespace psrig::preview

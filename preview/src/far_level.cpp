@@ -1,0 +1,143 @@
+#include "far_level.h"
+
+#include <GLES3/gl3.h>
+#include <algorithm>
+#include <bit>
+#include <cmath>
+#include <numbers>
+
+#include "psrig/preview/yarn_slice.h"
+
+namespace psrig::preview {
+namespace {
+
+// The next power of two, within [4, 1024]: texels along one side of the repeat.
+int repeat_side(float texels) {
+  const auto wanted = static_cast<unsigned>(std::clamp(std::ceil(texels), 4.0f, 1024.0f));
+  return static_cast<int>(std::bit_ceil(wanted));
+}
+
+// Every face within `degrees` of facing as the window does: the bake is lit
+// and seen as the window is, so it stands for flat cloth only (a drape's
+// folds would all be shaded alike; its far level is left to do).
+bool flat_like(const cloth::StitchMesh& mesh, const Eigen::Vector3f& normal, float degrees) {
+  const float least = std::cos(degrees * std::numbers::pi_v<float> / 180);
+  for (int row = 0; row < mesh.rows; ++row)
+    for (int column = 0; column < mesh.columns; ++column) {
+      const Eigen::Vector3f face =
+          (mesh.vertex(column + 1, row + 1) - mesh.vertex(column, row))
+              .cross(mesh.vertex(column, row + 1) - mesh.vertex(column + 1, row));
+      if (face.squaredNorm() > 0 && face.normalized().dot(normal) < least) return false;
+    }
+  return true;
+}
+
+}  // namespace
+
+Result<std::unique_ptr<FarLevel>> FarLevel::create(const YarnRendererOptions& options) {
+  std::unique_ptr<FarLevel> far(new FarLevel);
+  far->options_ = options;
+  // The bake is the near level: what the far level must equal, filtered.
+  YarnRendererOptions near = options;
+  near.level = YarnLevel::near;
+  near.encode_srgb = false;  // bakes go to an sRGB target
+  auto baker = YarnRenderer::create(near);
+  if (!baker) return std::unexpected(baker.error());
+  far->baker_ = std::move(*baker);
+  auto cloth = FarCloth::create();
+  if (!cloth) return std::unexpected(cloth.error());
+  far->cloth_ = std::move(*cloth);
+  return far;
+}
+
+bool FarLevel::same_shape(const RepeatWindow& window) const {
+  if (!taken_window_) return false;
+  const RepeatWindow& taken = *taken_window_;
+  const float strain = options_.rebake_strain;
+  return window.first_column == taken.first_column && window.first_row == taken.first_row &&
+         window.columns == taken.columns && window.rows == taken.rows &&
+         (window.across - taken.across).norm() <= strain * taken.across.norm() &&
+         (window.up - taken.up).norm() <= strain * taken.up.norm();
+}
+
+bool FarLevel::update(const cloth::YarnSet& yarns) {
+  window_ = middle_repeat(yarns.surface);
+  if (window_ && !flat_like(yarns.surface.mesh, window_->normal(), options_.far_cloth_flat_degrees))
+    window_.reset();
+  if (!window_) return false;
+  const bool same_style = taken_window_ && same_slice(yarns.style, near_yarns_.style) &&
+                          yarns.style.colour == near_yarns_.style.colour;
+  if (!same_style || !same_shape(*window_)) {
+    // A margin of what can show or shadow in the window: a few yarns.
+    near_yarns_ = window_yarns(yarns, *window_, 8 * yarns.style.radius_mm);
+    taken_window_ = window_;
+    baker_stale_ = true;
+    baked_.reset();
+  }
+  cloth_->update(yarns.surface, *window_);
+  return true;
+}
+
+bool FarLevel::stands_for(const BakeKey& key) const {
+  if (!baked_) return false;
+  const float turned = std::acos(std::clamp(key.toward_eye.dot(baked_->toward_eye), -1.0f, 1.0f));
+  return turned <= options_.rebake_degrees * std::numbers::pi_v<float> / 180 &&
+         (key.light - baked_->light).cwiseAbs().maxCoeff() < 1e-4f &&
+         key.shadows == baked_->shadows && key.fibre_detail == baked_->fibre_detail;
+}
+
+void FarLevel::prepare(const KnitFrame& frame, const KnitView& view, unsigned target,
+                       cv::Size viewport) {
+  if (!window_) return;
+  const Eigen::Vector3f toward_eye = frame.orthographic
+                                         ? (frame.eye - frame.centre).normalized()
+                                         : (frame.eye - window_->centre()).normalized();
+  const BakeKey key{toward_eye, frame.light, view.shadows, view.fibre_detail};
+  if (stands_for(key)) return;
+  bake(frame, view, toward_eye);
+  baked_ = key;
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(target));
+  glViewport(0, 0, viewport.width, viewport.height);
+}
+
+// The repeat at `bake_yarn_texels` a yarn (rounded up to whole powers of
+// two a side), drawn at the near level over black and over white, 4x
+// multisampled as the near level's frames are.
+void FarLevel::bake(const KnitFrame& frame, const KnitView& view,
+                    const Eigen::Vector3f& toward_eye) {
+  if (baker_stale_) {
+    baker_->update(near_yarns_);
+    baker_stale_ = false;
+  }
+  const RepeatWindow& window = *taken_window_;
+  const float yarn_mm = 2 * near_yarns_.style.radius_mm;
+  const float wanted = options_.bake_yarn_texels / yarn_mm;
+  const cv::Size size(repeat_side(window.across.norm() * wanted),
+                      repeat_side(window.up.norm() * wanted));
+  const float texels_per_mm = std::min(static_cast<float>(size.width) / window.across.norm(),
+                                       static_cast<float>(size.height) / window.up.norm());
+  const float depth_mm = 0.5f * std::max(window.across.norm(), window.up.norm()) + 4 * yarn_mm;
+  KnitFrame baking = repeat_frame(frame, window, toward_eye, texels_per_mm, depth_mm);
+  // The near level's choices (halo, fibre detail, pieces, the shadow map's
+  // share) as where the far level begins to take over from it, so that the
+  // two agree there; the texels are finer, as a frame drawn finer and
+  // filtered down is.
+  baking.focal_px = options_.far_cloth_from_px / yarn_mm;
+  if (!target_ || target_->size() != size) {
+    auto made = OffscreenTarget::create(size, 4, ColourStorage::srgb);
+    if (!made) return;
+    target_ = std::move(*made);
+  }
+  KnitView over = view;
+  cv::Mat frames[2];
+  for (int white = 0; white < 2; ++white) {
+    over.background = cv::Vec3f::all(static_cast<float>(white));
+    target_->bind();
+    baker_->render(baking, over, size);
+    frames[white] = target_->read();
+  }
+  cloth_->upload(repeat_levels(frames[0], frames[1]));
+  ++bakes_;
+}
+
+}  // namespace psrig::preview

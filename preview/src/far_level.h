@@ -1,0 +1,61 @@
+#pragma once
+// What the yarn renderer keeps for its far level (issue 30): the repeat
+// nearest the mesh's middle, the yarns near it, a near-level renderer of
+// its own that bakes them (repeat_texture.h) and the textured stitch mesh
+// (far_cloth.h). A bake is made when a frame needs the far level and the
+// last one no longer stands for it: the light, the view's direction, the
+// style or the repeat's shape changed (by more than the options allow).
+
+#include <memory>
+#include <optional>
+
+#include "psrig/preview/far_cloth.h"
+#include "psrig/preview/offscreen_target.h"
+#include "psrig/preview/repeat_texture.h"
+#include "psrig/preview/yarn_renderer.h"
+
+namespace psrig::preview {
+
+class FarLevel {
+ public:
+  [[nodiscard]] static Result<std::unique_ptr<FarLevel>> create(const YarnRendererOptions& options);
+
+  // The cloth's yarns and surface; false when they have none to draw with.
+  bool update(const cloth::YarnSet& yarns);
+  [[nodiscard]] bool available() const { return window_.has_value() && cloth_->ready(); }
+  [[nodiscard]] bool has_surface() const { return window_.has_value(); }
+  // Bakes the repeat when the last bake no longer stands for `frame` and
+  // `view`; then framebuffer `target` is bound again with `viewport`.
+  void prepare(const KnitFrame& frame, const KnitView& view, unsigned target, cv::Size viewport);
+  void draw(const KnitFrame& frame, const FarClothDraw& how) const { cloth_->draw(frame, how); }
+
+  [[nodiscard]] int bakes() const { return bakes_; }
+  [[nodiscard]] int triangles() const { return cloth_->triangles(); }
+
+ private:
+  // What a bake was made for (besides the yarns taken).
+  struct BakeKey {
+    Eigen::Vector3f toward_eye;
+    Eigen::Vector4f light;
+    bool shadows = true, fibre_detail = true;
+  };
+  FarLevel() = default;
+  [[nodiscard]] bool stands_for(const BakeKey& key) const;
+  [[nodiscard]] bool same_shape(const RepeatWindow& window) const;
+  void bake(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
+
+  YarnRendererOptions options_;
+  std::unique_ptr<YarnRenderer> baker_;
+  std::unique_ptr<FarCloth> cloth_;
+  std::unique_ptr<OffscreenTarget> target_;
+  std::optional<RepeatWindow> window_;  // this frame's
+  // The yarns about the window as last taken, and the window then (what a
+  // bake draws: the cloth may have moved since, as long as it kept shape).
+  cloth::YarnSet near_yarns_;
+  std::optional<RepeatWindow> taken_window_;
+  bool baker_stale_ = true;  // near_yarns_ not yet given to the baker
+  std::optional<BakeKey> baked_;
+  int bakes_ = 0;
+};
+
+}  // namespace psrig::preview
