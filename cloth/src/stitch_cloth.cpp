@@ -190,7 +190,7 @@ void StitchCloth::step(float dt, int iterations) {
   // start from where the motion alone would: a frame's fall (0.7 mm at
   // 120 Hz) is half a stitch, and springs' directions taken after it
   // were so far off that four rounds settled a short overhang with a kink
-  // at its edge, the bending term held at a hundred times gravity's work.
+  // at its edge, holding 27 times the work gravity had done in bending.
   Eigen::MatrixX3d inertial(static_cast<Eigen::Index>(count), 3);
   for (std::size_t i = 0; i < count; ++i) {
     const Eigen::Vector3f y = x[i] + dt * velocity_[i] + dt * dt * gravity_;
