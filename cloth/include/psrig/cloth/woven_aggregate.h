@@ -27,6 +27,7 @@
 #include <Eigen/Core>
 
 #include "psrig/cloth/woven_bsdf.h"
+#include "psrig/cloth/woven_components.h"
 #include "psrig/cloth/woven_surface.h"
 
 namespace psrig::cloth {
@@ -36,11 +37,6 @@ namespace psrig::cloth {
 struct WovenShading {
   float warp_alpha = 0.5f, weft_alpha = 0.5f;
   float diffuse_blend = kDefaultDiffuseBlend;
-};
-
-// Eq. (7)'s components (WovenQuery's four floats).
-struct WovenComponents {
-  float c_warp = 0, c_weft = 0, s_warp = 0, s_weft = 0;
 };
 
 // Eq. (1) at one point in eq. (7)'s components: the yarn there (warp or

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "psrig/base/error.h"
+#include "psrig/cloth/woven_components.h"
 #include "psrig/cloth/woven_dataset.h"
 #include "psrig/cloth/woven_network_weights.h"
 
@@ -34,10 +35,6 @@ inline constexpr float woven_specular_k = 100.0F;
 // periodic (a footprint at u = 0.99 lies next to one at 0.01), the size
 // over [0, woven_largest_footprint]. The trainer feeds the same values.
 void one_blob_footprint(float u, float v, float size, int bins, std::span<float> out);
-
-struct WovenComponents {
-  float c_warp = 0, c_weft = 0, s_warp = 0, s_weft = 0;
-};
 
 // One decoder query: footprint centre (repeats), width (repeats) and the
 // two directions in the cloth's frame (as WovenQuery).
