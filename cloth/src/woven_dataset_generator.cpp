@@ -40,7 +40,7 @@ YarnShape draw_yarn_shape(std::uint64_t seed) {
   const int twist = std::min(static_cast<int>(random.uniform() * 3), 2);
   shape.twist_deg = -30.0f + 30.0f * static_cast<float>(twist);
   shape.inclination_deg = 15 + 30 * random.uniform();
-  shape.gap_ratio = 0.2f;
+  shape.gap_ratio = kWovenGapRatio;
   return shape;
 }
 
@@ -154,8 +154,10 @@ Result<std::vector<WovenQuery>> generate_woven_queries(const WeaveMatrix& weave,
 }
 
 Result<WovenDataset> generate_woven_dataset(const std::vector<WeaveMatrix>& patterns,
-                                            const WovenDatasetOptions& options,
-                                            std::uint64_t seed) {
+                                            const WovenDatasetOptions& options, std::uint64_t seed,
+                                            const WovenDatasetProgress& progress) {
+  const int total = static_cast<int>(patterns.size()) * options.shapes_per_pattern *
+                    options.appearances_per_shape;
   WovenDataset dataset;
   dataset.seed = seed;
   std::uint32_t material = 0;
@@ -173,6 +175,7 @@ Result<WovenDataset> generate_woven_dataset(const std::vector<WeaveMatrix>& patt
         if (!queries) return std::unexpected(queries.error());
         dataset.materials.push_back(std::move(*sample));
         dataset.queries.insert(dataset.queries.end(), queries->begin(), queries->end());
+        if (progress) progress(static_cast<int>(material) + 1, total);
       }
     }
   return dataset;

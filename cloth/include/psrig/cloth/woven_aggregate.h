@@ -27,7 +27,7 @@
 #include <Eigen/Core>
 
 #include "psrig/cloth/woven_bsdf.h"
-#include "psrig/cloth/woven_dataset.h"
+#include "psrig/cloth/woven_components.h"
 #include "psrig/cloth/woven_surface.h"
 
 namespace psrig::cloth {

@@ -38,6 +38,8 @@ namespace psrig::cloth {
 
 // T rho of eq. (2): "always 2 for fabrics".
 inline constexpr float kFabricDensityThickness = 2;
+// Eq. (1)'s w: the data set generator and both renderers take this one value
+// (the data set file does not record it; chen2024 does not give it).
 inline constexpr float kDefaultDiffuseBlend = 0.5f;
 
 // f_s / k_s: the specular microflake lobe of a ply with normal n_p,

@@ -33,13 +33,6 @@ struct WovenMaterialSample {
   float inclination_deg = 0;        // u (Table 2), for the record
 };
 
-// The aggregated BSDF's four components (eq. 7-8): f = kd_warp c_warp +
-// kd_weft c_weft + ks_warp s_warp + ks_weft s_weft. What the Monte Carlo
-// aggregate estimates and the network answers.
-struct WovenComponents {
-  float c_warp = 0, c_weft = 0, s_warp = 0, s_weft = 0;
-};
-
 // One query on a material and its answer. Directions are unit vectors in
 // the cloth's frame (+z its front; x along the weft, y along the warp),
 // both on the front (z > 0).

@@ -15,6 +15,7 @@
 #include <vector>
 
 #include "psrig/base/error.h"
+#include "psrig/cloth/woven_components.h"
 #include "psrig/cloth/woven_dataset.h"
 #include "psrig/cloth/woven_network_weights.h"
 

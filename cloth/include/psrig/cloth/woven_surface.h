@@ -58,11 +58,15 @@ namespace psrig::cloth {
 
 enum class YarnType : std::uint8_t { gap = 0, warp = 1, weft = 2 };
 
+// chen2024 5.1's gaps: the data set generator, the trainer's data and both
+// renderers take this one value (the data set file does not record it).
+inline constexpr float kWovenGapRatio = 0.2f;
+
 // The yarns' shape, chen2024's Table 2 geometry (same for warp and weft).
 struct YarnShape {
   float twist_deg = 0;          // psi: the ply's angle to the yarn's axis
   float inclination_deg = 30;   // u: the yarn's slope where it meets the mid-plane
-  float gap_ratio = 0.2f;       // the part of a yarn spacing no yarn covers (chen2024 5.1)
+  float gap_ratio = kWovenGapRatio;  // the part of a yarn spacing no yarn covers (chen2024 5.1)
   float section_edge_deg = 60;  // the section's slope at the yarn's edges (see above)
 };
 
