@@ -41,8 +41,7 @@ WovenImage render_woven_neural(const WovenNetwork& network, const WovenDecoderMa
         const WovenComponents c = network.decode(material, lookup);
         const Eigen::Vector3f value =
             light.irradiance *
-            (c.c_warp * colours.warp_diffuse + c.c_weft * colours.weft_diffuse +
-             c.s_warp * colours.warp_specular + c.s_weft * colours.weft_specular);
+            woven_bsdf_colour(c, colours);
         const std::size_t i = (static_cast<std::size_t>(y) * width + x) * 3;
         image.rgb[i] = value.x();
         image.rgb[i + 1] = value.y();

@@ -82,6 +82,11 @@ std::optional<Footprint> WovenCamera::pixel_footprint(int x, int y) const {
   return Footprint{*centre, *right_edge - *left, *bottom - *top};
 }
 
+Eigen::Vector3f woven_bsdf_colour(const WovenComponents& c, const YarnColours& colours) {
+  return c.c_warp * colours.warp_diffuse + c.c_weft * colours.weft_diffuse +
+         c.s_warp * colours.warp_specular + c.s_weft * colours.weft_specular;
+}
+
 WovenImage render_woven_reference(const WovenSurface& surface, const WovenShading& shading,
                                   const YarnColours& colours, const WovenView& view,
                                   const WovenLight& light, int width, int height, int spp,
@@ -106,8 +111,7 @@ WovenImage render_woven_reference(const WovenSurface& surface, const WovenShadin
                                                          mix_seed(seed, pixel));
           const Eigen::Vector3f value =
               light.irradiance *
-              (c.c_warp * colours.warp_diffuse + c.c_weft * colours.weft_diffuse +
-               c.s_warp * colours.warp_specular + c.s_weft * colours.weft_specular);
+              woven_bsdf_colour(c, colours);
           image.rgb[i] = value.x();
           image.rgb[i + 1] = value.y();
           image.rgb[i + 2] = value.z();

@@ -42,6 +42,10 @@ struct YarnColours {
   Eigen::Vector3f warp_specular{0.2f, 0.2f, 0.2f}, weft_specular{0.2f, 0.2f, 0.2f};
 };
 
+// Eq. (8): the four components weighted by the yarns' colours, an RGB BSDF
+// value (times the light's irradiance, a pixel's radiance).
+[[nodiscard]] Eigen::Vector3f woven_bsdf_colour(const WovenComponents& c, const YarnColours& colours);
+
 // A pinhole camera looking at a point of the cloth's mid-plane (z = 0).
 // Lengths in yarn spacings.
 struct WovenView {
