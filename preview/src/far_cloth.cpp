@@ -5,7 +5,9 @@
 #include <cstdint>
 #include <optional>
 
+#include "gl_context_facts.h"
 #include "gl_program.h"
+#include "psrig/preview/extension_list.h"
 
 namespace psrig::preview {
 namespace {
@@ -16,12 +18,17 @@ constexpr int kFarFloatsPerVertex = 5;  // position, (u, v)
 
 struct FarCloth::Gl {
   std::optional<GlProgram> program;
-  GLuint array = 0, vertices = 0, indices = 0, texture = 0;
+  GLuint array = 0, vertices = 0, indices = 0, area_table = 0;
+  cv::Size area_texels;  // the repeat's, in the area table's level
+  cv::Vec4f area_mean;
+  // GLES 3.0 need not filter float textures; most (llvmpipe, Mesa's V3D
+  // on the Pi) do, and then the table costs four lookups, not sixteen.
+  bool area_filtered = false;
   ~Gl() {
     glDeleteBuffers(1, &vertices);
     glDeleteBuffers(1, &indices);
     glDeleteVertexArrays(1, &array);
-    glDeleteTextures(1, &texture);
+    glDeleteTextures(1, &area_table);
   }
 };
 
@@ -35,7 +42,8 @@ Result<std::unique_ptr<FarCloth>> FarCloth::create() {
   glGenVertexArrays(1, &gl.array);
   glGenBuffers(1, &gl.vertices);
   glGenBuffers(1, &gl.indices);
-  glGenTextures(1, &gl.texture);
+  glGenTextures(1, &gl.area_table);
+  gl.area_filtered = extension_listed(gl_extension_list(), "GL_OES_texture_float_linear");
   return cloth;
 }
 
@@ -93,20 +101,31 @@ void FarCloth::update(const cloth::YarnSurface& surface, const RepeatWindow& win
 
 void FarCloth::upload(const std::vector<cv::Mat>& levels) {
   if (levels.empty()) return;
-  const Gl& gl = *gl_;
-  glBindTexture(GL_TEXTURE_2D, gl.texture);
+  Gl& gl = *gl_;
+  // The area table of the finest level at most kAreaTableSide a side (16
+  // MB of float texels at most), linearly filtered where the context can.
+  // far_cloth.frag takes every pixel's mean from it; the mipmaps (a tap a
+  // pixel, or a few) did worse and no anisotropic filtering helped: on
+  // llvmpipe it blurred the stitches (every RMSE of far_level_test 2-5
+  // higher) and doubled the far frame's time.
+  constexpr int kAreaTableSide = 512;
+  std::size_t chosen = 0;
+  while (chosen + 1 < levels.size() &&
+         std::max(levels[chosen].cols, levels[chosen].rows) > kAreaTableSide)
+    ++chosen;
+  const AreaTable table = repeat_area_table(levels[chosen]);
+  gl.area_texels = levels[chosen].size();
+  gl.area_mean = table.mean;
+  glBindTexture(GL_TEXTURE_2D, gl.area_table);
   glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
-  for (std::size_t level = 0; level < levels.size(); ++level)
-    glTexImage2D(GL_TEXTURE_2D, static_cast<GLint>(level), GL_RGBA16F, levels[level].cols,
-                 levels[level].rows, 0, GL_RGBA, GL_FLOAT, levels[level].ptr<float>());
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, static_cast<GLint>(levels.size()) - 1);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR_MIPMAP_LINEAR);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_REPEAT);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_REPEAT);
-  // No anisotropic filtering: on llvmpipe it blurred the stitches (every
-  // RMSE of far_level_test 2-5 higher) and doubled the far frame's time;
-  // far_cloth.frag's four taps do the box filter.
+  glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, table.sums.cols, table.sums.rows, 0, GL_RGBA, GL_FLOAT,
+               table.sums.ptr<float>());
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
+  const GLint filter = gl.area_filtered ? GL_LINEAR : GL_NEAREST;
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, filter);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, filter);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   glBindTexture(GL_TEXTURE_2D, 0);
   has_texture_ = true;
 }
@@ -124,8 +143,13 @@ void FarCloth::draw(const KnitFrame& frame, const FarClothDraw& how) const {
               how.background[2]);
   glUniform1i(program.uniform("u_encode_srgb"), how.encode_srgb ? 1 : 0);
   glActiveTexture(GL_TEXTURE0);
-  glBindTexture(GL_TEXTURE_2D, gl.texture);
-  glUniform1i(program.uniform("u_repeat_texture"), 0);
+  glBindTexture(GL_TEXTURE_2D, gl.area_table);
+  glUniform1i(program.uniform("u_area_table"), 0);
+  glUniform1i(program.uniform("u_area_filtered"), gl.area_filtered ? 1 : 0);
+  glUniform2f(program.uniform("u_area_texels"), static_cast<float>(gl.area_texels.width),
+              static_cast<float>(gl.area_texels.height));
+  glUniform4f(program.uniform("u_area_mean"), gl.area_mean[0], gl.area_mean[1], gl.area_mean[2],
+              gl.area_mean[3]);
   glDisable(GL_CULL_FACE);
   // Over yarns: cross-faded, no depth (the mesh lies amid its yarns).
   // Alone: depth tested against what lies beneath, folds hiding folds.

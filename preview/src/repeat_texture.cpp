@@ -132,4 +132,23 @@ std::vector<cv::Mat> repeat_levels(const cv::Mat& over_black, const cv::Mat& ove
   return levels;
 }
 
+AreaTable repeat_area_table(const cv::Mat& level) {
+  AreaTable table;
+  const cv::Scalar mean = cv::mean(level);
+  table.mean = cv::Vec4f(static_cast<float>(mean[0]), static_cast<float>(mean[1]),
+                         static_cast<float>(mean[2]), static_cast<float>(mean[3]));
+  const int width = level.cols, height = level.rows;
+  // Doubles while summing: the table's entries are rounded once, to float.
+  cv::Mat sums(2 * height + 1, 2 * width + 1, CV_64FC4, cv::Scalar::all(0));
+  for (int y = 1; y <= 2 * height; ++y)
+    for (int x = 1; x <= 2 * width; ++x) {
+      const cv::Vec4f texel = level.at<cv::Vec4f>((y - 1) % height, (x - 1) % width) - table.mean;
+      sums.at<cv::Vec4d>(y, x) = cv::Vec4d(texel[0], texel[1], texel[2], texel[3]) +
+                                 sums.at<cv::Vec4d>(y - 1, x) + sums.at<cv::Vec4d>(y, x - 1) -
+                                 sums.at<cv::Vec4d>(y - 1, x - 1);
+    }
+  sums.convertTo(table.sums, CV_32FC4);
+  return table;
+}
+
 }  // namespace psrig::preview

@@ -63,5 +63,37 @@ TEST(RepeatTexture, LevelsArePremultipliedCoverageAndTheirMeans) {
   EXPECT_NEAR(mean[3], 0.5f, 1e-5f) << "coverage, averaged";
 }
 
+// The area table gives any box's sum in four lookups, across the repeat's
+// edge too (the 2x2 tiling), to float precision: what far_cloth.frag
+// divides by the box's area for the mean over a pixel's footprint.
+TEST(RepeatTexture, TheAreaTableSumsAnyBoxOfTheTiledRepeat) {
+  cv::Mat level(8, 16, CV_32FC4);
+  cv::randu(level, cv::Scalar::all(0), cv::Scalar::all(1));
+  const AreaTable table = repeat_area_table(level);
+  ASSERT_EQ(table.sums.size(), cv::Size(33, 17));
+  const auto sum_at = [&](int x, int y) { return table.sums.at<cv::Vec4f>(y, x); };
+  struct Box {
+    int x0, y0, x1, y1;
+  };
+  for (const Box box :
+       {Box{0, 0, 16, 8}, Box{3, 2, 7, 5}, Box{12, 6, 21, 11}, Box{15, 7, 31, 15}}) {
+    cv::Vec4d direct = 0;
+    for (int y = box.y0; y < box.y1; ++y)
+      for (int x = box.x0; x < box.x1; ++x)
+        direct += cv::Vec4d(level.at<cv::Vec4f>(y % 8, x % 16));
+    const cv::Vec4f looked_up = sum_at(box.x1, box.y1) - sum_at(box.x0, box.y1) -
+                                sum_at(box.x1, box.y0) + sum_at(box.x0, box.y0);
+    const double texels = (box.x1 - box.x0) * (box.y1 - box.y0);
+    for (int c = 0; c < 4; ++c)
+      EXPECT_NEAR(looked_up[c] / texels + table.mean[c], direct[c] / texels, 1e-5)
+          << "box from (" << box.x0 << ", " << box.y0 << ") to (" << box.x1 << ", " << box.y1
+          << "), channel " << c;
+  }
+  // A whole repeat sums to nothing once its mean is off: the table stays
+  // near zero however large the repeat.
+  for (int c = 0; c < 4; ++c)
+    EXPECT_NEAR(sum_at(16, 8)[c], 0.0f, 1e-4f);
+}
+
 }  // namespace
 }  // namespace psrig::preview

@@ -2,7 +2,8 @@
 // The far level's geometry (issue 30): the stitch mesh the yarns lie on
 // (cloth::YarnSurface), two triangles a face, each vertex's (u, v) its face
 // coordinates over the repeat's faces, drawn with the repeat's texture
-// (repeat_texture.h) and its mipmaps. A few triangles a stitch and no yarn:
+// (repeat_texture.h), each pixel its footprint's mean from the repeat's
+// summed-area table. A few triangles a stitch and no yarn:
 // what makes far frames cheap. Draws into whatever framebuffer is bound;
 // needs its GLES context current for its whole life.
 
@@ -39,7 +40,8 @@ class FarCloth {
   // The mesh's vertices (every frame while the cloth moves), (u, v) counted
   // from `window`'s first face.
   void update(const cloth::YarnSurface& surface, const RepeatWindow& window);
-  // The texture's levels (repeat_levels): replaces the last ones.
+  // The texture's levels (repeat_levels): the area table of the finest
+  // level at most 512 texels a side replaces the last one.
   void upload(const std::vector<cv::Mat>& levels);
   void draw(const KnitFrame& frame, const FarClothDraw& how) const;
 

@@ -59,4 +59,18 @@ struct RepeatWindow {
 [[nodiscard]] std::vector<cv::Mat> repeat_levels(const cv::Mat& over_black,
                                                  const cv::Mat& over_white);
 
+// A level's summed-area table (Crow 1984, "Summed-area tables for texture
+// mapping"): what lets far_cloth.frag take the exact mean over a pixel's
+// footprint, however many texels it covers, in four lookups. `sums` holds
+// the sums over [0, x) x [0, y) of the level tiled 2x2 (a footprint up to
+// a repeat wide then never wraps), for x in [0, 2W] and y in [0, 2H]:
+// (2H + 1) x (2W + 1), CV_32FC4. The level's mean is taken off each texel
+// before summing (kept in `mean`), so the sums stay near zero and float32
+// keeps the small differences a footprint's mean is made of.
+struct AreaTable {
+  cv::Mat sums;
+  cv::Vec4f mean;
+};
+[[nodiscard]] AreaTable repeat_area_table(const cv::Mat& level);
+
 }  // namespace psrig::preview
