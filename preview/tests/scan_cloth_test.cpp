@@ -12,6 +12,8 @@
 #include "psrig/analysis/chart_inference.h"
 #include "psrig/formats/scan_writer.h"
 #include "psrig/preview/drape_cloth.h"
+#include "psrig/preview/egl_context.h"
+#include "psrig/preview/offscreen_target.h"
 #include "psrig/processing/pipeline.h"
 #include "psrig/sim/synthetic_scan.h"
 #include "shipped_swatch.h"
@@ -64,6 +66,58 @@ TEST(ScanCloth, UnreadableMapsGiveReadMapsOwnError) {
   EXPECT_EQ(scan.error().kind, ErrorKind::bad_input);
   EXPECT_EQ(scan.error().file, maps.parent_path() / "albedo.exr");
   EXPECT_EQ(scan.error().message.find("did you mean"), std::string::npos) << scan.error().message;
+}
+
+TEST(ScanCloth, DrapeSeenFromAfarIsTheScanAndBuildsNoYarn) {
+  test::TempDir temp;
+  const auto maps = processed_rib(temp);
+  auto context = EglContext::open_surfaceless();
+  ASSERT_TRUE(context) << context.error().describe();
+  auto fabric = drape_fabric(maps, 24, 28);
+  ASSERT_TRUE(fabric) << fabric.error().describe();
+  // The same drape twice: one building its yarns every frame (as before
+  // issue 30), one only for frames that draw them.
+  cloth::DrapeAnimation skipping(*fabric, cloth::DrapeScene::hang);
+  cloth::DrapeAnimation building(*fabric, cloth::DrapeScene::hang);
+  auto skip = drape_renderers();
+  auto build = drape_renderers();
+  ASSERT_TRUE(skip && build);
+  ASSERT_TRUE(use_scan_maps(*skip, maps));
+  ASSERT_TRUE(use_scan_maps(*build, maps));
+  build->far_without_yarns = false;
+  const cv::Size size(320, 240);
+  auto target = OffscreenTarget::create(size, 4, ColourStorage::srgb);
+  ASSERT_TRUE(target);
+  const auto frame = [&](cloth::DrapeAnimation& animation, DrapeRenderers& renderers,
+                         const KnitView& view) {
+    (*target)->bind();
+    draw_drape(animation, renderers, view, size);
+    return (*target)->read();
+  };
+  // A metre off, the yarns are under a pixel: the scan alone draws them.
+  const KnitView far = drape_view(20, 25, 1000);
+  for (int step = 0; step < 4; ++step) {
+    skipping.advance(1 / 30.0f);
+    building.advance(1 / 30.0f);
+    const cv::Mat without_yarns = frame(skipping, *skip, far);
+    const cv::Mat with_yarns = frame(building, *build, far);
+    EXPECT_TRUE(skip->yarns->last_drew_far_cloth());
+    EXPECT_FALSE(skip->yarns->last_drew_yarns());
+    EXPECT_LT(skip->yarns->last_yarn_width_px(), 1.0f);
+    cv::Mat difference;
+    cv::absdiff(without_yarns, with_yarns, difference);
+    double largest = 0;
+    cv::minMaxLoc(difference.reshape(1), nullptr, &largest);
+    EXPECT_EQ(largest, 0) << "frame " << step;
+  }
+  EXPECT_EQ(skip->yarns->yarn_updates(), 0);
+  EXPECT_TRUE(skip->curves.curves.empty());
+  EXPECT_EQ(build->yarns->yarn_updates(), 4);
+  // Close up the yarns are built again.
+  skipping.advance(1 / 30.0f);
+  frame(skipping, *skip, drape_view(20, 25));
+  EXPECT_TRUE(skip->yarns->last_drew_yarns());
+  EXPECT_EQ(skip->yarns->yarn_updates(), 1);
 }
 
 }  // namespace
