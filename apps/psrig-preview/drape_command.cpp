@@ -52,9 +52,7 @@ Result<cloth::KnitFabric> fabric_argument(const DrapeArgs& args, int stitches, i
 // A scan's drape has the scan's own maps as its far level.
 Status use_scan(const DrapeArgs& args, DrapeRenderers& renderers) {
   if (!std::filesystem::is_directory(args.pattern)) return {};
-  auto scan = read_scan_cloth_argument(args.pattern);
-  if (!scan) return std::unexpected(scan.error());
-  auto source = use_scan_maps(renderers, scan->maps);
+  auto source = use_scan_maps(renderers, args.pattern);
   if (!source) return std::unexpected(source.error());
   return {};
 }
