@@ -49,12 +49,13 @@ Result<cloth::KnitFabric> fabric_argument(const DrapeArgs& args, int stitches, i
   return knit_of_scan(*scan, stitches, rows, args.cloth_size);
 }
 
-// A scan's drape has the scan's own maps as its far level.
-Status use_scan(const DrapeArgs& args, DrapeRenderers& renderers) {
-  if (!std::filesystem::is_directory(args.pattern)) return {};
-  auto source = use_scan_maps(renderers, args.pattern);
-  if (!source) return std::unexpected(source.error());
-  return {};
+// A scan's drape has the scan's own maps as its far level; maps that
+// cannot be (no pixel size) leave the knit's own.
+void use_scan(const DrapeArgs& args, DrapeRenderers& renderers) {
+  if (!std::filesystem::is_directory(args.pattern)) return;
+  if (auto source = use_scan_maps(renderers, args.pattern); !source)
+    std::cerr << "psrig-preview drape: warning: " << source.error().describe()
+              << " (from afar, the knit's own yarns)\n";
 }
 
 YarnRendererOptions yarn_options(const DrapeArgs& args) {
@@ -103,7 +104,7 @@ int render(const DrapeArgs& args) {
   if (!canvas) return report_error("drape", canvas.error());
   auto renderers = drape_renderers(yarn_options(args));
   if (!renderers) return report_error("drape", renderers.error());
-  if (auto ok = use_scan(args, *renderers); !ok) return report_error("drape", ok.error());
+  use_scan(args, *renderers);
   const std::filesystem::path out(args.out);
   if (out.has_parent_path()) std::filesystem::create_directories(out.parent_path());
   auto staging = formats::AtomicDirectory::create(out);
@@ -143,7 +144,7 @@ int bench(const DrapeArgs& args) {
   if (!canvas) return report_error("drape", canvas.error());
   auto renderers = drape_renderers(yarn_options(args));
   if (!renderers) return report_error("drape", renderers.error());
-  if (auto ok = use_scan(args, *renderers); !ok) return report_error("drape", ok.error());
+  use_scan(args, *renderers);
   const KnitView view = drape_view(args.yaw, args.pitch, args.distance);
   std::cout << "{\"renderer\": \"" << canvas->context->describe() << "\", \"scene\": \"" << args.scene
             << "\", \"size\": [" << size->width << ", " << size->height << "], \"runs\": [";
