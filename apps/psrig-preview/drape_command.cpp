@@ -4,7 +4,8 @@
 // swings, simulated at stitch level (cloth/stitch_cloth.h) with its yarns
 // following, drawn headless to DIR/frame-NNNN.png and a contact sheet of
 // the run (DIR/contact-sheet.png); --bench times the simulation step, the
-// yarn update and the frame.
+// yarn update and the frame. A scan's drape is drawn from afar as the
+// scan's own maps on the cloth (scan_surface.h), its yarns then not built.
 
 #include <GLES3/gl3.h>
 #include <chrono>
@@ -30,7 +31,7 @@ struct DrapeArgs {
   std::string size = "640x480";
   int stitches = 48, rows = 56;
   double seconds = 4, fps = 30;
-  double yaw = 20, pitch = 25;
+  double yaw = 20, pitch = 25, distance = 0;
   int samples = kDefaultSamples;
   std::string lod = "auto";
   bool bench = false;
@@ -46,6 +47,15 @@ Result<cloth::KnitFabric> fabric_argument(const DrapeArgs& args, int stitches, i
   auto scan = read_scan_cloth_argument(args.pattern);
   if (!scan) return std::unexpected(scan.error());
   return knit_of_scan(*scan, stitches, rows, args.cloth_size);
+}
+
+// A scan's drape has the scan's own maps as its far level; maps that
+// cannot be (no pixel size) leave the knit's own.
+void use_scan(const DrapeArgs& args, DrapeRenderers& renderers) {
+  if (!std::filesystem::is_directory(args.pattern)) return;
+  if (auto source = use_scan_maps(renderers, args.pattern); !source)
+    std::cerr << "psrig-preview drape: warning: " << source.error().describe()
+              << " (from afar, the knit's own yarns)\n";
 }
 
 YarnRendererOptions yarn_options(const DrapeArgs& args) {
@@ -94,6 +104,7 @@ int render(const DrapeArgs& args) {
   if (!canvas) return report_error("drape", canvas.error());
   auto renderers = drape_renderers(yarn_options(args));
   if (!renderers) return report_error("drape", renderers.error());
+  use_scan(args, *renderers);
   const std::filesystem::path out(args.out);
   if (out.has_parent_path()) std::filesystem::create_directories(out.parent_path());
   auto staging = formats::AtomicDirectory::create(out);
@@ -105,7 +116,7 @@ int render(const DrapeArgs& args) {
   for (int frame = 0; frame < frames; ++frame) {
     scene->advance(dt);
     canvas->target->bind();
-    draw_drape(*scene, *renderers, drape_view(args.yaw, args.pitch), *size);
+    draw_drape(*scene, *renderers, drape_view(args.yaw, args.pitch, args.distance), *size);
     cv::Mat image = canvas->target->read();
     char name[32];
     std::snprintf(name, sizeof name, "frame-%04d.png", frame);
@@ -133,6 +144,8 @@ int bench(const DrapeArgs& args) {
   if (!canvas) return report_error("drape", canvas.error());
   auto renderers = drape_renderers(yarn_options(args));
   if (!renderers) return report_error("drape", renderers.error());
+  use_scan(args, *renderers);
+  const KnitView view = drape_view(args.yaw, args.pitch, args.distance);
   std::cout << "{\"renderer\": \"" << canvas->context->describe() << "\", \"scene\": \"" << args.scene
             << "\", \"size\": [" << size->width << ", " << size->height << "], \"runs\": [";
   bool first = true;
@@ -142,15 +155,16 @@ int bench(const DrapeArgs& args) {
     if (!scene) return report_error("drape", scene.error());
     const auto dt = static_cast<float>(1 / args.fps);
     double step_ms = 0, yarn_ms = 0, frame_ms = 0;
+    const int updates_before = renderers->yarns->yarn_updates();
     const int warm = static_cast<int>(args.fps / 2), timed = static_cast<int>(args.fps);
     for (int frame = 0; frame < warm + timed; ++frame) {
       const auto start = Clock::now();
       scene->advance(dt);
       const auto stepped = Clock::now();
-      scene->yarns(renderers->curves);
+      const KnitFrame camera = update_drape(*scene, *renderers, view, *size);
       const auto followed = Clock::now();
       canvas->target->bind();
-      draw_drape_frame(*scene, *renderers, drape_view(args.yaw, args.pitch), *size);
+      draw_drape_frame(*scene, *renderers, camera, view, *size);
       glFinish();
       const auto drawn = Clock::now();
       if (frame < warm) continue;
@@ -160,8 +174,11 @@ int bench(const DrapeArgs& args) {
     }
     std::cout << (first ? "" : ", ") << "{\"stitches\": " << side * side
               << ", \"step_ms\": " << step_ms / timed << ", \"yarn_update_ms\": " << yarn_ms / timed
-              << ", \"frame_ms\": " << frame_ms / timed << ", \"fps\": " << 1000.0 * timed / frame_ms
-              << "}";
+              << ", \"frame_ms\": " << frame_ms / timed
+              << ", \"fps\": " << 1000.0 * timed / frame_ms
+              << ", \"yarn_px\": " << renderers->yarns->last_yarn_width_px()
+              << ", \"frames\": " << warm + timed
+              << ", \"yarn_updates\": " << renderers->yarns->yarn_updates() - updates_before << "}";
     first = false;
   }
   std::cout << "]}\n";
@@ -193,6 +210,9 @@ Command add_drape_command(CLI::App& parent) {
       ->capture_default_str();
   app->add_option("--yaw", args->yaw, "Camera yaw in degrees")->capture_default_str();
   app->add_option("--pitch", args->pitch, "Camera pitch in degrees")->capture_default_str();
+  app->add_option("--distance", args->distance, "Camera distance in mm (0: fit the cloth)")
+      ->check(CLI::Range(0.0, 1e6))
+      ->capture_default_str();
   app->add_option("--wales-per-cm", args->cloth_size.wales_per_cm, "Knit gauge across")
       ->check(psrig::cli::positive_number());
   app->add_option("--courses-per-cm", args->cloth_size.courses_per_cm, "Knit gauge up")

@@ -19,6 +19,7 @@
 #include "psrig/cloth/weave_matrix.h"
 #include "psrig/formats/image_io.h"
 #include "psrig/preview/cloth_model.h"
+#include "psrig/preview/patch_tile.h"
 #include "psrig/preview/scan_cloth.h"
 #include "psrig/preview/yarn_renderer.h"
 
@@ -166,6 +167,15 @@ int render(const KnitArgs& args, bool shear_given) {
 
   auto canvas = open_canvas(args, *size);
   if (!canvas) return report_error("knit", canvas.error());
+  // The scan's own chart: from afar, the scan's own maps (scan_surface.h).
+  if (scan && args.pattern.empty()) {
+    auto maps = load_swatch_maps(scan->maps);
+    const Status ok = maps ? canvas->renderer->use_scan(patch_tile(*maps))
+                           : Status(std::unexpected(maps.error()));
+    if (!ok)
+      std::cerr << "psrig-preview knit: warning: " << ok.error().describe()
+                << " (the far level is the knit's own repeat)\n";
+  }
   canvas->renderer->update(yarns);
   canvas->target->bind();
   canvas->renderer->render(knit_view(args), *size);

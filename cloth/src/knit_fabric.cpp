@@ -72,6 +72,10 @@ StitchMesh KnitFabric::mesh(ClothDeformation deformation) const {
                           deformation);
 }
 
+YarnSurface KnitFabric::surface(const StitchMesh& mesh) const {
+  return {mesh, chart_.columns, chart_.rows};
+}
+
 void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
   // Each stitch's deformation is its own face's; the blends are found (and
   // any new table node relaxed) here, one thread, before placing in parallel.
@@ -104,7 +108,7 @@ void KnitFabric::update(const StitchMesh& mesh, YarnSet& yarns) {
   const float radius = 0.5f * dimensions_.yarn_diameter_mm;
   const bool coloured = !colours_.empty();
   yarns.style = style();
-  yarns.surface = {mesh, repeat_columns, repeat_rows};
+  yarns.surface = surface(mesh);
   yarns.curves.resize(static_cast<std::size_t>(rows_));
 
   // Each course: every stitch's loop from the repeat at rest, moved by its

@@ -115,6 +115,22 @@ void StitchCloth::move_pinned(const Eigen::Vector3f& by) {
   input_ = true;
 }
 
+void StitchCloth::cut(const std::vector<bool>& removed) {
+  const auto out = [&](int v) { return removed[static_cast<std::size_t>(v)]; };
+  const auto reaches = [&](const Spring& spring) { return out(spring.a) || out(spring.b); };
+  std::erase_if(springs_, reaches);
+  for (std::vector<Spring>& group : limited_)
+    std::erase_if(group, reaches);
+  std::erase_if(bends_,
+                [&](const Bend& bend) { return out(bend.a) || out(bend.b) || out(bend.c); });
+  for (std::size_t i = 0; i < removed.size(); ++i)
+    if (removed[i]) {
+      pinned_[i] = true;
+      pin_target_[i] = mesh_.vertices[i];
+    }
+  solver_.reset();
+}
+
 void StitchCloth::step(float dt, int iterations) {
   const std::size_t count = mesh_.vertices.size();
   const double h = dt;

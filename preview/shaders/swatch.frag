@@ -1,7 +1,7 @@
 #version 300 es
-// Per-pixel lighting of the swatch; shading.cpp is the CPU twin of these
-// lines, keep the two in step. Linear light throughout; the framebuffer
-// encodes sRGB, or this shader does when u_encode_srgb is set.
+// Per-pixel lighting of the swatch (surface_lighting.glsl, inserted before
+// these lines; shading.cpp is its CPU twin). Linear light throughout; the
+// framebuffer encodes sRGB, or this shader does when u_encode_srgb is set.
 precision highp float;
 
 in vec3 v_to_light;
@@ -11,9 +11,6 @@ in vec2 v_uv;
 uniform sampler2D u_albedo_alpha;  // sRGB texture: decoded to linear by GL
 uniform sampler2D u_normal_gloss;  // averaged tangent normal, gloss
 uniform float u_ambient;
-uniform float u_diffuse;
-uniform float u_specular;
-uniform float u_shininess;
 uniform vec3 u_light_colour;
 uniform float u_point_light;         // 1: attenuate by distance
 uniform float u_reference_distance;  // a point light's full-strength distance
@@ -40,23 +37,10 @@ void main() {
     to_light.z = -to_light.z;
     to_eye.z = -to_eye.z;
   }
-  vec3 light = normalize(to_light);
-  vec3 eye = normalize(to_eye);
-  float len = max(length(normal_gloss.xyz), 1e-4);
-  vec3 normal = normal_gloss.xyz / len;
-  float toksvig = len / (len + u_shininess * (1.0 - len));
-  float exponent = max(toksvig * u_shininess, 1.0);
-  float horizon = clamp(light.z * 4.0, 0.0, 1.0);
-  float lambert = max(dot(normal_gloss.xyz, light), 0.0);
-  vec3 half_vector = normalize(light + eye);
-  float facing = dot(normal, light) > 0.0 ? 1.0 : 0.0;
-  float highlight = facing * (exponent + 2.0) / (u_shininess + 2.0) *
-                    pow(max(dot(normal, half_vector), 0.0), exponent);
   float attenuation = u_point_light > 0.5
       ? u_reference_distance * u_reference_distance / dot(to_light, to_light)
       : 1.0;
-  vec3 direct = u_light_colour * (attenuation * horizon);
-  vec3 colour = albedo.rgb * (u_ambient + u_diffuse * lambert * direct) +
-                u_specular * normal_gloss.a * highlight * direct;
+  vec3 colour = surface_lighting(albedo.rgb, normal_gloss, to_light, to_eye, vec3(u_ambient),
+                                 u_light_colour * attenuation);
   fragment = vec4(u_encode_srgb ? srgb_encode(colour) : colour, albedo.a);
 }

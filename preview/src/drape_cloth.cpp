@@ -1,5 +1,8 @@
 #include "psrig/preview/drape_cloth.h"
 
+#include "psrig/preview/patch_tile.h"
+#include "psrig/preview/swatch_maps.h"
+
 namespace psrig::preview {
 
 Result<cloth::KnitFabric> knit_of_scan(const ScanCloth& scan, int stitches, int rows,
@@ -35,10 +38,11 @@ Result<cloth::KnitFabric> drape_fabric(const std::filesystem::path& chart_or_map
   return fabric;
 }
 
-KnitView drape_view(double yaw_deg, double pitch_deg) {
+KnitView drape_view(double yaw_deg, double pitch_deg, double distance_mm) {
   KnitView view;
   view.yaw_deg = yaw_deg;
   view.pitch_deg = pitch_deg;
+  view.distance_mm = distance_mm;
   view.light.tilt_deg = 60;
   view.light.slant_deg = 40;
   return view;
@@ -52,20 +56,52 @@ Result<DrapeRenderers> drape_renderers(const YarnRendererOptions& options) {
   return DrapeRenderers{std::move(*yarns), std::move(*props), {}};
 }
 
-void draw_drape(cloth::DrapeAnimation& animation, DrapeRenderers& renderers, const KnitView& view,
-                cv::Size size) {
-  animation.yarns(renderers.curves);
-  draw_drape_frame(animation, renderers, view, size);
+Result<std::string> use_scan_maps(DrapeRenderers& renderers, const std::filesystem::path& maps) {
+  auto loaded = load_swatch_maps(maps);
+  if (!loaded) return std::unexpected(loaded.error());
+  const PatchTile tile = patch_tile(*loaded);
+  if (auto ok = renderers.yarns->use_scan(tile); !ok) return std::unexpected(ok.error());
+  return tile.source;
+}
+
+Eigen::AlignedBox3f drape_bounds(const cloth::DrapeAnimation& animation) {
+  Eigen::AlignedBox3f bounds;
+  for (const Eigen::Vector3f& vertex : animation.cloth().mesh().vertices)
+    bounds.extend(vertex);
+  if (!bounds.isEmpty()) {
+    const float reach = animation.fabric().dimensions().yarn_diameter_mm;  // two radii
+    bounds.min().array() -= reach;
+    bounds.max().array() += reach;
+  }
+  return bounds;
+}
+
+KnitFrame update_drape(cloth::DrapeAnimation& animation, DrapeRenderers& renderers,
+                       const KnitView& view, cv::Size size) {
+  const Eigen::AlignedBox3f bounds = drape_bounds(animation);
+  const KnitFrame frame = knit_frame(bounds, view, size);
+  if (!renderers.far_without_yarns ||
+      !renderers.yarns->update_far_only(animation.surface(), animation.fabric().style(), frame,
+                                        bounds)) {
+    animation.yarns(renderers.curves);
+    renderers.yarns->update(renderers.curves);
+  }
+  return frame;
 }
 
 void draw_drape_frame(const cloth::DrapeAnimation& animation, DrapeRenderers& renderers,
-                      const KnitView& view, cv::Size size) {
-  renderers.yarns->update(renderers.curves);
+                      const KnitFrame& frame, const KnitView& view, cv::Size size) {
   // The floor and the table reach well beyond the cloth, under it.
-  const Eigen::AlignedBox3f& bounds = renderers.yarns->bounds();
+  const Eigen::AlignedBox3f bounds = drape_bounds(animation);
   renderers.props->update(animation.cloth().colliders, bounds.center(), 4 * bounds.diagonal().norm());
-  renderers.yarns->render(view, size,
-                          [&](const KnitFrame& frame) { renderers.props->draw(frame); });
+  renderers.yarns->render(frame, view, size,
+                          [&](const KnitFrame& beneath) { renderers.props->draw(beneath); });
+}
+
+void draw_drape(cloth::DrapeAnimation& animation, DrapeRenderers& renderers, const KnitView& view,
+                cv::Size size) {
+  const KnitFrame frame = update_drape(animation, renderers, view, size);
+  draw_drape_frame(animation, renderers, frame, view, size);
 }
 
 }  // namespace psrig::preview

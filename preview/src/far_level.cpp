@@ -60,7 +60,26 @@ bool FarLevel::same_shape(const RepeatWindow& window) const {
          (window.up - taken.up).norm() <= strain * taken.up.norm();
 }
 
+Status FarLevel::use_scan(const PatchTile& tile) {
+  ShadingParams shading;
+  shading.light_colour = {options_.shading.light_colour.x(), options_.shading.light_colour.y(),
+                          options_.shading.light_colour.z()};
+  auto scan = ScanSurface::create(tile, shading);
+  if (!scan) return std::unexpected(scan.error());
+  scan_ = std::move(*scan);
+  scan_mesh_ = false;
+  return {};
+}
+
+bool FarLevel::update_surface(const cloth::YarnSurface& surface) {
+  if (!scan_) return false;
+  scan_mesh_ = surface.mesh.columns > 0 && surface.mesh.rows > 0;
+  if (scan_mesh_) scan_->update(surface.mesh, options_.environment, options_.shading.environment);
+  return scan_mesh_;
+}
+
 bool FarLevel::update(const cloth::YarnSet& yarns) {
+  if (scan_) return update_surface(yarns.surface);
   window_ = middle_repeat(yarns.surface);
   if (window_ && !flat_like(yarns.surface.mesh, window_->normal(), options_.far_cloth_flat_degrees))
     window_.reset();
@@ -88,7 +107,7 @@ bool FarLevel::stands_for(const BakeKey& key) const {
 
 void FarLevel::prepare(const KnitFrame& frame, const KnitView& view, unsigned target,
                        cv::Size viewport) {
-  if (!window_) return;
+  if (scan_ || !window_) return;
   const Eigen::Vector3f toward_eye = frame.orthographic
                                          ? (frame.eye - frame.centre).normalized()
                                          : (frame.eye - window_->centre()).normalized();

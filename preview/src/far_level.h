@@ -5,6 +5,8 @@
 // (far_cloth.h). A bake is made when a frame needs the far level and the
 // last one no longer stands for it: the light, the view's direction, the
 // style or the repeat's shape changed (by more than the options allow).
+// Cloth a scan feeds has the scan as its far level instead (scan_surface.h):
+// no bake, and the surface alone is enough to draw it.
 
 #include <memory>
 #include <optional>
@@ -12,6 +14,7 @@
 #include "psrig/preview/far_cloth.h"
 #include "psrig/preview/offscreen_target.h"
 #include "psrig/preview/repeat_texture.h"
+#include "psrig/preview/scan_surface.h"
 #include "psrig/preview/yarn_renderer.h"
 
 namespace psrig::preview {
@@ -20,17 +23,31 @@ class FarLevel {
  public:
   [[nodiscard]] static Result<std::unique_ptr<FarLevel>> create(const YarnRendererOptions& options);
 
+  // The scan's tile stands for the cloth from now on (scan_surface.h).
+  [[nodiscard]] Status use_scan(const PatchTile& tile);
+  [[nodiscard]] bool scanned() const { return scan_ != nullptr; }
+
   // The cloth's yarns and surface; false when they have none to draw with.
   bool update(const cloth::YarnSet& yarns);
-  [[nodiscard]] bool available() const { return window_.has_value() && cloth_->ready(); }
-  [[nodiscard]] bool has_surface() const { return window_.has_value(); }
+  // The surface alone, for a frame that draws no yarn: false unless the
+  // scan is the far level (a bake needs the yarns about its repeat).
+  bool update_surface(const cloth::YarnSurface& surface);
+  [[nodiscard]] bool available() const {
+    return scan_ ? scan_mesh_ : window_.has_value() && cloth_->ready();
+  }
+  [[nodiscard]] bool has_surface() const { return scan_ ? scan_mesh_ : window_.has_value(); }
   // Bakes the repeat when the last bake no longer stands for `frame` and
   // `view`; then framebuffer `target` is bound again with `viewport`.
   void prepare(const KnitFrame& frame, const KnitView& view, unsigned target, cv::Size viewport);
-  void draw(const KnitFrame& frame, const FarClothDraw& how) const { cloth_->draw(frame, how); }
+  void draw(const KnitFrame& frame, const FarClothDraw& how) const {
+    if (scan_)
+      scan_->draw(frame, how);
+    else
+      cloth_->draw(frame, how);
+  }
 
   [[nodiscard]] int bakes() const { return bakes_; }
-  [[nodiscard]] int triangles() const { return cloth_->triangles(); }
+  [[nodiscard]] int triangles() const { return scan_ ? scan_->triangles() : cloth_->triangles(); }
 
  private:
   // What a bake was made for (besides the yarns taken).
@@ -56,6 +73,8 @@ class FarLevel {
   bool baker_stale_ = true;  // near_yarns_ not yet given to the baker
   std::optional<BakeKey> baked_;
   int bakes_ = 0;
+  std::unique_ptr<ScanSurface> scan_;
+  bool scan_mesh_ = false;  // the scan has a mesh with faces to lie on
 };
 
 }  // namespace psrig::preview

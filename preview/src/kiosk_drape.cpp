@@ -63,12 +63,17 @@ void KioskDrape::restart() {
 Status KioskDrape::draw(float dt, cv::Size size) {
   if (!animation_) restart();
   if (!animation_) return {};
-  if (!renderers_) {
+  // Renderers of its own for each scan: its maps are its drape's far level.
+  if (!renderers_ || scan_maps_ != made_->maps) {
     YarnRendererOptions options;
     options.encode_srgb = options_.encode_srgb;
     auto renderers = drape_renderers(options);
     if (!renderers) return std::unexpected(renderers.error());
     renderers_ = std::move(*renderers);
+    scan_maps_ = made_->maps;
+    if (auto tile = use_scan_maps(*renderers_, made_->maps); !tile)
+      std::cout << "kiosk: the drape of " << made_->maps.string()
+                << " shows its knit from afar: " << tile.error().message << std::endl;
   }
   animation_->advance(dt);
   draw_drape(*animation_, *renderers_, drape_view(kYawDeg, kPitchDeg), size);

@@ -12,6 +12,7 @@ struct ShaderSource {
 
 extern const ShaderSource swatch_vert;
 extern const ShaderSource swatch_frag;
+extern const ShaderSource surface_lighting_glsl;  // inserted into swatch and scan_surface
 extern const ShaderSource light_marker_vert;
 extern const ShaderSource light_marker_frag;
 extern const ShaderSource yarn_vert;
@@ -24,5 +25,7 @@ extern const ShaderSource woven_decoder_vert;  // the neural woven BSDF's decode
 extern const ShaderSource woven_decoder_frag;
 extern const ShaderSource far_cloth_vert;  // the far level (far_cloth.h)
 extern const ShaderSource far_cloth_frag;
+extern const ShaderSource scan_surface_vert;  // the scan as the far level (scan_surface.h)
+extern const ShaderSource scan_surface_frag;
 
 }  // namespace psrig::preview::shaders

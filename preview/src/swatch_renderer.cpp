@@ -4,6 +4,7 @@
 #include <cmath>
 #include <numbers>
 #include <optional>
+#include <string>
 
 #include "gl_program.h"
 #include "psrig/preview/clear_frame.h"
@@ -140,7 +141,8 @@ Result<std::unique_ptr<SwatchRenderer>> SwatchRenderer::create(const SwatchMaps&
   renderer->gl_ = std::make_unique<Gl>();
   Gl& gl = *renderer->gl_;
   auto swatch = GlProgram::build(shaders::swatch_vert, shaders::swatch_frag,
-                                 maps.alpha.empty() ? "" : "#define ALPHA_MAP 1\n");
+                                 (maps.alpha.empty() ? std::string() : "#define ALPHA_MAP 1\n") +
+                                     std::string(shaders::surface_lighting_glsl.text));
   if (!swatch) return std::unexpected(swatch.error());
   gl.swatch.emplace(std::move(*swatch));
   auto marker = GlProgram::build(shaders::light_marker_vert, shaders::light_marker_frag);

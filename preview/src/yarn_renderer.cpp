@@ -16,6 +16,7 @@
 #include "psrig/base/parallel.h"
 #include "psrig/cloth/srgb.h"
 #include "psrig/preview/clear_frame.h"
+#include "psrig/preview/patch_tile.h"
 #include "psrig/preview/strip_points.h"
 
 namespace psrig::preview {
@@ -278,6 +279,8 @@ void YarnRenderer::pack_yarn(const cloth::YarnCurve& curve, std::size_t index, s
 }
 
 void YarnRenderer::update(const cloth::YarnSet& yarns) {
+  surface_only_ = false;
+  ++yarn_updates_;
   if (far_) far_->update(yarns);
   if (!same_slice(yarns.style, slice_.style)) {
     slice_ = bake_yarn_slice(yarns.style, options_.slice);
@@ -545,6 +548,25 @@ void use_yarn_program(const GlProgram& program, const YarnUniforms& u) {
 
 }  // namespace
 
+Status YarnRenderer::use_scan(const PatchTile& tile) {
+  return far_ ? far_->use_scan(tile) : Status{};
+}
+
+bool YarnRenderer::update_far_only(const cloth::YarnSurface& surface, const cloth::YarnStyle& style,
+                                   const KnitFrame& frame, const Eigen::AlignedBox3f& bounds) {
+  if (!far_ || !far_->scanned()) return false;
+  // As plan_frame() would decide with these bounds: no yarn where every
+  // one is under far_cloth_full_px.
+  const float widest_px = 2 * style.radius_mm * frame.focal_px / depth_range(bounds, frame).first;
+  if (options_.level == YarnLevel::automatic && widest_px > options_.far_cloth_full_px)
+    return false;
+  if (!far_->update_surface(surface)) return false;
+  style_ = style;
+  bounds_ = bounds;
+  surface_only_ = true;
+  return true;
+}
+
 // What a frame draws, decided by how wide its yarns look.
 struct YarnRenderer::FramePlan {
   float radius = 0;
@@ -570,7 +592,7 @@ YarnRenderer::FramePlan YarnRenderer::plan_frame(const KnitFrame& frame, const K
   plan.flatness = std::clamp(style_.flatness, 0.05f, 1.0f);
   plan.pixels_per_mm = frame.focal_px / frame.distance;
   last_width_px_ = 2 * plan.radius * plan.pixels_per_mm;
-  plan.drawing = !packed_->curves.empty();
+  plan.drawing = !packed_->curves.empty() || surface_only_;
 
   // The widest a yarn can look (at the bounds' nearest depth) decides the
   // halo pass, the narrowest (head on, at the farthest) the blending.
@@ -585,8 +607,9 @@ YarnRenderer::FramePlan YarnRenderer::plan_frame(const KnitFrame& frame, const K
   plan.far_cloth = plan.drawing && surface &&
                    (options.level == YarnLevel::far || (options.level == YarnLevel::automatic &&
                                                         narrowest_px < options.far_cloth_from_px));
-  plan.yarns = plan.drawing && (!plan.far_cloth || (options.level == YarnLevel::automatic &&
-                                                    widest_px > options.far_cloth_full_px));
+  plan.yarns = plan.drawing && !surface_only_ &&
+               (!plan.far_cloth ||
+                (options.level == YarnLevel::automatic && widest_px > options.far_cloth_full_px));
   last_far_cloth_ = plan.far_cloth;
   last_yarns_ = plan.yarns;
   last_halo_ = plan.yarns && view.fibre_detail && widest_px > options.halo_from_px;

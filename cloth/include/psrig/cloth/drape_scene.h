@@ -28,6 +28,8 @@ class DrapeAnimation {
   // One frame of `dt` seconds; then the yarns are where the cloth is.
   void advance(float dt);
   void yarns(YarnSet& out) { fabric_.update(cloth_.mesh(), out); }
+  // The surface the yarns lie on, no yarn placed (a far view's frame).
+  [[nodiscard]] YarnSurface surface() const { return fabric_.surface(cloth_.mesh()); }
 
   [[nodiscard]] const StitchCloth& cloth() const { return cloth_; }
   [[nodiscard]] const KnitFabric& fabric() const { return fabric_; }

@@ -63,6 +63,9 @@ class KnitFabric {
   // on `mesh` into `yarns`, whose storage is reused. A cloth deformed alike
   // everywhere (the command line's stretch and shear) blends once.
   void update(const StitchMesh& mesh, YarnSet& yarns);
+  // What update() gives as `yarns.surface` (the mesh, the chart's repeat in
+  // faces), no yarn placed: all a renderer's far level may need.
+  [[nodiscard]] YarnSurface surface(const StitchMesh& mesh) const;
 
   [[nodiscard]] const KnitDimensions& dimensions() const { return dimensions_; }
   [[nodiscard]] const KnitRepeatLayout& repeat() const { return repeat_; }

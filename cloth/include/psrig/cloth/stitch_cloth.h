@@ -94,6 +94,11 @@ class StitchCloth {
   // The vertex (column, row) held where it is (or moved by move_pinned()).
   void pin(int column, int row);
   void move_pinned(const Eigen::Vector3f& by);
+  // The vertices marked (one per mesh vertex, row-major) taken out of the
+  // cloth: every spring and bend that reaches one dropped, the vertex held
+  // where it is, outside the cloth (a specimen cut to shape: Cusick's
+  // circle from the rectangular mesh). Before the first step.
+  void cut(const std::vector<bool>& removed);
 
   // Change them between steps; say so with note_input() when one moved.
   std::vector<Collider> colliders;

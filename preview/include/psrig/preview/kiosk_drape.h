@@ -52,6 +52,7 @@ class KioskDrape {
   std::optional<Made> made_;
   std::optional<cloth::DrapeAnimation> animation_;
   std::optional<DrapeRenderers> renderers_;
+  std::filesystem::path scan_maps_;  // whose maps the renderers' far level shows
 };
 
 }  // namespace psrig::preview

@@ -1,11 +1,14 @@
 #pragma once
-// The swatch shader's lighting maths on the CPU (shaders/swatch.frag is its
-// GLSL twin; keep the two in step). Everything is in the surface's tangent
-// space, linear light: ambient + Lambert diffuse + Blinn-Phong specular
-// scaled by the gloss map, the Phong exponent lowered where a mipmap has
-// averaged normals of different directions (Toksvig 2005: the shorter the
-// averaged normal, the wider the highlight), so fine knit does not sparkle
-// at a distance.
+// The lighting maths of a bump-mapped surface on the CPU: the swatch's and
+// the scan's far level on the cloth (shaders/surface_lighting.glsl is its
+// GLSL twin, in swatch.frag and scan_surface.frag; keep them in step).
+// Everything is in the surface's tangent space, linear light: ambient +
+// Lambert diffuse + Blinn-Phong specular scaled by the gloss map, the
+// Phong exponent lowered where a mipmap has averaged normals of different
+// directions (Toksvig 2005, "Mipmapping normal maps", J. Graphics Tools
+// 10(3): the shorter the averaged normal, the wider the highlight), so
+// fine knit keeps the highlight its bumps make at a distance instead of
+// sparkling (scan_surface_test.cpp measures it).
 
 #include <opencv2/core.hpp>
 

@@ -135,6 +135,7 @@ struct YarnRendererOptions {
 };
 
 class FarLevel;
+struct PatchTile;
 
 class YarnRenderer {
  public:
@@ -150,6 +151,20 @@ class YarnRenderer {
   // +z, missing lifts 1, missing colours the style's; a curve of fewer than
   // three points is not drawn (a strip needs three).
   void update(const cloth::YarnSet& yarns);
+  // Cloth a scan feeds: its far level is the scan's own maps on the stitch
+  // mesh (scan_surface.h) instead of the baked repeat, drawn where the
+  // baked repeat would be (under `far_cloth_from_px`, alone under
+  // `far_cloth_full_px` or with --lod far), flat or draped. Nothing to do
+  // when the level is forced near; bad input when the scan's pixel size
+  // is not known.
+  [[nodiscard]] Status use_scan(const PatchTile& tile);
+  // In update()'s place for a frame of `frame` the scan draws alone (every
+  // yarn of cloth within `bounds` under `far_cloth_full_px`, or the level
+  // forced far): takes the stitch mesh only, so no yarn need be built or
+  // packed (issue 30: no yarn update at the far level). False, taking
+  // nothing, when the frame needs the yarns: then build them and update().
+  bool update_far_only(const cloth::YarnSurface& surface, const cloth::YarnStyle& style,
+                       const KnitFrame& frame, const Eigen::AlignedBox3f& bounds);
 
   // Clears and draws one frame into the bound framebuffer of `viewport`
   // (the shadow pass borrows its own framebuffer and gives the caller's back).
@@ -174,6 +189,8 @@ class YarnRenderer {
   [[nodiscard]] int repeat_bakes() const;
   // Vertices (and restarts) of the last frame's strips.
   [[nodiscard]] int last_strip_vertices() const { return last_strip_vertices_; }
+  // How often update() packed yarns (update_far_only() packs none).
+  [[nodiscard]] int yarn_updates() const { return yarn_updates_; }
   // How often update() had to allocate GL storage (the point count changed).
   [[nodiscard]] int buffer_allocations() const { return allocations_; }
   [[nodiscard]] int slice_bakes() const { return bakes_; }
@@ -220,6 +237,8 @@ class YarnRenderer {
   int last_strip_vertices_ = 0;
   int allocations_ = 0;
   int bakes_ = 0;
+  int yarn_updates_ = 0;
+  bool surface_only_ = false;  // update_far_only() took the last frame's cloth
 };
 
 }  // namespace psrig::preview

@@ -1,0 +1,142 @@
+// Cusick's drape test (BS 5058:1973, ISO 9073-9's drapemeter), simulated:
+// a circular specimen 30 cm across, held between two discs 18 cm across,
+// drapes under its own weight into folds; the drape coefficient is its
+// shadow from above beyond the disc over its area beyond the disc (0: it
+// hangs straight down, 1: it stays flat). The rectangular stitch mesh is
+// cut to the circle (StitchCloth::cut) and the discs are pins.
+
+#include <cmath>
+#include <cstdio>
+#include <numbers>
+
+#include <gtest/gtest.h>
+
+#include "psrig/cloth/stitch_cloth.h"
+
+namespace psrig::cloth {
+namespace {
+
+struct CusickResult {
+  double drape_coefficient = 0;
+  int nodes = 0;        // folds round the specimen
+  float lowest_mm = 0;  // the edge's lowest point below the disc
+};
+
+CusickResult cusick(const KnitMaterial& material) {
+  constexpr float kSpecimen = 150, kDisc = 90;  // radii, mm
+  // Faces coarser than a stitch (the material is per unit width, so the
+  // cloth's stiffness is the same); 5 mm resolves folds centimetres long.
+  constexpr float kFace = 5;
+  constexpr int kFaces = 64;
+  // A specimen is never perfectly flat: a ripple of a fraction of a
+  // millimetre, which a perfectly symmetric sheet needs to buckle at all.
+  StitchMesh flat = make_stitch_mesh(kFaces, kFaces, kFace, kFace, ClothShape::flat);
+  for (Eigen::Vector3f& v : flat.vertices)
+    v.z() =
+        0.3f * std::sin(0.37f * v.x() + 0.11f * v.y()) * std::cos(0.23f * v.y() - 0.05f * v.x());
+  StitchCloth cloth(flat, material);
+  const StitchMesh& rest = cloth.mesh();
+  std::vector<bool> removed(rest.vertices.size());
+  for (std::size_t i = 0; i < rest.vertices.size(); ++i)
+    removed[i] = rest.vertices[i].head<2>().norm() > kSpecimen;
+  cloth.cut(removed);
+  for (int row = 0; row <= kFaces; ++row)
+    for (int column = 0; column <= kFaces; ++column)
+      if (rest.vertex(column, row).head<2>().norm() <= kDisc) cloth.pin(column, row);
+  for (int frame = 0; frame < 600; ++frame)
+    cloth.step(1.0f / 60);
+
+  // The shadow from above of every face left whole, on a 1 mm grid.
+  const StitchMesh& mesh = cloth.mesh();
+  constexpr float kCell = 1;
+  constexpr int kCells = static_cast<int>(2 * (kSpecimen + 10) / kCell);
+  std::vector<std::uint8_t> shadow(static_cast<std::size_t>(kCells * kCells), 0);
+  const auto cross = [](Eigen::Vector2f p, Eigen::Vector2f q, Eigen::Vector2f r) {
+    return (q.x() - p.x()) * (r.y() - p.y()) - (q.y() - p.y()) * (r.x() - p.x());
+  };
+  const auto cover = [&](Eigen::Vector2f a, Eigen::Vector2f b, Eigen::Vector2f c) {
+    const float area = cross(a, b, c);
+    if (std::abs(area) < 1e-9f) return;
+    const Eigen::Vector2f low = a.cwiseMin(b).cwiseMin(c), high = a.cwiseMax(b).cwiseMax(c);
+    const float origin = kSpecimen + 10;
+    for (int j = std::max(0, static_cast<int>((low.y() + origin) / kCell));
+         j <= std::min(kCells - 1, static_cast<int>((high.y() + origin) / kCell)); ++j)
+      for (int i = std::max(0, static_cast<int>((low.x() + origin) / kCell));
+           i <= std::min(kCells - 1, static_cast<int>((high.x() + origin) / kCell)); ++i) {
+        const Eigen::Vector2f p((static_cast<float>(i) + 0.5f) * kCell - origin,
+                                (static_cast<float>(j) + 0.5f) * kCell - origin);
+        const float u = cross(b, c, p) / area, v = cross(c, a, p) / area;
+        if (u >= 0 && v >= 0 && u + v <= 1) shadow[static_cast<std::size_t>(j * kCells + i)] = 1;
+      }
+  };
+  CusickResult result;
+  const auto index = [&](int column, int row) {
+    return static_cast<std::size_t>(row * (kFaces + 1) + column);
+  };
+  double cut_area = 0;  // the specimen as the mesh cuts it (its faces left whole)
+  for (int row = 0; row < kFaces; ++row)
+    for (int column = 0; column < kFaces; ++column) {
+      if (removed[index(column, row)] || removed[index(column + 1, row)] ||
+          removed[index(column, row + 1)] || removed[index(column + 1, row + 1)])
+        continue;
+      cut_area += kFace * kFace;
+      const auto at = [&](int c, int r) { return Eigen::Vector2f(mesh.vertex(c, r).head<2>()); };
+      cover(at(column, row), at(column + 1, row), at(column + 1, row + 1));
+      cover(at(column, row), at(column + 1, row + 1), at(column, row + 1));
+    }
+  double shadow_area = 0;
+  for (const std::uint8_t covered : shadow)
+    shadow_area += covered;
+  shadow_area *= kCell * kCell;
+  const double disc_area = std::numbers::pi * kDisc * kDisc;
+  result.drape_coefficient = (shadow_area - disc_area) / (cut_area - disc_area);
+  // Nodes: along each ray from the centre the shadow's reach; a fold is
+  // a run of rays reaching further than the mean.
+  constexpr int kRays = 720;
+  std::vector<double> reach(kRays, 0);
+  for (int ray = 0; ray < kRays; ++ray) {
+    const double angle = 2 * std::numbers::pi * ray / kRays;
+    for (double r = kDisc; r <= kSpecimen + 5; r += 0.5) {
+      const int i = static_cast<int>((r * std::cos(angle) + kSpecimen + 10) / kCell);
+      const int j = static_cast<int>((r * std::sin(angle) + kSpecimen + 10) / kCell);
+      if (shadow[static_cast<std::size_t>(j * kCells + i)] != 0) reach[ray] = r;
+    }
+  }
+  // Smoothed over 10 degrees: a node is a fold, not the mesh's jag.
+  std::vector<double> smooth(kRays, 0);
+  double mean = 0;
+  for (int ray = 0; ray < kRays; ++ray) {
+    for (int k = -10; k <= 10; ++k)
+      smooth[ray] += reach[(ray + k + kRays) % kRays] / 21;
+    mean += smooth[ray] / kRays;
+  }
+  int changes = 0;
+  for (int ray = 0; ray < kRays; ++ray)
+    changes += (smooth[ray] > mean) != (smooth[(ray + 1) % kRays] > mean);
+  result.nodes = changes / 2;
+  for (const Eigen::Vector3f& v : mesh.vertices)
+    result.lowest_mm = std::min(result.lowest_mm, v.z());
+  return result;
+}
+
+// Disabled until the cloth folds into nodes: jersey (the default
+// material: 220 g/m^2, bending 1 and 2 uN m) drapes to a coefficient of
+// 0.09 (0.10 with no free squeeze) and hangs from the disc as a
+// near-vertical skirt (its edge 64 mm below the disc, 60 mm out), rippled
+// into about 10 small folds that barely reach past the disc, where
+// Cusick's specimens fall into 4 to 8 nodes (the method as described at
+// https://mapofsciences.com/topic/drape-coefficient-testing/). With no
+// self-collision the specimen's circumference beyond the disc's folds
+// through itself and its squeezed courses give way, so nothing pushes the
+// folds out (cloth/README.md). No published drape coefficient of single
+// jersey was at hand to compare the 0.09 with.
+TEST(CusickDrape, DISABLED_SingleJerseyFallsIntoNodes) {
+  const CusickResult jersey = cusick({});
+  std::printf("Cusick: drape coefficient %.2f, %d nodes, the edge %.0f mm below the disc\n",
+              jersey.drape_coefficient, jersey.nodes, -jersey.lowest_mm);
+  EXPECT_GE(jersey.nodes, 4);
+  EXPECT_LE(jersey.nodes, 8);
+}
+
+}  // namespace
+}  // namespace psrig::cloth
