@@ -11,6 +11,7 @@
 
 #include <gtest/gtest.h>
 
+#include "drape_shadow.h"
 #include "psrig/cloth/stitch_cloth.h"
 
 namespace psrig::cloth {
@@ -49,26 +50,7 @@ CusickResult cusick(const KnitMaterial& material) {
   // The shadow from above of every face left whole, on a 1 mm grid.
   const StitchMesh& mesh = cloth.mesh();
   constexpr float kCell = 1;
-  constexpr int kCells = static_cast<int>(2 * (kSpecimen + 10) / kCell);
-  std::vector<std::uint8_t> shadow(static_cast<std::size_t>(kCells * kCells), 0);
-  const auto cross = [](Eigen::Vector2f p, Eigen::Vector2f q, Eigen::Vector2f r) {
-    return (q.x() - p.x()) * (r.y() - p.y()) - (q.y() - p.y()) * (r.x() - p.x());
-  };
-  const auto cover = [&](Eigen::Vector2f a, Eigen::Vector2f b, Eigen::Vector2f c) {
-    const float area = cross(a, b, c);
-    if (std::abs(area) < 1e-9f) return;
-    const Eigen::Vector2f low = a.cwiseMin(b).cwiseMin(c), high = a.cwiseMax(b).cwiseMax(c);
-    const float origin = kSpecimen + 10;
-    for (int j = std::max(0, static_cast<int>((low.y() + origin) / kCell));
-         j <= std::min(kCells - 1, static_cast<int>((high.y() + origin) / kCell)); ++j)
-      for (int i = std::max(0, static_cast<int>((low.x() + origin) / kCell));
-           i <= std::min(kCells - 1, static_cast<int>((high.x() + origin) / kCell)); ++i) {
-        const Eigen::Vector2f p((static_cast<float>(i) + 0.5f) * kCell - origin,
-                                (static_cast<float>(j) + 0.5f) * kCell - origin);
-        const float u = cross(b, c, p) / area, v = cross(c, a, p) / area;
-        if (u >= 0 && v >= 0 && u + v <= 1) shadow[static_cast<std::size_t>(j * kCells + i)] = 1;
-      }
-  };
+  DrapeShadow shadow(kSpecimen + 10, kCell);
   CusickResult result;
   const auto index = [&](int column, int row) {
     return static_cast<std::size_t>(row * (kFaces + 1) + column);
@@ -81,13 +63,10 @@ CusickResult cusick(const KnitMaterial& material) {
         continue;
       cut_area += kFace * kFace;
       const auto at = [&](int c, int r) { return Eigen::Vector2f(mesh.vertex(c, r).head<2>()); };
-      cover(at(column, row), at(column + 1, row), at(column + 1, row + 1));
-      cover(at(column, row), at(column + 1, row + 1), at(column, row + 1));
+      shadow.cover(at(column, row), at(column + 1, row), at(column + 1, row + 1));
+      shadow.cover(at(column, row), at(column + 1, row + 1), at(column, row + 1));
     }
-  double shadow_area = 0;
-  for (const std::uint8_t covered : shadow)
-    shadow_area += covered;
-  shadow_area *= kCell * kCell;
+  const double shadow_area = shadow.area_mm2();
   const double disc_area = std::numbers::pi * kDisc * kDisc;
   result.drape_coefficient = (shadow_area - disc_area) / (cut_area - disc_area);
   // Nodes: along each ray from the centre the shadow's reach; a fold is
@@ -97,9 +76,9 @@ CusickResult cusick(const KnitMaterial& material) {
   for (int ray = 0; ray < kRays; ++ray) {
     const double angle = 2 * std::numbers::pi * ray / kRays;
     for (double r = kDisc; r <= kSpecimen + 5; r += 0.5) {
-      const int i = static_cast<int>((r * std::cos(angle) + kSpecimen + 10) / kCell);
-      const int j = static_cast<int>((r * std::sin(angle) + kSpecimen + 10) / kCell);
-      if (shadow[static_cast<std::size_t>(j * kCells + i)] != 0) reach[ray] = r;
+      if (shadow.covers(
+              {static_cast<float>(r * std::cos(angle)), static_cast<float>(r * std::sin(angle))}))
+        reach[ray] = r;
     }
   }
   // Smoothed over 10 degrees: a node is a fold, not the mesh's jag.

@@ -12,6 +12,7 @@
 
 #include <gtest/gtest.h>
 
+#include "drape_shadow.h"
 #include "psrig/base/parallel.h"
 #include "psrig/cloth/drape_scene.h"
 
@@ -197,38 +198,17 @@ BallDrape drape_over_a_ball(const KnitMaterial& material) {
   const float flat_area = mesh.face_width_mm * static_cast<float>(mesh.columns) *
                           mesh.face_height_mm * static_cast<float>(mesh.rows);
   const float reach = 2 * ball.radius + 0.5f * std::sqrt(flat_area);
-  const int n = static_cast<int>(2 * reach / cell);
-  std::vector<std::uint8_t> shadow(static_cast<std::size_t>(n) * static_cast<std::size_t>(n), 0);
-  const auto cross = [](Eigen::Vector2f p, Eigen::Vector2f q, Eigen::Vector2f r) {
-    return (q.x() - p.x()) * (r.y() - p.y()) - (q.y() - p.y()) * (r.x() - p.x());
-  };
-  const auto cover = [&](Eigen::Vector2f a, Eigen::Vector2f b, Eigen::Vector2f c) {
-    const float area = cross(a, b, c);
-    if (std::abs(area) < 1e-9f) return;
-    const Eigen::Vector2f low = a.cwiseMin(b).cwiseMin(c), high = a.cwiseMax(b).cwiseMax(c);
-    for (int j = std::max(0, static_cast<int>((low.y() + reach) / cell));
-         j <= std::min(n - 1, static_cast<int>((high.y() + reach) / cell)); ++j)
-      for (int i = std::max(0, static_cast<int>((low.x() + reach) / cell));
-           i <= std::min(n - 1, static_cast<int>((high.x() + reach) / cell)); ++i) {
-        const Eigen::Vector2f p((static_cast<float>(i) + 0.5f) * cell - reach,
-                                (static_cast<float>(j) + 0.5f) * cell - reach);
-        const float u = cross(b, c, p) / area, v = cross(c, a, p) / area;
-        if (u >= 0 && v >= 0 && u + v <= 1)
-          shadow[static_cast<std::size_t>(j) * static_cast<std::size_t>(n) + static_cast<std::size_t>(i)] = 1;
-      }
-  };
+  DrapeShadow shadow(reach, cell);
   const auto ground = [&](int column, int row) {
     const Eigen::Vector3f& v = mesh.vertex(column, row);
     return Eigen::Vector2f(v.x() - ball.centre.x(), v.z() - ball.centre.z());
   };
   for (int row = 0; row < mesh.rows; ++row)
     for (int column = 0; column < mesh.columns; ++column) {
-      cover(ground(column, row), ground(column + 1, row), ground(column + 1, row + 1));
-      cover(ground(column, row), ground(column + 1, row + 1), ground(column, row + 1));
+      shadow.cover(ground(column, row), ground(column + 1, row), ground(column + 1, row + 1));
+      shadow.cover(ground(column, row), ground(column + 1, row + 1), ground(column, row + 1));
     }
-  double shadow_area = 0;
-  for (const std::uint8_t covered : shadow) shadow_area += covered;
-  shadow_area *= cell * cell;
+  const double shadow_area = shadow.area_mm2();
   const double ball_area = std::numbers::pi * ball.radius * ball.radius;
   drape.drape_coefficient = (shadow_area - ball_area) / (flat_area - ball_area);
   return drape;

@@ -7,6 +7,7 @@
 #include <string>
 
 #include "gl_program.h"
+#include "grid_indices.h"
 #include "psrig/preview/texture_levels.h"
 
 namespace psrig::preview {
@@ -136,17 +137,7 @@ void ScanSurface::update(const cloth::StitchMesh& mesh, const EnvironmentLight& 
   if (mesh.columns != columns_ || mesh.rows != rows_) {
     columns_ = mesh.columns;
     rows_ = mesh.rows;
-    std::vector<std::uint32_t> indices;
-    indices.reserve(static_cast<std::size_t>(columns_ * rows_) * 6);
-    const auto vertex = [&](int column, int row) {
-      return static_cast<std::uint32_t>(row * (columns_ + 1) + column);
-    };
-    for (int row = 0; row < rows_; ++row)
-      for (int column = 0; column < columns_; ++column)
-        for (const std::uint32_t index :
-             {vertex(column, row), vertex(column + 1, row), vertex(column + 1, row + 1),
-              vertex(column, row), vertex(column + 1, row + 1), vertex(column, row + 1)})
-          indices.push_back(index);
+    const std::vector<std::uint32_t> indices = grid_triangle_indices(columns_, rows_);
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, gl.indices);
     glBufferData(GL_ELEMENT_ARRAY_BUFFER,
                  static_cast<GLsizeiptr>(indices.size() * sizeof(std::uint32_t)), indices.data(),
