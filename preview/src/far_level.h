@@ -5,6 +5,8 @@
 // (far_cloth.h). A bake is made when a frame needs the far level and the
 // last one no longer stands for it: the light, the view's direction, the
 // style or the repeat's shape changed (by more than the options allow).
+// A weave given its material (set_woven) is drawn by the neural woven BSDF
+// instead (woven_far_cloth.h): no bake.
 
 #include <memory>
 #include <optional>
@@ -12,6 +14,7 @@
 #include "psrig/preview/far_cloth.h"
 #include "psrig/preview/offscreen_target.h"
 #include "psrig/preview/repeat_texture.h"
+#include "psrig/preview/woven_far_cloth.h"
 #include "psrig/preview/yarn_renderer.h"
 
 namespace psrig::preview {
@@ -20,14 +23,23 @@ class FarLevel {
  public:
   [[nodiscard]] static Result<std::unique_ptr<FarLevel>> create(const YarnRendererOptions& options);
 
+  // The weave the yarns are, drawn by the neural decoder from now on
+  // (the weights loaded from `weights` the first time).
+  [[nodiscard]] Status set_woven(const WovenFarMaterial& material,
+                                 const std::filesystem::path& weights);
+  [[nodiscard]] bool neural() const { return woven_ != nullptr; }
+  [[nodiscard]] const WovenFarCloth* woven() const { return woven_.get(); }
+
   // The cloth's yarns and surface; false when they have none to draw with.
   bool update(const cloth::YarnSet& yarns);
-  [[nodiscard]] bool available() const { return window_.has_value() && cloth_->ready(); }
+  [[nodiscard]] bool available() const {
+    return window_.has_value() && (woven_ ? woven_->ready() : cloth_->ready());
+  }
   [[nodiscard]] bool has_surface() const { return window_.has_value(); }
   // Bakes the repeat when the last bake no longer stands for `frame` and
   // `view`; then framebuffer `target` is bound again with `viewport`.
   void prepare(const KnitFrame& frame, const KnitView& view, unsigned target, cv::Size viewport);
-  void draw(const KnitFrame& frame, const FarClothDraw& how) const { cloth_->draw(frame, how); }
+  void draw(const KnitFrame& frame, const FarClothDraw& how) const;
 
   [[nodiscard]] int bakes() const { return bakes_; }
   [[nodiscard]] int triangles() const { return cloth_->triangles(); }
@@ -48,6 +60,11 @@ class FarLevel {
   std::unique_ptr<YarnRenderer> baker_;
   std::unique_ptr<FarCloth> cloth_;
   std::unique_ptr<OffscreenTarget> target_;
+  std::unique_ptr<WovenFarCloth> woven_;
+  // The frame's framebuffer and viewport (prepare's): the neural level
+  // decodes into its own first.
+  unsigned frame_target_ = 0;
+  cv::Size frame_viewport_;
   std::optional<RepeatWindow> window_;  // this frame's
   // The yarns about the window as last taken, and the window then (what a
   // bake draws: the cloth may have moved since, as long as it kept shape).

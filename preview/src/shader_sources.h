@@ -24,5 +24,7 @@ extern const ShaderSource woven_decoder_vert;  // the neural woven BSDF's decode
 extern const ShaderSource woven_decoder_frag;
 extern const ShaderSource far_cloth_vert;  // the far level (far_cloth.h)
 extern const ShaderSource far_cloth_frag;
+extern const ShaderSource woven_far_vert;  // the neural far level (woven_far_cloth.h)
+extern const ShaderSource woven_composite_frag;
 
 }  // namespace psrig::preview::shaders
