@@ -264,9 +264,9 @@ TEST_P(WovenFarCaseTest, GpuFarViewIsTheCpuNeuralRender) {
 // --gtest_also_run_disabled_tests; it prints each case, and
 // PSRIG_WOVEN_FAR_DIR=dir writes neural | reference there). With the
 // shipped weights (28 materials, 40 K steps) the mean colour is within 3 %
-// head on (plain 0.993x, twill 0.985x) but not for satin head on (0.959x)
+// head on (plain 0.993x, twill 0.984x) but not for satin head on (0.959x)
 // nor obliquely (plain 0.850x, twill 0.945x, satin 0.877x), and the RMSE is
-// 17.9 and 17.2 (plain), 36.3 and 33.6 (twill), 33.7 and 35.4 (satin): at
+// 17.8 and 17.1 (plain), 36.1 and 33.4 (twill), 33.5 and 35.1 (satin): at
 // 3 to 5 pixels a repeat the reference shows the twill's diagonal and the
 // satin's floats in full contrast, the decoder about half of it (its
 // answer for a footprint a quarter of a repeat wide is smoother than the
@@ -292,14 +292,29 @@ TEST_P(WovenFarCaseTest, DISABLED_NeuralFarViewIsTheFabricModelFiltered) {
         cloth::render_woven_reference(*surface, shading, weave->material.colours,
                                       model_camera_of(view, *weave, kWovenFrame, kScale, crop),
                                       model_light_of(view, *weave), kRays, 1);
-    cv::Mat filtered;
-    cv::resize(bgr_of_woven(truth), filtered, crop.size(), 0, 0, cv::INTER_AREA);
-    const cv::Mat reference = testing::srgb_codes(filtered);
+    const auto filtered = [&](const cloth::WovenImage& image) {
+      cv::Mat down;
+      cv::resize(bgr_of_woven(image), down, crop.size(), 0, 0, cv::INTER_AREA);
+      return testing::srgb_codes(down);
+    };
+    const cv::Mat reference = filtered(truth);
     const cv::Mat mask = cloth_mask(weave->yarns.bounds(), view, kWovenFrame, 4)(crop).clone();
     ASSERT_GT(cv::countNonZero(mask), 20000) << named.name;
     const WovenComparison result = compare_woven(gpu, reference, mask);
-    std::printf("neural far vs fabric model: %-10s %3d %-8s mean colour %.3fx, RMSE %.1f\n",
-                param.weave, param.threads, named.name, result.ratio, result.rmse);
+    // The reference converged: another seed's within 3 codes RMSE (each
+    // then about 2 codes off the converged picture, small beside the 8 of
+    // the goal; 1.2 to 2.1 measured).
+    const WovenComparison noise =
+        compare_woven(filtered(cloth::render_woven_reference(
+                          *surface, shading, weave->material.colours,
+                          model_camera_of(view, *weave, kWovenFrame, kScale, crop),
+                          model_light_of(view, *weave), kRays, 2)),
+                      reference, mask);
+    EXPECT_LE(noise.rmse, 3.0) << named.name;
+    std::printf(
+        "neural far vs fabric model: %-10s %3d %-8s mean colour %.3fx, RMSE %.1f "
+        "(reference against another seed's: RMSE %.2f)\n",
+        param.weave, param.threads, named.name, result.ratio, result.rmse, noise.rmse);
     EXPECT_NEAR(result.ratio, 1.0, 0.03) << named.name;
     EXPECT_LE(result.rmse, 8.0) << named.name;
     write_woven_pictures(std::string("model-") + param.weave + "-" + named.name, {gpu, reference});
