@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <cstdlib>
 #include <filesystem>
+#include <memory>
 #include <numbers>
 #include <optional>
 #include <string>
@@ -191,6 +192,32 @@ class WovenFarLevelTest : public ::testing::Test {
 
   std::unique_ptr<EglContext> context_;
 };
+
+// chen2024 4.3's editing: k_d and k_s are the shader's uniforms, so a
+// colour edit re-runs nothing; alpha (or the pattern) re-runs the encoder.
+TEST_F(WovenFarLevelTest, AColourEditNeedsNoEncoding) {
+  const auto weave = load_shipped_weave("twill-2x2", 8);
+  ASSERT_TRUE(weave);
+  auto network = cloth::WovenNetwork::load(find_woven_weights());
+  ASSERT_TRUE(network) << network.error().describe();
+  auto far =
+      WovenFarCloth::create(std::make_shared<const cloth::WovenNetwork>(std::move(*network)));
+  ASSERT_TRUE(far) << far.error().describe();
+  WovenFarMaterial material = weave->material;
+  ASSERT_TRUE((*far)->set_material(material));
+  EXPECT_EQ((*far)->encodes(), 1);
+  material.colours.warp_diffuse = {0.6F, 0.1F, 0.1F};
+  material.colours.weft_specular = Eigen::Vector3f::Constant(0.1F);
+  ASSERT_TRUE((*far)->set_material(material));
+  EXPECT_EQ((*far)->encodes(), 1) << "a colour edit is uniforms only";
+  material.parameters.alpha = 0.3F;
+  ASSERT_TRUE((*far)->set_material(material));
+  EXPECT_EQ((*far)->encodes(), 2) << "a roughness edit re-runs the encoder";
+  material.weave = cloth::WeaveMatrix{};
+  material.weave.name = "empty";
+  EXPECT_FALSE((*far)->set_material(material)) << "an empty weave cannot be encoded";
+  EXPECT_EQ((*far)->material().parameters.alpha, 0.3F) << "the last good material stays";
+}
 
 struct WovenCase {
   const char* weave;
