@@ -21,6 +21,7 @@
 #include "psrig/preview/cloth_model.h"
 #include "psrig/preview/patch_tile.h"
 #include "psrig/preview/scan_cloth.h"
+#include "psrig/preview/woven_far_cloth.h"
 #include "psrig/preview/yarn_renderer.h"
 
 namespace psrig::preview::cli {
@@ -39,6 +40,8 @@ struct KnitArgs {
   std::string from_scan;
   std::string environment = "studio";
   std::string lod = "auto";
+  std::string woven_far = "baked";
+  float woven_decode_scale = 1;
   double yaw = 0, pitch = 0, distance = 0;
   double light_tilt = 45, light_slant = 45;
   int samples = kDefaultSamples;
@@ -138,9 +141,20 @@ Result<YarnCanvas> open_canvas(const KnitArgs& args, cv::Size size) {
   YarnRendererOptions options;
   options.environment = *environment;
   options.level = yarn_level(args.lod);
+  options.woven_far = args.woven_far == "neural" ? WovenFar::neural : WovenFar::baked;
+  options.woven_decode_scale = args.woven_decode_scale;
   auto renderer = YarnRenderer::create(options);
   if (!renderer) return std::unexpected(renderer.error());
   return YarnCanvas{std::move(*canvas), std::move(*renderer)};
+}
+
+// A weave's far level is its own material's with --woven-far neural (set_woven does
+// nothing otherwise).
+Status give_weave(YarnRenderer& renderer, const ClothModel& cloth) {
+  const cloth::WovenFabric* woven = cloth.woven_fabric();
+  if (woven == nullptr) return {};
+  return renderer.set_woven(
+      woven_far_material(woven->weave(), woven->warp_colour(), woven->weft_colour()));
 }
 
 int render(const KnitArgs& args, bool shear_given) {
@@ -176,6 +190,8 @@ int render(const KnitArgs& args, bool shear_given) {
       std::cerr << "psrig-preview knit: warning: " << ok.error().describe()
                 << " (the far level is the knit's own repeat)\n";
   }
+  if (auto given = give_weave(*canvas->renderer, *cloth); !given)
+    return report_error("knit", given.error());
   canvas->renderer->update(yarns);
   canvas->target->bind();
   canvas->renderer->render(knit_view(args), *size);
@@ -207,6 +223,8 @@ int bench(const KnitArgs& args) {
     auto cloth = ClothModel::load(args.pattern, side, side, std::nullopt, cloth_shape(args),
                                   args.cloth_size);
     if (!cloth) return report_error("knit", cloth.error());
+    if (auto given = give_weave(*canvas->renderer, *cloth); !given)
+      return report_error("knit", given.error());
     cloth::YarnSet yarns;
     std::vector<double> update_ms, upload_ms, frame_ms, cpu_ms, render_cpu_ms;
     for (int frame = -2; frame < args.frames; ++frame) {  // two untimed warm-up frames
@@ -238,9 +256,12 @@ int bench(const KnitArgs& args) {
     std::cout << (first ? "" : ", ") << "{\"stitches\": " << side * side
               << ", \"yarn_points\": " << yarns.point_count()
               << ", \"strip_vertices\": " << canvas->renderer->last_strip_vertices()
+              << ", \"far_cloth\": "
+              << (!canvas->renderer->last_drew_far_cloth() ? "null"
+                  : canvas->renderer->neural_far()         ? "\"neural\""
+                                                           : "\"baked\"")
               << ", \"yarn_update_ms\": " << mean(update_ms)
-              << ", \"yarn_upload_ms\": " << mean(upload_ms)
-              << ", \"frame_ms\": " << mean(frame_ms)
+              << ", \"yarn_upload_ms\": " << mean(upload_ms) << ", \"frame_ms\": " << mean(frame_ms)
               << ", \"frame_ms_median\": " << median(frame_ms)
               << ", \"frame_cpu_ms\": " << mean(cpu_ms)
               << ", \"render_cpu_ms\": " << mean(render_cpu_ms)
@@ -306,6 +327,16 @@ Command add_knit_command(CLI::App& parent) {
       ->check(CLI::Range(0.0, 90.0))
       ->capture_default_str();
   add_lod_option(*app, args->lod);
+  app->add_option("--woven-far", args->woven_far,
+                  "A weave's far level: baked (one repeat drawn at the near level, as for knits) "
+                  "or neural (each pixel the neural woven BSDF, chen2024; seconds a frame on "
+                  "llvmpipe)")
+      ->check(CLI::IsMember({"neural", "baked"}))
+      ->capture_default_str();
+  app->add_option("--woven-decode-scale", args->woven_decode_scale,
+                  "The neural far level decodes at 1/SCALE of the frame's resolution (cheaper)")
+      ->check(CLI::Range(1.0, 8.0))
+      ->capture_default_str();
   add_samples_option(*app, args->samples);
   app->add_flag("--no-shadows", args->no_shadows,
                 "No yarn-on-yarn shadows (no shadow map: cheaper on a weak GPU)");

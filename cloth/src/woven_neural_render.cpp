@@ -22,12 +22,20 @@ WovenImage render_woven_neural(const WovenNetwork& network, const WovenDecoderMa
                                const Eigen::Vector2f& repeat_size, const YarnColours& colours,
                                const WovenView& view, const WovenLight& light, int width,
                                int height) {
+  if (width <= 0 || height <= 0) return {};
+  return render_woven_neural(network, material, repeat_size, colours,
+                             WovenCamera::look(view, width, height), light);
+}
+
+WovenImage render_woven_neural(const WovenNetwork& network, const WovenDecoderMaterial& material,
+                               const Eigen::Vector2f& repeat_size, const YarnColours& colours,
+                               const WovenCamera& camera, const WovenLight& light) {
   WovenImage image;
+  const int width = camera.width, height = camera.height;
   if (width <= 0 || height <= 0) return image;
   image.width = width;
   image.height = height;
   image.rgb.assign(static_cast<std::size_t>(width) * height * 3, 0);
-  const WovenCamera camera = WovenCamera::look(view, width, height);
   const Eigen::Vector3f wi = light.direction.normalized();
   parallel_chunks(height, 1, [&](int begin, int end) {
     for (int y = begin; y < end; ++y)

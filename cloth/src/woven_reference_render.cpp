@@ -91,12 +91,21 @@ WovenImage render_woven_reference(const WovenSurface& surface, const WovenShadin
                                   const YarnColours& colours, const WovenView& view,
                                   const WovenLight& light, int width, int height, int spp,
                                   std::uint64_t seed, WovenEstimator estimator) {
+  if (width <= 0 || height <= 0) return {};
+  return render_woven_reference(surface, shading, colours, WovenCamera::look(view, width, height),
+                                light, spp, seed, estimator);
+}
+
+WovenImage render_woven_reference(const WovenSurface& surface, const WovenShading& shading,
+                                  const YarnColours& colours, const WovenCamera& camera,
+                                  const WovenLight& light, int spp, std::uint64_t seed,
+                                  WovenEstimator estimator) {
   WovenImage image;
+  const int width = camera.width, height = camera.height;
   if (width <= 0 || height <= 0 || spp <= 0) return image;
   image.width = width;
   image.height = height;
   image.rgb.assign(static_cast<std::size_t>(width) * height * 3, 0);
-  const WovenCamera camera = WovenCamera::look(view, width, height);
   const Eigen::Vector3f wi = light.direction.normalized();
   parallel_chunks(height, 1, [&](int begin, int end) {
     for (int y = begin; y < end; ++y)

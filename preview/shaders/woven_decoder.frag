@@ -2,8 +2,12 @@
 // The neural woven BSDF's decoder (chen2024 4.2-4.3) per pixel, the twin of
 // cloth/woven_network.cpp's WovenNetwork::decode: one-blob footprint ->
 // spatial fusion -> angular decoder -> C_warp, C_weft, g(S_warp), g(S_weft),
-// g inverted, shaded as f cos(theta_i) E with the material's colours and
-// written sRGB encoded. The per-material latent comes folded into the first
+// g inverted, shaded as E f with the material's colours (f carries eq. 3's
+// cosine, as the reference render's pixels do) and written sRGB encoded.
+// Or, with QUERIES_FROM_MESH, drawn over the woven far level's mesh
+// (woven_far.vert): the query made here from the mesh's varyings and the
+// result written premultiplied by the far level's share, linear (the
+// composite lays it over the frame). The per-material latent comes folded into the first
 // fusion layer's bias (u_fusion_bias), so a pixel pays only for the
 // footprint's share.
 //
@@ -30,9 +34,20 @@ vec4 weight_vector(int i) {
 }
 #endif
 
+#ifdef QUERIES_FROM_MESH
+in vec3 v_position;
+in vec2 v_repeat;
+in vec3 v_across;
+in vec3 v_normal;
+in float v_yarn_px;
+uniform vec3 u_eye;              // world, mm
+uniform vec4 u_light;            // position (w = 1) or direction toward it (w = 0)
+uniform vec2 u_fade_px;          // the far level from none (x) to all (y), x > y
+#else
 uniform sampler2D u_footprints;  // per pixel: u, v (repeats), size (repeats)
 uniform sampler2D u_incoming;    // per pixel: wi, cloth frame
 uniform sampler2D u_outgoing;    // per pixel: wo, cloth frame
+#endif
 uniform vec4 u_fusion_bias[FUSION4];
 uniform vec3 u_kd_warp, u_kd_weft, u_ks_warp, u_ks_weft;  // linear
 uniform float u_irradiance;      // the light's, at normal incidence
@@ -107,7 +122,34 @@ float srgb_encode(float linear) {
   return linear <= 0.0031308 ? 12.92 * linear : 1.055 * pow(linear, 1.0 / 2.4) - 0.055;
 }
 
+#ifdef QUERIES_FROM_MESH
+// The pixel's query (woven_neural_render.h's footprint_lookup): the centre,
+// the square of the footprint's area in repeats (from the derivatives of
+// the face coordinates), and the directions in the cloth's frame. Seen
+// from behind, the directions are mirrored through the cloth (its back is
+// shaded as its front).
+void mesh_query(out vec3 footprint, out vec3 wi, out vec3 wo) {
+  vec2 dx = dFdx(v_repeat), dy = dFdy(v_repeat);
+  footprint = vec3(v_repeat, sqrt(abs(dx.x * dy.y - dx.y * dy.x)));
+  vec3 n = normalize(v_normal);
+  vec3 x = normalize(v_across - dot(v_across, n) * n);
+  mat3 to_cloth = transpose(mat3(x, cross(n, x), n));
+  wo = to_cloth * normalize(u_eye - v_position);
+  wi = to_cloth * normalize(u_light.xyz - u_light.w * v_position);
+  if (wo.z < 0.0) {
+    wo.z = -wo.z;
+    wi.z = -wi.z;
+  }
+}
+#endif
+
 void main() {
+#ifdef QUERIES_FROM_MESH
+  float far = 1.0 - smoothstep(u_fade_px.y, u_fade_px.x, v_yarn_px);
+  if (far <= 0.0) discard;
+  vec3 footprint, wi, wo;
+  mesh_query(footprint, wi, wo);
+#else
   // Row 0 of the inputs is the frame's top row, as OffscreenTarget::read gives it.
   ivec2 size = textureSize(u_footprints, 0);
   ivec2 pixel = ivec2(gl_FragCoord.xy);
@@ -115,6 +157,7 @@ void main() {
   vec3 footprint = texelFetch(u_footprints, pixel, 0).xyz;
   vec3 wi = texelFetch(u_incoming, pixel, 0).xyz;
   vec3 wo = texelFetch(u_outgoing, pixel, 0).xyz;
+#endif
 
   float encoded[4 * BLOB4];
   vec2 position = footprint.xy - floor(footprint.xy);
@@ -154,6 +197,10 @@ void main() {
   float c_warp = max(raw.x, 0.0), c_weft = max(raw.y, 0.0);
   float s_warp = specular_from_g(raw.z), s_weft = specular_from_g(raw.w);
   vec3 f = u_kd_warp * c_warp + u_kd_weft * c_weft + u_ks_warp * s_warp + u_ks_weft * s_weft;
-  vec3 radiance = f * max(wi.z, 0.0) * u_irradiance;
+  vec3 radiance = wi.z > 0.0 ? f * u_irradiance : vec3(0.0);
+#ifdef QUERIES_FROM_MESH
+  fragment = vec4(far * radiance, far);
+#else
   fragment = vec4(srgb_encode(radiance.r), srgb_encode(radiance.g), srgb_encode(radiance.b), 1.0);
+#endif
 }

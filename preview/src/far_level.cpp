@@ -78,12 +78,28 @@ bool FarLevel::update_surface(const cloth::YarnSurface& surface) {
   return scan_mesh_;
 }
 
+Status FarLevel::set_woven(const WovenFarMaterial& material, const std::filesystem::path& weights) {
+  if (!woven_) {
+    auto network = cloth::WovenNetwork::load(weights);
+    if (!network) return std::unexpected(network.error());
+    auto woven =
+        WovenFarCloth::create(std::make_shared<const cloth::WovenNetwork>(std::move(*network)));
+    if (!woven) return std::unexpected(woven.error());
+    woven_ = std::move(*woven);
+  }
+  return woven_->set_material(material);
+}
+
 bool FarLevel::update(const cloth::YarnSet& yarns) {
   if (scan_) return update_surface(yarns.surface);
   window_ = middle_repeat(yarns.surface);
   if (window_ && !flat_like(yarns.surface.mesh, window_->normal(), options_.far_cloth_flat_degrees))
     window_.reset();
   if (!window_) return false;
+  if (woven_) {  // nothing to bake
+    woven_->update(yarns.surface);
+    return true;
+  }
   const bool same_style = taken_window_ && same_slice(yarns.style, near_yarns_.style) &&
                           yarns.style.colour == near_yarns_.style.colour;
   if (!same_style || !same_shape(*window_)) {
@@ -107,7 +123,9 @@ bool FarLevel::stands_for(const BakeKey& key) const {
 
 void FarLevel::prepare(const KnitFrame& frame, const KnitView& view, unsigned target,
                        cv::Size viewport) {
-  if (scan_ || !window_) return;
+  frame_target_ = target;
+  frame_viewport_ = viewport;
+  if (scan_ || !window_ || woven_) return;
   const Eigen::Vector3f toward_eye = frame.orthographic
                                          ? (frame.eye - frame.centre).normalized()
                                          : (frame.eye - window_->centre()).normalized();
@@ -117,6 +135,22 @@ void FarLevel::prepare(const KnitFrame& frame, const KnitView& view, unsigned ta
   baked_ = key;
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(target));
   glViewport(0, 0, viewport.width, viewport.height);
+}
+
+void FarLevel::draw(const KnitFrame& frame, const FarClothDraw& how) const {
+  if (scan_) {
+    scan_->draw(frame, how);
+    return;
+  }
+  if (!woven_) {
+    cloth_->draw(frame, how);
+    return;
+  }
+  woven_->draw(frame, {.fade = how,
+                       .irradiance = options_.woven_irradiance,
+                       .decode_scale = options_.woven_decode_scale,
+                       .target = frame_target_,
+                       .viewport = frame_viewport_});
 }
 
 // The repeat at `bake_yarn_texels` a yarn (rounded up to whole powers of

@@ -7,6 +7,8 @@
 // style or the repeat's shape changed (by more than the options allow).
 // Cloth a scan feeds has the scan as its far level instead (scan_surface.h):
 // no bake, and the surface alone is enough to draw it.
+// A weave given its material (set_woven) is drawn by the neural woven BSDF
+// instead (woven_far_cloth.h): no bake.
 
 #include <memory>
 #include <optional>
@@ -15,6 +17,7 @@
 #include "psrig/preview/offscreen_target.h"
 #include "psrig/preview/repeat_texture.h"
 #include "psrig/preview/scan_surface.h"
+#include "psrig/preview/woven_far_cloth.h"
 #include "psrig/preview/yarn_renderer.h"
 
 namespace psrig::preview {
@@ -26,6 +29,12 @@ class FarLevel {
   // The scan's tile stands for the cloth from now on (scan_surface.h).
   [[nodiscard]] Status use_scan(const PatchTile& tile);
   [[nodiscard]] bool scanned() const { return scan_ != nullptr; }
+  // The weave the yarns are, drawn by the neural decoder from now on
+  // (the weights loaded from `weights` the first time).
+  [[nodiscard]] Status set_woven(const WovenFarMaterial& material,
+                                 const std::filesystem::path& weights);
+  [[nodiscard]] bool neural() const { return woven_ != nullptr; }
+  [[nodiscard]] const WovenFarCloth* woven() const { return woven_.get(); }
 
   // The cloth's yarns and surface; false when they have none to draw with.
   bool update(const cloth::YarnSet& yarns);
@@ -33,18 +42,14 @@ class FarLevel {
   // scan is the far level (a bake needs the yarns about its repeat).
   bool update_surface(const cloth::YarnSurface& surface);
   [[nodiscard]] bool available() const {
-    return scan_ ? scan_mesh_ : window_.has_value() && cloth_->ready();
+    if (scan_) return scan_mesh_;
+    return window_.has_value() && (woven_ ? woven_->ready() : cloth_->ready());
   }
   [[nodiscard]] bool has_surface() const { return scan_ ? scan_mesh_ : window_.has_value(); }
   // Bakes the repeat when the last bake no longer stands for `frame` and
   // `view`; then framebuffer `target` is bound again with `viewport`.
   void prepare(const KnitFrame& frame, const KnitView& view, unsigned target, cv::Size viewport);
-  void draw(const KnitFrame& frame, const FarClothDraw& how) const {
-    if (scan_)
-      scan_->draw(frame, how);
-    else
-      cloth_->draw(frame, how);
-  }
+  void draw(const KnitFrame& frame, const FarClothDraw& how) const;
 
   [[nodiscard]] int bakes() const { return bakes_; }
   [[nodiscard]] int triangles() const { return scan_ ? scan_->triangles() : cloth_->triangles(); }
@@ -65,6 +70,11 @@ class FarLevel {
   std::unique_ptr<YarnRenderer> baker_;
   std::unique_ptr<FarCloth> cloth_;
   std::unique_ptr<OffscreenTarget> target_;
+  std::unique_ptr<WovenFarCloth> woven_;
+  // The frame's framebuffer and viewport (prepare's): the neural level
+  // decodes into its own first.
+  unsigned frame_target_ = 0;
+  cv::Size frame_viewport_;
   std::optional<RepeatWindow> window_;  // this frame's
   // The yarns about the window as last taken, and the window then (what a
   // bake draws: the cloth may have moved since, as long as it kept shape).

@@ -27,5 +27,7 @@ extern const ShaderSource far_cloth_vert;  // the far level (far_cloth.h)
 extern const ShaderSource far_cloth_frag;
 extern const ShaderSource scan_surface_vert;  // the scan as the far level (scan_surface.h)
 extern const ShaderSource scan_surface_frag;
+extern const ShaderSource woven_far_vert;  // the neural far level (woven_far_cloth.h)
+extern const ShaderSource woven_composite_frag;
 
 }  // namespace psrig::preview::shaders

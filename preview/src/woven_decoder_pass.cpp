@@ -112,11 +112,13 @@ cv::Vec3f woven_radiance(const cloth::WovenComponents& c, const WovenColours& co
                          float cos_incoming) {
   const cv::Vec3f f = colours.kd_warp * c.c_warp + colours.kd_weft * c.c_weft +
                       colours.ks_warp * c.s_warp + colours.ks_weft * c.s_weft;
-  return f * (std::max(cos_incoming, 0.0F) * colours.irradiance);
+  // f carries eq. (3)'s cosine already (woven_aggregate.h): E f, and
+  // nothing from a light below the cloth.
+  return cos_incoming > 0 ? f * colours.irradiance : cv::Vec3f(0, 0, 0);
 }
 
 Result<std::unique_ptr<WovenDecoderPass>> WovenDecoderPass::create(
-    const cloth::WovenNetwork& network, WovenWeightStorage storage) {
+    const cloth::WovenNetwork& network, WovenWeightStorage storage, WovenQuerySource source) {
   const WeightVectors weights = decoder_vectors(network.weights());
   const bool uniform_block = storage == WovenWeightStorage::uniform_block;
   if (uniform_block && !fits_a_uniform_block(weights.vectors.size())) {
@@ -124,10 +126,12 @@ Result<std::unique_ptr<WovenDecoderPass>> WovenDecoderPass::create(
         "the woven decoder's weights (" + std::to_string(weights.vectors.size() * 16) +
         " bytes) are more than this context's uniform blocks take: use the texture"));
   }
-  const std::string defines =
-      weights.defines + (uniform_block ? "#define WEIGHTS_IN_UNIFORM_BLOCK 1\n" : "");
-  auto program =
-      GlProgram::build(shaders::woven_decoder_vert, shaders::woven_decoder_frag, defines);
+  const bool mesh = source == WovenQuerySource::mesh;
+  const std::string defines = weights.defines +
+                              (uniform_block ? "#define WEIGHTS_IN_UNIFORM_BLOCK 1\n" : "") +
+                              (mesh ? "#define QUERIES_FROM_MESH 1\n" : "");
+  auto program = GlProgram::build(mesh ? shaders::woven_far_vert : shaders::woven_decoder_vert,
+                                  shaders::woven_decoder_frag, defines);
   if (!program) return std::unexpected(program.error());
   std::unique_ptr<WovenDecoderPass> pass(new WovenDecoderPass);
   pass->gl_ = std::make_unique<Gl>();
@@ -195,15 +199,30 @@ Status WovenDecoderPass::set_queries(const cv::Mat& footprints, const cv::Mat& i
   return {};
 }
 
+int WovenDecoderPass::uniform(const std::string& name) const {
+  return gl_->program->uniform(name);
+}
+
 void WovenDecoderPass::draw(const WovenColours& colours) const {
+  use(colours);
   const GlProgram& program = *gl_->program;
-  program.use();
   const char* names[3] = {"u_footprints", "u_incoming", "u_outgoing"};
   for (int unit = 0; unit < 3; ++unit) {
     glActiveTexture(GL_TEXTURE0 + static_cast<GLenum>(unit));
     glBindTexture(GL_TEXTURE_2D, gl_->queries[unit]);
     glUniform1i(program.uniform(names[unit]), unit);
   }
+  glDisable(GL_DEPTH_TEST);
+  glDisable(GL_BLEND);
+  glBindVertexArray(gl_->array);
+  glDrawArrays(GL_TRIANGLES, 0, 3);
+  glBindVertexArray(0);
+  glActiveTexture(GL_TEXTURE0);
+}
+
+void WovenDecoderPass::use(const WovenColours& colours) const {
+  const GlProgram& program = *gl_->program;
+  program.use();
   if (gl_->uniform_block) {
     glBindBufferBase(GL_UNIFORM_BUFFER, kWeightsBinding, gl_->weights);
   } else {
@@ -218,11 +237,6 @@ void WovenDecoderPass::draw(const WovenColours& colours) const {
   glUniform1f(program.uniform("u_irradiance"), colours.irradiance);
   glUniform1i(program.uniform("u_fusion4"), gl_->fusion_width / 4);
   glUniform1i(program.uniform("u_angular4"), gl_->angular_width / 4);
-  glDisable(GL_DEPTH_TEST);
-  glDisable(GL_BLEND);
-  glBindVertexArray(gl_->array);
-  glDrawArrays(GL_TRIANGLES, 0, 3);
-  glBindVertexArray(0);
   glActiveTexture(GL_TEXTURE0);
 }
 

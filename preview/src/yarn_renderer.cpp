@@ -202,6 +202,21 @@ int YarnRenderer::repeat_bakes() const {
   return far_ ? far_->bakes() : 0;
 }
 
+Status YarnRenderer::set_woven(const WovenFarMaterial& material) {
+  if (!far_ || options_.woven_far != WovenFar::neural) return {};
+  const std::filesystem::path weights =
+      options_.woven_weights.empty() ? find_woven_weights() : options_.woven_weights;
+  return far_->set_woven(material, weights);
+}
+
+bool YarnRenderer::neural_far() const {
+  return far_ && far_->neural();
+}
+
+float YarnRenderer::far_from_px() const {
+  return neural_far() ? options_.woven_far_from_px : options_.far_cloth_from_px;
+}
+
 // The slice and its mipmaps, made on the CPU (chen2003 eq. 11), as a
 // texture that repeats along the yarn and stops at the halo's edge.
 void YarnRenderer::upload_slice() {
@@ -605,8 +620,8 @@ YarnRenderer::FramePlan YarnRenderer::plan_frame(const KnitFrame& frame, const K
   // nothing else once every one is under far_cloth_full_px.
   const bool surface = far_ && far_->has_surface();
   plan.far_cloth = plan.drawing && surface &&
-                   (options.level == YarnLevel::far || (options.level == YarnLevel::automatic &&
-                                                        narrowest_px < options.far_cloth_from_px));
+                   (options.level == YarnLevel::far ||
+                    (options.level == YarnLevel::automatic && narrowest_px < far_from_px()));
   plan.yarns = plan.drawing && !surface_only_ &&
                (!plan.far_cloth ||
                 (options.level == YarnLevel::automatic && widest_px > options.far_cloth_full_px));
@@ -801,7 +816,7 @@ void YarnRenderer::render(const KnitFrame& frame, const KnitView& view, cv::Size
   if (plan.far_cloth) {
     const bool forced = options_.level == YarnLevel::far;
     far_->draw(frame, {.yarn_width_mm = 2 * plan.radius,
-                       .from_px = forced ? 2e9f : options_.far_cloth_from_px,
+                       .from_px = forced ? 2e9f : far_from_px(),
                        .full_px = forced ? 1e9f : options_.far_cloth_full_px,
                        .over_yarns = plan.yarns,
                        .background = view.background,

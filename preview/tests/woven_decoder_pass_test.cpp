@@ -139,7 +139,10 @@ class WovenDecoderPassTest : public ::testing::Test {
     EXPECT_LE(largest, 1) << "at column " << where.x / 3 << ", row " << where.y;
     cv::Scalar mean, deviation;
     cv::meanStdDev(expected.reshape(1), mean, deviation);
-    EXPECT_GT(deviation[0], 20) << "the frame is too flat to tell the decoders apart";
+    // A guard on the fixture, not a goal: the narrow network's frame
+    // deviates 18 codes since the shading stopped taking eq. (3)'s cosine
+    // twice (21 before).
+    EXPECT_GT(deviation[0], 15) << "the frame is too flat to tell the decoders apart";
   }
 
   std::unique_ptr<EglContext> context_;

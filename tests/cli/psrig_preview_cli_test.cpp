@@ -316,6 +316,34 @@ TEST(PsrigPreviewCli, KnitLodForcesALevel) {
   EXPECT_NE(bad.err.find("--lod"), std::string::npos) << bad.err;
 }
 
+TEST(PsrigPreviewCli, KnitWeaveFarLevelIsNeuralOrBaked) {
+  // A weave's far level is the repeat baked at the near level unless
+  // --woven-far neural asks for the neural woven BSDF's: two different
+  // pictures of the same cloth; --bench says which it drew.
+  TempDir temp;
+  const auto knit = [&](const std::string& far) {
+    const fs::path out = temp / (far + ".png");
+    const auto run =
+        run_program("psrig-preview", {"knit", shipped_pattern("twill-2x2.weave").string(), "--out",
+                                      out.string(), "--size", "240x180", "--stitches", "40",
+                                      "--rows", "40", "--lod", "far", "--woven-far", far});
+    EXPECT_EQ(run.exit_code, 0) << run.err;
+    return cv::imread(out.string());
+  };
+  const cv::Mat neural = knit("neural"), baked = knit("baked");
+  ASSERT_FALSE(neural.empty() || baked.empty());
+  EXPECT_GT(cv::norm(neural, baked, cv::NORM_L1), 0.0) << "two levels, two pictures";
+  const auto bench = run_program(
+      "psrig-preview", {"knit", shipped_pattern("twill-2x2.weave").string(), "--bench", "--size",
+                        "160x120", "--bench-stitches", "100", "--frames", "1", "--lod", "far"});
+  EXPECT_EQ(bench.exit_code, 0) << bench.err;
+  EXPECT_NE(bench.out.find("\"far_cloth\": \"baked\""), std::string::npos) << bench.out;
+  const auto bad =
+      run_program("psrig-preview", {"knit", "x.weave", "--out", "x.png", "--woven-far", "painted"});
+  EXPECT_EQ(bad.exit_code, 2);
+  EXPECT_NE(bad.err.find("--woven-far"), std::string::npos) << bad.err;
+}
+
 TEST(PsrigPreviewCli, KnitDrawsYarnsAndStretchOpensGaps) {
   TempDir temp;
   const auto knit = [&](const std::string& name, std::vector<std::string> extra,

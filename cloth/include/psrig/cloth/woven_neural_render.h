@@ -31,5 +31,11 @@ namespace psrig::cloth {
                                              const Eigen::Vector2f& repeat_size,
                                              const YarnColours& colours, const WovenView& view,
                                              const WovenLight& light, int width, int height);
+// The same through a camera placed by the caller.
+[[nodiscard]] WovenImage render_woven_neural(const WovenNetwork& network,
+                                             const WovenDecoderMaterial& material,
+                                             const Eigen::Vector2f& repeat_size,
+                                             const YarnColours& colours, const WovenCamera& camera,
+                                             const WovenLight& light);
 
 }  // namespace psrig::cloth

@@ -97,4 +97,13 @@ struct WovenCamera {
   [[nodiscard]] std::optional<Footprint> pixel_footprint(int x, int y) const;
 };
 
+// The same picture through a camera placed by the caller (the preview's
+// far view, whose camera is not a WovenView's: tests compare the two).
+[[nodiscard]] WovenImage render_woven_reference(const WovenSurface& surface,
+                                                const WovenShading& shading,
+                                                const YarnColours& colours,
+                                                const WovenCamera& camera, const WovenLight& light,
+                                                int spp, std::uint64_t seed,
+                                                WovenEstimator estimator = WovenEstimator::rays);
+
 }  // namespace psrig::cloth

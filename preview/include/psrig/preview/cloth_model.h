@@ -39,6 +39,10 @@ class ClothModel {
   // This deformation's yarns into `yarns` (storage reused).
   void update(cloth::ClothDeformation deformation, cloth::YarnSet& yarns);
   [[nodiscard]] bool woven() const { return std::holds_alternative<cloth::WovenFabric>(cloth_); }
+  // The weave and its yarns' colours (the neural far level's material), or none.
+  [[nodiscard]] const cloth::WovenFabric* woven_fabric() const {
+    return std::get_if<cloth::WovenFabric>(&cloth_);
+  }
   // What it is, in a few words: gauge or density and yarn.
   [[nodiscard]] std::string describe() const;
 

@@ -2,8 +2,8 @@
 // The neural woven BSDF's decoder per pixel in GLSL ES 3.0
 // (shaders/woven_decoder.frag), the twin of cloth::WovenNetwork::decode:
 // for now a standalone full-screen pass whose per-pixel queries (footprint
-// centre and size, wi, wo) come as float images, shaded as
-// f cos(theta_i) E with the material's colours and written sRGB encoded
+// centre and size, wi, wo) come as float images, shaded as E f with the
+// material's colours (f carries eq. 3's cosine) and written sRGB encoded
 // into the bound target. The yarn renderer's far view is where it goes
 // next. The decoder's weights live in an RGBA32F texture (or a uniform
 // block, where the context takes one that large); the material's latent
@@ -12,6 +12,7 @@
 // pattern or (alpha, beta) edit re-runs the encoder on the CPU.
 
 #include <memory>
+#include <string>
 
 #include <opencv2/core.hpp>
 
@@ -37,12 +38,18 @@ enum class WovenWeightStorage {
   uniform_block,  // 26 KB at the default sizes: an error where GL_MAX_UNIFORM_BLOCK_SIZE is less
 };
 
+// Where the per-pixel queries come from: float images (set_queries, a
+// full-screen pass), or the woven far level's mesh (woven_far_cloth.h: the
+// caller draws it with use()'s program; woven_far.vert).
+enum class WovenQuerySource { images, mesh };
+
 class WovenDecoderPass {
  public:
   // Compiles the shader for the network's sizes and uploads its decoder
   // weights. Needs a current GLES 3 context.
   [[nodiscard]] static Result<std::unique_ptr<WovenDecoderPass>> create(
-      const cloth::WovenNetwork& network, WovenWeightStorage storage = WovenWeightStorage::texture);
+      const cloth::WovenNetwork& network, WovenWeightStorage storage = WovenWeightStorage::texture,
+      WovenQuerySource source = WovenQuerySource::images);
   ~WovenDecoderPass();
   WovenDecoderPass(const WovenDecoderPass&) = delete;
   WovenDecoderPass& operator=(const WovenDecoderPass&) = delete;
@@ -55,6 +62,10 @@ class WovenDecoderPass {
                                    const cv::Mat& outgoing);
   // Draws the pass over the bound target's viewport.
   void draw(const WovenColours& colours) const;
+  // Binds the program with the weights and colours, for a caller that
+  // draws its own geometry; and that program's uniforms.
+  void use(const WovenColours& colours) const;
+  [[nodiscard]] int uniform(const std::string& name) const;
   [[nodiscard]] bool weights_in_uniform_block() const;
 
  private:
