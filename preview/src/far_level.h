@@ -6,7 +6,9 @@
 // last one no longer stands for it: the light, the view's direction, the
 // style or the repeat's shape changed (by more than the options allow).
 // Cloth a scan feeds has the scan as its far level instead (scan_surface.h):
-// no bake, and the surface alone is enough to draw it.
+// no bake, and the surface alone is enough to draw it. Draped cloth a chart
+// feeds (not flat) has the repeat's maps (repeat_maps.h), baked as the
+// repeat is and drawn the scan's way, lit from the mesh's normals.
 
 #include <memory>
 #include <optional>
@@ -33,7 +35,8 @@ class FarLevel {
   // scan is the far level (a bake needs the yarns about its repeat).
   bool update_surface(const cloth::YarnSurface& surface);
   [[nodiscard]] bool available() const {
-    return scan_ ? scan_mesh_ : window_.has_value() && cloth_->ready();
+    if (scan_) return scan_mesh_;
+    return window_.has_value() && (draped_now_ ? draped_ != nullptr : cloth_->ready());
   }
   [[nodiscard]] bool has_surface() const { return scan_ ? scan_mesh_ : window_.has_value(); }
   // Bakes the repeat when the last bake no longer stands for `frame` and
@@ -42,12 +45,17 @@ class FarLevel {
   void draw(const KnitFrame& frame, const FarClothDraw& how) const {
     if (scan_)
       scan_->draw(frame, how);
+    else if (draped_now_ && draped_)
+      draped_->draw(frame, how);
     else
       cloth_->draw(frame, how);
   }
 
   [[nodiscard]] int bakes() const { return bakes_; }
-  [[nodiscard]] int triangles() const { return scan_ ? scan_->triangles() : cloth_->triangles(); }
+  [[nodiscard]] int triangles() const {
+    if (scan_) return scan_->triangles();
+    return draped_now_ && draped_ ? draped_->triangles() : cloth_->triangles();
+  }
 
  private:
   // What a bake was made for (besides the yarns taken).
@@ -57,9 +65,15 @@ class FarLevel {
     bool shadows = true, fibre_detail = true;
   };
   FarLevel() = default;
-  [[nodiscard]] bool stands_for(const BakeKey& key) const;
+  // Whether `baked`, a bake's key, still stands for `key`.
+  [[nodiscard]] bool stands_for(const BakeKey& key, const std::optional<BakeKey>& baked) const;
   [[nodiscard]] bool same_shape(const RepeatWindow& window) const;
   void bake(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
+  // The taken window's yarns at the near level over black and over white.
+  bool bake_frames(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye,
+                   cv::Mat (&frames)[2]);
+  // The repeat's maps for draped cloth (repeat_maps.h).
+  void bake_draped(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
 
   YarnRendererOptions options_;
   std::unique_ptr<YarnRenderer> baker_;
@@ -75,6 +89,14 @@ class FarLevel {
   int bakes_ = 0;
   std::unique_ptr<ScanSurface> scan_;
   bool scan_mesh_ = false;  // the scan has a mesh with faces to lie on
+  // Draped chart-fed cloth: this frame's cloth is not flat; the repeat's
+  // maps on its mesh.
+  bool draped_now_ = false;
+  std::unique_ptr<ScanSurface> draped_;
+  std::optional<BakeKey> draped_baked_;
+  Eigen::Vector3f draped_normal_ = Eigen::Vector3f::Zero();  // the repeat's then
+  float draped_gain_ = 1;          // repeat_maps' gain, the light's on the maps
+  cloth::StitchMesh draped_mesh_;  // this frame's, for maps made after update()
 };
 
 }  // namespace psrig::preview

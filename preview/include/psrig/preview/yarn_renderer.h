@@ -132,6 +132,11 @@ struct YarnRendererOptions {
   // Only cloth whose faces all turn less than this from the middle
   // repeat's has the far level: the bake is lit and seen as that repeat is.
   float far_cloth_flat_degrees = 10.0f;
+  // Cloth that is not flat drawn from afar as the repeat's maps on its mesh
+  // (repeat_maps.h, scan_surface.h), lit per pixel from the mesh's normals:
+  // opaque as the near level, but Lambert is not the yarns' light (the
+  // ball's jersey 1.4x too red; preview/README.md), so off until it is.
+  bool far_cloth_draped_maps = false;
 };
 
 class FarLevel;
