@@ -34,7 +34,8 @@ vec3 srgb_encode(vec3 linear) {
 void main() {
   float far = u_over_yarns ? 1.0 - smoothstep(u_fade_px.y, u_fade_px.x, v_yarn_px) : 1.0;
   if (far <= 0.0) discard;
-  vec3 albedo = texture(u_albedo_alpha, v_uv).rgb;
+  vec4 albedo_alpha = texture(u_albedo_alpha, v_uv);
+  vec3 albedo = albedo_alpha.rgb;
   vec4 normal_gloss = texture(u_normal_gloss, v_uv);
   vec3 to_light = v_to_light;
   vec3 to_eye = v_to_eye;
@@ -49,5 +50,7 @@ void main() {
       : 1.0;
   vec3 colour = surface_lighting(albedo, normal_gloss, to_light, to_eye, ambient,
                                  u_light_colour * attenuation);
-  fragment = vec4(far * (u_encode_srgb ? srgb_encode(colour) : colour), far);
+  // The alpha map's coverage (a chart's repeat shows its gaps; a scan's is 1).
+  float cover = far * albedo_alpha.a;
+  fragment = vec4(cover * (u_encode_srgb ? srgb_encode(colour) : colour), cover);
 }

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "psrig/preview/repeat_maps.h"
 #include "psrig/preview/yarn_slice.h"
 
 namespace psrig::preview {
@@ -19,7 +20,7 @@ int repeat_side(float texels) {
 
 // Every face within `degrees` of facing as the window does: the bake is lit
 // and seen as the window is, so it stands for flat cloth only (a drape's
-// folds would all be shaded alike; its far level is left to do).
+// folds would all be shaded alike: they get the repeat's maps instead).
 bool flat_like(const cloth::StitchMesh& mesh, const Eigen::Vector3f& normal, float degrees) {
   const float least = std::cos(degrees * std::numbers::pi_v<float> / 180);
   for (int row = 0; row < mesh.rows; ++row)
@@ -30,6 +31,15 @@ bool flat_like(const cloth::StitchMesh& mesh, const Eigen::Vector3f& normal, flo
       if (face.squaredNorm() > 0 && face.normalized().dot(normal) < least) return false;
     }
   return true;
+}
+
+// How scan_surface.frag lights the scan's or the repeat's maps: the
+// yarns' lamp colour, the swatch's weights.
+ShadingParams surface_shading(const YarnRendererOptions& options) {
+  ShadingParams shading;
+  shading.light_colour = {options.shading.light_colour.x(), options.shading.light_colour.y(),
+                          options.shading.light_colour.z()};
+  return shading;
 }
 
 }  // namespace
@@ -61,10 +71,7 @@ bool FarLevel::same_shape(const RepeatWindow& window) const {
 }
 
 Status FarLevel::use_scan(const PatchTile& tile) {
-  ShadingParams shading;
-  shading.light_colour = {options_.shading.light_colour.x(), options_.shading.light_colour.y(),
-                          options_.shading.light_colour.z()};
-  auto scan = ScanSurface::create(tile, shading);
+  auto scan = ScanSurface::create(tile, surface_shading(options_));
   if (!scan) return std::unexpected(scan.error());
   scan_ = std::move(*scan);
   scan_mesh_ = false;
@@ -93,15 +100,23 @@ Status FarLevel::set_woven(const WovenFarMaterial& material, const std::filesyst
 bool FarLevel::update(const cloth::YarnSet& yarns) {
   if (scan_) return update_surface(yarns.surface);
   window_ = middle_repeat(yarns.surface);
-  if (window_ && !flat_like(yarns.surface.mesh, window_->normal(), options_.far_cloth_flat_degrees))
-    window_.reset();
   if (!window_) return false;
+  draped_now_ = !flat_like(yarns.surface.mesh, window_->normal(), options_.far_cloth_flat_degrees);
+  // The neural level is for flat weaves, as the bake is without the maps.
+  if (draped_now_ && (woven_ || !options_.far_cloth_draped_maps)) {
+    window_.reset();
+    return false;
+  }
   if (woven_) {  // nothing to bake
     woven_->update(yarns.surface);
     return true;
   }
   const bool same_style = taken_window_ && same_slice(yarns.style, near_yarns_.style) &&
                           yarns.style.colour == near_yarns_.style.colour;
+  if (!same_style) {
+    draped_.reset();
+    draped_baked_.reset();
+  }
   if (!same_style || !same_shape(*window_)) {
     // A margin of what can show or shadow in the window: a few yarns.
     near_yarns_ = window_yarns(yarns, *window_, 8 * yarns.style.radius_mm);
@@ -109,16 +124,23 @@ bool FarLevel::update(const cloth::YarnSet& yarns) {
     baker_stale_ = true;
     baked_.reset();
   }
+  if (draped_now_) {
+    draped_mesh_ = yarns.surface.mesh;
+    if (draped_)
+      draped_->update(draped_mesh_, options_.environment,
+                      options_.shading.environment * draped_gain_);
+    return true;
+  }
   cloth_->update(yarns.surface, *window_);
   return true;
 }
 
-bool FarLevel::stands_for(const BakeKey& key) const {
-  if (!baked_) return false;
-  const float turned = std::acos(std::clamp(key.toward_eye.dot(baked_->toward_eye), -1.0f, 1.0f));
+bool FarLevel::stands_for(const BakeKey& key, const std::optional<BakeKey>& baked) const {
+  if (!baked) return false;
+  const float turned = std::acos(std::clamp(key.toward_eye.dot(baked->toward_eye), -1.0f, 1.0f));
   return turned <= options_.rebake_degrees * std::numbers::pi_v<float> / 180 &&
-         (key.light - baked_->light).cwiseAbs().maxCoeff() < 1e-4f &&
-         key.shadows == baked_->shadows && key.fibre_detail == baked_->fibre_detail;
+         (key.light - baked->light).cwiseAbs().maxCoeff() < 1e-4f &&
+         key.shadows == baked->shadows && key.fibre_detail == baked->fibre_detail;
 }
 
 void FarLevel::prepare(const KnitFrame& frame, const KnitView& view, unsigned target,
@@ -130,9 +152,22 @@ void FarLevel::prepare(const KnitFrame& frame, const KnitView& view, unsigned ta
                                          ? (frame.eye - frame.centre).normalized()
                                          : (frame.eye - window_->centre()).normalized();
   const BakeKey key{toward_eye, frame.light, view.shadows, view.fibre_detail};
-  if (stands_for(key)) return;
-  bake(frame, view, toward_eye);
-  baked_ = key;
+  if (draped_now_) {
+    // Rebaked as the middle repeat turns too, so that it is drawn as the
+    // near level draws it (yarns are not Lambertian) and a switch to the
+    // flat far level does not step.
+    const float turned = std::acos(std::clamp(window_->normal().dot(draped_normal_), -1.0f, 1.0f));
+    if (draped_ && stands_for(key, draped_baked_) &&
+        turned <= options_.rebake_degrees * std::numbers::pi_v<float> / 180)
+      return;
+    bake_draped(frame, view, toward_eye);
+    draped_baked_ = key;
+    draped_normal_ = window_->normal();
+  } else {
+    if (stands_for(key, baked_)) return;
+    bake(frame, view, toward_eye);
+    baked_ = key;
+  }
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(target));
   glViewport(0, 0, viewport.width, viewport.height);
 }
@@ -140,6 +175,10 @@ void FarLevel::prepare(const KnitFrame& frame, const KnitView& view, unsigned ta
 void FarLevel::draw(const KnitFrame& frame, const FarClothDraw& how) const {
   if (scan_) {
     scan_->draw(frame, how);
+    return;
+  }
+  if (draped_now_ && draped_) {
+    draped_->draw(frame, how);
     return;
   }
   if (!woven_) {
@@ -156,8 +195,8 @@ void FarLevel::draw(const KnitFrame& frame, const FarClothDraw& how) const {
 // The repeat at `bake_yarn_texels` a yarn (rounded up to whole powers of
 // two a side), drawn at the near level over black and over white, 4x
 // multisampled as the near level's frames are.
-void FarLevel::bake(const KnitFrame& frame, const KnitView& view,
-                    const Eigen::Vector3f& toward_eye) {
+bool FarLevel::bake_frames(const KnitFrame& frame, const KnitView& view,
+                           const Eigen::Vector3f& toward_eye, cv::Mat (&frames)[2]) {
   if (baker_stale_) {
     baker_->update(near_yarns_);
     baker_stale_ = false;
@@ -178,18 +217,65 @@ void FarLevel::bake(const KnitFrame& frame, const KnitView& view,
   baking.focal_px = options_.far_cloth_from_px / yarn_mm;
   if (!target_ || target_->size() != size) {
     auto made = OffscreenTarget::create(size, 4, ColourStorage::srgb);
-    if (!made) return;
+    if (!made) return false;
     target_ = std::move(*made);
   }
   KnitView over = view;
-  cv::Mat frames[2];
   for (int white = 0; white < 2; ++white) {
     over.background = cv::Vec3f::all(static_cast<float>(white));
     target_->bind();
     baker_->render(baking, over, size);
     frames[white] = target_->read();
   }
+  return true;
+}
+
+void FarLevel::bake(const KnitFrame& frame, const KnitView& view,
+                    const Eigen::Vector3f& toward_eye) {
+  cv::Mat frames[2];
+  if (!bake_frames(frame, view, toward_eye, frames)) return;
   cloth_->upload(repeat_levels(frames[0], frames[1]));
+  ++bakes_;
+}
+
+// As the flat far level bakes it (seen along `toward_eye`, the frame's
+// light and shadows), divided by what that light gives a flat white
+// surface facing as the repeat did, as scan_surface.frag shades it (front
+// ambient from the environment, Lambert with its soft horizon, a point
+// light's falloff): drawn on that flat surface the maps are the bake, so
+// flat and draped far levels meet without a step.
+void FarLevel::bake_draped(const KnitFrame& frame, const KnitView& view,
+                           const Eigen::Vector3f& toward_eye) {
+  const RepeatWindow& window = *taken_window_;
+  // The side the eye sees: scan_surface.frag shades a back face as the
+  // front's mirror, with the environment's light on that side.
+  const Eigen::Vector3f normal =
+      window.normal().dot(toward_eye) >= 0 ? window.normal() : Eigen::Vector3f(-window.normal());
+  cv::Mat frames[2];
+  if (!bake_frames(frame, view, toward_eye, frames)) return;
+  const Eigen::Vector3f to_light = frame.light.head<3>() - frame.light.w() * window.centre();
+  const float attenuation =
+      frame.light.w() > 0.5f
+          ? frame.light_reference_distance * frame.light_reference_distance / to_light.squaredNorm()
+          : 1.0f;
+  const float cosine = std::max(to_light.normalized().dot(normal), 0.0f);
+  const ShadingParams shading = surface_shading(options_);
+  const Eigen::Vector3f flat = options_.shading.environment * options_.environment.lambert(normal) +
+                               shading.diffuse * cosine * std::clamp(4 * cosine, 0.0f, 1.0f) *
+                                   attenuation * options_.shading.light_colour;
+  const cv::Size2f repeat_mm(static_cast<float>(window.columns) * draped_mesh_.face_width_mm,
+                             static_cast<float>(window.rows) * draped_mesh_.face_height_mm);
+  const RepeatMaps maps =
+      repeat_maps(frames[0], frames[1], {flat.x(), flat.y(), flat.z()}, repeat_mm);
+  // The maps' albedo is stored divided by the gain: the light made brighter.
+  ShadingParams brighter = shading;
+  brighter.light_colour *= maps.gain;
+  auto surface = ScanSurface::create(
+      {.maps = maps.maps, .source = "the chart's repeat", .periodic = true}, brighter);
+  if (!surface) return;
+  draped_ = std::move(*surface);
+  draped_gain_ = maps.gain;
+  draped_->update(draped_mesh_, options_.environment, options_.shading.environment * draped_gain_);
   ++bakes_;
 }
 

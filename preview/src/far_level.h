@@ -6,7 +6,9 @@
 // last one no longer stands for it: the light, the view's direction, the
 // style or the repeat's shape changed (by more than the options allow).
 // Cloth a scan feeds has the scan as its far level instead (scan_surface.h):
-// no bake, and the surface alone is enough to draw it.
+// no bake, and the surface alone is enough to draw it. Draped cloth a chart
+// feeds (not flat) has the repeat's maps (repeat_maps.h), baked as the
+// repeat is and drawn the scan's way, lit from the mesh's normals.
 // A weave given its material (set_woven) is drawn by the neural woven BSDF
 // instead (woven_far_cloth.h): no bake.
 
@@ -43,7 +45,9 @@ class FarLevel {
   bool update_surface(const cloth::YarnSurface& surface);
   [[nodiscard]] bool available() const {
     if (scan_) return scan_mesh_;
-    return window_.has_value() && (woven_ ? woven_->ready() : cloth_->ready());
+    if (!window_) return false;
+    if (draped_now_) return draped_ != nullptr;
+    return woven_ ? woven_->ready() : cloth_->ready();
   }
   [[nodiscard]] bool has_surface() const { return scan_ ? scan_mesh_ : window_.has_value(); }
   // Bakes the repeat when the last bake no longer stands for `frame` and
@@ -52,7 +56,10 @@ class FarLevel {
   void draw(const KnitFrame& frame, const FarClothDraw& how) const;
 
   [[nodiscard]] int bakes() const { return bakes_; }
-  [[nodiscard]] int triangles() const { return scan_ ? scan_->triangles() : cloth_->triangles(); }
+  [[nodiscard]] int triangles() const {
+    if (scan_) return scan_->triangles();
+    return draped_now_ && draped_ ? draped_->triangles() : cloth_->triangles();
+  }
 
  private:
   // What a bake was made for (besides the yarns taken).
@@ -62,9 +69,15 @@ class FarLevel {
     bool shadows = true, fibre_detail = true;
   };
   FarLevel() = default;
-  [[nodiscard]] bool stands_for(const BakeKey& key) const;
+  // Whether `baked`, a bake's key, still stands for `key`.
+  [[nodiscard]] bool stands_for(const BakeKey& key, const std::optional<BakeKey>& baked) const;
   [[nodiscard]] bool same_shape(const RepeatWindow& window) const;
   void bake(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
+  // The taken window's yarns at the near level over black and over white.
+  bool bake_frames(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye,
+                   cv::Mat (&frames)[2]);
+  // The repeat's maps for draped cloth (repeat_maps.h).
+  void bake_draped(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
 
   YarnRendererOptions options_;
   std::unique_ptr<YarnRenderer> baker_;
@@ -85,6 +98,14 @@ class FarLevel {
   int bakes_ = 0;
   std::unique_ptr<ScanSurface> scan_;
   bool scan_mesh_ = false;  // the scan has a mesh with faces to lie on
+  // Draped chart-fed cloth: this frame's cloth is not flat; the repeat's
+  // maps on its mesh.
+  bool draped_now_ = false;
+  std::unique_ptr<ScanSurface> draped_;
+  std::optional<BakeKey> draped_baked_;
+  Eigen::Vector3f draped_normal_ = Eigen::Vector3f::Zero();  // the repeat's then
+  float draped_gain_ = 1;          // repeat_maps' gain, the light's on the maps
+  cloth::StitchMesh draped_mesh_;  // this frame's, for maps made after update()
 };
 
 }  // namespace psrig::preview

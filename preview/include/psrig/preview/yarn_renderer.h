@@ -161,6 +161,11 @@ struct YarnRendererOptions {
   // the two models' colours differ by up to 20 %, spread over more frames.
   float woven_far_from_px = 8.0f;
   std::filesystem::path woven_weights;
+  // Cloth that is not flat drawn from afar as the repeat's maps on its mesh
+  // (repeat_maps.h, scan_surface.h), lit per pixel from the mesh's normals:
+  // opaque as the near level, but Lambert is not the yarns' light (the
+  // ball's jersey 1.4x too red; preview/README.md), so off until it is.
+  bool far_cloth_draped_maps = false;
 };
 
 class FarLevel;
