@@ -1,9 +1,10 @@
 #pragma once
 // The element indices of a grid of (columns + 1) x (rows + 1) vertices,
 // row by row: two triangles a face, as the far level's meshes (the repeat
-// textured, far_cloth.h, and the scan's surface, scan_surface.h) draw the
-// stitch mesh.
+// textured, far_cloth.h; the scan's surface, scan_surface.h; the neural
+// weave, woven_far_cloth.h) draw the stitch mesh.
 
+#include <GLES3/gl3.h>
 #include <cstdint>
 #include <vector>
 
@@ -22,6 +23,17 @@ namespace psrig::preview {
             vertex(column, row), vertex(column + 1, row + 1), vertex(column, row + 1)})
         indices.push_back(index);
   return indices;
+}
+
+// Those indices into element buffer `buffer` (bound to the current vertex
+// array); how many.
+inline int upload_grid_indices(GLuint buffer, int columns, int rows) {
+  const std::vector<std::uint32_t> indices = grid_triangle_indices(columns, rows);
+  glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, buffer);
+  glBufferData(GL_ELEMENT_ARRAY_BUFFER,
+               static_cast<GLsizeiptr>(indices.size() * sizeof(std::uint32_t)), indices.data(),
+               GL_STATIC_DRAW);
+  return static_cast<int>(indices.size());
 }
 
 }  // namespace psrig::preview

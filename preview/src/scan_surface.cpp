@@ -137,12 +137,7 @@ void ScanSurface::update(const cloth::StitchMesh& mesh, const EnvironmentLight& 
   if (mesh.columns != columns_ || mesh.rows != rows_) {
     columns_ = mesh.columns;
     rows_ = mesh.rows;
-    const std::vector<std::uint32_t> indices = grid_triangle_indices(columns_, rows_);
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, gl.indices);
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER,
-                 static_cast<GLsizeiptr>(indices.size() * sizeof(std::uint32_t)), indices.data(),
-                 GL_STATIC_DRAW);
-    index_count_ = static_cast<int>(indices.size());
+    index_count_ = upload_grid_indices(gl.indices, columns_, rows_);
   }
   glBindVertexArray(0);
   glBindBuffer(GL_ARRAY_BUFFER, 0);

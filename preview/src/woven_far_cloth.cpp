@@ -7,6 +7,7 @@
 #include <optional>
 
 #include "gl_program.h"
+#include "grid_indices.h"
 #include "psrig/preview/woven_decoder_pass.h"
 #include "psrig/preview/yarn_shading.h"
 
@@ -177,22 +178,7 @@ void WovenFarCloth::update(const cloth::YarnSurface& surface) {
   if (mesh.columns != columns_ || mesh.rows != rows_) {
     columns_ = mesh.columns;
     rows_ = mesh.rows;
-    std::vector<std::uint32_t> indices;
-    indices.reserve(static_cast<std::size_t>(columns_ * rows_) * 6);
-    const auto index = [&](int column, int row) {
-      return static_cast<std::uint32_t>(row * (columns_ + 1) + column);
-    };
-    for (int row = 0; row < rows_; ++row)
-      for (int column = 0; column < columns_; ++column)
-        for (const std::uint32_t i :
-             {index(column, row), index(column + 1, row), index(column + 1, row + 1),
-              index(column, row), index(column + 1, row + 1), index(column, row + 1)})
-          indices.push_back(i);
-    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, gl.indices);
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER,
-                 static_cast<GLsizeiptr>(indices.size() * sizeof(std::uint32_t)), indices.data(),
-                 GL_STATIC_DRAW);
-    index_count_ = static_cast<int>(indices.size());
+    index_count_ = upload_grid_indices(gl.indices, columns_, rows_);
   }
   glBindVertexArray(0);
   glBindBuffer(GL_ARRAY_BUFFER, 0);
