@@ -1,8 +1,8 @@
 #pragma once
 // The far level's texture (issue 30): one repeat of the cloth drawn at the
 // near level, flat, orthographic along the view's direction, into a
-// texture whose mipmaps the stitch mesh is drawn with from afar
-// (far_cloth.h). This is chen2003-lumislice-knitwear.txt section 5.2.2's
+// texture whose levels (and the summed-area table of one of them) the
+// stitch mesh is drawn with from afar (far_cloth.h). This is chen2003-lumislice-knitwear.txt section 5.2.2's
 // prefiltered slices taken to the cloth's repeat: each coarser level
 // averages density (the paper's rho', eq. 11: here coverage, the mean of
 // the four texels') and colour weighted by it (premultiplied colour, the
