@@ -5,7 +5,12 @@
 // scan's maps drape as the chart read off them, in its colours; the kiosk
 // turns about between the scan's swatch and that drape.
 
+#include <cstdio>
+#include <filesystem>
+#include <vector>
+
 #include <gtest/gtest.h>
+#include <opencv2/core.hpp>
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
@@ -16,11 +21,15 @@ namespace {
 
 namespace fs = std::filesystem;
 
-// The share of a frame that is not background.
+// The share of a frame that is the cloth: its coloured pixels (the
+// stockinette's yarn is a red; the background and the props are grey, a
+// colour spread of 5 codes at most, where the cloth's is over 30).
 double cloth_share(const cv::Mat& frame) {
-  cv::Mat grey;
-  cv::cvtColor(frame, grey, cv::COLOR_BGR2GRAY);
-  return cv::countNonZero(grey > 20) / static_cast<double>(grey.total());
+  std::vector<cv::Mat> channels;
+  cv::split(frame, channels);
+  cv::Mat low = cv::min(cv::min(channels[0], channels[1]), channels[2]);
+  cv::Mat high = cv::max(cv::max(channels[0], channels[1]), channels[2]);
+  return cv::countNonZero(high - low > 20) / static_cast<double>(frame.total());
 }
 
 TEST(PsrigPreviewDrape, EverySceneMovesThenSettlesAndLeavesAContactSheet) {
@@ -42,7 +51,7 @@ TEST(PsrigPreviewDrape, EverySceneMovesThenSettlesAndLeavesAContactSheet) {
     const cv::Mat early = cv::imread((out / (arm ? "frame-0014.png" : "frame-0008.png")).string());
     const cv::Mat late = cv::imread((out / "frame-0018.png").string());
     const cv::Mat last = cv::imread((out / "frame-0019.png").string());
-    EXPECT_GT(cloth_share(last), 0.02) << scene << ": cloth in the frame";
+    EXPECT_GT(cloth_share(last), 0.05) << scene << ": cloth in the frame (0.10 to 0.28)";
     // Motion of the cloth, not of its stitches' texture: frames compared at
     // an eighth of their size.
     const auto difference = [](const cv::Mat& a, const cv::Mat& b) {
@@ -52,9 +61,20 @@ TEST(PsrigPreviewDrape, EverySceneMovesThenSettlesAndLeavesAContactSheet) {
       return cv::norm(small_a, small_b, cv::NORM_L1) / static_cast<double>(small_a.total());
     };
     const double moved = difference(first, early), still = difference(late, last);
+    std::printf("drape %-6s: moved %.2f, still %.3f, cloth %.3f of the frame\n", scene, moved,
+                still, cloth_share(last));
     EXPECT_GT(moved, 1.0) << scene << ": the cloth moves at first";
     if (!arm) {  // the arm keeps swinging
       EXPECT_LT(still, 0.25 * moved) << scene << ": and comes to rest";
+    }
+    // It failed twice in full runs with other builds beside it (a scene
+    // not at rest) and never alone: keep the frames of a failure to look at.
+    if (::testing::Test::HasFailure()) {
+      const fs::path kept = fs::path(PSRIG_BUILD_DIR) / "drape-failure" / scene;
+      fs::create_directories(kept.parent_path());
+      fs::remove_all(kept);
+      fs::copy(out, kept, fs::copy_options::recursive);
+      std::printf("drape %s: frames kept in %s\n", scene, kept.c_str());
     }
     fs::copy_file(out / "contact-sheet.png", sheets / (std::string(scene) + ".png"),
                   fs::copy_options::overwrite_existing);
