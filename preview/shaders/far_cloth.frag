@@ -11,7 +11,6 @@ in vec2 v_repeat;
 in float v_yarn_px;
 
 uniform highp sampler2D u_area_table;  // repeat_area_table()
-uniform bool u_area_filtered;           // linear filtering of float textures is there
 uniform vec2 u_area_texels;             // the repeat's size in the table's level
 uniform vec4 u_area_mean;               // what the table's sums have taken off
 uniform vec2 u_fade_px;       // the far level from none (x) to all (y), x > y
@@ -32,8 +31,6 @@ vec3 srgb_encode(vec3 linear) {
 // between its entries, which is the exact sum of the texels (each a
 // constant square) below and left of `p`.
 vec4 area_sum(vec2 p) {
-  if (u_area_filtered)  // the texture unit interpolates (a quarter of the fetches)
-    return textureLod(u_area_table, (p + 0.5) / (2.0 * u_area_texels + 1.0), 0.0);
   vec2 floor_p = floor(p);
   vec2 t = p - floor_p;
   ivec2 i = ivec2(floor_p);

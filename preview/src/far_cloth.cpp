@@ -5,10 +5,8 @@
 #include <cstdint>
 #include <optional>
 
-#include "gl_context_facts.h"
 #include "gl_program.h"
 #include "grid_indices.h"
-#include "psrig/preview/extension_list.h"
 
 namespace psrig::preview {
 namespace {
@@ -22,9 +20,6 @@ struct FarCloth::Gl {
   GLuint array = 0, vertices = 0, indices = 0, area_table = 0;
   cv::Size area_texels;  // the repeat's, in the area table's level
   cv::Vec4f area_mean;
-  // GLES 3.0 need not filter float textures; most (llvmpipe, Mesa's V3D
-  // on the Pi) do, and then the table costs four lookups, not sixteen.
-  bool area_filtered = false;
   ~Gl() {
     glDeleteBuffers(1, &vertices);
     glDeleteBuffers(1, &indices);
@@ -44,7 +39,6 @@ Result<std::unique_ptr<FarCloth>> FarCloth::create() {
   glGenBuffers(1, &gl.vertices);
   glGenBuffers(1, &gl.indices);
   glGenTextures(1, &gl.area_table);
-  gl.area_filtered = extension_listed(gl_extension_list(), "GL_OES_texture_float_linear");
   return cloth;
 }
 
@@ -89,7 +83,7 @@ void FarCloth::upload(const std::vector<cv::Mat>& levels) {
   if (levels.empty()) return;
   Gl& gl = *gl_;
   // The area table of the finest level at most kAreaTableSide a side (16
-  // MB of float texels at most), linearly filtered where the context can.
+  // MB of float texels at most).
   // far_cloth.frag takes every pixel's mean from it; the mipmaps (a tap a
   // pixel, or a few) did worse and no anisotropic filtering helped: on
   // llvmpipe it blurred the stitches (every RMSE of far_level_test 2-5
@@ -107,9 +101,12 @@ void FarCloth::upload(const std::vector<cv::Mat>& levels) {
   glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, table.sums.cols, table.sums.rows, 0, GL_RGBA, GL_FLOAT,
                table.sums.ptr<float>());
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAX_LEVEL, 0);
-  const GLint filter = gl.area_filtered ? GL_LINEAR : GL_NEAREST;
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, filter);
-  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, filter);
+  // Fetched, never filtered: a GPU's bilinear weights have 8 fractional
+  // bits, too coarse for the differences of large sums a footprint's mean
+  // is (and on llvmpipe its own sixteen fetches cost what four filtered
+  // lookups do: 92 against 89 ms a 1080p far frame).
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+  glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
   glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
   glBindTexture(GL_TEXTURE_2D, 0);
@@ -131,7 +128,6 @@ void FarCloth::draw(const KnitFrame& frame, const FarClothDraw& how) const {
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, gl.area_table);
   glUniform1i(program.uniform("u_area_table"), 0);
-  glUniform1i(program.uniform("u_area_filtered"), gl.area_filtered ? 1 : 0);
   glUniform2f(program.uniform("u_area_texels"), static_cast<float>(gl.area_texels.width),
               static_cast<float>(gl.area_texels.height));
   glUniform4f(program.uniform("u_area_mean"), gl.area_mean[0], gl.area_mean[1], gl.area_mean[2],

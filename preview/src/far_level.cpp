@@ -123,6 +123,7 @@ bool FarLevel::update(const cloth::YarnSet& yarns) {
     taken_window_ = window_;
     baker_stale_ = true;
     baked_.reset();
+    draped_baked_.reset();  // the draped maps were made of the old yarns too
   }
   if (draped_now_) {
     draped_mesh_ = yarns.surface.mesh;
@@ -177,8 +178,8 @@ void FarLevel::draw(const KnitFrame& frame, const FarClothDraw& how) const {
     scan_->draw(frame, how);
     return;
   }
-  if (draped_now_ && draped_) {
-    draped_->draw(frame, how);
+  if (draped_now_) {  // never the flat bake on a draped mesh, even if the maps failed
+    if (draped_) draped_->draw(frame, how);
     return;
   }
   if (!woven_) {

@@ -35,7 +35,8 @@ class FarLevel {
   // (the weights loaded from `weights` the first time).
   [[nodiscard]] Status set_woven(const WovenFarMaterial& material,
                                  const std::filesystem::path& weights);
-  [[nodiscard]] bool neural() const { return woven_ != nullptr; }
+  // A scan, where there is one, is the far level, whatever the yarns are.
+  [[nodiscard]] bool neural() const { return woven_ != nullptr && !scan_; }
   [[nodiscard]] const WovenFarCloth* woven() const { return woven_.get(); }
 
   // The cloth's yarns and surface; false when they have none to draw with.
