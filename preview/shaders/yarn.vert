@@ -38,6 +38,7 @@ uniform float u_halo;         // the slice's halo, in radii
 uniform vec2 u_halo_fade_px;  // yarn widths over which the halo grows in
 uniform float u_period;       // the slice's length along the yarn, mm
 uniform float u_turn_scale;   // twist pitch / period
+uniform float u_slice_phase;  // added to every yarn's phase (KnitFrame::slice_phase)
 uniform float u_ply_slant_sin;
 uniform vec4 u_light;  // position (w = 1) or direction toward the light (w = 0)
 uniform float u_reference_distance;
@@ -181,7 +182,7 @@ void main() {
   v_across = across;
   float turn = (kPi / 2.0 - atan(view_up, view_in)) / (2.0 * kPi);
   v_uv = vec2(0.5 + 0.5 * across / (1.0 + u_halo),
-              a_point.w / u_period + turn * u_turn_scale + a_colour_seed.w);
+              a_point.w / u_period + turn * u_turn_scale + a_colour_seed.w + u_slice_phase);
 
   // The ellipse's normals (yarn_shading.cpp's strip_frame()).
   vec2 facing_circle = normalize(vec2(view_in, view_up / flattening));

@@ -195,9 +195,13 @@ void FarLevel::draw(const KnitFrame& frame, const FarClothDraw& how) const {
 
 // The repeat at `bake_yarn_texels` a yarn (rounded up to whole powers of
 // two a side), drawn at the near level over black and over white, 4x
-// multisampled as the near level's frames are.
-bool FarLevel::bake_frames(const KnitFrame& frame, const KnitView& view,
-                           const Eigen::Vector3f& toward_eye, cv::Mat (&frames)[2]) {
+// multisampled as the near level's frames are, at `bake_phases` phases of
+// the yarns' slice, averaged: every repeat of the cloth has its yarns at
+// phases of their own, so the one texture that is nearest them all is
+// their mean (what one bake shows at one phase is as far from each repeat
+// as two repeats are from each other).
+cv::Mat FarLevel::bake_texels(const KnitFrame& frame, const KnitView& view,
+                              const Eigen::Vector3f& toward_eye) {
   if (baker_stale_) {
     baker_->update(near_yarns_);
     baker_stale_ = false;
@@ -218,24 +222,36 @@ bool FarLevel::bake_frames(const KnitFrame& frame, const KnitView& view,
   baking.focal_px = options_.far_cloth_from_px / yarn_mm;
   if (!target_ || target_->size() != size) {
     auto made = OffscreenTarget::create(size, 4, ColourStorage::srgb);
-    if (!made) return false;
+    if (!made) return {};
     target_ = std::move(*made);
   }
+  const int phases = std::max(options_.bake_phases, 1);
+  // Steps of a whole slice over `phases` and of a ply's turn over `phases`
+  // at once: the plies' pattern repeats many times along the slice, so
+  // steps of the slice alone could all land on the same ply phase.
+  const float step = (1 + 1.0f / static_cast<float>(baker_->slice().ply_repeats)) /
+                     static_cast<float>(phases);
+  cv::Mat sum(size, CV_32FC4, cv::Scalar::all(0));
   KnitView over = view;
-  for (int white = 0; white < 2; ++white) {
-    over.background = cv::Vec3f::all(static_cast<float>(white));
-    target_->bind();
-    baker_->render(baking, over, size);
-    frames[white] = target_->read();
+  for (int phase = 0; phase < phases; ++phase) {
+    baking.slice_phase = static_cast<float>(phase) * step;
+    cv::Mat frames[2];
+    for (int white = 0; white < 2; ++white) {
+      over.background = cv::Vec3f::all(static_cast<float>(white));
+      target_->bind();
+      baker_->render(baking, over, size);
+      frames[white] = target_->read();
+    }
+    sum += repeat_texels(frames[0], frames[1]);
   }
-  return true;
+  return sum / static_cast<double>(phases);
 }
 
 void FarLevel::bake(const KnitFrame& frame, const KnitView& view,
                     const Eigen::Vector3f& toward_eye) {
-  cv::Mat frames[2];
-  if (!bake_frames(frame, view, toward_eye, frames)) return;
-  cloth_->upload(repeat_levels(frames[0], frames[1]));
+  const cv::Mat texels = bake_texels(frame, view, toward_eye);
+  if (texels.empty()) return;
+  cloth_->upload(repeat_levels(texels));
   ++bakes_;
 }
 
@@ -252,8 +268,8 @@ void FarLevel::bake_draped(const KnitFrame& frame, const KnitView& view,
   // front's mirror, with the environment's light on that side.
   const Eigen::Vector3f normal =
       window.normal().dot(toward_eye) >= 0 ? window.normal() : Eigen::Vector3f(-window.normal());
-  cv::Mat frames[2];
-  if (!bake_frames(frame, view, toward_eye, frames)) return;
+  const cv::Mat texels = bake_texels(frame, view, toward_eye);
+  if (texels.empty()) return;
   const Eigen::Vector3f to_light = frame.light.head<3>() - frame.light.w() * window.centre();
   const float attenuation =
       frame.light.w() > 0.5f
@@ -267,7 +283,7 @@ void FarLevel::bake_draped(const KnitFrame& frame, const KnitView& view,
   const cv::Size2f repeat_mm(static_cast<float>(window.columns) * draped_mesh_.face_width_mm,
                              static_cast<float>(window.rows) * draped_mesh_.face_height_mm);
   const RepeatMaps maps =
-      repeat_maps(frames[0], frames[1], {flat.x(), flat.y(), flat.z()}, repeat_mm);
+      repeat_maps(texels, {flat.x(), flat.y(), flat.z()}, repeat_mm);
   // The maps' albedo is stored divided by the gain: the light made brighter.
   ShadingParams brighter = shading;
   brighter.light_colour *= maps.gain;

@@ -74,9 +74,10 @@ class FarLevel {
   [[nodiscard]] bool stands_for(const BakeKey& key, const std::optional<BakeKey>& baked) const;
   [[nodiscard]] bool same_shape(const RepeatWindow& window) const;
   void bake(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
-  // The taken window's yarns at the near level over black and over white.
-  bool bake_frames(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye,
-                   cv::Mat (&frames)[2]);
+  // The taken window's yarns at the near level (repeat_texels), averaged
+  // over their phases; empty if no target could be made.
+  cv::Mat bake_texels(const KnitFrame& frame, const KnitView& view,
+                      const Eigen::Vector3f& toward_eye);
   // The repeat's maps for draped cloth (repeat_maps.h).
   void bake_draped(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
 

@@ -9,11 +9,10 @@
 
 namespace psrig::preview {
 
-RepeatMaps repeat_maps(const cv::Mat& over_black, const cv::Mat& over_white,
-                       const cv::Vec3f& flat_shading, const cv::Size2f& repeat_mm) {
-  // Premultiplied linear R, G, B and coverage, bottom row first.
-  cv::Mat premultiplied = repeat_levels(over_black, over_white).front();
-  cv::flip(premultiplied, premultiplied, 0);
+RepeatMaps repeat_maps(const cv::Mat& texels, const cv::Vec3f& flat_shading,
+                       const cv::Size2f& repeat_mm) {
+  cv::Mat premultiplied;  // top row first, as the maps are
+  cv::flip(texels, premultiplied, 0);
   const cv::Scalar mean = cv::mean(premultiplied);
   const double coverage = std::max(mean[3], 1e-3);
   // Under a texel of little coverage its colour is noise: the mean's.

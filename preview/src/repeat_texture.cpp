@@ -96,8 +96,7 @@ KnitFrame repeat_frame(const KnitFrame& seen, const RepeatWindow& window,
   return frame;
 }
 
-std::vector<cv::Mat> repeat_levels(const cv::Mat& over_black, const cv::Mat& over_white) {
-  std::vector<cv::Mat> levels;
+cv::Mat repeat_texels(const cv::Mat& over_black, const cv::Mat& over_white) {
   cv::Mat level(over_black.size(), CV_32FC4);
   const int rows = over_black.rows;
   for (int y = 0; y < rows; ++y)
@@ -114,7 +113,12 @@ std::vector<cv::Mat> repeat_levels(const cv::Mat& over_black, const cv::Mat& ove
       }
       texel[3] = 1 - through;
     }
-  levels.push_back(level);
+  return level;
+}
+
+std::vector<cv::Mat> repeat_levels(const cv::Mat& texels) {
+  std::vector<cv::Mat> levels{texels};
+  cv::Mat level = texels;
   while (level.cols > 1 || level.rows > 1) {
     const int step_x = level.cols > 1 ? 2 : 1, step_y = level.rows > 1 ? 2 : 1;
     cv::Mat coarser(level.rows / step_y, level.cols / step_x, CV_32FC4);

@@ -515,6 +515,7 @@ void use_yarn_program(const GlProgram& program, const YarnUniforms& u) {
   glUniform2f(program.uniform("u_halo_fade_px"), options.halo_from_px, options.halo_full_px);
   glUniform1f(program.uniform("u_period"), u.slice.period_mm);
   glUniform1f(program.uniform("u_turn_scale"), turn_scale);
+  glUniform1f(program.uniform("u_slice_phase"), frame.slice_phase);
   glUniform1f(program.uniform("u_ply_slant_sin"), u.slice.ply_slant_sin);
   glUniform4fv(program.uniform("u_light"), 1, frame.light.data());
   glUniform1f(program.uniform("u_reference_distance"), frame.light_reference_distance);

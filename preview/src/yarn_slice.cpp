@@ -337,6 +337,7 @@ YarnSlice bake_yarn_slice(const cloth::YarnStyle& style, const YarnSliceOptions&
       static_cast<float>(std::max(options.turns, 1)) * (pitch > 0 ? pitch : 4 * radius);
 
   const PlyGeometry plies = ply_geometry(style, radius, pitch);
+  slice.ply_repeats = pitch > 0 ? std::max(options.turns, 1) * plies.plies : 1;
   // The fibres on a ply's face wind about the ply's axis against its lean.
   const float ply_radius_mm = plies.ply_radius * radius;
   const float fibre_twist =

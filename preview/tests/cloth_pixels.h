@@ -4,11 +4,15 @@
 // rectangle as the frame shows it, its silhouette left out).
 
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
+#include <string>
 #include <utility>
 #include <vector>
 
 #include <opencv2/imgproc.hpp>
 
+#include "psrig/formats/image_io.h"
 #include "psrig/preview/knit_view.h"
 #include "psrig/preview/shading.h"
 #include "psrig/preview/texture_levels.h"
@@ -59,6 +63,19 @@ inline cv::Mat cloth_mask(const Eigen::AlignedBox3f& bounds, const KnitView& vie
   cv::erode(mask, mask,
             cv::getStructuringElement(cv::MORPH_RECT, {2 * margin + 1, 2 * margin + 1}));
   return mask;
+}
+
+// Side by side into `name`.png in the folder environment variable
+// `variable` names, when it is set: for a reviewer to look at what a test
+// measured. False when it is set and the picture could not be written.
+inline bool write_pictures(const char* variable, const std::string& name,
+                           const std::vector<cv::Mat>& pictures) {
+  const char* dir = std::getenv(variable);
+  if (dir == nullptr) return true;
+  std::filesystem::create_directories(dir);
+  cv::Mat row;
+  cv::hconcat(pictures, row);
+  return formats::write_image(std::filesystem::path(dir) / (name + ".png"), row).has_value();
 }
 
 }  // namespace psrig::preview::testing

@@ -50,7 +50,7 @@ TEST(RepeatTexture, LevelsArePremultipliedCoverageAndTheirMeans) {
   cv::Mat black(4, 8, CV_8UC3, cv::Scalar::all(0)), white(4, 8, CV_8UC3, cv::Scalar::all(255));
   black(cv::Rect(0, 0, 4, 4)).setTo(cv::Scalar::all(grey));
   white(cv::Rect(0, 0, 4, 4)).setTo(cv::Scalar::all(grey));
-  const std::vector<cv::Mat> levels = repeat_levels(black, white);
+  const std::vector<cv::Mat> levels = repeat_levels(repeat_texels(black, white));
   ASSERT_EQ(levels.size(), 4u);  // 8x4, 4x2, 2x1, 1x1
   EXPECT_EQ(levels.back().size(), cv::Size(1, 1));
   const cv::Vec4f left = levels[0].at<cv::Vec4f>(0, 0), right = levels[0].at<cv::Vec4f>(0, 7);

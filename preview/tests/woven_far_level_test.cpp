@@ -27,7 +27,6 @@
 #include "cloth_pixels.h"
 #include "psrig/cloth/woven_neural_render.h"
 #include "psrig/cloth/woven_reference_render.h"
-#include "psrig/formats/image_io.h"
 #include "psrig/preview/cloth_model.h"
 #include "psrig/preview/egl_context.h"
 #include "psrig/preview/offscreen_target.h"
@@ -147,13 +146,7 @@ WovenComparison compare_woven(const cv::Mat& frame, const cv::Mat& reference, co
 
 // Where PSRIG_WOVEN_FAR_DIR says, the pictures side by side for a reviewer.
 void write_woven_pictures(const std::string& name, const std::vector<cv::Mat>& pictures) {
-  const char* dir = std::getenv("PSRIG_WOVEN_FAR_DIR");
-  if (dir == nullptr) return;
-  std::filesystem::create_directories(dir);
-  cv::Mat row;
-  cv::hconcat(pictures, row);
-  const auto written = formats::write_image(std::filesystem::path(dir) / (name + ".png"), row);
-  EXPECT_TRUE(written) << written.error().describe();
+  EXPECT_TRUE(testing::write_pictures("PSRIG_WOVEN_FAR_DIR", name, pictures)) << name;
 }
 
 class WovenFarLevelTest : public ::testing::Test {

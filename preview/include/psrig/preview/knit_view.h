@@ -37,6 +37,9 @@ struct KnitFrame {
   // Position (w = 1) or direction toward the light (w = 0).
   Eigen::Vector4f light;
   float light_reference_distance = 1;  // a point light is at full strength this far away
+  // Added to every yarn's own phase along its slice (0 to 1, a period): the
+  // far level's bakes average over it (repeat_texture.h).
+  float slice_phase = 0;
   // Shadow map: the light's view and orthographic projection, depth in
   // [-1, 1] spanning `shadow_depth_range` millimetres.
   Eigen::Matrix4f shadow_view_projection;

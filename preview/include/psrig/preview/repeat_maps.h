@@ -37,13 +37,12 @@ struct RepeatMaps {
   float gain = 1;
 };
 
-// `over_black`, `over_white`: 8-bit sRGB BGR frames, top row first
-// (OffscreenTarget::read), of the repeat drawn onto the whole frame;
-// `flat_shading`: linear RGB a white flat surface facing as the repeat did
+// `texels`: the repeat's bake (repeat_texels: premultiplied linear colour
+// and coverage, bottom row first); `flat_shading`: linear RGB a white flat surface facing as the repeat did
 // gets from the bake's light (ambient included), as scan_surface.frag
 // shades it; `repeat_mm`: the repeat's size at rest. The maps have square
 // pixels (the bake resampled across the repeat's height), `pixel_size_mm` set.
-[[nodiscard]] RepeatMaps repeat_maps(const cv::Mat& over_black, const cv::Mat& over_white,
-                                     const cv::Vec3f& flat_shading, const cv::Size2f& repeat_mm);
+[[nodiscard]] RepeatMaps repeat_maps(const cv::Mat& texels, const cv::Vec3f& flat_shading,
+                                     const cv::Size2f& repeat_mm);
 
 }  // namespace psrig::preview

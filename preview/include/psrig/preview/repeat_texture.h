@@ -51,13 +51,17 @@ struct RepeatWindow {
                                      const Eigen::Vector3f& toward_eye, float texels_per_mm,
                                      float depth_mm);
 
-// The texture's levels from the two bakes (8-bit sRGB BGR frames as
+// The texture's texels from the two bakes (8-bit sRGB BGR frames as
 // OffscreenTarget::read gives them, top row first): CV_32FC4, premultiplied
-// linear R, G, B and coverage, bottom row first (GL's t up the window), down
-// to 1x1. Sides must be powers of two (each level halves them exactly, so
-// the repeat stays periodic at every level).
-[[nodiscard]] std::vector<cv::Mat> repeat_levels(const cv::Mat& over_black,
-                                                 const cv::Mat& over_white);
+// linear R, G, B and coverage, bottom row first (GL's t up the window).
+// Linear in what the bakes show, so bakes of the same repeat (its yarns'
+// phases) are averaged by averaging these.
+[[nodiscard]] cv::Mat repeat_texels(const cv::Mat& over_black, const cv::Mat& over_white);
+
+// The texture's levels, `texels` first, down to 1x1. Sides must be powers
+// of two (each level halves them exactly, so the repeat stays periodic at
+// every level).
+[[nodiscard]] std::vector<cv::Mat> repeat_levels(const cv::Mat& texels);
 
 // A level's summed-area table (Crow 1984, "Summed-area tables for texture
 // mapping"): what lets far_cloth.frag take the exact mean over a pixel's

@@ -132,6 +132,7 @@ struct YarnRendererOptions {
   float far_cloth_from_px = 5.0f;
   float far_cloth_full_px = 2.5f;
   float bake_yarn_texels = 8.0f;
+  int bake_phases = 4;  // of the yarns' slice, averaged (repeat_texels)
   float rebake_degrees = 2.0f;
   float rebake_strain = 0.1f;
   // Only cloth whose faces all turn less than this from the middle

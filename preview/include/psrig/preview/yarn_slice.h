@@ -66,6 +66,9 @@ struct YarnSlice {
   std::vector<YarnSliceLevel> levels;  // level 0 first, down to 1x1
   float halo = 0;                      // options.halo
   float period_mm = 1;                 // the texture's length along the yarn
+  // The plies' pattern repeats this many times along the texture (turns
+  // times plies): only the fibres' striation has the whole period.
+  int ply_repeats = 1;
   float ply_slant_sin = 0;             // sine of the plies' slant, where they face the eye
   SliceSample core_mean;  // the core's look averaged, density weighted (the far view's)
   // The style it was baked for (renderers bake again when it changes).
