@@ -161,13 +161,14 @@ void FarLevel::prepare(const KnitFrame& frame, const KnitView& view, unsigned ta
     if (draped_ && stands_for(key, draped_baked_) &&
         turned <= options_.rebake_degrees * std::numbers::pi_v<float> / 180)
       return;
-    bake_draped(frame, view, toward_eye);
-    draped_baked_ = key;
-    draped_normal_ = window_->normal();
+    // A failed bake is not recorded: the next frame tries again.
+    if (bake_draped(frame, view, toward_eye)) {
+      draped_baked_ = key;
+      draped_normal_ = window_->normal();
+    }
   } else {
     if (stands_for(key, baked_)) return;
-    bake(frame, view, toward_eye);
-    baked_ = key;
+    if (bake(frame, view, toward_eye)) baked_ = key;
   }
   glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(target));
   glViewport(0, 0, viewport.width, viewport.height);
@@ -247,12 +248,13 @@ cv::Mat FarLevel::bake_texels(const KnitFrame& frame, const KnitView& view,
   return sum / static_cast<double>(phases);
 }
 
-void FarLevel::bake(const KnitFrame& frame, const KnitView& view,
+bool FarLevel::bake(const KnitFrame& frame, const KnitView& view,
                     const Eigen::Vector3f& toward_eye) {
   const cv::Mat texels = bake_texels(frame, view, toward_eye);
-  if (texels.empty()) return;
+  if (texels.empty()) return false;
   cloth_->upload(repeat_levels(texels));
   ++bakes_;
+  return true;
 }
 
 // As the flat far level bakes it (seen along `toward_eye`, the frame's
@@ -261,7 +263,7 @@ void FarLevel::bake(const KnitFrame& frame, const KnitView& view,
 // ambient from the environment, Lambert with its soft horizon, a point
 // light's falloff): drawn on that flat surface the maps are the bake, so
 // flat and draped far levels meet without a step.
-void FarLevel::bake_draped(const KnitFrame& frame, const KnitView& view,
+bool FarLevel::bake_draped(const KnitFrame& frame, const KnitView& view,
                            const Eigen::Vector3f& toward_eye) {
   const RepeatWindow& window = *taken_window_;
   // The side the eye sees: scan_surface.frag shades a back face as the
@@ -269,7 +271,7 @@ void FarLevel::bake_draped(const KnitFrame& frame, const KnitView& view,
   const Eigen::Vector3f normal =
       window.normal().dot(toward_eye) >= 0 ? window.normal() : Eigen::Vector3f(-window.normal());
   const cv::Mat texels = bake_texels(frame, view, toward_eye);
-  if (texels.empty()) return;
+  if (texels.empty()) return false;
   const Eigen::Vector3f to_light = frame.light.head<3>() - frame.light.w() * window.centre();
   const float attenuation =
       frame.light.w() > 0.5f
@@ -287,13 +289,18 @@ void FarLevel::bake_draped(const KnitFrame& frame, const KnitView& view,
   // The maps' albedo is stored divided by the gain: the light made brighter.
   ShadingParams brighter = shading;
   brighter.light_colour *= maps.gain;
-  auto surface = ScanSurface::create(
-      {.maps = maps.maps, .source = "the chart's repeat", .periodic = true}, brighter);
-  if (!surface) return;
-  draped_ = std::move(*surface);
+  const PatchTile tile{.maps = maps.maps, .source = "the chart's repeat", .periodic = true};
+  if (draped_) {  // the same textures and program: no shader built again
+    if (!draped_->set_tile(tile, brighter)) return false;
+  } else {
+    auto surface = ScanSurface::create(tile, brighter);
+    if (!surface) return false;
+    draped_ = std::move(*surface);
+  }
   draped_gain_ = maps.gain;
   draped_->update(draped_mesh_, options_.environment, options_.shading.environment * draped_gain_);
   ++bakes_;
+  return true;
 }
 
 }  // namespace psrig::preview

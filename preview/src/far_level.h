@@ -35,6 +35,7 @@ class FarLevel {
   // (the weights loaded from `weights` the first time).
   [[nodiscard]] Status set_woven(const WovenFarMaterial& material,
                                  const std::filesystem::path& weights);
+  void clear_woven() { woven_.reset(); }
   // A scan, where there is one, is the far level, whatever the yarns are.
   [[nodiscard]] bool neural() const { return woven_ != nullptr && !scan_; }
   [[nodiscard]] const WovenFarCloth* woven() const { return woven_.get(); }
@@ -73,13 +74,14 @@ class FarLevel {
   // Whether `baked`, a bake's key, still stands for `key`.
   [[nodiscard]] bool stands_for(const BakeKey& key, const std::optional<BakeKey>& baked) const;
   [[nodiscard]] bool same_shape(const RepeatWindow& window) const;
-  void bake(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
+  // Each false when nothing could be baked (no target, no maps).
+  bool bake(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
   // The taken window's yarns at the near level (repeat_texels), averaged
   // over their phases; empty if no target could be made.
   cv::Mat bake_texels(const KnitFrame& frame, const KnitView& view,
                       const Eigen::Vector3f& toward_eye);
   // The repeat's maps for draped cloth (repeat_maps.h).
-  void bake_draped(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
+  bool bake_draped(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
 
   YarnRendererOptions options_;
   std::unique_ptr<YarnRenderer> baker_;

@@ -62,34 +62,40 @@ struct ScanSurface::Gl {
 
 Result<std::unique_ptr<ScanSurface>> ScanSurface::create(const PatchTile& tile,
                                                          const ShadingParams& shading) {
-  if (!(tile.maps.pixel_size_mm > 0))
-    return std::unexpected(bad_input(tile.maps.directory, {},
-                                     "the scan's pixel size is not known: no physical size to "
-                                     "tile its maps at"));
   std::unique_ptr<ScanSurface> surface(new ScanSurface);
-  surface->shading_ = shading;
-  surface->tile_mm_ = tile.maps.extent();
   surface->gl_ = std::make_unique<Gl>();
   Gl& gl = *surface->gl_;
   auto program = GlProgram::build(shaders::scan_surface_vert, shaders::scan_surface_frag,
                                   std::string(shaders::surface_lighting_glsl.text));
   if (!program) return std::unexpected(program.error());
   gl.program.emplace(std::move(*program));
+  glGenTextures(1, &gl.albedo);
+  glGenTextures(1, &gl.normal);
+  glGenVertexArrays(1, &gl.array);
+  glGenBuffers(1, &gl.vertices);
+  glGenBuffers(1, &gl.indices);
+  if (auto set = surface->set_tile(tile, shading); !set) return std::unexpected(set.error());
+  return surface;
+}
+
+Status ScanSurface::set_tile(const PatchTile& tile, const ShadingParams& shading) {
+  if (!(tile.maps.pixel_size_mm > 0))
+    return std::unexpected(bad_input(tile.maps.directory, {},
+                                     "the scan's pixel size is not known: no physical size to "
+                                     "tile its maps at"));
+  Gl& gl = *gl_;
   GLint max_size = 0;
   glGetIntegerv(GL_MAX_TEXTURE_SIZE, &max_size);
   const TextureLevels levels =
       build_texture_levels(tile.maps, shading.default_gloss, std::max(max_size, 64));
-  glGenTextures(1, &gl.albedo);
   upload_levels(gl.albedo, levels.albedo_alpha, GL_SRGB8_ALPHA8, GL_UNSIGNED_BYTE);
-  glGenTextures(1, &gl.normal);
   upload_levels(gl.normal, levels.normal_gloss, GL_RGBA16F, GL_HALF_FLOAT);
-  glGenVertexArrays(1, &gl.array);
-  glGenBuffers(1, &gl.vertices);
-  glGenBuffers(1, &gl.indices);
   if (const GLenum error = glGetError(); error != GL_NO_ERROR)
     return std::unexpected(internal_error("GL error " + std::to_string(error) +
                                           " while uploading the scan's tile " + tile.source));
-  return surface;
+  shading_ = shading;
+  tile_mm_ = tile.maps.extent();
+  return {};
 }
 
 ScanSurface::~ScanSurface() = default;

@@ -209,6 +209,10 @@ Status YarnRenderer::set_woven(const WovenFarMaterial& material) {
   return far_->set_woven(material, weights);
 }
 
+void YarnRenderer::clear_woven() {
+  if (far_) far_->clear_woven();
+}
+
 bool YarnRenderer::neural_far() const {
   return far_ && far_->neural();
 }

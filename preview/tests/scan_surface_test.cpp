@@ -7,6 +7,7 @@
 
 #include "psrig/preview/scan_surface.h"
 
+#include <GLES3/gl3.h>
 #include <cmath>
 #include <numbers>
 
@@ -107,6 +108,48 @@ TEST(ScanSurface, FarClothHasTheScansColourUnderTheSameLight) {
     // averaged through Toksvig's lobe): 1.4, 2.5 and 4.2 % when measured.
     EXPECT_NEAR(colour / full[c], 1.0, 0.05);
   }
+}
+
+// A new tile (the draped repeat's maps, baked again as the view turns)
+// goes into the same surface; one without a pixel size is refused and the
+// last stays.
+TEST(ScanSurface, ANewTileReplacesTheOldAndABadOneChangesNothing) {
+  auto context = EglContext::open_surfaceless();
+  ASSERT_TRUE(context) << context.error().describe();
+  PatchTile tile;
+  tile.maps = testing::bump_swatch({64, 64}, 16, 0);
+  tile.maps.albedo.setTo(cv::Scalar(0.6, 0.1, 0.1));  // red (RGB)
+  auto surface = ScanSurface::create(tile, ShadingParams{});
+  ASSERT_TRUE(surface) << surface.error().describe();
+  const cloth::StitchMesh mesh = cloth::make_stitch_mesh(8, 8, 3.2f, 3.2f, cloth::ClothShape::flat);
+  Eigen::AlignedBox3f bounds;
+  for (const Eigen::Vector3f& vertex : mesh.vertices)
+    bounds.extend(vertex);
+  const cv::Size size(96, 96);
+  const KnitFrame frame = knit_frame(bounds, KnitView{}, size);
+  const auto drawn = [&] {
+    (*surface)->update(mesh, EnvironmentLight::uniform(Eigen::Vector3f::Constant(0.1f)), 1);
+    auto target = OffscreenTarget::create(size, 1, ColourStorage::srgb);
+    EXPECT_TRUE(target);
+    (*target)->bind();
+    glClearColor(0, 0, 0, 1);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+    (*surface)->draw(frame, {.yarn_width_mm = 0.5f, .encode_srgb = true});
+    return cv::mean((*target)->read());  // BGR
+  };
+  const cv::Scalar red = drawn();
+  EXPECT_GT(red[2], 1.3 * red[0]);                    // 217 against 151 in sRGB codes
+  tile.maps.albedo.setTo(cv::Scalar(0.1, 0.1, 0.6));  // blue
+  ASSERT_TRUE((*surface)->set_tile(tile, ShadingParams{}));
+  const cv::Scalar blue = drawn();
+  EXPECT_GT(blue[0], 1.3 * blue[2]);
+  PatchTile unsized = tile;
+  unsized.maps.albedo.setTo(cv::Scalar(0.1, 0.6, 0.1));
+  unsized.maps.pixel_size_mm = 0;
+  EXPECT_FALSE((*surface)->set_tile(unsized, ShadingParams{}));
+  const cv::Scalar still = drawn();
+  for (int c = 0; c < 3; ++c)
+    EXPECT_NEAR(still[c], blue[c], 0.5) << c;
 }
 
 // The highlight of a bumpy glossy surface lit from every direction of the

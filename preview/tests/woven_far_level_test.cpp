@@ -212,6 +212,31 @@ TEST_F(WovenFarLevelTest, AColourEditNeedsNoEncoding) {
   EXPECT_EQ((*far)->material().parameters.alpha, 0.3F) << "the last good material stays";
 }
 
+// A renderer that drew a weave's neural far level and goes on to draw a
+// knit bakes the knit's repeat again (the decoder would shade the knit as
+// the weave).
+TEST_F(WovenFarLevelTest, AKnitAfterAWeaveIsBakedAgain) {
+  const auto weave = load_shipped_weave("twill-2x2", 24);
+  ASSERT_TRUE(weave);
+  auto far = renderer(YarnLevel::far, *weave);
+  ASSERT_TRUE(far);
+  KnitView view;
+  (void)draw(*far, view, {160, 120});
+  EXPECT_TRUE(far->neural_far());
+  EXPECT_EQ(far->repeat_bakes(), 0);
+  auto knit = ClothModel::load(test::shipped_pattern("stockinette.chart"), 12, 12, std::nullopt);
+  ASSERT_TRUE(knit) << knit.error().describe();
+  cloth::YarnSet yarns;
+  knit->update({}, yarns);
+  far->clear_woven();
+  far->update(yarns);
+  const cv::Mat frame = draw(*far, view, {160, 120});
+  EXPECT_FALSE(far->neural_far());
+  EXPECT_EQ(far->repeat_bakes(), 1);
+  EXPECT_TRUE(far->last_drew_far_cloth());
+  EXPECT_GT(cv::mean(frame)[2], cv::mean(frame)[0]) << "the red jersey, not the blue twill";
+}
+
 struct WovenCase {
   const char* weave;
   int threads;  // across the frame's cloth, as far_level_test's

@@ -33,6 +33,10 @@ class ScanSurface {
   // tile at). `shading.ambient` is not used: the environment lights it.
   [[nodiscard]] static Result<std::unique_ptr<ScanSurface>> create(const PatchTile& tile,
                                                                    const ShadingParams& shading);
+  // Another tile (and its light) from now on, in the same textures and
+  // program (no shader built): the vertices' (u, v) follow at the next
+  // update(). A tile without a pixel size is refused, changing nothing.
+  [[nodiscard]] Status set_tile(const PatchTile& tile, const ShadingParams& shading);
   ~ScanSurface();
   ScanSurface(const ScanSurface&) = delete;
   ScanSurface& operator=(const ScanSurface&) = delete;

@@ -205,6 +205,9 @@ class YarnRenderer {
   // material encoded when its pattern or (alpha, beta) change; colours are
   // free). Nothing with the level forced near or `woven_far` baked.
   [[nodiscard]] Status set_woven(const WovenFarMaterial& material);
+  // The yarns are no longer that weave (a knit, say): the far level is
+  // baked again from the next frame.
+  void clear_woven();
   // Whether the far level is the neural one.
   [[nodiscard]] bool neural_far() const;
   // Where the far level begins to take over, yarn width in pixels.
