@@ -50,6 +50,7 @@ uniform float u_environment_sheen;
 uniform float u_crossing_occlusion;
 uniform float u_shadow_density;
 uniform vec3 u_light_colour;
+uniform vec3 u_albedo_gain;  // every yarn's colour times this (YarnRenderer::set_albedo_gain)
 uniform vec3 u_mean_surface;  // the slice's mean: ply offset, tilt's sine, light
 uniform vec2 u_far_px;        // yarn widths over which the near view's detail grows in
 uniform float u_prefilter_px;      // FAR: the strip's widening either side
@@ -193,7 +194,7 @@ void main() {
   float slant_cos = sqrt(max(1.0 - u_ply_slant_sin * u_ply_slant_sin, 0.0));
   v_ply_across = slant_cos * side - u_ply_slant_sin * tangent;
 
-  vec3 albedo = srgb_decode(a_colour_seed.rgb);
+  vec3 albedo = min(srgb_decode(a_colour_seed.rgb) * u_albedo_gain, vec3(1.0));
   v_albedo = albedo;
   v_to_eye = u_eye.xyz - u_eye.w * position;
   vec3 to_light = u_light.xyz - u_light.w * a_point.xyz;

@@ -6,6 +6,7 @@
 #include <cmath>
 #include <numbers>
 
+#include "psrig/preview/clear_frame.h"
 #include "psrig/preview/repeat_maps.h"
 #include "psrig/preview/yarn_slice.h"
 
@@ -17,6 +18,9 @@ int repeat_side(float texels) {
   const auto wanted = static_cast<unsigned>(std::clamp(std::ceil(texels), 4.0f, 1024.0f));
   return static_cast<int>(std::bit_ceil(wanted));
 }
+
+// How far match_scan() may take the yarns' colour.
+constexpr float kLeastAlbedoGain = 0.05f, kMostAlbedoGain = 4.0f;
 
 // Every face within `degrees` of facing as the window does: the bake is lit
 // and seen as the window is, so it stands for flat cloth only (a drape's
@@ -97,20 +101,7 @@ Status FarLevel::set_woven(const WovenFarMaterial& material, const std::filesyst
   return woven_->set_material(material);
 }
 
-bool FarLevel::update(const cloth::YarnSet& yarns) {
-  if (scan_) return update_surface(yarns.surface);
-  window_ = middle_repeat(yarns.surface);
-  if (!window_) return false;
-  draped_now_ = !flat_like(yarns.surface.mesh, window_->normal(), options_.far_cloth_flat_degrees);
-  // The neural level is for flat weaves, as the bake is without the maps.
-  if (draped_now_ && (woven_ || !options_.far_cloth_draped_maps)) {
-    window_.reset();
-    return false;
-  }
-  if (woven_) {  // nothing to bake
-    woven_->update(yarns.surface);
-    return true;
-  }
+void FarLevel::take_yarns(const cloth::YarnSet& yarns) {
   const bool same_style = taken_window_ && same_slice(yarns.style, near_yarns_.style) &&
                           yarns.style.colour == near_yarns_.style.colour;
   if (!same_style) {
@@ -124,7 +115,29 @@ bool FarLevel::update(const cloth::YarnSet& yarns) {
     baker_stale_ = true;
     baked_.reset();
     draped_baked_.reset();  // the draped maps were made of the old yarns too
+    matched_light_.reset();
   }
+}
+
+bool FarLevel::update(const cloth::YarnSet& yarns) {
+  if (scan_) {
+    // The yarns about the middle repeat, for match_scan().
+    if ((window_ = middle_repeat(yarns.surface))) take_yarns(yarns);
+    return update_surface(yarns.surface);
+  }
+  window_ = middle_repeat(yarns.surface);
+  if (!window_) return false;
+  draped_now_ = !flat_like(yarns.surface.mesh, window_->normal(), options_.far_cloth_flat_degrees);
+  // The neural level is for flat weaves, as the bake is without the maps.
+  if (draped_now_ && (woven_ || !options_.far_cloth_draped_maps)) {
+    window_.reset();
+    return false;
+  }
+  if (woven_) {  // nothing to bake
+    woven_->update(yarns.surface);
+    return true;
+  }
+  take_yarns(yarns);
   if (draped_now_) {
     draped_mesh_ = yarns.surface.mesh;
     if (draped_)
@@ -174,6 +187,74 @@ void FarLevel::prepare(const KnitFrame& frame, const KnitView& view, unsigned ta
   glViewport(0, 0, viewport.width, viewport.height);
 }
 
+std::optional<ColourMatch> FarLevel::match_scan(const KnitFrame& frame, const KnitView& view,
+                                                unsigned target, cv::Size viewport) {
+  if (!scan_ || !scan_mesh_ || !taken_window_ || near_yarns_.curves.empty()) return std::nullopt;
+  if (matched_light_ && (*matched_light_ - frame.light).cwiseAbs().maxCoeff() < 1e-4f)
+    return std::nullopt;
+  const Eigen::Vector3f toward_eye = frame.orthographic
+                                         ? (frame.eye - frame.centre).normalized()
+                                         : (frame.eye - taken_window_->centre()).normalized();
+  std::optional<KnitFrame> baking = bake_frame(frame, toward_eye);
+  if (!baking) return std::nullopt;
+  // The scan over the window as the bakes see it, over black.
+  target_->bind();
+  clear_frame({0, 0, 0}, false, target_->size());
+  scan_->draw(*baking, {.yarn_width_mm = 2 * near_yarns_.style.radius_mm,
+                        .from_px = 2e9f,
+                        .full_px = 1e9f});
+  const cv::Mat scan_frame = target_->read();
+  const cv::Scalar scan_mean = cv::mean(repeat_texels(scan_frame, scan_frame));
+  const Eigen::Vector3f scan(static_cast<float>(scan_mean[0]), static_cast<float>(scan_mean[1]),
+                             static_cast<float>(scan_mean[2]));
+  // The yarns' mean as the far level's bakes draw them.
+  const auto yarns_at = [&](const ColourMatch& match) -> std::optional<Eigen::Vector3f> {
+    baker_->set_colour_match(match);
+    const cv::Mat texels = bake_texels(frame, view, toward_eye);
+    if (texels.empty()) return std::nullopt;
+    const cv::Scalar mean = cv::mean(texels);
+    return Eigen::Vector3f(static_cast<float>(mean[0]), static_cast<float>(mean[1]),
+                           static_cast<float>(mean[2]));
+  };
+  ColourMatch match;
+  const auto full = yarns_at(match);
+  const auto dull = yarns_at({.sheen_gain = 0});
+  if (!full || !dull) return std::nullopt;
+  // The sheen is white and the same whatever the colour: where it alone
+  // outshines a channel of the scan, no colour would do, so it is dimmed
+  // to leave that channel a tenth for the yarns' own colour.
+  const Eigen::Vector3f sheen = (*full - *dull).cwiseMax(0.0f);
+  for (int c = 0; c < 3; ++c)
+    if (sheen[c] > 1e-6f) match.sheen_gain = std::min(match.sheen_gain, 0.9f * scan[c] / sheen[c]);
+  // Then per channel the secant twice, from the colour as given and half
+  // of it: the yarns' shading is nearly linear in their colour (light
+  // scattered between fibres grows faster).
+  ColourMatch low = match, high = match;
+  low.albedo_gain.setConstant(0.5f);
+  std::optional<Eigen::Vector3f> at_low = yarns_at(low), at_high = yarns_at(high);
+  for (int round = 0; round < 2 && at_low && at_high; ++round) {
+    for (int c = 0; c < 3; ++c) {
+      const float run = high.albedo_gain[c] - low.albedo_gain[c];
+      const float slope = std::abs(run) > 1e-6f ? ((*at_high)[c] - (*at_low)[c]) / run : 0.0f;
+      if (slope > 1e-6f)
+        match.albedo_gain[c] =
+            std::clamp(high.albedo_gain[c] + (scan[c] - (*at_high)[c]) / slope, kLeastAlbedoGain,
+                       kMostAlbedoGain);
+    }
+    if (round == 1) break;
+    low = high;
+    at_low = at_high;
+    high = match;
+    at_high = yarns_at(high);
+  }
+  baker_->set_colour_match({});
+  if (!at_low || !at_high) return std::nullopt;
+  matched_light_ = frame.light;
+  glBindFramebuffer(GL_DRAW_FRAMEBUFFER, static_cast<GLuint>(target));
+  glViewport(0, 0, viewport.width, viewport.height);
+  return match;
+}
+
 void FarLevel::draw(const KnitFrame& frame, const FarClothDraw& how) const {
   if (scan_) {
     scan_->draw(frame, how);
@@ -194,15 +275,11 @@ void FarLevel::draw(const KnitFrame& frame, const FarClothDraw& how) const {
                        .viewport = frame_viewport_});
 }
 
-// The repeat at `bake_yarn_texels` a yarn (rounded up to whole powers of
-// two a side), drawn at the near level over black and over white, 4x
-// multisampled as the near level's frames are, at `bake_phases` phases of
-// the yarns' slice, averaged: every repeat of the cloth has its yarns at
-// phases of their own, so the one texture that is nearest them all is
-// their mean (what one bake shows at one phase is as far from each repeat
-// as two repeats are from each other).
-cv::Mat FarLevel::bake_texels(const KnitFrame& frame, const KnitView& view,
-                              const Eigen::Vector3f& toward_eye) {
+// The frame that draws the taken window onto the bake's target (made at
+// its size): the repeat at `bake_yarn_texels` a yarn, rounded up to whole
+// powers of two a side. Nullopt when no target can be made.
+std::optional<KnitFrame> FarLevel::bake_frame(const KnitFrame& frame,
+                                              const Eigen::Vector3f& toward_eye) {
   if (baker_stale_) {
     baker_->update(near_yarns_);
     baker_stale_ = false;
@@ -223,9 +300,23 @@ cv::Mat FarLevel::bake_texels(const KnitFrame& frame, const KnitView& view,
   baking.focal_px = options_.far_cloth_from_px / yarn_mm;
   if (!target_ || target_->size() != size) {
     auto made = OffscreenTarget::create(size, 4, ColourStorage::srgb);
-    if (!made) return {};
+    if (!made) return std::nullopt;
     target_ = std::move(*made);
   }
+  return baking;
+}
+
+// The repeat drawn at the near level over black and over white, 4x
+// multisampled as the near level's frames are, at `bake_phases` phases of
+// the yarns' slice, averaged: every repeat of the cloth has its yarns at
+// phases of their own, so the one texture that is nearest them all is
+// their mean (what one bake shows at one phase is as far from each repeat
+// as two repeats are from each other).
+cv::Mat FarLevel::bake_texels(const KnitFrame& frame, const KnitView& view,
+                              const Eigen::Vector3f& toward_eye) {
+  std::optional<KnitFrame> baking = bake_frame(frame, toward_eye);
+  if (!baking) return {};
+  const cv::Size size = target_->size();
   const int phases = std::max(options_.bake_phases, 1);
   // Steps of a whole slice over `phases` and of a ply's turn over `phases`
   // at once: the plies' pattern repeats many times along the slice, so
@@ -235,12 +326,12 @@ cv::Mat FarLevel::bake_texels(const KnitFrame& frame, const KnitView& view,
   cv::Mat sum(size, CV_32FC4, cv::Scalar::all(0));
   KnitView over = view;
   for (int phase = 0; phase < phases; ++phase) {
-    baking.slice_phase = static_cast<float>(phase) * step;
+    baking->slice_phase = static_cast<float>(phase) * step;
     cv::Mat frames[2];
     for (int white = 0; white < 2; ++white) {
       over.background = cv::Vec3f::all(static_cast<float>(white));
       target_->bind();
-      baker_->render(baking, over, size);
+      baker_->render(*baking, over, size);
       frames[white] = target_->read();
     }
     sum += repeat_texels(frames[0], frames[1]);

@@ -56,6 +56,16 @@ class FarLevel {
   // `view`; then framebuffer `target` is bound again with `viewport`.
   void prepare(const KnitFrame& frame, const KnitView& view, unsigned target, cv::Size viewport);
   void draw(const KnitFrame& frame, const FarClothDraw& how) const;
+  // With a scan as the far level, the gain per channel on the yarns' colour
+  // and on their sheen (YarnRenderer::set_colour_match) that makes the near level's repeat, as
+  // the bakes draw it along `frame`'s view and light, the scan's colour
+  // there: the kiosk's dolly from yarns to the scan then keeps its hue (the
+  // yarns' sheen is white, so yarns of the scan's own colour are paler than
+  // it: the sheen is dimmed where it alone outshines a channel). Worked out when the yarns about the middle repeat are first given,
+  // and again when they or the light change; nullopt otherwise (and where
+  // there is no scan). Then framebuffer `target` is bound again.
+  [[nodiscard]] std::optional<ColourMatch> match_scan(const KnitFrame& frame, const KnitView& view,
+                                                      unsigned target, cv::Size viewport);
 
   [[nodiscard]] int bakes() const { return bakes_; }
   [[nodiscard]] int triangles() const {
@@ -75,6 +85,9 @@ class FarLevel {
   [[nodiscard]] bool stands_for(const BakeKey& key, const std::optional<BakeKey>& baked) const;
   [[nodiscard]] bool same_shape(const RepeatWindow& window) const;
   // Each false when nothing could be baked (no target, no maps).
+  // The yarns about the window (when their style or its shape changed).
+  void take_yarns(const cloth::YarnSet& yarns);
+  std::optional<KnitFrame> bake_frame(const KnitFrame& frame, const Eigen::Vector3f& toward_eye);
   bool bake(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
   // The taken window's yarns at the near level (repeat_texels), averaged
   // over their phases; empty if no target could be made.
@@ -99,6 +112,7 @@ class FarLevel {
   std::optional<RepeatWindow> taken_window_;
   bool baker_stale_ = true;  // near_yarns_ not yet given to the baker
   std::optional<BakeKey> baked_;
+  std::optional<Eigen::Vector4f> matched_light_;  // match_scan()'s last
   int bakes_ = 0;
   std::unique_ptr<ScanSurface> scan_;
   bool scan_mesh_ = false;  // the scan has a mesh with faces to lie on

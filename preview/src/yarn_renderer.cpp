@@ -498,6 +498,7 @@ struct YarnUniforms {
   GLuint shadow_map = 0, slice_texture = 0;
   int shadow_extent = 0, shadow_size = 1;  // texels a side: in use, and of the map
   float map_strength = 0;
+  ColourMatch colour;
 };
 
 void use_yarn_program(const GlProgram& program, const YarnUniforms& u) {
@@ -526,16 +527,19 @@ void use_yarn_program(const GlProgram& program, const YarnUniforms& u) {
   glUniform3fv(program.uniform("u_environment[0]"), 9, environment[0].data());
   glUniform1f(program.uniform("u_environment_scale"), shading.environment);
   glUniform1f(program.uniform("u_environment_fibre"), shading.environment_fibre);
-  glUniform1f(program.uniform("u_environment_sheen"), shading.environment_sheen);
+  glUniform1f(program.uniform("u_environment_sheen"),
+              shading.environment_sheen * u.colour.sheen_gain);
   glUniform1f(program.uniform("u_local_scattering"), shading.local_scattering);
   glUniform1f(program.uniform("u_global_scattering"), shading.global_scattering);
   glUniform1f(program.uniform("u_crossing_occlusion"), shading.crossing_occlusion);
   // No yarn shadows asked for: none, statistical or mapped.
   glUniform1f(program.uniform("u_shadow_density"), u.view.shadows ? shading.shadow_density : 0.0f);
   glUniform3fv(program.uniform("u_light_colour"), 1, shading.light_colour.data());
+  glUniform3fv(program.uniform("u_albedo_gain"), 1, u.colour.albedo_gain.data());
   glUniform1f(program.uniform("u_diffuse"), shading.diffuse);
   glUniform1f(program.uniform("u_wrap"), shading.wrap);
-  glUniform3f(program.uniform("u_reflection"), shading.r_weight, shading.r_shift, shading.r_width);
+  glUniform3f(program.uniform("u_reflection"), shading.r_weight * u.colour.sheen_gain,
+              shading.r_shift, shading.r_width);
   glUniform3f(program.uniform("u_transmission"), shading.tt_weight, shading.tt_shift,
               shading.tt_width);
   glUniform1f(program.uniform("u_ply_relief"), shading.ply_relief);
@@ -741,7 +745,8 @@ void YarnRenderer::draw_yarns(const KnitFrame& frame, const KnitView& view, cons
                               .slice_texture = gl.slice,
                               .shadow_extent = plan.shadow_extent,
                               .shadow_size = gl.shadow_size,
-                              .map_strength = plan.map_strength};
+                              .map_strength = plan.map_strength,
+                              .colour = colour_match_};
 
   // Layers order only blended far frames; the depth test orders the rest.
   const Strips strips = choose_points(plan.pixels_per_mm, limits, eye, last_far_ && blending, 0);
@@ -797,6 +802,9 @@ void YarnRenderer::render(const KnitFrame& frame, const KnitView& view, cv::Size
   const FramePlan plan = plan_frame(frame, view);
   // A bake draws into its own framebuffer first.
   if (plan.far_cloth) far_->prepare(frame, view, static_cast<unsigned>(target), viewport);
+  if (far_)
+    if (const auto match = far_->match_scan(frame, view, static_cast<unsigned>(target), viewport))
+      colour_match_ = *match;
 
   yarn_state();
   glEnable(GL_PRIMITIVE_RESTART_FIXED_INDEX);

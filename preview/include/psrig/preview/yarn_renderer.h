@@ -172,6 +172,14 @@ struct YarnRendererOptions {
 class FarLevel;
 struct PatchTile;
 
+// What the yarns' colour is drawn with, besides their own: each linear
+// channel times `albedo_gain` (clamped to 1), the fibres' white sheen
+// (their R lobe and the environment's mirror term) times `sheen_gain`.
+struct ColourMatch {
+  Eigen::Vector3f albedo_gain = Eigen::Vector3f::Ones();
+  float sheen_gain = 1;
+};
+
 class YarnRenderer {
  public:
   [[nodiscard]] static Result<std::unique_ptr<YarnRenderer>> create(
@@ -205,6 +213,10 @@ class YarnRenderer {
   // material encoded when its pattern or (alpha, beta) change; colours are
   // free). Nothing with the level forced near or `woven_far` baked.
   [[nodiscard]] Status set_woven(const WovenFarMaterial& material);
+  // From the next frame on (ColourMatch): how a scan's far level brings
+  // the yarns' colour to its own (far_level.h).
+  void set_colour_match(const ColourMatch& match) { colour_match_ = match; }
+  [[nodiscard]] const ColourMatch& colour_match() const { return colour_match_; }
   // The yarns are no longer that weave (a knit, say): the far level is
   // baked again from the next frame.
   void clear_woven();
@@ -280,6 +292,7 @@ class YarnRenderer {
   bool last_halo_ = false;
   bool last_far_ = false;
   bool last_far_cloth_ = false;
+  ColourMatch colour_match_;
   bool last_yarns_ = false;
   int last_strip_vertices_ = 0;
   int allocations_ = 0;
