@@ -56,6 +56,24 @@ Status read_thread_colour(const fs::path& source, const pattern_text::Line& line
   return {};
 }
 
+// The look's keys within the ranges chen2024's network was trained on
+// (woven_dataset_generator.cpp draws alpha from [0.1, 1], beta from
+// [0, 2]): outside them its far level would be a guess.
+Status look_within_training(const fs::path& source, const pattern_text::Line& line,
+                            const pattern_text::KeyValue& entry, const WeaveMatrix& matrix) {
+  const auto outside = [&](const char* range, const char* what) -> Status {
+    return std::unexpected(error_at(source, line.number, line.column_of(entry.value),
+                                    std::string(entry.key) + " must be within " + range + " (" +
+                                        what + "), not " + std::string(entry.value)));
+  };
+  if (entry.key == "roughness" && !(matrix.roughness >= 0.1f && matrix.roughness <= 1))
+    return outside("0.1 to 1", "the yarns' microflake roughness, chen2024's alpha");
+  if (entry.key == "height_scale" && !(matrix.height_scale <= 2))
+    return outside("0 to 2",
+                   "how far the yarns' relief is scaled, chen2024's beta");
+  return {};
+}
+
 }  // namespace
 
 Result<WeaveMatrix> parse_weave_matrix(std::string_view text, const fs::path& source) {
@@ -79,8 +97,12 @@ Result<WeaveMatrix> parse_weave_matrix(std::string_view text, const fs::path& so
       auto read = pattern_text::read_measure(source, line, *entry,
                                              {{"ends_per_cm", &matrix.gauge.ends_per_cm},
                                               {"picks_per_cm", &matrix.gauge.picks_per_cm},
-                                              {"yarn_mm", &matrix.gauge.yarn_diameter_mm}});
+                                              {"yarn_mm", &matrix.gauge.yarn_diameter_mm},
+                                              {"roughness", &matrix.roughness},
+                                              {"height_scale", &matrix.height_scale}});
       if (!read) return std::unexpected(read.error());
+      auto within = look_within_training(source, line, *entry, matrix);
+      if (!within) return std::unexpected(within.error());
       continue;
     }
     if (const auto value = pattern_text::name_value(code)) {
@@ -99,8 +121,8 @@ Result<WeaveMatrix> parse_weave_matrix(std::string_view text, const fs::path& so
             source, line.number, line.column_of(code.substr(i)),
             std::string("unknown symbol '") + c +
                 "': lines are rows of 1 (warp over weft) and 0 (weft over warp), `name: ...`, "
-                "`ends_per_cm: N`, `picks_per_cm: N`, `yarn_mm: D`, `colour warp #RRGGBB`, "
-                "`colour weft #RRGGBB` or # comments"));
+                "`ends_per_cm: N`, `picks_per_cm: N`, `yarn_mm: D`, `roughness: A`, "
+                "`height_scale: B`, `colour warp #RRGGBB`, `colour weft #RRGGBB` or # comments"));
       matrix.cells.push_back(c == '1' ? 1 : 0);
       ++width;
     }

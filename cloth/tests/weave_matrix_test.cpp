@@ -97,12 +97,29 @@ TEST(WeaveMatrix, FirstRowIsTheFirstWeftAndTheRepeatTiles) {
   EXPECT_EQ(parse_weave_matrix("1\n", "dir/plain.weave")->name, "plain");
 }
 
+// chen2024's alpha and beta, when the file gives them: what the neural far
+// level encodes the weave with (woven_far_material).
+TEST(WeaveMatrix, ReadsTheLookWhereGiven) {
+  auto given = parse_weave_matrix("roughness: 0.3\nheight_scale: 1.5\n10\n01\n", "look.weave");
+  ASSERT_TRUE(given) << given.error().describe();
+  EXPECT_FLOAT_EQ(given->roughness, 0.3f);
+  EXPECT_FLOAT_EQ(given->height_scale, 1.5f);
+  auto absent = parse_weave_matrix("10\n01\n", "plain.weave");
+  ASSERT_TRUE(absent);
+  EXPECT_EQ(absent->roughness, 0.0f);
+  EXPECT_EQ(absent->height_scale, 0.0f);
+}
+
 TEST(WeaveMatrix, ErrorsNameTheFileLineAndColumn) {
   const test::BadPattern cases[] = {
       {"# twill\n1100\n011\n", 3, 1, "row 1 has 3 crossings, expected 4"},
       {"1 0\n0 x\n", 2, 3, "unknown symbol 'x'"},
       {"1 0\n0 K\n", 2, 3, "unknown symbol 'K'"},
       {"name: a\nname: b\n1\n", 2, 1, "second `name:`"},
+      {"roughness: 1.5\n1\n", 1, 12, "roughness must be within 0.1 to 1"},
+      {"roughness: 0.05\n1\n", 1, 12, "roughness must be within 0.1 to 1"},
+      {"height_scale: 3\n1\n", 1, 15, "height_scale must be within 0 to 2"},
+      {"height_scale: 0\n1\n", 1, 15, "height_scale must be a positive number"},
   };
   for (const test::BadPattern& bad : cases) {
     auto matrix = parse_weave_matrix(bad.text, "bad.weave");

@@ -186,6 +186,22 @@ class WovenFarLevelTest : public ::testing::Test {
   std::unique_ptr<EglContext> context_;
 };
 
+// The weave file's look (`roughness:`, `height_scale:`) is what the
+// network encodes; without it the middle of what it was trained on.
+TEST(WovenFarMaterial, TakesTheWeavesLookWhereItGivesOne) {
+  auto look = cloth::parse_weave_matrix("roughness: 0.3\nheight_scale: 1.5\n10\n01\n", "look.weave");
+  ASSERT_TRUE(look) << look.error().describe();
+  const Eigen::Vector3f grey = Eigen::Vector3f::Constant(0.5f);
+  const WovenFarMaterial given = woven_far_material(*look, grey, grey);
+  EXPECT_FLOAT_EQ(given.parameters.alpha, 0.3f);
+  EXPECT_FLOAT_EQ(given.parameters.beta, 1.5f);
+  auto plain = cloth::parse_weave_matrix("10\n01\n", "plain.weave");
+  ASSERT_TRUE(plain);
+  const WovenFarMaterial usual = woven_far_material(*plain, grey, grey);
+  EXPECT_FLOAT_EQ(usual.parameters.alpha, 0.5f);
+  EXPECT_FLOAT_EQ(usual.parameters.beta, 1.0f);
+}
+
 // chen2024 4.3's editing: k_d and k_s are the shader's uniforms, so a
 // colour edit re-runs nothing; alpha (or the pattern) re-runs the encoder.
 TEST_F(WovenFarLevelTest, AColourEditNeedsNoEncoding) {

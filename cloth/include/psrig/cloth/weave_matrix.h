@@ -28,6 +28,10 @@ struct WeaveMatrix {
   // `colour weft #RRGGBB`, linear RGB here).
   WovenGauge gauge;
   std::optional<Eigen::Vector3f> warp_colour, weft_colour;
+  // The fabric surface model's look where the file gives it (chen2024 3.1,
+  // `roughness:` alpha within [0.1, 1] and `height_scale:` beta within
+  // (0, 2], the ranges its neural BSDF was trained on); 0 where it does not.
+  float roughness = 0, height_scale = 0;
 
   // The repeat tiled over the plane: any warp and weft, negative included.
   [[nodiscard]] bool warp_over(int warp, int weft) const;
