@@ -21,6 +21,10 @@ uniform float u_reference_distance;  // a point light's full-strength distance
 uniform vec2 u_fade_px;              // the far level from none (x) to all (y), x > y
 uniform bool u_over_yarns;           // the near level's yarns are drawn beneath
 uniform bool u_encode_srgb;
+// ScanSurface::set_light_response: the direct light's share by the light's
+// cosine to the plane, at 0, 1/6, ..., 1, in place of Lambert's.
+uniform bool u_responds;
+uniform vec3 u_response[7];
 
 out vec4 fragment;
 
@@ -48,8 +52,16 @@ void main() {
   float attenuation = u_point_light > 0.5
       ? u_reference_distance * u_reference_distance / dot(to_light, to_light)
       : 1.0;
-  vec3 colour = surface_lighting(albedo, normal_gloss, to_light, to_eye, ambient,
-                                 u_light_colour * attenuation);
+  vec3 colour;
+  if (u_responds) {
+    float at = clamp(normalize(to_light).z, 0.0, 1.0) * 6.0;
+    int below = min(int(at), 5);
+    vec3 share = mix(u_response[below], u_response[below + 1], at - float(below));
+    colour = albedo * (ambient + u_diffuse * share * u_light_colour * attenuation);
+  } else {
+    colour = surface_lighting(albedo, normal_gloss, to_light, to_eye, ambient,
+                              u_light_colour * attenuation);
+  }
   // The alpha map's coverage (a chart's repeat shows its gaps; a scan's is 1).
   float cover = far * albedo_alpha.a;
   fragment = vec4(cover * (u_encode_srgb ? srgb_encode(colour) : colour), cover);

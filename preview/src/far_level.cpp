@@ -313,11 +313,11 @@ std::optional<KnitFrame> FarLevel::bake_frame(const KnitFrame& frame,
 // their mean (what one bake shows at one phase is as far from each repeat
 // as two repeats are from each other).
 cv::Mat FarLevel::bake_texels(const KnitFrame& frame, const KnitView& view,
-                              const Eigen::Vector3f& toward_eye) {
+                              const Eigen::Vector3f& toward_eye, int phases) {
   std::optional<KnitFrame> baking = bake_frame(frame, toward_eye);
   if (!baking) return {};
   const cv::Size size = target_->size();
-  const int phases = std::max(options_.bake_phases, 1);
+  phases = std::max(phases > 0 ? phases : options_.bake_phases, 1);
   // Steps of a whole slice over `phases` and of a ply's turn over `phases`
   // at once: the plies' pattern repeats many times along the slice, so
   // steps of the slice alone could all land on the same ply phase.
@@ -346,6 +346,58 @@ bool FarLevel::bake(const KnitFrame& frame, const KnitView& view,
   cloth_->upload(repeat_levels(texels));
   ++bakes_;
   return true;
+}
+
+// The yarns' own light response for the draped maps
+// (ScanSurface::set_light_response), so that a fold turned from the lamp
+// keeps the yarns' light, not Lambert's: the repeat baked with a
+// directional lamp at each cosine to its plane (about the frame's lamp's
+// azimuth; no shadow map, which is drawn for the frame's lamp; one phase:
+// only the mean is taken), each over the same at the frame's own lamp,
+// is the share of `flat` (what the maps' albedo was divided by) the
+// surface must show, less its ambient part, over the direct light's.
+std::vector<Eigen::Vector3f> FarLevel::yarn_light_response(const KnitFrame& frame,
+                                                           const KnitView& view,
+                                                           const Eigen::Vector3f& toward_eye,
+                                                           const Eigen::Vector3f& normal,
+                                                           const Eigen::Vector3f& flat) {
+  const Eigen::Vector3f centre = taken_window_->centre();
+  const Eigen::Vector3f to_light =
+      (frame.light.head<3>() - frame.light.w() * centre).normalized();
+  Eigen::Vector3f azimuth = to_light - to_light.dot(normal) * normal;
+  if (azimuth.squaredNorm() < 1e-8f) azimuth = taken_window_->across;
+  azimuth = (azimuth - azimuth.dot(normal) * normal).normalized();
+  KnitView unshadowed = view;
+  unshadowed.shadows = false;
+  const auto mean_lit = [&](const Eigen::Vector3f& toward_light) -> std::optional<Eigen::Vector3f> {
+    KnitFrame lit = frame;
+    lit.light = Eigen::Vector4f(toward_light.x(), toward_light.y(), toward_light.z(), 0);
+    const cv::Mat texels = bake_texels(lit, unshadowed, toward_eye, 1);
+    if (texels.empty()) return std::nullopt;
+    const cv::Scalar mean = cv::mean(texels);
+    return Eigen::Vector3f(static_cast<float>(mean[0]), static_cast<float>(mean[1]),
+                           static_cast<float>(mean[2]));
+  };
+  const auto reference = mean_lit(to_light);
+  if (!reference) return {};
+  const ShadingParams shading = surface_shading(options_);
+  const Eigen::Vector3f ambient =
+      options_.shading.environment * options_.environment.lambert(normal);
+  const float attenuation =
+      frame.light.w() > 0.5f ? frame.light_reference_distance * frame.light_reference_distance /
+                                   (frame.light.head<3>() - centre).squaredNorm()
+                             : 1.0f;
+  const Eigen::Vector3f direct =
+      (shading.diffuse * attenuation * options_.shading.light_colour).cwiseMax(1e-6f);
+  std::vector<Eigen::Vector3f> response;
+  for (int k = 0; k < ScanSurface::kResponseSamples; ++k) {
+    const float cosine = static_cast<float>(k) / (ScanSurface::kResponseSamples - 1);
+    const auto seen = mean_lit(cosine * normal + std::sqrt(1 - cosine * cosine) * azimuth);
+    if (!seen) return {};
+    const Eigen::Vector3f share = flat.cwiseProduct(seen->cwiseQuotient(reference->cwiseMax(1e-6f)));
+    response.push_back((share - ambient).cwiseQuotient(direct).cwiseMax(0.0f));
+  }
+  return response;
 }
 
 // As the flat far level bakes it (seen along `toward_eye`, the frame's
@@ -389,6 +441,7 @@ bool FarLevel::bake_draped(const KnitFrame& frame, const KnitView& view,
     draped_ = std::move(*surface);
   }
   draped_gain_ = maps.gain;
+  draped_->set_light_response(yarn_light_response(frame, view, toward_eye, normal, flat));
   draped_->update(draped_mesh_, options_.environment, options_.shading.environment * draped_gain_);
   ++bakes_;
   return true;

@@ -91,8 +91,13 @@ class FarLevel {
   bool bake(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
   // The taken window's yarns at the near level (repeat_texels), averaged
   // over their phases; empty if no target could be made.
+  // `phases` 0: `bake_phases`.
   cv::Mat bake_texels(const KnitFrame& frame, const KnitView& view,
-                      const Eigen::Vector3f& toward_eye);
+                      const Eigen::Vector3f& toward_eye, int phases = 0);
+  std::vector<Eigen::Vector3f> yarn_light_response(const KnitFrame& frame, const KnitView& view,
+                                                   const Eigen::Vector3f& toward_eye,
+                                                   const Eigen::Vector3f& normal,
+                                                   const Eigen::Vector3f& flat);
   // The repeat's maps for draped cloth (repeat_maps.h).
   bool bake_draped(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
 

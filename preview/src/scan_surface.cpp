@@ -149,6 +149,11 @@ void ScanSurface::update(const cloth::StitchMesh& mesh, const EnvironmentLight& 
   glBindBuffer(GL_ARRAY_BUFFER, 0);
 }
 
+void ScanSurface::set_light_response(std::vector<Eigen::Vector3f> response) {
+  if (!response.empty() && response.size() != kResponseSamples) response.clear();
+  response_ = std::move(response);
+}
+
 void ScanSurface::draw(const KnitFrame& frame, const FarClothDraw& how) const {
   if (!ready()) return;
   const Gl& gl = *gl_;
@@ -168,6 +173,9 @@ void ScanSurface::draw(const KnitFrame& frame, const FarClothDraw& how) const {
   glUniform2f(program.uniform("u_fade_px"), how.from_px, how.full_px);
   glUniform1i(program.uniform("u_over_yarns"), how.over_yarns ? 1 : 0);
   glUniform1i(program.uniform("u_encode_srgb"), how.encode_srgb ? 1 : 0);
+  glUniform1i(program.uniform("u_responds"), response_.empty() ? 0 : 1);
+  if (!response_.empty())
+    glUniform3fv(program.uniform("u_response[0]"), kResponseSamples, response_.front().data());
   glActiveTexture(GL_TEXTURE0);
   glBindTexture(GL_TEXTURE_2D, gl.albedo);
   glUniform1i(program.uniform("u_albedo_alpha"), 0);

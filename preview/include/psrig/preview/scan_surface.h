@@ -37,6 +37,14 @@ class ScanSurface {
   // program (no shader built): the vertices' (u, v) follow at the next
   // update(). A tile without a pixel size is refused, changing nothing.
   [[nodiscard]] Status set_tile(const PatchTile& tile, const ShadingParams& shading);
+  // The direct light's share by the cosine of the light to the surface's
+  // plane, in place of Lambert's with its soft horizon (the tile's normals
+  // and gloss then unused): `response[k]` at cosine k / (size - 1), linear
+  // between, RGB, times the albedo, `shading.diffuse` and the light.
+  // A chart's repeat gets the yarns' own (FarLevel), whose Kajiya-Kay light
+  // hardly falls as the cloth turns from the lamp. Empty: Lambert again.
+  static constexpr int kResponseSamples = 7;
+  void set_light_response(std::vector<Eigen::Vector3f> response);
   ~ScanSurface();
   ScanSurface(const ScanSurface&) = delete;
   ScanSurface& operator=(const ScanSurface&) = delete;
@@ -63,6 +71,7 @@ class ScanSurface {
   std::vector<float> vertices_;
   int columns_ = -1, rows_ = -1;
   int index_count_ = 0;
+  std::vector<Eigen::Vector3f> response_;
 };
 
 }  // namespace psrig::preview
