@@ -104,11 +104,10 @@ CusickResult cusick(const KnitMaterial& material) {
 // near-vertical skirt (its edge 64 mm below the disc, 60 mm out), rippled
 // into about 10 small folds that barely reach past the disc, where
 // Cusick's specimens fall into 4 to 8 nodes (the method as described at
-// https://mapofsciences.com/topic/drape-coefficient-testing/). With no
-// self-collision the specimen's circumference beyond the disc's folds
-// through itself and its squeezed courses give way, so nothing pushes the
-// folds out (cloth/README.md). No published drape coefficient of single
-// jersey was at hand to compare the 0.09 with.
+// https://mapofsciences.com/topic/drape-coefficient-testing/). Not for
+// want of self-collision: a repulsion keeping masses 3 mm apart found no
+// two that near (cloth/README.md). No published drape coefficient of
+// single jersey was at hand to compare the 0.09 with.
 TEST(CusickDrape, DISABLED_SingleJerseyFallsIntoNodes) {
   const CusickResult jersey = cusick({});
   std::printf("Cusick: drape coefficient %.2f, %d nodes, the edge %.0f mm below the disc\n",
