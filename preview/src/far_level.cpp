@@ -151,8 +151,12 @@ bool FarLevel::update(const cloth::YarnSet& yarns) {
 
 bool FarLevel::stands_for(const BakeKey& key, const std::optional<BakeKey>& baked) const {
   if (!baked) return false;
-  const float turned = std::acos(std::clamp(key.toward_eye.dot(baked->toward_eye), -1.0f, 1.0f));
-  return turned <= options_.rebake_degrees * std::numbers::pi_v<float> / 180 &&
+  const float most = options_.rebake_degrees * std::numbers::pi_v<float> / 180;
+  const auto turned = [](const Eigen::Vector3f& a, const Eigen::Vector3f& b) {
+    return std::acos(std::clamp(a.dot(b), -1.0f, 1.0f));
+  };
+  return turned(key.toward_eye, baked->toward_eye) <= most &&
+         turned(key.normal, baked->normal) <= most &&
          (key.light - baked->light).cwiseAbs().maxCoeff() < 1e-4f &&
          key.shadows == baked->shadows && key.fibre_detail == baked->fibre_detail;
 }
@@ -165,20 +169,14 @@ void FarLevel::prepare(const KnitFrame& frame, const KnitView& view, unsigned ta
   const Eigen::Vector3f toward_eye = frame.orthographic
                                          ? (frame.eye - frame.centre).normalized()
                                          : (frame.eye - window_->centre()).normalized();
-  const BakeKey key{toward_eye, frame.light, view.shadows, view.fibre_detail};
+  // Rebaked as the middle repeat turns too (a swinging drape), so that it
+  // is drawn as the near level draws it: the bake is lit as the repeat
+  // faced.
+  const BakeKey key{toward_eye, window_->normal(), frame.light, view.shadows, view.fibre_detail};
   if (draped_now_) {
-    // Rebaked as the middle repeat turns too, so that it is drawn as the
-    // near level draws it (yarns are not Lambertian) and a switch to the
-    // flat far level does not step.
-    const float turned = std::acos(std::clamp(window_->normal().dot(draped_normal_), -1.0f, 1.0f));
-    if (draped_ && stands_for(key, draped_baked_) &&
-        turned <= options_.rebake_degrees * std::numbers::pi_v<float> / 180)
-      return;
+    if (draped_ && stands_for(key, draped_baked_)) return;
     // A failed bake is not recorded: the next frame tries again.
-    if (bake_draped(frame, view, toward_eye)) {
-      draped_baked_ = key;
-      draped_normal_ = window_->normal();
-    }
+    if (bake_draped(frame, view, toward_eye)) draped_baked_ = key;
   } else {
     if (stands_for(key, baked_)) return;
     if (bake(frame, view, toward_eye)) baked_ = key;

@@ -77,6 +77,7 @@ class FarLevel {
   // What a bake was made for (besides the yarns taken).
   struct BakeKey {
     Eigen::Vector3f toward_eye;
+    Eigen::Vector3f normal;  // the middle repeat's
     Eigen::Vector4f light;
     bool shadows = true, fibre_detail = true;
   };
@@ -126,7 +127,6 @@ class FarLevel {
   bool draped_now_ = false;
   std::unique_ptr<ScanSurface> draped_;
   std::optional<BakeKey> draped_baked_;
-  Eigen::Vector3f draped_normal_ = Eigen::Vector3f::Zero();  // the repeat's then
   float draped_gain_ = 1;          // repeat_maps' gain, the light's on the maps
   cloth::StitchMesh draped_mesh_;  // this frame's, for maps made after update()
 };
