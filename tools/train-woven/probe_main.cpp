@@ -1,10 +1,12 @@
 // psrig-woven-probe: how a trained neural woven BSDF (psrig-woven-net/1)
-// answers against fresh Monte-Carlo aggregates, by footprint size: the
-// loss of eq. 11 and the spatial contrast (how much the answer varies
-// from one footprint centre to the next, the direction-averaged sum of the
-// four components, against the aggregate's). For each .weave file given,
-// at the far level's parameters (alpha 0.5, beta 1, the default yarn
-// shape: preview's woven_far_material). Links psrig_cloth only.
+// answers against fresh Monte-Carlo aggregates, by footprint size: on a
+// grid of footprint centres, for fixed direction pairs, the sum of the four
+// components (f with every k = 1) of the decoder against the aggregate's:
+// their means, their spatial standard deviations (the pattern's contrast),
+// correlation and RMSE. For each .weave file given, at the far level's
+// parameters (alpha 0.5, beta 1, the default yarn shape: preview's
+// woven_far_material), or a data set's materials at their own. Links
+// psrig_cloth only; tools/train-woven/README.md says how.
 
 #include <cmath>
 #include <cstdio>
@@ -16,6 +18,7 @@
 #include "psrig/base/cli_command.h"
 #include "psrig/base/parallel.h"
 #include "psrig/cloth/weave_matrix.h"
+#include "psrig/cloth/weave_rules.h"
 #include "psrig/cloth/woven_aggregate.h"
 #include "psrig/cloth/woven_bsdf.h"
 #include "psrig/cloth/woven_dataset_generator.h"
@@ -45,6 +48,12 @@ int main(int argc, char** argv) {
   app.add_option("--weights", weights_files, "psrig-woven-net/1 files")->required();
   app.add_option("--centre-grid", grid)->capture_default_str();
   app.add_option("--samples", samples)->capture_default_str();
+  std::filesystem::path dataset_file;
+  std::vector<int> dataset_materials;
+  app.add_option("--dataset", dataset_file,
+                 "a data set whose --material entries (chen2024's weaves or the weaves given) "
+                 "to probe at their own parameters instead of the far level's");
+  app.add_option("--material", dataset_materials, "material indices of --dataset");
   CLI11_PARSE(app, argc, argv);
   set_thread_count(0);
 
@@ -57,16 +66,47 @@ int main(int argc, char** argv) {
     }
     networks.push_back(std::move(*network));
   }
-  const cloth::WovenMaterialParameters parameters{};
-  const cloth::WovenShading shading{parameters.alpha, parameters.alpha,
-                                    cloth::kDefaultDiffuseBlend};
-  const int pairs = static_cast<int>(kIncoming.size() * kOutgoing.size());
+  // What to probe: each weave at the far level's parameters, or the data
+  // set's materials at theirs.
+  std::vector<std::pair<cloth::WeaveMatrix, cloth::WovenMaterialParameters>> cases;
+  std::vector<cloth::WeaveMatrix> weaves = cloth::chen2024_training_weaves();
   for (const auto& weave_file : weave_files) {
     auto weave = cloth::load_weave_matrix(weave_file);
     if (!weave) {
       std::fprintf(stderr, "%s\n", weave.error().describe().c_str());
       return 1;
     }
+    if (dataset_file.empty()) cases.emplace_back(*weave, cloth::WovenMaterialParameters{});
+    weaves.push_back(std::move(*weave));
+  }
+  if (!dataset_file.empty()) {
+    auto dataset = cloth::read_woven_dataset(dataset_file);
+    if (!dataset) {
+      std::fprintf(stderr, "%s\n", dataset.error().describe().c_str());
+      return 1;
+    }
+    for (int m : dataset_materials) {
+      const cloth::WovenMaterialSample& record = dataset->materials.at(static_cast<std::size_t>(m));
+      cloth::WovenMaterialParameters parameters;
+      parameters.shape.twist_deg = record.twist_deg;
+      parameters.shape.inclination_deg = record.inclination_deg;
+      parameters.alpha = record.roughness;
+      parameters.beta = record.height_scale;
+      for (const auto& weave : weaves)
+        if (weave.name == record.pattern) {
+          cases.emplace_back(weave, parameters);
+          break;
+        }
+      std::printf("material %d: %s twist %.0f inclination %.1f alpha %.3f beta %.3f\n", m,
+                  record.pattern.c_str(), record.twist_deg, record.inclination_deg,
+                  record.roughness, record.height_scale);
+    }
+  }
+  const int pairs = static_cast<int>(kIncoming.size() * kOutgoing.size());
+  for (const auto& [weave_matrix, parameters] : cases) {
+    const cloth::WeaveMatrix* weave = &weave_matrix;
+    const cloth::WovenShading shading{parameters.alpha, parameters.alpha,
+                                      cloth::kDefaultDiffuseBlend};
     auto surface = cloth::WovenSurface::make(*weave, parameters.shape, parameters.beta,
                                              parameters.beta);
     auto sample = cloth::generate_woven_material(*weave, parameters, 64);
@@ -93,8 +133,8 @@ int main(int argc, char** argv) {
       auto latent = network.encode(*sample);
       if (!latent) return 1;
       const cloth::WovenDecoderMaterial material = network.prepare(std::move(*latent));
-      std::printf("%s  %s  (f = sum of the four components; over %d x %d centres)\n",
-                  weave->name.c_str(), weights_files[n].c_str(), grid, grid);
+      std::printf("%s (alpha %.2f beta %.2f)  %s  (f = sum of the four components; over %d x %d centres)\n",
+                  weave->name.c_str(), parameters.alpha, parameters.beta, weights_files[n].c_str(), grid, grid);
       std::printf("  size  eye      mean net/truth  spatial std truth  net   ratio  corr  rmse/std\n");
       for (int s = 0; s < sizes; ++s)
         for (int p = 0; p < pairs; ++p) {
