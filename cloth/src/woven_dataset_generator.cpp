@@ -156,8 +156,9 @@ Result<std::vector<WovenQuery>> generate_woven_queries(const WeaveMatrix& weave,
 Result<WovenDataset> generate_woven_dataset(const std::vector<WeaveMatrix>& patterns,
                                             const WovenDatasetOptions& options, std::uint64_t seed,
                                             const WovenDatasetProgress& progress) {
-  const int total = static_cast<int>(patterns.size()) * options.shapes_per_pattern *
-                    options.appearances_per_shape;
+  const int total = static_cast<int>(patterns.size()) *
+                    (options.shapes_per_pattern * options.appearances_per_shape +
+                     (options.default_appearance ? 1 : 0));
   WovenDataset dataset;
   dataset.seed = seed;
   std::uint32_t material = 0;
@@ -177,6 +178,18 @@ Result<WovenDataset> generate_woven_dataset(const std::vector<WeaveMatrix>& patt
         dataset.queries.insert(dataset.queries.end(), queries->begin(), queries->end());
         if (progress) progress(static_cast<int>(material) + 1, total);
       }
+    }
+  if (options.default_appearance)
+    for (std::size_t pattern = 0; pattern < patterns.size(); ++pattern, ++material) {
+      const WovenMaterialParameters parameters{};
+      auto sample = generate_woven_material(patterns[pattern], parameters, options.texture_size);
+      if (!sample) return std::unexpected(sample.error());
+      auto queries =
+          generate_woven_queries(patterns[pattern], parameters, material, options, seed);
+      if (!queries) return std::unexpected(queries.error());
+      dataset.materials.push_back(std::move(*sample));
+      dataset.queries.insert(dataset.queries.end(), queries->begin(), queries->end());
+      if (progress) progress(static_cast<int>(material) + 1, total);
     }
   return dataset;
 }

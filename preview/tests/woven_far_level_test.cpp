@@ -332,6 +332,12 @@ TEST_P(WovenFarCaseTest, GpuFarViewIsTheCpuNeuralRender) {
 // satin's floats in full contrast, the decoder about half of it (its
 // answer for a footprint a quarter of a repeat wide is smoother than the
 // aggregate it learnt), so every pixel of the pattern is off.
+// psrig-woven-probe measures it: at footprints 0.1 to 0.45 repeats wide
+// the decoder's pattern is nearly uncorrelated with the aggregate's. A
+// retrain on more small footprints, the 2/2 twill and the far level's own
+// parameters, with 16 one-blob bins and fusion 48 (config/woven/README.md)
+// lowered the RMSE to 16.6 and 13.8, 26.9 and 22.5, 28.9 and 28.6 but
+// broke the dolly and the twill's hand-over below, so it is not shipped.
 TEST_P(WovenFarCaseTest, DISABLED_NeuralFarViewIsTheFabricModelFiltered) {
   const WovenCase& param = GetParam();
   const auto weave = load_shipped_weave(param.weave, param.threads);

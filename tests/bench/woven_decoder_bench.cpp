@@ -3,11 +3,13 @@
 //   BM_WovenDecoderCpu: cloth::WovenNetwork::decode, one query (the CPU twin);
 //   BM_WovenEncoderCpu/T: the encoder on a T x T material (once per
 //     material, or per pattern or (alpha, beta) edit);
-//   BM_WovenDecoderGlsl/uniform_block:0|1/decoder_width:32|16: the GLSL
-//     pass over a 1920x1080 frame on llvmpipe, glFinish'ed (ms per frame;
-//     per pixel = that / 2 073 600), the weights in a texture (0, the
-//     default) or a uniform block (1), the decoder's layers 32 wide (the
-//     default) or 16;
+//   BM_WovenDecoderGlsl/uniform_block:0|1/fusion:F/angular:A/blob_bins:B:
+//     the GLSL pass over a 1920x1080 frame on llvmpipe, glFinish'ed (ms per
+//     frame; per pixel = that / 2 073 600), the weights in a texture (0,
+//     the default) or a uniform block (1), the fusion layers F wide, the
+//     angular decoder's A, B one-blob bins an input (the defaults 32, 32,
+//     8; 16, 16, 8 a narrower network; 32, 32, 16 and 48, 32, 16 finer
+//     footprint encodings);
 //   BM_WovenClearFrame: the same target cleared and finished, the floor.
 
 #include <GLES3/gl3.h>
@@ -29,16 +31,23 @@ using namespace psrig;
 
 const cv::Size kWovenFrame(1920, 1080);
 
-// The default sizes, or with the decoder's fusion and angular layers
-// `decoder_width` wide (what a narrower network would cost).
-const cloth::WovenNetwork& woven_network(int decoder_width = 32) {
-  static std::map<int, cloth::WovenNetwork> networks;
-  auto found = networks.find(decoder_width);
+// The default sizes, or the decoder's fusion and angular widths and the
+// one-blob bins given (what another network would cost).
+struct DecoderSizes {
+  int fusion = 32, angular = 32, blob_bins = 8;
+  auto operator<=>(const DecoderSizes&) const = default;
+};
+
+const cloth::WovenNetwork& woven_network(DecoderSizes sizes = {}) {
+  static std::map<DecoderSizes, cloth::WovenNetwork> networks;
+  auto found = networks.find(sizes);
   if (found == networks.end()) {
     cloth::WovenNetworkShape shape;
-    shape.fusion_width = shape.angular_width = decoder_width;
+    shape.fusion_width = sizes.fusion;
+    shape.angular_width = sizes.angular;
+    shape.blob_bins = sizes.blob_bins;
     found = networks
-                .emplace(decoder_width,
+                .emplace(sizes,
                          *cloth::WovenNetwork::from_weights(*cloth::random_woven_network(shape, 5)))
                 .first;
   }
@@ -87,16 +96,16 @@ struct WovenCanvas {
   std::unique_ptr<preview::WovenDecoderPass> pass;
 };
 
-// One per weight storage (0: a texture, 1: a uniform block) and decoder width.
-WovenCanvas* woven_canvas(int storage, int decoder_width = 32) {
-  static std::map<std::pair<int, int>, WovenCanvas*> opened;
-  WovenCanvas*& canvas = opened[{storage, decoder_width}];
+// One per weight storage (0: a texture, 1: a uniform block) and decoder sizes.
+WovenCanvas* woven_canvas(int storage, DecoderSizes sizes = {}) {
+  static std::map<std::pair<int, DecoderSizes>, WovenCanvas*> opened;
+  WovenCanvas*& canvas = opened[{storage, sizes}];
   if (canvas != nullptr) return canvas;
-  canvas = [storage, decoder_width] {
+  canvas = [storage, sizes] {
     auto* made = new WovenCanvas;
     if (woven_context() == nullptr) return made;
     auto target = preview::OffscreenTarget::create(kWovenFrame, 0, preview::ColourStorage::linear);
-    const cloth::WovenNetwork& network = woven_network(decoder_width);
+    const cloth::WovenNetwork& network = woven_network(sizes);
     auto pass = preview::WovenDecoderPass::create(
         network, storage == 0 ? preview::WovenWeightStorage::texture
                               : preview::WovenWeightStorage::uniform_block);
@@ -125,8 +134,10 @@ WovenCanvas* woven_canvas(int storage, int decoder_width = 32) {
 }
 
 void BM_WovenDecoderGlsl(benchmark::State& state) {
-  WovenCanvas* canvas =
-      woven_canvas(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  WovenCanvas* canvas = woven_canvas(
+      static_cast<int>(state.range(0)),
+      {static_cast<int>(state.range(1)), static_cast<int>(state.range(2)),
+       static_cast<int>(state.range(3))});
   if (!canvas->pass) {
     state.SkipWithError("no EGL context or the pass did not build");
     return;
@@ -142,10 +153,12 @@ void BM_WovenDecoderGlsl(benchmark::State& state) {
       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_WovenDecoderGlsl)
-    ->ArgNames({"uniform_block", "decoder_width"})
-    ->Args({0, 32})
-    ->Args({1, 32})
-    ->Args({0, 16})
+    ->ArgNames({"uniform_block", "fusion", "angular", "blob_bins"})
+    ->Args({0, 32, 32, 8})
+    ->Args({1, 32, 32, 8})
+    ->Args({0, 16, 16, 8})
+    ->Args({0, 32, 32, 16})
+    ->Args({0, 48, 32, 16})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

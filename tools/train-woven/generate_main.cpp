@@ -1,7 +1,7 @@
 // psrig-woven-dataset: the neural woven BSDF's training data set (chen2024
 // 5.1, Table 2) from the fabric surface model, written as
 // psrig-woven-dataset/1 for psrig-train-woven. chen2024's seven training
-// weaves only: the unseen ones (3/1 twill, 2/2 basket) stay out. Needs no
+// weaves and any --weave files: the unseen ones (3/1 twill, 2/2 basket) stay out. Needs no
 // libtorch. README.md beside it says how.
 
 #include <chrono>
@@ -11,6 +11,7 @@
 
 #include "psrig/base/cli_command.h"
 #include "psrig/base/parallel.h"
+#include "psrig/cloth/weave_matrix.h"
 #include "psrig/cloth/weave_rules.h"
 #include "psrig/cloth/woven_dataset.h"
 #include "psrig/cloth/woven_dataset_generator.h"
@@ -58,6 +59,20 @@ int main(int argc, char** argv) {
   app.add_option("--centre-grid", options.centre_grid, "footprint centres on N x N")
       ->capture_default_str()
       ->check(CLI::Range(1, 64));
+  app.add_option("--small-sizes", options.small_sizes, "footprint sizes in [0, 1] repeats a centre")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 64));
+  app.add_option("--large-sizes", options.large_sizes, "footprint sizes in [1, 5] repeats a centre")
+      ->capture_default_str()
+      ->check(CLI::Range(0, 64));
+  std::vector<std::filesystem::path> extra_weaves;
+  app.add_option("--weave", extra_weaves,
+                 "a .weave file to train on besides chen2024's seven (repeatable; never the "
+                 "unseen 3/1 twill or 2/2 basket)")
+      ->check(CLI::ExistingFile);
+  app.add_flag("--default-appearance", options.default_appearance,
+               "and one material a weave at the far level's parameters (alpha 0.5, beta 1, "
+               "the default yarn shape)");
   app.add_option("--samples", options.samples, "Monte Carlo samples a footprint")
       ->capture_default_str()
       ->check(CLI::Range(1, 1 << 20));
@@ -72,9 +87,18 @@ int main(int argc, char** argv) {
   CLI11_PARSE(app, argc, argv);
   set_thread_count(threads);
 
-  const auto weaves = cloth::chen2024_training_weaves();
+  auto weaves = cloth::chen2024_training_weaves();
+  for (const auto& file : extra_weaves) {
+    auto weave = cloth::load_weave_matrix(file);
+    if (!weave) {
+      std::fprintf(stderr, "psrig-woven-dataset: error: %s\n", weave.error().describe().c_str());
+      return exit_code(weave.error());
+    }
+    weaves.push_back(std::move(*weave));
+  }
   const int materials =
-      static_cast<int>(weaves.size()) * options.shapes_per_pattern * options.appearances_per_shape;
+      static_cast<int>(weaves.size()) *
+      (options.shapes_per_pattern * options.appearances_per_shape + (options.default_appearance ? 1 : 0));
   if (!quiet)
     std::fprintf(stderr, "%zu weaves, %d materials, about %.2f M queries\n", weaves.size(),
                  materials, materials * cloth::expected_queries_per_material(options) / 1e6);

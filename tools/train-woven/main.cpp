@@ -69,6 +69,10 @@ int main(int argc, char** argv) {
   app.add_option("--angular-width", options.shape.angular_width,
                  "the angular decoder's width (a multiple of 4)")
       ->capture_default_str();
+  app.add_option("--blob-bins", options.shape.blob_bins,
+                 "one-blob bins for each of the footprint's u, v and size (3 x bins a multiple "
+                 "of 4)")
+      ->capture_default_str();
   app.add_option("--latent", options.shape.latent_size, "the material latent's size")
       ->capture_default_str();
   app.add_option("--encoder-width", options.shape.encoder_width, "the encoder MLP's width")

@@ -38,6 +38,10 @@ struct WovenDatasetOptions {
   // beta draws); chen2024 takes 9 x 9 for plain and 4 x 16 for the others.
   int shapes_per_pattern = 2;
   int appearances_per_shape = 2;
+  // And one material a pattern at WovenMaterialParameters' defaults (the
+  // preview's far level draws every weave with them: woven_far_material),
+  // after all the drawn ones, so the drawn materials keep their indices.
+  bool default_appearance = false;
 };
 
 // One material's parameters, as Table 2 draws them.
@@ -68,7 +72,8 @@ struct WovenMaterialParameters {
 using WovenDatasetProgress = std::function<void(int done, int total)>;
 
 // The whole set: for each pattern, shapes_per_pattern shapes, each with
-// appearances_per_shape appearances, materials in that order.
+// appearances_per_shape appearances, materials in that order; then, with
+// default_appearance, one a pattern at the default parameters.
 [[nodiscard]] Result<WovenDataset> generate_woven_dataset(
     const std::vector<WeaveMatrix>& patterns, const WovenDatasetOptions& options,
     std::uint64_t seed, const WovenDatasetProgress& progress = {});
