@@ -61,8 +61,8 @@ int main(int argc, char** argv) {
   for (const auto& file : weights_files) {
     auto network = cloth::WovenNetwork::load(file);
     if (!network) {
-      std::fprintf(stderr, "%s\n", network.error().describe().c_str());
-      return 1;
+      std::fprintf(stderr, "psrig-woven-probe: error: %s\n", network.error().describe().c_str());
+      return exit_code(network.error());
     }
     networks.push_back(std::move(*network));
   }
@@ -73,19 +73,29 @@ int main(int argc, char** argv) {
   for (const auto& weave_file : weave_files) {
     auto weave = cloth::load_weave_matrix(weave_file);
     if (!weave) {
-      std::fprintf(stderr, "%s\n", weave.error().describe().c_str());
-      return 1;
+      std::fprintf(stderr, "psrig-woven-probe: error: %s\n", weave.error().describe().c_str());
+      return exit_code(weave.error());
     }
-    if (dataset_file.empty()) cases.emplace_back(*weave, cloth::WovenMaterialParameters{});
+    if (dataset_file.empty()) {  // as the far level encodes it (woven_far_material)
+      cloth::WovenMaterialParameters parameters;
+      if (weave->roughness > 0) parameters.alpha = weave->roughness;
+      if (weave->height_scale > 0) parameters.beta = weave->height_scale;
+      cases.emplace_back(*weave, parameters);
+    }
     weaves.push_back(std::move(*weave));
   }
   if (!dataset_file.empty()) {
     auto dataset = cloth::read_woven_dataset(dataset_file);
     if (!dataset) {
-      std::fprintf(stderr, "%s\n", dataset.error().describe().c_str());
-      return 1;
+      std::fprintf(stderr, "psrig-woven-probe: error: %s\n", dataset.error().describe().c_str());
+      return exit_code(dataset.error());
     }
     for (int m : dataset_materials) {
+      if (m < 0 || static_cast<std::size_t>(m) >= dataset->materials.size()) {
+        std::fprintf(stderr, "psrig-woven-probe: error: %s has %zu materials, no material %d\n",
+                     dataset_file.c_str(), dataset->materials.size(), m);
+        return 2;
+      }
       const cloth::WovenMaterialSample& record = dataset->materials.at(static_cast<std::size_t>(m));
       cloth::WovenMaterialParameters parameters;
       parameters.shape.twist_deg = record.twist_deg;
@@ -110,7 +120,12 @@ int main(int argc, char** argv) {
     auto surface = cloth::WovenSurface::make(*weave, parameters.shape, parameters.beta,
                                              parameters.beta);
     auto sample = cloth::generate_woven_material(*weave, parameters, 64);
-    if (!surface || !sample) return 1;
+    for (const Status& made : {surface ? Status{} : Status(std::unexpected(surface.error())),
+                               sample ? Status{} : Status(std::unexpected(sample.error()))})
+      if (!made) {
+        std::fprintf(stderr, "psrig-woven-probe: error: %s\n", made.error().describe().c_str());
+        return exit_code(made.error());
+      }
     // truth[size][centre][pair]
     const int sizes = static_cast<int>(std::size(kSizes)), centres = grid * grid;
     std::vector<cloth::WovenComponents> truth(static_cast<std::size_t>(sizes * centres * pairs));
@@ -131,7 +146,10 @@ int main(int argc, char** argv) {
     for (std::size_t n = 0; n < networks.size(); ++n) {
       const cloth::WovenNetwork& network = networks[n];
       auto latent = network.encode(*sample);
-      if (!latent) return 1;
+      if (!latent) {
+        std::fprintf(stderr, "psrig-woven-probe: error: %s\n", latent.error().describe().c_str());
+        return exit_code(latent.error());
+      }
       const cloth::WovenDecoderMaterial material = network.prepare(std::move(*latent));
       std::printf("%s (alpha %.2f beta %.2f)  %s  (f = sum of the four components; over %d x %d centres)\n",
                   weave->name.c_str(), parameters.alpha, parameters.beta, weights_files[n].c_str(), grid, grid);

@@ -51,5 +51,26 @@ TEST(TrainWovenCli, ABadDataSetIsNamedWithWhatIsWrong) {
   EXPECT_FALSE(std::filesystem::exists(dir / "net.wnn"));
 }
 
+// psrig-woven-probe on the shipped weights and plain weave, at a coarse
+// grid: a line for each footprint size and eye; a weights file that is
+// not there is named.
+TEST(WovenProbeCli, ProbesTheShippedWeightsAndNamesAMissingFile) {
+  const std::filesystem::path source(PSRIG_SOURCE_DIR);
+  const std::string plain = (source / "config/patterns/plain.weave").string();
+  const test::ProgramRun run = test::run_program(
+      "psrig-woven-probe", {plain, "--weights", (source / "config/woven/woven.wnn").string(),
+                            "--centre-grid", "2", "--samples", "64"});
+  ASSERT_EQ(run.exit_code, 0) << run.err;
+  EXPECT_TRUE(contains(run.out, "plain weave")) << run.out;
+  EXPECT_TRUE(contains(run.out, "0.10  head-on")) << run.out;
+  EXPECT_TRUE(contains(run.out, "1.50  oblique")) << run.out;
+  test::TempDir dir;
+  const std::string absent = (dir / "absent.wnn").string();
+  const test::ProgramRun missing =
+      test::run_program("psrig-woven-probe", {plain, "--weights", absent});
+  EXPECT_NE(missing.exit_code, 0) << missing.err;
+  EXPECT_TRUE(contains(missing.err, "absent.wnn")) << missing.err;
+}
+
 }  // namespace
 }  // namespace psrig::train_woven
