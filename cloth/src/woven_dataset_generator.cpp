@@ -162,35 +162,31 @@ Result<WovenDataset> generate_woven_dataset(const std::vector<WeaveMatrix>& patt
   WovenDataset dataset;
   dataset.seed = seed;
   std::uint32_t material = 0;
+  // One material into the data set: its textures and its queries.
+  const auto add = [&](std::size_t pattern, const WovenMaterialParameters& parameters) -> Status {
+    auto sample = generate_woven_material(patterns[pattern], parameters, options.texture_size);
+    if (!sample) return std::unexpected(sample.error());
+    auto queries = generate_woven_queries(patterns[pattern], parameters, material, options, seed);
+    if (!queries) return std::unexpected(queries.error());
+    dataset.materials.push_back(std::move(*sample));
+    dataset.queries.insert(dataset.queries.end(), queries->begin(), queries->end());
+    if (progress) progress(static_cast<int>(material) + 1, total);
+    return {};
+  };
   for (std::size_t pattern = 0; pattern < patterns.size(); ++pattern)
     for (int s = 0; s < options.shapes_per_pattern; ++s) {
       const YarnShape shape =
           draw_yarn_shape(mix_seed(seed, mix_seed(kShapeKey, mix_seed(pattern, s))));
       for (int a = 0; a < options.appearances_per_shape; ++a, ++material) {
-        const WovenMaterialParameters parameters =
+        const WovenMaterialParameters drawn =
             draw_appearance(shape, mix_seed(seed, mix_seed(kAppearanceKey, material)));
-        auto sample = generate_woven_material(patterns[pattern], parameters, options.texture_size);
-        if (!sample) return std::unexpected(sample.error());
-        auto queries =
-            generate_woven_queries(patterns[pattern], parameters, material, options, seed);
-        if (!queries) return std::unexpected(queries.error());
-        dataset.materials.push_back(std::move(*sample));
-        dataset.queries.insert(dataset.queries.end(), queries->begin(), queries->end());
-        if (progress) progress(static_cast<int>(material) + 1, total);
+        if (auto added = add(pattern, drawn); !added) return std::unexpected(added.error());
       }
     }
   if (options.default_appearance)
-    for (std::size_t pattern = 0; pattern < patterns.size(); ++pattern, ++material) {
-      const WovenMaterialParameters parameters{};
-      auto sample = generate_woven_material(patterns[pattern], parameters, options.texture_size);
-      if (!sample) return std::unexpected(sample.error());
-      auto queries =
-          generate_woven_queries(patterns[pattern], parameters, material, options, seed);
-      if (!queries) return std::unexpected(queries.error());
-      dataset.materials.push_back(std::move(*sample));
-      dataset.queries.insert(dataset.queries.end(), queries->begin(), queries->end());
-      if (progress) progress(static_cast<int>(material) + 1, total);
-    }
+    for (std::size_t pattern = 0; pattern < patterns.size(); ++pattern, ++material)
+      if (auto added = add(pattern, WovenMaterialParameters{}); !added)
+        return std::unexpected(added.error());
   return dataset;
 }
 
