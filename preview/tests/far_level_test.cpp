@@ -11,6 +11,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <span>
 #include <string>
 #include <vector>
 
@@ -115,13 +116,14 @@ class FarLevelTest : public ::testing::Test {
   // Each view of `param`'s cloth from afar held to its near level drawn 4x
   // finer and box-filtered: the figures printed, and
   // PSRIG_FAR_LEVEL_DIR=dir writes far | reference | 4x difference there.
-  static void holds_to_the_filtered_near_level(const FarCase& param) {
+  static void holds_to_the_filtered_near_level(const FarCase& param,
+                                               std::span<const NamedView> views = kViews) {
     const cloth::YarnSet yarns = cloth_yarns(param.pattern, param.stitches);
     ASSERT_FALSE(yarns.curves.empty());
     auto automatic = renderer(YarnLevel::automatic, yarns);
     auto near = renderer(YarnLevel::near, yarns);
     ASSERT_TRUE(automatic && near);
-    for (const NamedView& named : kViews) {
+    for (const NamedView& named : views) {
       KnitView view;  // as psrig-preview knit's defaults
       view.light.tilt_deg = 45;
       view.light.slant_deg = 45;
@@ -169,11 +171,12 @@ TEST_P(FarLevelPatternTest, DISABLED_FarLevelIsTheNearLevelFiltered) {
   holds_to_the_filtered_near_level(GetParam());
 }
 
-// Two patterns that meet the goal, one knit, one weave, kept to it in
-// every run (the rest wait for the test above).
+// Two patterns that meet the goal, one knit seen obliquely, one weave
+// head on, kept to it in every run (the rest wait for the test above; a
+// case is a 2560x1920 reference frame, 3 to 7 s).
 TEST_F(FarLevelTest, SeedAndSatinAreTheirNearLevelFiltered) {
-  holds_to_the_filtered_near_level({"seed", 100});
-  holds_to_the_filtered_near_level({"satin-5", 200});
+  holds_to_the_filtered_near_level({"seed", 100}, std::span(kViews).subspan(1, 1));
+  holds_to_the_filtered_near_level({"satin-5", 200}, std::span(kViews).first(1));
 }
 
 // The counts where it gives them, the other knits alike.
