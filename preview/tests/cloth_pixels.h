@@ -1,8 +1,10 @@
 #pragma once
-// What the far-level tests measure a frame of cloth by: its pixels in
-// linear light and back, and which of them are cloth (the cloth's
-// rectangle as the frame shows it, its silhouette left out).
+// What the far-level tests draw and measure a frame of cloth by: one
+// frame of a yarn renderer, its pixels in linear light and back, which of
+// them are cloth (the cloth's rectangle as the frame shows it, its
+// silhouette left out), and the pictures a reviewer asks for.
 
+#include <GLES3/gl3.h>
 #include <cmath>
 #include <cstdlib>
 #include <filesystem>
@@ -10,14 +12,30 @@
 #include <utility>
 #include <vector>
 
+#include <gtest/gtest.h>
 #include <opencv2/imgproc.hpp>
 
 #include "psrig/formats/image_io.h"
 #include "psrig/preview/knit_view.h"
+#include "psrig/preview/offscreen_target.h"
 #include "psrig/preview/shading.h"
 #include "psrig/preview/texture_levels.h"
+#include "psrig/preview/yarn_renderer.h"
 
 namespace psrig::preview::testing {
+
+// One frame of `renderer`'s cloth seen as `view`: 8-bit sRGB (BGR), with
+// `samples` multisamples (4 as the knit command's).
+inline cv::Mat draw_frame(YarnRenderer& renderer, const KnitView& view, cv::Size size,
+                          int samples = 4) {
+  auto target = OffscreenTarget::create(size, samples, ColourStorage::srgb);
+  EXPECT_TRUE(target) << target.error().describe();
+  if (!target) return {};
+  (*target)->bind();
+  renderer.render(view, size);
+  EXPECT_EQ(glGetError(), static_cast<GLenum>(GL_NO_ERROR));
+  return (*target)->read();
+}
 
 // An 8-bit sRGB frame in linear light, as floats.
 inline cv::Mat linear_light(const cv::Mat& frame) {

@@ -92,17 +92,6 @@ class FarLevelTest : public ::testing::Test {
     context_ = std::move(*context);
   }
 
-  // One frame of `yarns` at `level`, 8-bit sRGB (BGR).
-  static cv::Mat draw(YarnRenderer& renderer, const KnitView& view, cv::Size size, int samples) {
-    auto target = OffscreenTarget::create(size, samples, ColourStorage::srgb);
-    EXPECT_TRUE(target) << target.error().describe();
-    if (!target) return {};
-    (*target)->bind();
-    renderer.render(view, size);
-    EXPECT_EQ(glGetError(), static_cast<GLenum>(GL_NO_ERROR));
-    return (*target)->read();
-  }
-
   static std::unique_ptr<YarnRenderer> renderer(YarnLevel level, const cloth::YarnSet& yarns) {
     YarnRendererOptions options;
     options.level = level;
@@ -129,10 +118,10 @@ class FarLevelTest : public ::testing::Test {
       view.light.slant_deg = 45;
       view.yaw_deg = named.yaw;
       view.pitch_deg = named.pitch;
-      const cv::Mat far = draw(*automatic, view, kFar, 4);
+      const cv::Mat far = testing::draw_frame(*automatic, view, kFar, 4);
       cv::Mat reference;
-      cv::resize(linear_light(draw(*near, view, kFar * kReferenceScale, 4)), reference, kFar, 0, 0,
-                 cv::INTER_AREA);
+      cv::resize(linear_light(testing::draw_frame(*near, view, kFar * kReferenceScale, 4)),
+                 reference, kFar, 0, 0, cv::INTER_AREA);
       reference = testing::srgb_codes(reference);
       const cv::Mat mask = cloth_mask(yarns.bounds(), view, kFar, 4);
       ASSERT_GT(cv::countNonZero(mask), 20000) << named.name;
@@ -214,7 +203,7 @@ TEST_F(FarLevelTest, DollyChangesTheMeanColourSmoothly) {
   float widest = 0, narrowest = 1e9f;
   for (double distance = 50; distance <= 1000; distance *= 1.05) {
     view.distance_mm = distance;
-    const cv::Mat frame = draw(*automatic, view, kFar, 4);
+    const cv::Mat frame = testing::draw_frame(*automatic, view, kFar, 4);
     const cv::Mat mask = cloth_mask(yarns.bounds(), view, kFar, 4);
     ASSERT_GT(cv::countNonZero(mask), 400) << distance;
     const cv::Scalar mean = cv::mean(linear_light(frame), mask);

@@ -172,17 +172,6 @@ class WovenFarLevelTest : public ::testing::Test {
     return std::move(*made);
   }
 
-  // One frame, 8-bit sRGB (BGR), 4x multisampled as the knit command's.
-  static cv::Mat draw(YarnRenderer& renderer, const KnitView& view, cv::Size size) {
-    auto target = OffscreenTarget::create(size, 4, ColourStorage::srgb);
-    EXPECT_TRUE(target) << target.error().describe();
-    if (!target) return {};
-    (*target)->bind();
-    renderer.render(view, size);
-    EXPECT_EQ(glGetError(), static_cast<GLenum>(GL_NO_ERROR));
-    return (*target)->read();
-  }
-
   std::unique_ptr<EglContext> context_;
 };
 
@@ -237,7 +226,7 @@ TEST_F(WovenFarLevelTest, AKnitAfterAWeaveIsBakedAgain) {
   auto far = renderer(YarnLevel::far, *weave);
   ASSERT_TRUE(far);
   KnitView view;
-  (void)draw(*far, view, {160, 120});
+  (void)testing::draw_frame(*far, view, {160, 120});
   EXPECT_TRUE(far->neural_far());
   EXPECT_EQ(far->repeat_bakes(), 0);
   auto knit = ClothModel::load(test::shipped_pattern("stockinette.chart"), 12, 12, std::nullopt);
@@ -246,7 +235,7 @@ TEST_F(WovenFarLevelTest, AKnitAfterAWeaveIsBakedAgain) {
   knit->update({}, yarns);
   far->clear_woven();
   far->update(yarns);
-  const cv::Mat frame = draw(*far, view, {160, 120});
+  const cv::Mat frame = testing::draw_frame(*far, view, {160, 120});
   EXPECT_FALSE(far->neural_far());
   EXPECT_EQ(far->repeat_bakes(), 1);
   EXPECT_TRUE(far->last_drew_far_cloth());
@@ -296,7 +285,7 @@ TEST_P(WovenFarCaseTest, GpuFarViewIsTheCpuNeuralRender) {
                                static_cast<float>(weave->material.weave.wefts));
   for (const WovenNamedView& named : kWovenViews) {
     const KnitView view = woven_knit_view(named);
-    const cv::Mat gpu = draw(*far, view, kWovenFrame);
+    const cv::Mat gpu = testing::draw_frame(*far, view, kWovenFrame);
     ASSERT_TRUE(far->last_drew_far_cloth());
     const cloth::WovenImage cpu =
         cloth::render_woven_neural(*network, material, repeat, weave->material.colours,
@@ -354,7 +343,7 @@ TEST_P(WovenFarCaseTest, DISABLED_NeuralFarViewIsTheFabricModelFiltered) {
   const cv::Rect crop((kWovenFrame.width - 256) / 2, (kWovenFrame.height - 192) / 2, 256, 192);
   for (const WovenNamedView& named : kWovenViews) {
     const KnitView view = woven_knit_view(named);
-    const cv::Mat gpu = draw(*far, view, kWovenFrame)(crop).clone();
+    const cv::Mat gpu = testing::draw_frame(*far, view, kWovenFrame)(crop).clone();
     const cloth::WovenImage truth =
         cloth::render_woven_reference(*surface, shading, weave->material.colours,
                                       model_camera_of(view, *weave, kWovenFrame, kScale, crop),
@@ -409,8 +398,9 @@ TEST_P(WovenFarCaseTest, NearAndNeuralLevelsAgreeWhereTheyMeet) {
     view.distance_mm = 2 * weave->yarns.style.radius_mm * focal_px / yarn_px;
     const cv::Mat mask = cloth_mask(weave->yarns.bounds(), view, kWovenFrame, 4);
     ASSERT_GT(cv::countNonZero(mask), 400);
-    const cv::Scalar n = cv::mean(linear_light(draw(*near, view, kWovenFrame)), mask);
-    const cv::Mat far_frame = draw(*far, view, kWovenFrame);
+    const cv::Scalar n =
+        cv::mean(linear_light(testing::draw_frame(*near, view, kWovenFrame)), mask);
+    const cv::Mat far_frame = testing::draw_frame(*far, view, kWovenFrame);
     const cv::Scalar f = cv::mean(linear_light(far_frame), mask);
     double worst = 1;
     for (int c = 0; c < 3; ++c) {
@@ -449,7 +439,7 @@ TEST_F(WovenFarLevelTest, DollyThroughTheHandOverChangesTheMeanColourSmoothly) {
   for (double distance = yarn_mm * focal_px / 8.5; distance <= yarn_mm * focal_px;
        distance *= 1.05) {
     view.distance_mm = distance;
-    const cv::Mat frame = draw(*automatic, view, kWovenFrame);
+    const cv::Mat frame = testing::draw_frame(*automatic, view, kWovenFrame);
     neural = neural || automatic->last_drew_far_cloth();
     const cv::Mat mask = cloth_mask(weave->yarns.bounds(), view, kWovenFrame, 4);
     ASSERT_GT(cv::countNonZero(mask), 400) << distance;
