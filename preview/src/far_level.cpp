@@ -19,6 +19,12 @@ int repeat_side(float texels) {
   return static_cast<int>(std::bit_ceil(wanted));
 }
 
+// The mean linear colour of a bake's texels (repeat_texels), RGB.
+Eigen::Vector3f mean_colour(const cv::Mat& texels) {
+  const cv::Scalar mean = cv::mean(texels);
+  return {static_cast<float>(mean[0]), static_cast<float>(mean[1]), static_cast<float>(mean[2])};
+}
+
 // How far match_scan() may take the yarns' colour.
 constexpr float kLeastAlbedoGain = 0.05f, kMostAlbedoGain = 4.0f;
 
@@ -202,17 +208,13 @@ std::optional<ColourMatch> FarLevel::match_scan(const KnitFrame& frame, const Kn
                         .from_px = 2e9f,
                         .full_px = 1e9f});
   const cv::Mat scan_frame = target_->read();
-  const cv::Scalar scan_mean = cv::mean(repeat_texels(scan_frame, scan_frame));
-  const Eigen::Vector3f scan(static_cast<float>(scan_mean[0]), static_cast<float>(scan_mean[1]),
-                             static_cast<float>(scan_mean[2]));
+  const Eigen::Vector3f scan = mean_colour(repeat_texels(scan_frame, scan_frame));
   // The yarns' mean as the far level's bakes draw them.
   const auto yarns_at = [&](const ColourMatch& match) -> std::optional<Eigen::Vector3f> {
     baker_->set_colour_match(match);
     const cv::Mat texels = bake_texels(frame, view, toward_eye);
     if (texels.empty()) return std::nullopt;
-    const cv::Scalar mean = cv::mean(texels);
-    return Eigen::Vector3f(static_cast<float>(mean[0]), static_cast<float>(mean[1]),
-                           static_cast<float>(mean[2]));
+    return mean_colour(texels);
   };
   ColourMatch match;
   const auto full = yarns_at(match);
@@ -358,13 +360,14 @@ std::vector<Eigen::Vector3f> FarLevel::yarn_light_response(const KnitFrame& fram
                                                            const KnitView& view,
                                                            const Eigen::Vector3f& toward_eye,
                                                            const Eigen::Vector3f& normal,
+                                                           const FlatLight& light,
                                                            const Eigen::Vector3f& flat) {
   const Eigen::Vector3f centre = taken_window_->centre();
   const Eigen::Vector3f to_light =
       (frame.light.head<3>() - frame.light.w() * centre).normalized();
   Eigen::Vector3f azimuth = to_light - to_light.dot(normal) * normal;
-  if (azimuth.squaredNorm() < 1e-8f) azimuth = taken_window_->across;
-  azimuth = (azimuth - azimuth.dot(normal) * normal).normalized();
+  if (azimuth.squaredNorm() < 1e-8f) azimuth = taken_window_->across;  // lamp overhead
+  azimuth.normalize();
   KnitView unshadowed = view;
   unshadowed.shadows = false;
   const auto mean_lit = [&](const Eigen::Vector3f& toward_light) -> std::optional<Eigen::Vector3f> {
@@ -372,28 +375,18 @@ std::vector<Eigen::Vector3f> FarLevel::yarn_light_response(const KnitFrame& fram
     lit.light = Eigen::Vector4f(toward_light.x(), toward_light.y(), toward_light.z(), 0);
     const cv::Mat texels = bake_texels(lit, unshadowed, toward_eye, 1);
     if (texels.empty()) return std::nullopt;
-    const cv::Scalar mean = cv::mean(texels);
-    return Eigen::Vector3f(static_cast<float>(mean[0]), static_cast<float>(mean[1]),
-                           static_cast<float>(mean[2]));
+    return mean_colour(texels);
   };
   const auto reference = mean_lit(to_light);
   if (!reference) return {};
-  const ShadingParams shading = surface_shading(options_);
-  const Eigen::Vector3f ambient =
-      options_.shading.environment * options_.environment.lambert(normal);
-  const float attenuation =
-      frame.light.w() > 0.5f ? frame.light_reference_distance * frame.light_reference_distance /
-                                   (frame.light.head<3>() - centre).squaredNorm()
-                             : 1.0f;
-  const Eigen::Vector3f direct =
-      (shading.diffuse * attenuation * options_.shading.light_colour).cwiseMax(1e-6f);
+  const Eigen::Vector3f direct = light.direct.cwiseMax(1e-6f);
   std::vector<Eigen::Vector3f> response;
   for (int k = 0; k < ScanSurface::kResponseSamples; ++k) {
     const float cosine = static_cast<float>(k) / (ScanSurface::kResponseSamples - 1);
     const auto seen = mean_lit(cosine * normal + std::sqrt(1 - cosine * cosine) * azimuth);
     if (!seen) return {};
     const Eigen::Vector3f share = flat.cwiseProduct(seen->cwiseQuotient(reference->cwiseMax(1e-6f)));
-    response.push_back((share - ambient).cwiseQuotient(direct).cwiseMax(0.0f));
+    response.push_back((share - light.ambient).cwiseQuotient(direct).cwiseMax(0.0f));
   }
   return response;
 }
@@ -420,9 +413,11 @@ bool FarLevel::bake_draped(const KnitFrame& frame, const KnitView& view,
           : 1.0f;
   const float cosine = std::max(to_light.normalized().dot(normal), 0.0f);
   const ShadingParams shading = surface_shading(options_);
-  const Eigen::Vector3f flat = options_.shading.environment * options_.environment.lambert(normal) +
-                               shading.diffuse * cosine * std::clamp(4 * cosine, 0.0f, 1.0f) *
-                                   attenuation * options_.shading.light_colour;
+  const FlatLight light{
+      .ambient = options_.shading.environment * options_.environment.lambert(normal),
+      .direct = shading.diffuse * attenuation * options_.shading.light_colour};
+  const Eigen::Vector3f flat =
+      light.ambient + cosine * std::clamp(4 * cosine, 0.0f, 1.0f) * light.direct;
   const cv::Size2f repeat_mm(static_cast<float>(window.columns) * draped_mesh_.face_width_mm,
                              static_cast<float>(window.rows) * draped_mesh_.face_height_mm);
   const RepeatMaps maps =
@@ -439,7 +434,7 @@ bool FarLevel::bake_draped(const KnitFrame& frame, const KnitView& view,
     draped_ = std::move(*surface);
   }
   draped_gain_ = maps.gain;
-  draped_->set_light_response(yarn_light_response(frame, view, toward_eye, normal, flat));
+  draped_->set_light_response(yarn_light_response(frame, view, toward_eye, normal, light, flat));
   draped_->update(draped_mesh_, options_.environment, options_.shading.environment * draped_gain_);
   ++bakes_;
   return true;

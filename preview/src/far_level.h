@@ -95,9 +95,17 @@ class FarLevel {
   // `phases` 0: `bake_phases`.
   cv::Mat bake_texels(const KnitFrame& frame, const KnitView& view,
                       const Eigen::Vector3f& toward_eye, int phases = 0);
+  // What a flat white surface facing the eye's side of the repeat gets, as
+  // scan_surface.frag shades it: the environment's light, and the lamp's
+  // (its colour, falloff and the surface's diffuse weight) before Lambert.
+  struct FlatLight {
+    Eigen::Vector3f ambient, direct;
+  };
+  // `flat`: ambient plus direct times Lambert at the frame's lamp.
   std::vector<Eigen::Vector3f> yarn_light_response(const KnitFrame& frame, const KnitView& view,
                                                    const Eigen::Vector3f& toward_eye,
                                                    const Eigen::Vector3f& normal,
+                                                   const FlatLight& light,
                                                    const Eigen::Vector3f& flat);
   // The repeat's maps for draped cloth (repeat_maps.h).
   bool bake_draped(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
