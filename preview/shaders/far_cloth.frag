@@ -8,11 +8,13 @@
 precision highp float;
 
 in vec2 v_repeat;
+in vec2 v_grid;
 in float v_yarn_px;
 
 uniform highp sampler2D u_area_table;  // repeat_area_table()
 uniform vec2 u_area_texels;             // the repeat's size in the table's level
 uniform vec4 u_area_mean;               // what the table's sums have taken off
+uniform vec3 u_shade[9];                // FarCloth::set_shade: 3 x 3, row by row
 uniform vec2 u_fade_px;       // the far level from none (x) to all (y), x > y
 uniform bool u_over_yarns;    // the near level's yarns are drawn beneath
 uniform vec3 u_background;    // linear, what the bake's gaps show
@@ -54,6 +56,15 @@ vec4 box_mean(vec2 centre, vec2 reach) {
   return sum / (sides.x * sides.y) + u_area_mean;
 }
 
+// The shade grid's factor at `grid` (0 to 1 over the mesh), bilinear.
+vec3 shade_at(vec2 grid) {
+  vec2 at = clamp(grid, 0.0, 1.0) * 2.0;
+  ivec2 low = min(ivec2(at), ivec2(1));
+  vec2 t = at - vec2(low);
+  int k = low.y * 3 + low.x;
+  return mix(mix(u_shade[k], u_shade[k + 1], t.x), mix(u_shade[k + 3], u_shade[k + 4], t.x), t.y);
+}
+
 void main() {
   // A frame drawn finer and box-filtered is what the far level must equal,
   // so each pixel takes the mean over its footprint in the repeat (the
@@ -72,7 +83,8 @@ void main() {
   float area = abs(edge_x.x * edge_y.y - edge_x.y * edge_y.x);
   vec2 sides = bounds * sqrt(area / max(bounds.x * bounds.y, 1e-12));
   vec4 texel = box_mean(v_repeat, max(0.5 * sides, vec2(0.5)));
-  vec3 colour = texel.rgb;
+  vec3 colour = texel.rgb * shade_at(v_grid);
+  texel.rgb = colour;
   float alpha = texel.a;
   if (u_over_yarns || u_encode_srgb) {
     float far = 1.0 - smoothstep(u_fade_px.y, u_fade_px.x, v_yarn_px);

@@ -11,7 +11,7 @@
 namespace psrig::preview {
 namespace {
 
-constexpr int kFarFloatsPerVertex = 5;  // position, (u, v)
+constexpr int kFarFloatsPerVertex = 7;  // position, (u, v), place on the shade grid
 
 }  // namespace
 
@@ -60,6 +60,8 @@ void FarCloth::update(const cloth::YarnSurface& surface, const RepeatWindow& win
           static_cast<float>(column - window.first_column) / static_cast<float>(window.columns);
       vertices_[at++] =
           static_cast<float>(row - window.first_row) / static_cast<float>(window.rows);
+      vertices_[at++] = static_cast<float>(column) / static_cast<float>(std::max(mesh.columns, 1));
+      vertices_[at++] = static_cast<float>(row) / static_cast<float>(std::max(mesh.rows, 1));
     }
   glBindVertexArray(gl.array);
   glBindBuffer(GL_ARRAY_BUFFER, gl.vertices);
@@ -70,6 +72,9 @@ void FarCloth::update(const cloth::YarnSurface& surface, const RepeatWindow& win
   glEnableVertexAttribArray(1);
   glVertexAttribPointer(1, 2, GL_FLOAT, GL_FALSE, kFarFloatsPerVertex * sizeof(float),
                         reinterpret_cast<const void*>(3 * sizeof(float)));
+  glEnableVertexAttribArray(2);
+  glVertexAttribPointer(2, 2, GL_FLOAT, GL_FALSE, kFarFloatsPerVertex * sizeof(float),
+                        reinterpret_cast<const void*>(5 * sizeof(float)));
   if (mesh.columns != columns_ || mesh.rows != rows_) {
     columns_ = mesh.columns;
     rows_ = mesh.rows;
@@ -132,6 +137,7 @@ void FarCloth::draw(const KnitFrame& frame, const FarClothDraw& how) const {
               static_cast<float>(gl.area_texels.height));
   glUniform4f(program.uniform("u_area_mean"), gl.area_mean[0], gl.area_mean[1], gl.area_mean[2],
               gl.area_mean[3]);
+  glUniform3fv(program.uniform("u_shade[0]"), kShadeGrid * kShadeGrid, shade_.front().data());
   glDisable(GL_CULL_FACE);
   // Over yarns: cross-faded, no depth (the mesh lies amid its yarns).
   // Alone: depth tested against what lies beneath, folds hiding folds.

@@ -25,6 +25,26 @@ Eigen::Vector3f mean_colour(const cv::Mat& texels) {
   return {static_cast<float>(mean[0]), static_cast<float>(mean[1]), static_cast<float>(mean[2])};
 }
 
+// The points of `mesh` where FarCloth's shade grid lies: its corners, the
+// middles of its sides and its middle, each bilinear between vertices.
+std::array<Eigen::Vector3f, FarCloth::kShadeGrid * FarCloth::kShadeGrid> shade_grid_points(
+    const cloth::StitchMesh& mesh) {
+  std::array<Eigen::Vector3f, FarCloth::kShadeGrid * FarCloth::kShadeGrid> points;
+  constexpr float kLast = FarCloth::kShadeGrid - 1;
+  for (int j = 0; j < FarCloth::kShadeGrid; ++j)
+    for (int i = 0; i < FarCloth::kShadeGrid; ++i) {
+      const float u = static_cast<float>(i * mesh.columns) / kLast;
+      const float v = static_cast<float>(j * mesh.rows) / kLast;
+      const int c = static_cast<int>(u), r = static_cast<int>(v);
+      const int c1 = std::min(c + 1, mesh.columns), r1 = std::min(r + 1, mesh.rows);
+      const float s = u - static_cast<float>(c), t = v - static_cast<float>(r);
+      points[static_cast<std::size_t>(j * FarCloth::kShadeGrid + i)] =
+          (1 - t) * ((1 - s) * mesh.vertex(c, r) + s * mesh.vertex(c1, r)) +
+          t * ((1 - s) * mesh.vertex(c, r1) + s * mesh.vertex(c1, r1));
+    }
+  return points;
+}
+
 // How far match_scan() may take the yarns' colour.
 constexpr float kLeastAlbedoGain = 0.05f, kMostAlbedoGain = 4.0f;
 
@@ -144,6 +164,7 @@ bool FarLevel::update(const cloth::YarnSet& yarns) {
     return true;
   }
   take_yarns(yarns);
+  shade_points_ = shade_grid_points(yarns.surface.mesh);
   if (draped_now_) {
     draped_mesh_ = yarns.surface.mesh;
     if (draped_)
@@ -344,8 +365,37 @@ bool FarLevel::bake(const KnitFrame& frame, const KnitView& view,
   const cv::Mat texels = bake_texels(frame, view, toward_eye);
   if (texels.empty()) return false;
   cloth_->upload(repeat_levels(texels));
+  cloth_->set_shade(shade_across(frame, view, toward_eye));
   ++bakes_;
   return true;
+}
+
+FarCloth::ShadeGrid FarLevel::shade_across(const KnitFrame& frame, const KnitView& view,
+                                           const Eigen::Vector3f& toward_eye) {
+  FarCloth::ShadeGrid uniform;
+  uniform.fill(Eigen::Vector3f::Ones());
+  if (frame.orthographic && frame.light.w() == 0) return uniform;  // the same everywhere
+  // The yarns baked are the taken window's, which the cloth may have
+  // carried since: a place's lamp is moved as that place is from them.
+  const Eigen::Vector3f baked_centre = taken_window_->centre();
+  const auto mean_at = [&](const Eigen::Vector3f& place) -> std::optional<Eigen::Vector3f> {
+    KnitFrame there = frame;
+    there.light.head<3>() += frame.light.w() * (baked_centre - place);
+    const Eigen::Vector3f eye =
+        frame.orthographic ? toward_eye : (frame.eye - place).normalized().eval();
+    const cv::Mat texels = bake_texels(there, view, eye, 1);
+    if (texels.empty()) return std::nullopt;
+    return mean_colour(texels);
+  };
+  const auto middle = mean_at(window_->centre());
+  if (!middle) return uniform;
+  FarCloth::ShadeGrid shade;
+  for (std::size_t k = 0; k < shade.size(); ++k) {
+    const auto here = mean_at(shade_points_[k]);
+    if (!here) return uniform;
+    shade[k] = here->cwiseQuotient(middle->cwiseMax(1e-6f)).cwiseMax(0.25f).cwiseMin(4.0f);
+  }
+  return shade;
 }
 
 // The yarns' own light response for the draped maps

@@ -5,6 +5,8 @@
 // (far_cloth.h). A bake is made when a frame needs the far level and the
 // last one no longer stands for it: the light, the view's direction, the
 // style or the repeat's shape changed (by more than the options allow).
+// With it, the window's mean colour as if at 3 x 3 places over the cloth,
+// the lamp and the eye as they are from each (FarCloth::set_shade).
 // Cloth a scan feeds has the scan as its far level instead (scan_surface.h):
 // no bake, and the surface alone is enough to draw it. Draped cloth a chart
 // feeds (not flat) has the repeat's maps (repeat_maps.h), baked as the
@@ -90,6 +92,11 @@ class FarLevel {
   void take_yarns(const cloth::YarnSet& yarns);
   std::optional<KnitFrame> bake_frame(const KnitFrame& frame, const Eigen::Vector3f& toward_eye);
   bool bake(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
+  // How the repeat's colour changes across the cloth (FarCloth::set_shade):
+  // the window baked as if at each of shade_points_, the lamp and the eye
+  // where they are from there, over the same at the window.
+  FarCloth::ShadeGrid shade_across(const KnitFrame& frame, const KnitView& view,
+                                   const Eigen::Vector3f& toward_eye);
   // The taken window's yarns at the near level (repeat_texels), averaged
   // over their phases; empty if no target could be made.
   // `phases` 0: `bake_phases`.
@@ -120,6 +127,8 @@ class FarLevel {
   unsigned frame_target_ = 0;
   cv::Size frame_viewport_;
   std::optional<RepeatWindow> window_;  // this frame's
+  // The flat cloth's points where FarCloth's shade grid lies, this frame's.
+  std::array<Eigen::Vector3f, FarCloth::kShadeGrid * FarCloth::kShadeGrid> shade_points_{};
   // The yarns about the window as last taken, and the window then (what a
   // bake draws: the cloth may have moved since, as long as it kept shape).
   cloth::YarnSet near_yarns_;

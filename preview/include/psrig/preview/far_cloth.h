@@ -7,8 +7,11 @@
 // what makes far frames cheap. Draws into whatever framebuffer is bound;
 // needs its GLES context current for its whole life.
 
+#include <array>
 #include <memory>
 #include <vector>
+
+#include <Eigen/Core>
 
 #include <opencv2/core.hpp>
 
@@ -43,6 +46,14 @@ class FarCloth {
   // The texture's levels (repeat_levels): the area table of the finest
   // level at most 512 texels a side replaces the last one.
   void upload(const std::vector<cv::Mat>& levels);
+  // The repeat's colour across the cloth: a factor per channel at each
+  // point of a kShadeGrid x kShadeGrid grid over the mesh's faces (row by
+  // row from face (0, 0), the grid's ends at the mesh's), bilinear
+  // between. One bake is lit and seen as the middle repeat is; the grid
+  // carries how the lamp and the eye change across the cloth (FarLevel).
+  static constexpr int kShadeGrid = 3;
+  using ShadeGrid = std::array<Eigen::Vector3f, kShadeGrid * kShadeGrid>;
+  void set_shade(const ShadeGrid& shade) { shade_ = shade; }
   void draw(const KnitFrame& frame, const FarClothDraw& how) const;
 
   [[nodiscard]] bool ready() const { return index_count_ > 0 && has_texture_; }
@@ -56,6 +67,12 @@ class FarCloth {
   int columns_ = -1, rows_ = -1;
   int index_count_ = 0;
   bool has_texture_ = false;
+  ShadeGrid shade_ = uniform_shade();
+  static ShadeGrid uniform_shade() {
+    ShadeGrid ones;
+    ones.fill(Eigen::Vector3f::Ones());
+    return ones;
+  }
 };
 
 }  // namespace psrig::preview
