@@ -168,7 +168,6 @@ class FarLevelTest : public ::testing::Test {
 
 class FarLevelPatternTest : public FarLevelTest, public ::testing::WithParamInterface<FarCase> {};
 
-
 // Disabled until the far level meets it for every pattern (issue 30): run
 // it with --gtest_also_run_disabled_tests. With the area table, bakes
 // averaged over the yarns' phases and the shade grid across the cloth

@@ -12,7 +12,6 @@
 #include <vector>
 
 #include <Eigen/Core>
-
 #include <opencv2/core.hpp>
 
 #include "psrig/base/error.h"
