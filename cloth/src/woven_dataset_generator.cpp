@@ -44,6 +44,13 @@ YarnShape draw_yarn_shape(std::uint64_t seed) {
   return shape;
 }
 
+WovenMaterialParameters weave_parameters(const WeaveMatrix& weave) {
+  WovenMaterialParameters parameters;
+  if (weave.roughness > 0) parameters.alpha = weave.roughness;
+  if (weave.height_scale > 0) parameters.beta = weave.height_scale;
+  return parameters;
+}
+
 WovenMaterialParameters draw_appearance(const YarnShape& shape, std::uint64_t seed) {
   SampleRandom random(seed);
   WovenMaterialParameters parameters;

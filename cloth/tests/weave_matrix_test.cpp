@@ -3,6 +3,7 @@
 // are reported at their line.
 
 #include "psrig/cloth/weave_matrix.h"
+#include "psrig/cloth/woven_dataset_generator.h"
 
 #include <gtest/gtest.h>
 
@@ -108,6 +109,11 @@ TEST(WeaveMatrix, ReadsTheLookWhereGiven) {
   ASSERT_TRUE(absent);
   EXPECT_EQ(absent->roughness, 0.0f);
   EXPECT_EQ(absent->height_scale, 0.0f);
+  // The network's parameters: the file's, or the defaults.
+  EXPECT_FLOAT_EQ(weave_parameters(*given).alpha, 0.3f);
+  EXPECT_FLOAT_EQ(weave_parameters(*given).beta, 1.5f);
+  EXPECT_FLOAT_EQ(weave_parameters(*absent).alpha, WovenMaterialParameters{}.alpha);
+  EXPECT_FLOAT_EQ(weave_parameters(*absent).beta, WovenMaterialParameters{}.beta);
 }
 
 TEST(WeaveMatrix, ErrorsNameTheFileLineAndColumn) {

@@ -50,7 +50,7 @@ uniform float u_environment_sheen;
 uniform float u_crossing_occlusion;
 uniform float u_shadow_density;
 uniform vec3 u_light_colour;
-uniform vec3 u_albedo_gain;  // every yarn's colour times this (YarnRenderer::set_albedo_gain)
+uniform vec3 u_albedo_gain;  // every yarn's colour times this (YarnRenderer::set_colour_match)
 uniform vec3 u_mean_surface;  // the slice's mean: ply offset, tilt's sine, light
 uniform vec2 u_far_px;        // yarn widths over which the near view's detail grows in
 uniform float u_prefilter_px;      // FAR: the strip's widening either side

@@ -164,7 +164,6 @@ bool FarLevel::update(const cloth::YarnSet& yarns) {
     return true;
   }
   take_yarns(yarns);
-  shade_points_ = shade_grid_points(yarns.surface.mesh);
   if (draped_now_) {
     draped_mesh_ = yarns.surface.mesh;
     if (draped_)
@@ -173,6 +172,7 @@ bool FarLevel::update(const cloth::YarnSet& yarns) {
     return true;
   }
   cloth_->update(yarns.surface, *window_);
+  shade_points_ = shade_grid_points(yarns.surface.mesh);
   return true;
 }
 
@@ -233,9 +233,7 @@ std::optional<ColourMatch> FarLevel::match_scan(const KnitFrame& frame, const Kn
   // The yarns' mean as the far level's bakes draw them.
   const auto yarns_at = [&](const ColourMatch& match) -> std::optional<Eigen::Vector3f> {
     baker_->set_colour_match(match);
-    const cv::Mat texels = bake_texels(frame, view, toward_eye);
-    if (texels.empty()) return std::nullopt;
-    return mean_colour(texels);
+    return bake_mean(frame, view, toward_eye);
   };
   ColourMatch match;
   const auto full = yarns_at(match);
@@ -360,6 +358,13 @@ cv::Mat FarLevel::bake_texels(const KnitFrame& frame, const KnitView& view,
   return sum / static_cast<double>(phases);
 }
 
+std::optional<Eigen::Vector3f> FarLevel::bake_mean(const KnitFrame& frame, const KnitView& view,
+                                                   const Eigen::Vector3f& toward_eye, int phases) {
+  const cv::Mat texels = bake_texels(frame, view, toward_eye, phases);
+  if (texels.empty()) return std::nullopt;
+  return mean_colour(texels);
+}
+
 bool FarLevel::bake(const KnitFrame& frame, const KnitView& view,
                     const Eigen::Vector3f& toward_eye) {
   const cv::Mat texels = bake_texels(frame, view, toward_eye);
@@ -372,8 +377,7 @@ bool FarLevel::bake(const KnitFrame& frame, const KnitView& view,
 
 FarCloth::ShadeGrid FarLevel::shade_across(const KnitFrame& frame, const KnitView& view,
                                            const Eigen::Vector3f& toward_eye) {
-  FarCloth::ShadeGrid uniform;
-  uniform.fill(Eigen::Vector3f::Ones());
+  const FarCloth::ShadeGrid uniform = FarCloth::uniform_shade();
   if (frame.orthographic && frame.light.w() == 0) return uniform;  // the same everywhere
   // The yarns baked are the taken window's, which the cloth may have
   // carried since: a place's lamp is moved as that place is from them.
@@ -383,9 +387,7 @@ FarCloth::ShadeGrid FarLevel::shade_across(const KnitFrame& frame, const KnitVie
     there.light.head<3>() += frame.light.w() * (baked_centre - place);
     const Eigen::Vector3f eye =
         frame.orthographic ? toward_eye : (frame.eye - place).normalized().eval();
-    const cv::Mat texels = bake_texels(there, view, eye, 1);
-    if (texels.empty()) return std::nullopt;
-    return mean_colour(texels);
+    return bake_mean(there, view, eye, 1);
   };
   const auto middle = mean_at(window_->centre());
   if (!middle) return uniform;
@@ -423,9 +425,7 @@ std::vector<Eigen::Vector3f> FarLevel::yarn_light_response(const KnitFrame& fram
   const auto mean_lit = [&](const Eigen::Vector3f& toward_light) -> std::optional<Eigen::Vector3f> {
     KnitFrame lit = frame;
     lit.light = Eigen::Vector4f(toward_light.x(), toward_light.y(), toward_light.z(), 0);
-    const cv::Mat texels = bake_texels(lit, unshadowed, toward_eye, 1);
-    if (texels.empty()) return std::nullopt;
-    return mean_colour(texels);
+    return bake_mean(lit, unshadowed, toward_eye, 1);
   };
   const auto reference = mean_lit(to_light);
   if (!reference) return {};

@@ -59,13 +59,15 @@ class FarLevel {
   void prepare(const KnitFrame& frame, const KnitView& view, unsigned target, cv::Size viewport);
   void draw(const KnitFrame& frame, const FarClothDraw& how) const;
   // With a scan as the far level, the gain per channel on the yarns' colour
-  // and on their sheen (YarnRenderer::set_colour_match) that makes the near level's repeat, as
-  // the bakes draw it along `frame`'s view and light, the scan's colour
-  // there: the kiosk's dolly from yarns to the scan then keeps its hue (the
-  // yarns' sheen is white, so yarns of the scan's own colour are paler than
-  // it: the sheen is dimmed where it alone outshines a channel). Worked out when the yarns about the middle repeat are first given,
-  // and again when they or the light change; nullopt otherwise (and where
-  // there is no scan). Then framebuffer `target` is bound again.
+  // and on their sheen (YarnRenderer::set_colour_match) that makes the
+  // near level's repeat, as the bakes draw it along `frame`'s view and
+  // light, the scan's colour there: the kiosk's dolly from yarns to the
+  // scan then keeps its hue (the yarns' sheen is white, so yarns of the
+  // scan's own colour are paler than it: the sheen is dimmed where it
+  // alone outshines a channel). Worked out when the yarns about the middle
+  // repeat are first given, and again when they or the light change;
+  // nullopt otherwise (and where there is no scan). Then framebuffer
+  // `target` is bound again.
   [[nodiscard]] std::optional<ColourMatch> match_scan(const KnitFrame& frame, const KnitView& view,
                                                       unsigned target, cv::Size viewport);
 
@@ -87,10 +89,10 @@ class FarLevel {
   // Whether `baked`, a bake's key, still stands for `key`.
   [[nodiscard]] bool stands_for(const BakeKey& key, const std::optional<BakeKey>& baked) const;
   [[nodiscard]] bool same_shape(const RepeatWindow& window) const;
-  // Each false when nothing could be baked (no target, no maps).
   // The yarns about the window (when their style or its shape changed).
   void take_yarns(const cloth::YarnSet& yarns);
   std::optional<KnitFrame> bake_frame(const KnitFrame& frame, const Eigen::Vector3f& toward_eye);
+  // False when nothing could be baked (no target).
   bool bake(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
   // How the repeat's colour changes across the cloth (FarCloth::set_shade):
   // the window baked as if at each of shade_points_, the lamp and the eye
@@ -102,6 +104,9 @@ class FarLevel {
   // `phases` 0: `bake_phases`.
   cv::Mat bake_texels(const KnitFrame& frame, const KnitView& view,
                       const Eigen::Vector3f& toward_eye, int phases = 0);
+  // Their mean colour (linear RGB); nullopt if nothing could be baked.
+  std::optional<Eigen::Vector3f> bake_mean(const KnitFrame& frame, const KnitView& view,
+                                           const Eigen::Vector3f& toward_eye, int phases = 0);
   // What a flat white surface facing the eye's side of the repeat gets, as
   // scan_surface.frag shades it: the environment's light, and the lamp's
   // (its colour, falloff and the surface's diffuse weight) before Lambert.
@@ -114,7 +119,8 @@ class FarLevel {
                                                    const Eigen::Vector3f& normal,
                                                    const FlatLight& light,
                                                    const Eigen::Vector3f& flat);
-  // The repeat's maps for draped cloth (repeat_maps.h).
+  // The repeat's maps for draped cloth (repeat_maps.h); false when
+  // nothing could be baked (no target, no maps).
   bool bake_draped(const KnitFrame& frame, const KnitView& view, const Eigen::Vector3f& toward_eye);
 
   YarnRendererOptions options_;

@@ -47,9 +47,7 @@ WovenFarMaterial woven_far_material(const cloth::WeaveMatrix& weave,
                                     const Eigen::Vector3f& weft_colour) {
   WovenFarMaterial material;
   material.weave = weave;
-  // The weave's own look, or the middle of what the network was trained on.
-  material.parameters.alpha = weave.roughness > 0 ? weave.roughness : 0.5F;
-  material.parameters.beta = weave.height_scale > 0 ? weave.height_scale : 1;
+  material.parameters = cloth::weave_parameters(weave);
   // The fabric model scatters once (cloth/README.md: the light the yarns
   // send into each other is lost); the near level's yarns scatter again
   // nearby (yarn_shading.h, huang2025 eq. 8: diffuse light times

@@ -77,10 +77,7 @@ int main(int argc, char** argv) {
       return exit_code(weave.error());
     }
     if (dataset_file.empty()) {  // as the far level encodes it (woven_far_material)
-      cloth::WovenMaterialParameters parameters;
-      if (weave->roughness > 0) parameters.alpha = weave->roughness;
-      if (weave->height_scale > 0) parameters.beta = weave->height_scale;
-      cases.emplace_back(*weave, parameters);
+      cases.emplace_back(*weave, cloth::weave_parameters(*weave));
     }
     weaves.push_back(std::move(*weave));
   }

@@ -50,6 +50,11 @@ struct WovenMaterialParameters {
   float alpha = 0.5f, beta = 1;
 };
 
+// A weave's own look where its file gives it (`roughness:` alpha,
+// `height_scale:` beta), the defaults above, the middle of what the
+// network was trained on, where it does not; the default yarn shape.
+[[nodiscard]] WovenMaterialParameters weave_parameters(const WeaveMatrix& weave);
+
 // Table 2: psi from {-30, 0, 30}, u from U(15, 45), alpha from U(0.1, 1),
 // beta from U(0, 2).
 [[nodiscard]] YarnShape draw_yarn_shape(std::uint64_t seed);

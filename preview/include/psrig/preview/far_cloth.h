@@ -53,6 +53,12 @@ class FarCloth {
   static constexpr int kShadeGrid = 3;
   using ShadeGrid = std::array<Eigen::Vector3f, kShadeGrid * kShadeGrid>;
   void set_shade(const ShadeGrid& shade) { shade_ = shade; }
+  // Every factor 1: the repeat's colour as baked, everywhere.
+  [[nodiscard]] static ShadeGrid uniform_shade() {
+    ShadeGrid ones;
+    ones.fill(Eigen::Vector3f::Ones());
+    return ones;
+  }
   void draw(const KnitFrame& frame, const FarClothDraw& how) const;
 
   [[nodiscard]] bool ready() const { return index_count_ > 0 && has_texture_; }
@@ -67,11 +73,6 @@ class FarCloth {
   int index_count_ = 0;
   bool has_texture_ = false;
   ShadeGrid shade_ = uniform_shade();
-  static ShadeGrid uniform_shade() {
-    ShadeGrid ones;
-    ones.fill(Eigen::Vector3f::Ones());
-    return ones;
-  }
 };
 
 }  // namespace psrig::preview

@@ -38,9 +38,9 @@ struct RepeatMaps {
 };
 
 // `texels`: the repeat's bake (repeat_texels: premultiplied linear colour
-// and coverage, bottom row first); `flat_shading`: linear RGB a white flat surface facing as the repeat did
-// gets from the bake's light (ambient included), as scan_surface.frag
-// shades it; `repeat_mm`: the repeat's size at rest. The maps have square
+// and coverage, bottom row first); `flat_shading`: linear RGB a white
+// flat surface facing as the repeat did gets from the bake's light
+// (ambient included), as scan_surface.frag shades it; `repeat_mm`: the repeat's size at rest. The maps have square
 // pixels (the bake resampled across the repeat's height), `pixel_size_mm` set.
 [[nodiscard]] RepeatMaps repeat_maps(const cv::Mat& texels, const cv::Vec3f& flat_shading,
                                      const cv::Size2f& repeat_mm);
