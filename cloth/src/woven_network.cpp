@@ -216,9 +216,30 @@ Result<std::vector<float>> WovenNetwork::encode(const WovenMaterialSample& mater
   return latent;
 }
 
-WovenDecoderMaterial WovenNetwork::prepare(std::vector<float> latent) const {
+void woven_footprint_inputs(const WovenNetworkShape& shape, const WovenFootprintFeatures& features,
+                            float u, float v, float size, std::span<float> out) {
+  const int blobs = decoder_blob_inputs(shape);
+  one_blob_footprint(u, v, size, shape.blob_bins, out.first(static_cast<std::size_t>(blobs)));
+  if (shape.footprint_features == 0) return;
+  const auto rest = out.subspan(static_cast<std::size_t>(blobs));
+  if (features.empty()) {
+    std::fill(rest.begin(), rest.end(), 0.0F);  // a material prepared without its textures
+  } else {
+    features.mean(u, v, size, rest);
+  }
+}
+
+Result<WovenDecoderMaterial> WovenNetwork::prepare(const WovenMaterialSample& material) const {
+  auto latent = encode(material);
+  if (!latent) return std::unexpected(latent.error());
+  return prepare(std::move(*latent), material);
+}
+
+WovenDecoderMaterial WovenNetwork::prepare(std::vector<float> latent,
+                                           const WovenMaterialSample& sample) const {
   const DenseLayer& fuse = weights_.fuse1;
-  WovenDecoderMaterial material{std::move(latent), std::vector<float>(fuse.outputs)};
+  WovenDecoderMaterial material{std::move(latent), std::vector<float>(fuse.outputs), {}};
+  if (shape().footprint_features > 0) material.features = WovenFootprintFeatures(sample);
   for (int o = 0; o < fuse.outputs; ++o) {
     const float* row = fuse.weight.data() + static_cast<std::size_t>(o) * fuse.inputs;
     float sum = fuse.bias[o];
@@ -236,14 +257,15 @@ std::array<float, 4> WovenNetwork::decode_raw(const WovenDecoderMaterial& materi
   // Left uninitialised: each layer writes all it reads next.
   std::array<float, widest_decoder_layer + woven_angular_inputs> joined;
   std::array<float, widest_decoder_layer> first, second, third;
-  float blob[3 * 64];
-  one_blob_footprint(lookup.u, lookup.v, lookup.size, s.blob_bins,
-                     std::span(blob, static_cast<std::size_t>(decoder_blob_inputs(s))));
+  float footprint[3 * 64 + woven_footprint_feature_count];
+  woven_footprint_inputs(
+      s, material.features, lookup.u, lookup.v, lookup.size,
+      std::span(footprint, static_cast<std::size_t>(decoder_footprint_inputs(s))));
   const auto& [fuse1, fuse2, ang_in, ang_res1, ang_res2, ang_mid, ang_out] = std::tie(
       decoder_[0], decoder_[1], decoder_[2], decoder_[3], decoder_[4], decoder_[5], decoder_[6]);
 
   // fuse1: the latent's share is the material's fusion bias.
-  dense_input_major(fuse1, blob, first.data(), true, material.fusion_bias.data());
+  dense_input_major(fuse1, footprint, first.data(), true, material.fusion_bias.data());
   dense_input_major(fuse2, first.data(), joined.data(), true);
   float* directions = joined.data() + s.fusion_width;
   directions[0] = lookup.wi[0];

@@ -1,10 +1,11 @@
-// The woven network's weights file, `psrig-woven-net/1`. Little-endian;
-// u32, u64, f32 as in woven_dataset.cpp, a text is a u32 byte count and
-// the bytes.
+// The woven network's weights file, `psrig-woven-net/1` or `/2`.
+// Little-endian; u32, u64, f32 as in woven_dataset.cpp, a text is a u32
+// byte count and the bytes.
 //
-//   magic    18 bytes "psrig-woven-net/1\n"
+//   magic    18 bytes "psrig-woven-net/1\n" or "psrig-woven-net/2\n"
 //   shape    9 x u32: conv channels (3), pool grid, encoder width, latent
-//            size, blob bins, fusion width, angular width
+//            size, blob bins, fusion width, angular width; /2 then a 10th,
+//            the footprint features (woven_footprint_features.h; /1 has none)
 //   seed u64, steps u64, final loss f32, command text   (what made it)
 //   layers   in the order conv0 conv1 conv2 enc_in enc_res1 enc_res2
 //            enc_out fuse1 fuse2 ang_in ang_res1 ang_res2 ang_mid ang_out;
@@ -24,11 +25,14 @@
 #include <random>
 
 #include "binary_file.h"
+#include "psrig/cloth/woven_footprint_features.h"
 
 namespace psrig::cloth {
 namespace {
 
 constexpr std::string_view network_magic = "psrig-woven-net/1\n";
+// A network whose decoder also takes the footprint's features.
+constexpr std::string_view featured_network_magic = "psrig-woven-net/2\n";
 
 struct LayerSlot {
   std::string_view name;
@@ -57,7 +61,7 @@ std::vector<LayerSlot> layer_slots(WovenNetworkWeights& w) {
       dense("enc_res1", w.enc_res1, e, e),
       dense("enc_res2", w.enc_res2, e, e),
       dense("enc_out", w.enc_out, e, s.latent_size),
-      dense("fuse1", w.fuse1, s.latent_size + decoder_blob_inputs(s), f),
+      dense("fuse1", w.fuse1, s.latent_size + decoder_footprint_inputs(s), f),
       dense("fuse2", w.fuse2, f, f),
       dense("ang_in", w.ang_in, f + woven_angular_inputs, a),
       dense("ang_res1", w.ang_res1, a, a),
@@ -88,7 +92,7 @@ void set_all_sizes(WovenNetworkWeights& w) {
   set_sizes(w.enc_res1, s.encoder_width, s.encoder_width);
   set_sizes(w.enc_res2, s.encoder_width, s.encoder_width);
   set_sizes(w.enc_out, s.encoder_width, s.latent_size);
-  set_sizes(w.fuse1, s.latent_size + decoder_blob_inputs(s), s.fusion_width);
+  set_sizes(w.fuse1, s.latent_size + decoder_footprint_inputs(s), s.fusion_width);
   set_sizes(w.fuse2, s.fusion_width, s.fusion_width);
   set_sizes(w.ang_in, s.fusion_width + woven_angular_inputs, s.angular_width);
   set_sizes(w.ang_res1, s.angular_width, s.angular_width);
@@ -121,6 +125,10 @@ Status check_shape(const WovenNetworkShape& s, const std::filesystem::path& file
       return refuse(fmt::format("a layer {} wide, not 4 to 1024", width));
     }
   }
+  if (s.footprint_features != 0 && s.footprint_features != woven_footprint_feature_count) {
+    return refuse(fmt::format("{} footprint features, not 0 or {}", s.footprint_features,
+                              woven_footprint_feature_count));
+  }
   if (s.fusion_width % 4 != 0 || s.angular_width % 4 != 0 || (3 * s.blob_bins) % 4 != 0) {
     return refuse(
         fmt::format("fusion width {}, angular width {} and 3 x {} blob bins must be "
@@ -138,6 +146,10 @@ int encoder_features(const WovenNetworkShape& shape) {
 
 int decoder_blob_inputs(const WovenNetworkShape& shape) {
   return 3 * shape.blob_bins;
+}
+
+int decoder_footprint_inputs(const WovenNetworkShape& shape) {
+  return decoder_blob_inputs(shape) + shape.footprint_features;
 }
 
 Status check_woven_network(const WovenNetworkWeights& weights, const std::filesystem::path& file) {
@@ -189,12 +201,15 @@ Status write_woven_network(const std::filesystem::path& file, const WovenNetwork
     return ok;
   }
   binary::Writer out;
-  out.bytes(network_magic.data(), network_magic.size());
   const WovenNetworkShape& s = weights.shape;
+  // Without features, the first version's bytes.
+  const std::string_view magic = s.footprint_features ? featured_network_magic : network_magic;
+  out.bytes(magic.data(), magic.size());
   for (int value : {s.conv_channels[0], s.conv_channels[1], s.conv_channels[2], s.pool_grid,
                     s.encoder_width, s.latent_size, s.blob_bins, s.fusion_width, s.angular_width}) {
     out.u32(static_cast<std::uint32_t>(value));
   }
+  if (s.footprint_features) out.u32(static_cast<std::uint32_t>(s.footprint_features));
   out.u64(weights.seed);
   out.u64(weights.steps);
   out.f32(weights.final_loss);
@@ -215,15 +230,19 @@ Result<WovenNetworkWeights> read_woven_network(const std::filesystem::path& file
   if (!bytes) {
     return std::unexpected(bytes.error());
   }
+  const bool featured = std::string_view(bytes->data(), bytes->size())
+                            .starts_with(featured_network_magic);
   binary::Reader in(file, *bytes);
-  if (auto ok = in.expect_magic(network_magic); !ok) {
+  if (auto ok = in.expect_magic(featured ? featured_network_magic : network_magic); !ok) {
     return std::unexpected(ok.error());
   }
   WovenNetworkWeights weights;
   WovenNetworkShape& s = weights.shape;
-  for (int* field :
-       {&s.conv_channels[0], &s.conv_channels[1], &s.conv_channels[2], &s.pool_grid,
-        &s.encoder_width, &s.latent_size, &s.blob_bins, &s.fusion_width, &s.angular_width}) {
+  std::vector<int*> fields{&s.conv_channels[0], &s.conv_channels[1], &s.conv_channels[2],
+                           &s.pool_grid,        &s.encoder_width,    &s.latent_size,
+                           &s.blob_bins,        &s.fusion_width,     &s.angular_width};
+  if (featured) fields.push_back(&s.footprint_features);
+  for (int* field : fields) {
     auto value = in.u32("the network's shape");
     if (!value) {
       return std::unexpected(value.error());

@@ -88,7 +88,7 @@ TEST(WovenNetwork, FoldingTheLatentIntoTheFusionBiasChangesNothing) {
   auto latent = network->encode(material);
   ASSERT_TRUE(latent) << latent.error().describe();
   ASSERT_EQ(latent->size(), 64U);
-  const WovenDecoderMaterial prepared = network->prepare(*latent);
+  const WovenDecoderMaterial prepared = network->prepare(*latent, material);
 
   // fuse1 over [latent, blob] in full, against the folded bias plus the blob's share.
   std::vector<float> input(*latent);
@@ -150,7 +150,7 @@ TEST(WovenNetwork, SpecularOutputsAreInvertedFromGSpace) {
   auto network = WovenNetwork::from_weights(seeded_weights(5));
   ASSERT_TRUE(network);
   const WovenDecoderMaterial material =
-      network->prepare(*network->encode(test::analytic_woven_material(1, 16, 0.5F, 1.0F)));
+      *network->prepare(test::analytic_woven_material(1, 16, 0.5F, 1.0F));
   const WovenLookup lookup{0.2F, 0.6F, 0.8F, {0.3F, 0.1F, 0.948F}, {-0.2F, 0.4F, 0.894F}};
   const std::array<float, 4> raw = network->decode_raw(material, lookup);
   const WovenComponents components = network->decode(material, lookup);

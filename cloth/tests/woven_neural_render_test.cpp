@@ -144,7 +144,7 @@ TEST(WovenNeuralRender, MseAgainstTheGroundTruthBelowOneSampleAndEqualTime) {
       ASSERT_TRUE(sample);
       auto latent = network->encode(*sample);
       ASSERT_TRUE(latent);
-      const WovenDecoderMaterial material = network->prepare(std::move(*latent));
+      const WovenDecoderMaterial material = network->prepare(std::move(*latent), *sample);
       neural = render_woven_neural(*network, material, surface->repeat_size(), colours, view, light,
                                    width, height);
     });

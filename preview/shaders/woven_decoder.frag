@@ -17,7 +17,8 @@
 // (WEIGHTS_IN_UNIFORM_BLOCK), which llvmpipe reads 1.5x slower here
 // (probably lane by lane, the loops' indices not being constant). Sizes and offsets (in
 // vec4s) are #defines: FUSION4, ANGULAR4, JOINED4 (= FUSION4 + 2), BLOB4,
-// BLOB_BINS, WEIGHT_VECTORS, and per layer *_W (blocks) and *_B (biases).
+// BLOB_BINS, FEATURE4 (the footprint's features, 0 or 3), WEIGHT_VECTORS,
+// and per layer *_W (blocks) and *_B (biases).
 precision highp float;
 precision highp int;
 precision highp sampler2D;
@@ -49,6 +50,12 @@ uniform sampler2D u_incoming;    // per pixel: wi, cloth frame
 uniform sampler2D u_outgoing;    // per pixel: wo, cloth frame
 #endif
 uniform vec4 u_fusion_bias[FUSION4];
+#if FEATURE4 > 0
+// The material's footprint features' summed-area table
+// (cloth::WovenFootprintFeatures): corner (i, j)'s 12 sums in texels
+// 3i..3i+2 of row j, (T + 1) rows.
+uniform sampler2D u_features;
+#endif
 uniform vec3 u_kd_warp, u_kd_weft, u_ks_warp, u_ks_weft;  // linear
 uniform float u_irradiance;      // the light's, at normal incidence
 // FUSION4 and ANGULAR4 again, as uniforms: the loops over a layer's outputs
@@ -71,12 +78,15 @@ mat4 block(int first) {
               weight_vector(first + 3));
 }
 
+// The footprint's inputs: its one-blob, then its features.
+#define FOOTPRINT4 (BLOB4 + FEATURE4)
+
 // The layers, one function per input width (GLSL has no generic arrays);
 // W and B the layer's offsets, no activation (the callers apply it).
-void fusion_first(vec4 x[BLOB4], out vec4 y[FUSION4]) {
+void fusion_first(vec4 x[FOOTPRINT4], out vec4 y[FUSION4]) {
   for (int g = 0; g < u_fusion4; ++g) {
     vec4 sum = u_fusion_bias[g];
-    for (int k = 0; k < BLOB4; ++k) sum += block(FUSE1_W + 4 * (g * BLOB4 + k)) * x[k];
+    for (int k = 0; k < FOOTPRINT4; ++k) sum += block(FUSE1_W + 4 * (g * FOOTPRINT4 + k)) * x[k];
     y[g] = sum;
   }
 }
@@ -114,6 +124,57 @@ float blob(float x, int bin, bool periodic) {
   if (periodic) d -= floor(d + 0.5);
   return exp(-0.5 * d * d / (width * width));
 }
+
+#if FEATURE4 > 0
+// cloth::WovenFootprintFeatures::mean, step for step: the table read
+// bilinearly between its corners (exact for texel-wise constant
+// features), the repeat tiling beyond them.
+const float kSmallestTexels = 0.5;  // woven_footprint_smallest_texels
+
+// The sums over [0, x) x [0, y), x and y in [0, T] texels.
+void corner_sum(float x, float y, out vec4 s[3]) {
+  int t = textureSize(u_features, 0).y - 1;
+  int i = clamp(int(floor(x)), 0, t - 1), j = clamp(int(floor(y)), 0, t - 1);
+  float a = x - float(i), b = y - float(j);
+  for (int c = 0; c < 3; ++c) {
+    vec4 c00 = texelFetch(u_features, ivec2(3 * i + c, j), 0);
+    vec4 c10 = texelFetch(u_features, ivec2(3 * (i + 1) + c, j), 0);
+    vec4 c01 = texelFetch(u_features, ivec2(3 * i + c, j + 1), 0);
+    vec4 c11 = texelFetch(u_features, ivec2(3 * (i + 1) + c, j + 1), 0);
+    vec4 top = c00 + a * (c10 - c00), bottom = c01 + a * (c11 - c01);
+    s[c] = top + b * (bottom - top);
+  }
+}
+
+// The same for any x, y >= 0: whole repeats beyond T.
+void tiled_sum(float x, float y, out vec4 s[3]) {
+  float t = float(textureSize(u_features, 0).y - 1);
+  float kx = floor(x / t), ky = floor(y / t);
+  float fx = clamp(x - kx * t, 0.0, t), fy = clamp(y - ky * t, 0.0, t);
+  vec4 whole[3], column[3], row[3], part[3];
+  corner_sum(t, t, whole);
+  corner_sum(t, fy, column);
+  corner_sum(fx, t, row);
+  corner_sum(fx, fy, part);
+  for (int c = 0; c < 3; ++c) s[c] = kx * ky * whole[c] + kx * column[c] + ky * row[c] + part[c];
+}
+
+// The features' mean over the square `footprint.z` repeats wide about footprint.xy.
+void footprint_features(vec3 footprint, out vec4 f[3]) {
+  float t = float(textureSize(u_features, 0).y - 1);
+  float width = max(footprint.z * t, kSmallestTexels);
+  vec2 low = footprint.xy * t - 0.5 * width;
+  low -= floor(low / t) * t;
+  vec2 high = low + width;
+  vec4 s11[3], s01[3], s10[3], s00[3];
+  tiled_sum(high.x, high.y, s11);
+  tiled_sum(low.x, high.y, s01);
+  tiled_sum(high.x, low.y, s10);
+  tiled_sum(low.x, low.y, s00);
+  float area = width * width;
+  for (int c = 0; c < 3; ++c) f[c] = (s11[c] - s01[c] - s10[c] + s00[c]) / area;
+}
+#endif
 
 float specular_from_g(float g) { return max(0.0, (exp(g) - 1.0) / kSpecularK); }
 
@@ -167,10 +228,15 @@ void main() {
     encoded[BLOB_BINS + k] = blob(position.y, k, true);
     encoded[2 * BLOB_BINS + k] = blob(span, k, false);
   }
-  vec4 blobs[BLOB4];
+  vec4 blobs[FOOTPRINT4];
   for (int k = 0; k < BLOB4; ++k) {
     blobs[k] = vec4(encoded[4 * k], encoded[4 * k + 1], encoded[4 * k + 2], encoded[4 * k + 3]);
   }
+#if FEATURE4 > 0
+  vec4 features[3];
+  footprint_features(footprint, features);
+  for (int c = 0; c < 3; ++c) blobs[BLOB4 + c] = features[c];
+#endif
 
   // The spatial fusion, then the angular inputs beside it: wi xyz, wo xy.
   vec4 fused[FUSION4], spatial[FUSION4];

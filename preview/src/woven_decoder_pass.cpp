@@ -14,8 +14,9 @@ struct WovenDecoderPass::Gl {
   GLuint weights = 0;  // the texture or the uniform buffer
   GLuint array = 0;
   GLuint queries[3] = {0, 0, 0};  // footprints, incoming, outgoing
+  GLuint features = 0;            // the material's footprint features' table
   bool uniform_block = false;
-  int fusion_width = 0, angular_width = 0;
+  int fusion_width = 0, angular_width = 0, footprint_features = 0;
   ~Gl() {
     if (uniform_block) {
       glDeleteBuffers(1, &weights);
@@ -23,6 +24,7 @@ struct WovenDecoderPass::Gl {
       glDeleteTextures(1, &weights);
     }
     glDeleteTextures(3, queries);
+    glDeleteTextures(1, &features);
     glDeleteVertexArrays(1, &array);
   }
 };
@@ -31,11 +33,13 @@ namespace {
 
 constexpr int kWeightTextureWidth = 1024;  // texels a row, the texture fallback's
 constexpr GLuint kWeightsBinding = 0;
+constexpr int kFeaturesUnit = 4;
 
 // The decoder's layers as the shader reads them: one flat array of vec4s,
 // each layer's 4x4 blocks (mat4 columns: column j of block (g, k) holds
 // rows 4g..4g+3 of input 4k+j), then its biases four to a vec4; fuse1 only
-// its footprint columns (the latent's are folded into the material's bias).
+// its footprint columns, blobs and features (the latent's are folded into
+// the material's bias).
 struct WeightVectors {
   std::vector<cv::Vec4f> vectors;
   std::string defines;
@@ -71,7 +75,7 @@ void add_layer(WeightVectors& out, const std::string& name, const cloth::DenseLa
 WeightVectors decoder_vectors(const cloth::WovenNetworkWeights& w) {
   const cloth::WovenNetworkShape& s = w.shape;
   WeightVectors out;
-  add_layer(out, "FUSE1", w.fuse1, s.latent_size, cloth::decoder_blob_inputs(s), false);
+  add_layer(out, "FUSE1", w.fuse1, s.latent_size, cloth::decoder_footprint_inputs(s), false);
   add_layer(out, "FUSE2", w.fuse2, 0, w.fuse2.inputs, true);
   add_layer(out, "ANG_IN", w.ang_in, 0, w.ang_in.inputs, true);
   add_layer(out, "ANG_RES1", w.ang_res1, 0, w.ang_res1.inputs, true);
@@ -82,7 +86,8 @@ WeightVectors decoder_vectors(const cloth::WovenNetworkWeights& w) {
                  std::to_string(s.angular_width / 4) + "\n#define JOINED4 " +
                  std::to_string(s.fusion_width / 4 + 2) + "\n#define BLOB_BINS " +
                  std::to_string(s.blob_bins) + "\n#define BLOB4 " +
-                 std::to_string(cloth::decoder_blob_inputs(s) / 4) + "\n#define WEIGHT_VECTORS " +
+                 std::to_string(cloth::decoder_blob_inputs(s) / 4) + "\n#define FEATURE4 " +
+                 std::to_string(s.footprint_features / 4) + "\n#define WEIGHT_VECTORS " +
                  std::to_string(out.vectors.size()) + "\n#define WEIGHT_TEXTURE_WIDTH " +
                  std::to_string(kWeightTextureWidth) + "\n";
   return out;
@@ -94,6 +99,20 @@ bool fits_a_uniform_block(std::size_t vectors) {
   GLint largest = 0;
   glGetIntegerv(GL_MAX_UNIFORM_BLOCK_SIZE, &largest);
   return static_cast<std::size_t>(largest) >= vectors * sizeof(cv::Vec4f);
+}
+
+// The footprint features' table (cloth::WovenFootprintFeatures::table) as
+// woven_decoder.frag reads it: corner (i, j)'s 12 sums in texels 3i..3i+2
+// of row j.
+cv::Mat feature_texels(const cloth::WovenFootprintFeatures& features) {
+  static_assert(cloth::woven_footprint_feature_count == 12);
+  // A material prepared without textures: a one-texel repeat of nothing,
+  // zeros as the CPU decoder gives.
+  if (features.empty()) return {2, 6, CV_32FC4, cv::Scalar::all(0)};
+  const int corners = features.texture_size() + 1;
+  cv::Mat texels(corners, 3 * corners, CV_32FC4);
+  std::copy(features.table().begin(), features.table().end(), texels.ptr<float>());
+  return texels;
 }
 
 // A float image as an RGBA32F texture, read by texelFetch (no filtering).
@@ -139,9 +158,11 @@ Result<std::unique_ptr<WovenDecoderPass>> WovenDecoderPass::create(
   gl.program = std::move(*program);
   gl.fusion_width = network.shape().fusion_width;
   gl.angular_width = network.shape().angular_width;
+  gl.footprint_features = network.shape().footprint_features;
   gl.uniform_block = uniform_block;
   glGenVertexArrays(1, &gl.array);
   glGenTextures(3, gl.queries);
+  glGenTextures(1, &gl.features);
   if (uniform_block) {
     glGenBuffers(1, &gl.weights);
     glBindBuffer(GL_UNIFORM_BUFFER, gl.weights);
@@ -178,6 +199,9 @@ void WovenDecoderPass::set_material(const cloth::WovenDecoderMaterial& material)
   gl_->program->use();
   glUniform4fv(gl_->program->uniform("u_fusion_bias"), gl_->fusion_width / 4,
                material.fusion_bias.data());
+  if (gl_->footprint_features > 0) {
+    upload_float_texture(gl_->features, feature_texels(material.features));
+  }
 }
 
 Status WovenDecoderPass::set_queries(const cv::Mat& footprints, const cv::Mat& incoming,
@@ -237,6 +261,11 @@ void WovenDecoderPass::use(const WovenColours& colours) const {
   glUniform1f(program.uniform("u_irradiance"), colours.irradiance);
   glUniform1i(program.uniform("u_fusion4"), gl_->fusion_width / 4);
   glUniform1i(program.uniform("u_angular4"), gl_->angular_width / 4);
+  if (gl_->footprint_features > 0) {
+    glActiveTexture(GL_TEXTURE0 + kFeaturesUnit);
+    glBindTexture(GL_TEXTURE_2D, gl_->features);
+    glUniform1i(program.uniform("u_features"), kFeaturesUnit);
+  }
   glActiveTexture(GL_TEXTURE0);
 }
 

@@ -123,7 +123,7 @@ Status WovenFarCloth::set_material(const WovenFarMaterial& material) {
     if (!sample) return std::unexpected(sample.error());
     auto latent = network_->encode(*sample);
     if (!latent) return std::unexpected(latent.error());
-    gl_->decoder->set_material(network_->prepare(std::move(*latent)));
+    gl_->decoder->set_material(network_->prepare(std::move(*latent), *sample));
     ++encodes_;
   }
   material_ = material;

@@ -105,9 +105,9 @@ class WovenDecoderPassTest : public ::testing::Test {
                               WovenWeightStorage storage = WovenWeightStorage::texture) {
     const cv::Size size(192, 128);
     const SwatchQueries queries = flat_swatch_queries(size);
-    auto latent = network.encode(test::analytic_woven_material(1, 32, 0.4F, 1.2F));
-    ASSERT_TRUE(latent) << latent.error().describe();
-    const cloth::WovenDecoderMaterial material = network.prepare(*latent);
+    auto material_or = network.prepare(test::analytic_woven_material(1, 32, 0.4F, 1.2F));
+    ASSERT_TRUE(material_or) << material_or.error().describe();
+    const cloth::WovenDecoderMaterial& material = *material_or;
 
     // The light's strength puts the brightest 5 % of pixels near white.
     WovenColours colours;
@@ -173,6 +173,18 @@ TEST_F(WovenDecoderPassTest, FollowsTheSizesInTheWeights) {
   narrow.angular_width = 24;
   narrow.blob_bins = 4;
   auto weights = cloth::random_woven_network(narrow, 3);
+  ASSERT_TRUE(weights);
+  auto network = cloth::WovenNetwork::from_weights(*weights);
+  ASSERT_TRUE(network);
+  expect_matching_frames(*network);
+}
+
+// The footprint's features read from the material's table, over footprints
+// from a hundredth of a repeat to four and a half, across many repeats.
+TEST_F(WovenDecoderPassTest, MatchesTheCpuDecoderWithTheFootprintsFeatures) {
+  cloth::WovenNetworkShape shape;
+  shape.footprint_features = cloth::woven_footprint_feature_count;
+  auto weights = cloth::random_woven_network(shape, 23);
   ASSERT_TRUE(weights);
   auto network = cloth::WovenNetwork::from_weights(*weights);
   ASSERT_TRUE(network);

@@ -280,7 +280,7 @@ TEST_P(WovenFarCaseTest, GpuFarViewIsTheCpuNeuralRender) {
   ASSERT_TRUE(sample);
   auto latent = network->encode(*sample);
   ASSERT_TRUE(latent);
-  const cloth::WovenDecoderMaterial material = network->prepare(std::move(*latent));
+  const cloth::WovenDecoderMaterial material = network->prepare(std::move(*latent), *sample);
   const Eigen::Vector2f repeat(static_cast<float>(weave->material.weave.warps),
                                static_cast<float>(weave->material.weave.wefts));
   for (const WovenNamedView& named : kWovenViews) {

@@ -57,7 +57,7 @@ const cloth::WovenNetwork& woven_network(DecoderSizes sizes = {}) {
 void BM_WovenDecoderCpu(benchmark::State& state) {
   const cloth::WovenNetwork& network = woven_network();
   const cloth::WovenDecoderMaterial material =
-      network.prepare(*network.encode(test::analytic_woven_material(2, 32, 0.4F, 1.0F)));
+      *network.prepare(test::analytic_woven_material(2, 32, 0.4F, 1.0F));
   std::mt19937 random(1);
   std::uniform_real_distribution<float> unit(0.0F, 1.0F);
   std::vector<cloth::WovenLookup> lookups(1024);
@@ -113,7 +113,7 @@ WovenCanvas* woven_canvas(int storage, DecoderSizes sizes = {}) {
     made->target = std::move(*target);
     made->pass = std::move(*pass);
     made->pass->set_material(
-        network.prepare(*network.encode(test::analytic_woven_material(2, 32, 0.4F, 1.0F))));
+        *network.prepare(test::analytic_woven_material(2, 32, 0.4F, 1.0F)));
     cv::Mat footprints(kWovenFrame, CV_32FC3), incoming(kWovenFrame, CV_32FC3),
         outgoing(kWovenFrame, CV_32FC3);
     cv::randu(footprints, 0.0F, 1.0F);

@@ -45,6 +45,16 @@ void check_dataset(const std::filesystem::path& file) {
 }
 
 void check_network(const std::filesystem::path& file) {
+  // A 2 x 2 repeat of flat warp, for the features of a network that takes them.
+  auto flat_material = [] {
+    psrig::cloth::WovenMaterialSample material;
+    material.texture_size = 2;
+    for (int texel = 0; texel < 4; ++texel) {
+      material.normal.insert(material.normal.end(), {0.0F, 0.0F, 1.0F});
+      material.orientation.insert(material.orientation.end(), {0.0F, 1.0F, 0.0F});
+    }
+    return material;
+  };
   auto network = psrig::cloth::WovenNetwork::load(file);
   if (!network) {
     (void)network.error().describe();
@@ -53,7 +63,8 @@ void check_network(const std::filesystem::path& file) {
   if (!psrig::cloth::check_woven_network(network->weights()))
     broken("accepted weights fail the check");
   const psrig::cloth::WovenDecoderMaterial material = network->prepare(
-      std::vector<float>(static_cast<std::size_t>(network->shape().latent_size), 0.5F));
+      std::vector<float>(static_cast<std::size_t>(network->shape().latent_size), 0.5F),
+      flat_material());
   (void)network->decode(material, {0.3F, 0.6F, 1.0F, {0.0F, 0.6F, 0.8F}, {0.6F, 0.0F, 0.8F}});
 }
 

@@ -73,6 +73,10 @@ int main(int argc, char** argv) {
                  "one-blob bins for each of the footprint's u, v and size (3 x bins a multiple "
                  "of 4)")
       ->capture_default_str();
+  app.add_option("--footprint-features", options.shape.footprint_features,
+                 "the footprint's features beside its one-blob: 0 (the paper's decoder) or 12 "
+                 "(the material's textures averaged over it, cloth/woven_footprint_features.h)")
+      ->capture_default_str();
   app.add_option("--latent", options.shape.latent_size, "the material latent's size")
       ->capture_default_str();
   app.add_option("--encoder-width", options.shape.encoder_width, "the encoder MLP's width")

@@ -147,7 +147,7 @@ int main(int argc, char** argv) {
         std::fprintf(stderr, "psrig-woven-probe: error: %s\n", latent.error().describe().c_str());
         return exit_code(latent.error());
       }
-      const cloth::WovenDecoderMaterial material = network.prepare(std::move(*latent));
+      const cloth::WovenDecoderMaterial material = network.prepare(std::move(*latent), *sample);
       std::printf("%s (alpha %.2f beta %.2f)  %s  (f = sum of the four components; over %d x %d centres)\n",
                   weave->name.c_str(), parameters.alpha, parameters.beta, weights_files[n].c_str(), grid, grid);
       std::printf("  size  eye      mean net/truth  spatial std truth  net   ratio  corr  rmse/std\n");

@@ -63,7 +63,8 @@ torch::Tensor WovenEncoderImpl::forward(const torch::Tensor& textures,
 
 WovenDecoderImpl::WovenDecoderImpl(const cloth::WovenNetworkShape& s) {
   const int f = s.fusion_width, a = s.angular_width;
-  fuse1 = register_module("fuse1", nn::Linear(s.latent_size + cloth::decoder_blob_inputs(s), f));
+  fuse1 =
+      register_module("fuse1", nn::Linear(s.latent_size + cloth::decoder_footprint_inputs(s), f));
   fuse2 = register_module("fuse2", nn::Linear(f, f));
   ang_in = register_module("ang_in", nn::Linear(f + cloth::woven_angular_inputs, a));
   ang_res = register_module("ang_res", ResidualBlock(a));
@@ -71,9 +72,10 @@ WovenDecoderImpl::WovenDecoderImpl(const cloth::WovenNetworkShape& s) {
   ang_out = register_module("ang_out", nn::Linear(a, cloth::woven_outputs));
 }
 
-torch::Tensor WovenDecoderImpl::forward(const torch::Tensor& latents, const torch::Tensor& blobs,
+torch::Tensor WovenDecoderImpl::forward(const torch::Tensor& latents,
+                                        const torch::Tensor& footprints,
                                         const torch::Tensor& angular) {
-  const torch::Tensor spatial = leaky(fuse2(leaky(fuse1(torch::cat({latents, blobs}, 1)))));
+  const torch::Tensor spatial = leaky(fuse2(leaky(fuse1(torch::cat({latents, footprints}, 1)))));
   torch::Tensor x = leaky(ang_in(torch::cat({spatial, angular}, 1)));
   return ang_out(leaky(ang_mid(ang_res(x))));
 }
@@ -102,18 +104,24 @@ torch::Tensor material_parameters(const cloth::WovenMaterialSample& material) {
 QueryTensors query_tensors(const cloth::WovenDataset& dataset,
                            const cloth::WovenNetworkShape& shape) {
   const auto count = static_cast<std::int64_t>(dataset.queries.size());
-  const int bins = cloth::decoder_blob_inputs(shape);
-  QueryTensors out{torch::empty({count, bins}), torch::empty({count, cloth::woven_angular_inputs}),
+  const int inputs = cloth::decoder_footprint_inputs(shape);
+  QueryTensors out{torch::empty({count, inputs}), torch::empty({count, cloth::woven_angular_inputs}),
                    torch::empty({count, cloth::woven_outputs}),
                    torch::empty({count}, torch::kInt64)};
-  float* blobs = out.blobs.data_ptr<float>();
+  std::vector<cloth::WovenFootprintFeatures> features(dataset.materials.size());
+  if (shape.footprint_features > 0) {
+    for (std::size_t m = 0; m < features.size(); ++m)
+      features[m] = cloth::WovenFootprintFeatures(dataset.materials[m]);
+  }
+  float* footprints = out.footprints.data_ptr<float>();
   float* angular = out.angular.data_ptr<float>();
   float* targets = out.targets.data_ptr<float>();
   std::int64_t* materials = out.materials.data_ptr<std::int64_t>();
   for (std::int64_t q = 0; q < count; ++q) {
     const cloth::WovenQuery& query = dataset.queries[static_cast<std::size_t>(q)];
-    cloth::one_blob_footprint(query.u, query.v, query.size, shape.blob_bins,
-                              std::span(blobs + q * bins, static_cast<std::size_t>(bins)));
+    cloth::woven_footprint_inputs(
+        shape, features[query.material], query.u, query.v, query.size,
+        std::span(footprints + q * inputs, static_cast<std::size_t>(inputs)));
     const float directions[5] = {query.wi[0], query.wi[1], query.wi[2], query.wo[0], query.wo[1]};
     std::copy_n(directions, 5, angular + q * 5);
     targets[q * 4 + 0] = query.c_warp;

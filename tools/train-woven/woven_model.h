@@ -33,9 +33,9 @@ TORCH_MODULE(WovenEncoder);
 
 struct WovenDecoderImpl : torch::nn::Module {
   explicit WovenDecoderImpl(const cloth::WovenNetworkShape& shape);
-  // latents [B, latent], blobs [B, 3 bins], angular [B, 5] -> [B, 4]
-  // (C_warp, C_weft, g(S_warp), g(S_weft))
-  torch::Tensor forward(const torch::Tensor& latents, const torch::Tensor& blobs,
+  // latents [B, latent], footprints [B, cloth::decoder_footprint_inputs],
+  // angular [B, 5] -> [B, 4] (C_warp, C_weft, g(S_warp), g(S_weft))
+  torch::Tensor forward(const torch::Tensor& latents, const torch::Tensor& footprints,
                         const torch::Tensor& angular);
   torch::nn::Linear fuse1{nullptr}, fuse2{nullptr}, ang_in{nullptr}, ang_mid{nullptr},
       ang_out{nullptr};
@@ -57,11 +57,11 @@ torch::Tensor material_textures(const cloth::WovenMaterialSample& material);
 torch::Tensor material_parameters(const cloth::WovenMaterialSample& material);
 
 // The decoder's inputs and the targets of every query, computed once:
-// one-blob footprints [Q, 3 bins] (cloth::one_blob_footprint, as the
-// runtime computes them), directions [Q, 5], targets [Q, 4] with the
-// specular ones through g.
+// footprints [Q, cloth::decoder_footprint_inputs] (one-blob and features,
+// cloth::woven_footprint_inputs, as the runtime computes them), directions
+// [Q, 5], targets [Q, 4] with the specular ones through g.
 struct QueryTensors {
-  torch::Tensor blobs, angular, targets;
+  torch::Tensor footprints, angular, targets;
   torch::Tensor materials;  // [Q] int64
 };
 QueryTensors query_tensors(const cloth::WovenDataset& dataset,

@@ -53,7 +53,7 @@ torch::Tensor predict(WovenModel& model, const TrainingData& data, const torch::
                                      data.parameters[static_cast<std::size_t>(ids[i])]));
   }
   const torch::Tensor latent = torch::cat(latents, 0).index_select(0, inverse);
-  return model->decoder(latent, data.queries.blobs.index_select(0, rows),
+  return model->decoder(latent, data.queries.footprints.index_select(0, rows),
                         data.queries.angular.index_select(0, rows));
 }
 

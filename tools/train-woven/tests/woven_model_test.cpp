@@ -1,6 +1,7 @@
 // The CPU twin (cloth/woven_network.h) against libtorch's forward pass on
 // the same weights: encoder and decoder agree to ~1e-5, on textures whose
-// size the convolutions and the pool do not divide evenly too.
+// size the convolutions and the pool do not divide evenly too, with the
+// footprint's features and without.
 
 #include "woven_model.h"
 
@@ -18,12 +19,15 @@ void expect_close(float a, float b, const std::string& what) {
   EXPECT_LE(std::abs(a - b), 1e-5F * scale) << what << ": torch " << a << ", CPU " << b;
 }
 
-class TorchAgainstCpu : public testing::TestWithParam<int> {};
+// (texture size, footprint features)
+class TorchAgainstCpu : public testing::TestWithParam<std::tuple<int, int>> {};
 
 TEST_P(TorchAgainstCpu, EncoderAndDecoderMatch) {
-  const int texture_size = GetParam();
+  const auto [texture_size, features] = GetParam();
   torch::manual_seed(5);
-  WovenModel model{cloth::WovenNetworkShape{}};
+  cloth::WovenNetworkShape shape;
+  shape.footprint_features = features;
+  WovenModel model{shape};
   auto network = cloth::WovenNetwork::from_weights(to_weights(model));
   ASSERT_TRUE(network) << network.error().describe();
 
@@ -43,12 +47,12 @@ TEST_P(TorchAgainstCpu, EncoderAndDecoderMatch) {
     }
 
     // The torch decoder on the torch latent, the CPU decoder on its own.
-    const cloth::WovenDecoderMaterial prepared = network->prepare(*cpu_latent);
+    const cloth::WovenDecoderMaterial prepared = network->prepare(*cpu_latent, material);
     for (std::size_t q = 0; q < dataset.queries.size(); ++q) {
       const cloth::WovenQuery& query = dataset.queries[q];
       if (query.material != m) continue;
       const auto row = static_cast<std::int64_t>(q);
-      const torch::Tensor out = model->decoder(latent, queries.blobs.slice(0, row, row + 1),
+      const torch::Tensor out = model->decoder(latent, queries.footprints.slice(0, row, row + 1),
                                                queries.angular.slice(0, row, row + 1));
       const std::array<float, 4> cpu =
           network->decode_raw(prepared, {query.u, query.v, query.size, query.wi, query.wo});
@@ -60,7 +64,9 @@ TEST_P(TorchAgainstCpu, EncoderAndDecoderMatch) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(TextureSizes, TorchAgainstCpu, testing::Values(32, 30, 24, 7));
+INSTANTIATE_TEST_SUITE_P(TextureSizes, TorchAgainstCpu,
+                         testing::Combine(testing::Values(32, 30, 24, 7),
+                                          testing::Values(0, cloth::woven_footprint_feature_count)));
 
 TEST(WovenLoss, WeighsSpecularAndDiffuseAsEquationEleven) {
   const torch::Tensor predicted = torch::zeros({2, 4});

@@ -17,6 +17,7 @@
 #include "psrig/base/error.h"
 #include "psrig/cloth/woven_components.h"
 #include "psrig/cloth/woven_dataset.h"
+#include "psrig/cloth/woven_footprint_features.h"
 #include "psrig/cloth/woven_network_weights.h"
 
 namespace psrig::cloth {
@@ -36,6 +37,12 @@ inline constexpr float woven_specular_k = 100.0F;
 // over [0, woven_largest_footprint]. The trainer feeds the same values.
 void one_blob_footprint(float u, float v, float size, int bins, std::span<float> out);
 
+// The decoder's footprint inputs for a query into `out`
+// (decoder_footprint_inputs values): the one-blob, then the features where
+// `shape` takes them (from `features`). The trainer feeds the same values.
+void woven_footprint_inputs(const WovenNetworkShape& shape, const WovenFootprintFeatures& features,
+                            float u, float v, float size, std::span<float> out);
+
 // One decoder query: footprint centre (repeats), width (repeats) and the
 // two directions in the cloth's frame (as WovenQuery).
 struct WovenLookup {
@@ -45,10 +52,12 @@ struct WovenLookup {
 
 // A material as the decoder takes it: its latent, and the latent's share
 // of the first fusion layer with that layer's bias, worked out once per
-// material so that a query pays only for the footprint's share.
+// material so that a query pays only for the footprint's share; and, for a
+// network that takes them, the table its footprints' features come from.
 struct WovenDecoderMaterial {
   std::vector<float> latent;
   std::vector<float> fusion_bias;  // fusion_width values
+  WovenFootprintFeatures features;  // empty for a network without them
 };
 
 // A decoder layer stored input-major (weight[i * outputs + o]), so that a
@@ -71,7 +80,11 @@ class WovenNetwork {
   // The material latent (latent_size values). Textures of any size from 2
   // texels up (the encoder pools to a fixed grid).
   [[nodiscard]] Result<std::vector<float>> encode(const WovenMaterialSample& material) const;
-  [[nodiscard]] WovenDecoderMaterial prepare(std::vector<float> latent) const;
+  // `material`'s latent (encode's) made ready for decoding.
+  [[nodiscard]] WovenDecoderMaterial prepare(std::vector<float> latent,
+                                             const WovenMaterialSample& material) const;
+  // encode and prepare at once.
+  [[nodiscard]] Result<WovenDecoderMaterial> prepare(const WovenMaterialSample& material) const;
 
   // The network's outputs as trained: C_warp, C_weft, g(S_warp), g(S_weft).
   [[nodiscard]] std::array<float, 4> decode_raw(const WovenDecoderMaterial& material,

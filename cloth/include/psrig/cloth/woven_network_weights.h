@@ -1,6 +1,6 @@
 #pragma once
 // The neural woven BSDF's weights (chen2024 4.2, sized for a CPU): the
-// file `psrig-woven-net/1` the trainer (tools/train-woven) writes and the
+// file `psrig-woven-net/1` (or /2, with footprint features) the trainer (tools/train-woven) writes and the
 // runtime (woven_network.h, the preview's GLSL decoder) reads, without
 // libtorch. Layout in src/woven_network_weights.cpp.
 //
@@ -11,7 +11,9 @@
 //              -> flatten, append (alpha, beta)
 //              enc_in (leaky) -> residual block enc_res1, enc_res2 -> enc_out
 //            = the material latent z (no activation)
-//   decoder  [z, one_blob(u, v, size)] -> fuse1, fuse2 (leaky): the spatial feature
+//   decoder  [z, one_blob(u, v, size), features(u, v, size)] -> fuse1, fuse2
+//              (leaky): the spatial feature (features: woven_footprint_features.h,
+//              none in a /1 file)
 //            [spatial, wi xyz, wo xy] -> ang_in (leaky) -> residual block
 //              ang_res1, ang_res2 -> ang_mid (leaky) -> ang_out
 //            = C_warp, C_weft, g(S_warp), g(S_weft), g(x) = ln(100 x + 1)
@@ -36,6 +38,9 @@ struct WovenNetworkShape {
   int blob_bins = 8;        // one-blob bins per footprint input: 3 inputs -> 24 (the paper's)
   int fusion_width = 32;    // the spatial fusion's two layers
   int angular_width = 32;   // the angular decoder's layers
+  // The footprint's features beside its one-blob: 0 (the paper's decoder)
+  // or woven_footprint_feature_count.
+  int footprint_features = 0;
   // The GLSL decoder reads vec4s: both widths are multiples of 4.
   [[nodiscard]] bool operator==(const WovenNetworkShape&) const = default;
 };
@@ -68,6 +73,8 @@ struct WovenNetworkWeights {
 // against these).
 [[nodiscard]] int encoder_features(const WovenNetworkShape& shape);     // C3 * P * P + 2
 [[nodiscard]] int decoder_blob_inputs(const WovenNetworkShape& shape);  // 3 * bins
+// The blobs and the features: fuse1 takes the latent and these.
+[[nodiscard]] int decoder_footprint_inputs(const WovenNetworkShape& shape);
 inline constexpr int woven_angular_inputs = 5;                          // wi xyz, wo xy
 inline constexpr int woven_outputs = 4;
 

@@ -9,7 +9,9 @@
 // block, where the context takes one that large); the material's latent
 // in uniforms (folded into the first fusion
 // layer's bias, WovenDecoderMaterial): a colour edit is a uniform, a
-// pattern or (alpha, beta) edit re-runs the encoder on the CPU.
+// pattern or (alpha, beta) edit re-runs the encoder on the CPU. A network
+// that takes the footprint's features reads them from the material's
+// table (cloth::WovenFootprintFeatures), a texture set with the material.
 
 #include <memory>
 #include <string>
