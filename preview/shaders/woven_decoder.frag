@@ -126,53 +126,49 @@ float blob(float x, int bin, bool periodic) {
 }
 
 #if FEATURE4 > 0
-// cloth::WovenFootprintFeatures::mean, step for step: the table read
-// bilinearly between its corners (exact for texel-wise constant
-// features), the repeat tiling beyond them.
+// cloth::WovenFootprintFeatures::mean: the table read bilinearly between
+// its corners (exact for texel-wise constant features), the repeat tiling
+// beyond them. One channel group (c: features 4c..4c+3) at a time in a
+// loop to u_feature_groups (3), kept rolled as the layers' are: unrolled,
+// llvmpipe's LLVM took over 20 minutes on the mesh variant.
 const float kSmallestTexels = 0.5;  // woven_footprint_smallest_texels
+uniform int u_feature_groups;
 
-// The sums over [0, x) x [0, y), x and y in [0, T] texels.
-void corner_sum(float x, float y, out vec4 s[3]) {
-  int t = textureSize(u_features, 0).y - 1;
+// The sums of group c over [0, x) x [0, y), x and y in [0, T] texels.
+vec4 corner_sum(float x, float y, int c, int t) {
   int i = clamp(int(floor(x)), 0, t - 1), j = clamp(int(floor(y)), 0, t - 1);
   float a = x - float(i), b = y - float(j);
-  for (int c = 0; c < 3; ++c) {
-    vec4 c00 = texelFetch(u_features, ivec2(3 * i + c, j), 0);
-    vec4 c10 = texelFetch(u_features, ivec2(3 * (i + 1) + c, j), 0);
-    vec4 c01 = texelFetch(u_features, ivec2(3 * i + c, j + 1), 0);
-    vec4 c11 = texelFetch(u_features, ivec2(3 * (i + 1) + c, j + 1), 0);
-    vec4 top = c00 + a * (c10 - c00), bottom = c01 + a * (c11 - c01);
-    s[c] = top + b * (bottom - top);
-  }
+  vec4 c00 = texelFetch(u_features, ivec2(3 * i + c, j), 0);
+  vec4 c10 = texelFetch(u_features, ivec2(3 * (i + 1) + c, j), 0);
+  vec4 c01 = texelFetch(u_features, ivec2(3 * i + c, j + 1), 0);
+  vec4 c11 = texelFetch(u_features, ivec2(3 * (i + 1) + c, j + 1), 0);
+  vec4 top = c00 + a * (c10 - c00), bottom = c01 + a * (c11 - c01);
+  return top + b * (bottom - top);
 }
 
-// The same for any x, y >= 0: whole repeats beyond T.
-void tiled_sum(float x, float y, out vec4 s[3]) {
-  float t = float(textureSize(u_features, 0).y - 1);
-  float kx = floor(x / t), ky = floor(y / t);
-  float fx = clamp(x - kx * t, 0.0, t), fy = clamp(y - ky * t, 0.0, t);
-  vec4 whole[3], column[3], row[3], part[3];
-  corner_sum(t, t, whole);
-  corner_sum(t, fy, column);
-  corner_sum(fx, t, row);
-  corner_sum(fx, fy, part);
-  for (int c = 0; c < 3; ++c) s[c] = kx * ky * whole[c] + kx * column[c] + ky * row[c] + part[c];
-}
-
-// The features' mean over the square `footprint.z` repeats wide about footprint.xy.
+// The features' mean over the square `footprint.z` repeats wide about
+// footprint.xy. A sum from the origin to (x, y) >= 0 is, with x = kx T + fx,
+// kx ky W + kx C(T, fy) + ky C(fx, T) + C(fx, fy) (W a whole repeat's).
 void footprint_features(vec3 footprint, out vec4 f[3]) {
-  float t = float(textureSize(u_features, 0).y - 1);
-  float width = max(footprint.z * t, kSmallestTexels);
-  vec2 low = footprint.xy * t - 0.5 * width;
-  low -= floor(low / t) * t;
+  int t = textureSize(u_features, 0).y - 1;
+  float size = float(t);
+  float width = max(footprint.z * size, kSmallestTexels);
+  vec2 low = footprint.xy * size - 0.5 * width;
+  low -= floor(low / size) * size;
   vec2 high = low + width;
-  vec4 s11[3], s01[3], s10[3], s00[3];
-  tiled_sum(high.x, high.y, s11);
-  tiled_sum(low.x, high.y, s01);
-  tiled_sum(high.x, low.y, s10);
-  tiled_sum(low.x, low.y, s00);
+  vec2 k0 = floor(low / size), k1 = floor(high / size);
+  vec2 f0 = clamp(low - k0 * size, 0.0, size), f1 = clamp(high - k1 * size, 0.0, size);
   float area = width * width;
-  for (int c = 0; c < 3; ++c) f[c] = (s11[c] - s01[c] - s10[c] + s00[c]) / area;
+  for (int c = 0; c < u_feature_groups; ++c) {
+    vec4 whole = texelFetch(u_features, ivec2(3 * t + c, t), 0);
+    vec4 column0 = corner_sum(size, f0.y, c, t), column1 = corner_sum(size, f1.y, c, t);
+    vec4 row0 = corner_sum(f0.x, size, c, t), row1 = corner_sum(f1.x, size, c, t);
+    vec4 s11 = k1.x * k1.y * whole + k1.x * column1 + k1.y * row1 + corner_sum(f1.x, f1.y, c, t);
+    vec4 s01 = k0.x * k1.y * whole + k0.x * column1 + k1.y * row0 + corner_sum(f0.x, f1.y, c, t);
+    vec4 s10 = k1.x * k0.y * whole + k1.x * column0 + k0.y * row1 + corner_sum(f1.x, f0.y, c, t);
+    vec4 s00 = k0.x * k0.y * whole + k0.x * column0 + k0.y * row0 + corner_sum(f0.x, f0.y, c, t);
+    f[c] = (s11 - s01 - s10 + s00) / area;
+  }
 }
 #endif
 

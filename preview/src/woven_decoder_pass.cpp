@@ -262,6 +262,7 @@ void WovenDecoderPass::use(const WovenColours& colours) const {
   glUniform1i(program.uniform("u_fusion4"), gl_->fusion_width / 4);
   glUniform1i(program.uniform("u_angular4"), gl_->angular_width / 4);
   if (gl_->footprint_features > 0) {
+    glUniform1i(program.uniform("u_feature_groups"), gl_->footprint_features / 4);
     glActiveTexture(GL_TEXTURE0 + kFeaturesUnit);
     glBindTexture(GL_TEXTURE_2D, gl_->features);
     glUniform1i(program.uniform("u_features"), kFeaturesUnit);
