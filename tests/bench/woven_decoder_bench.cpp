@@ -3,13 +3,14 @@
 //   BM_WovenDecoderCpu: cloth::WovenNetwork::decode, one query (the CPU twin);
 //   BM_WovenEncoderCpu/T: the encoder on a T x T material (once per
 //     material, or per pattern or (alpha, beta) edit);
-//   BM_WovenDecoderGlsl/uniform_block:0|1/fusion:F/angular:A/blob_bins:B:
+//   BM_WovenDecoderGlsl/uniform_block:0|1/fusion:F/angular:A/blob_bins:B/features:N:
 //     the GLSL pass over a 1920x1080 frame on llvmpipe, glFinish'ed (ms per
 //     frame; per pixel = that / 2 073 600), the weights in a texture (0,
 //     the default) or a uniform block (1), the fusion layers F wide, the
 //     angular decoder's A, B one-blob bins an input (the defaults 32, 32,
 //     8; 16, 16, 8 a narrower network; 32, 32, 16 and 48, 32, 16 finer
-//     footprint encodings);
+//     footprint encodings), N the footprint's features (0, or 12:
+//     cloth/woven_footprint_features.h, read from the material's table);
 //   BM_WovenClearFrame: the same target cleared and finished, the floor.
 
 #include <GLES3/gl3.h>
@@ -31,10 +32,11 @@ using namespace psrig;
 
 const cv::Size kWovenFrame(1920, 1080);
 
-// The default sizes, or the decoder's fusion and angular widths and the
-// one-blob bins given (what another network would cost).
+// The default sizes, or the decoder's fusion and angular widths, the
+// one-blob bins and the footprint features given (what another network
+// would cost).
 struct DecoderSizes {
-  int fusion = 32, angular = 32, blob_bins = 8;
+  int fusion = 32, angular = 32, blob_bins = 8, features = 0;
   auto operator<=>(const DecoderSizes&) const = default;
 };
 
@@ -46,6 +48,7 @@ const cloth::WovenNetwork& woven_network(DecoderSizes sizes = {}) {
     shape.fusion_width = sizes.fusion;
     shape.angular_width = sizes.angular;
     shape.blob_bins = sizes.blob_bins;
+    shape.footprint_features = sizes.features;
     found = networks
                 .emplace(sizes,
                          *cloth::WovenNetwork::from_weights(*cloth::random_woven_network(shape, 5)))
@@ -137,7 +140,7 @@ void BM_WovenDecoderGlsl(benchmark::State& state) {
   WovenCanvas* canvas = woven_canvas(
       static_cast<int>(state.range(0)),
       {static_cast<int>(state.range(1)), static_cast<int>(state.range(2)),
-       static_cast<int>(state.range(3))});
+       static_cast<int>(state.range(3)), static_cast<int>(state.range(4))});
   if (!canvas->pass) {
     state.SkipWithError("no EGL context or the pass did not build");
     return;
@@ -153,12 +156,14 @@ void BM_WovenDecoderGlsl(benchmark::State& state) {
       benchmark::Counter::kIsIterationInvariantRate | benchmark::Counter::kInvert);
 }
 BENCHMARK(BM_WovenDecoderGlsl)
-    ->ArgNames({"uniform_block", "fusion", "angular", "blob_bins"})
-    ->Args({0, 32, 32, 8})
-    ->Args({1, 32, 32, 8})
-    ->Args({0, 16, 16, 8})
-    ->Args({0, 32, 32, 16})
-    ->Args({0, 48, 32, 16})
+    ->ArgNames({"uniform_block", "fusion", "angular", "blob_bins", "features"})
+    ->Args({0, 32, 32, 8, 0})
+    ->Args({1, 32, 32, 8, 0})
+    ->Args({0, 16, 16, 8, 0})
+    ->Args({0, 32, 32, 16, 0})
+    ->Args({0, 48, 32, 16, 0})
+    ->Args({0, 32, 32, 8, 12})
+    ->Args({0, 32, 32, 16, 12})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 
