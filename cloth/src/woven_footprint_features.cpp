@@ -90,7 +90,8 @@ void WovenFootprintFeatures::mean(float u, float v, float size, std::span<float>
   tiled_sum(x1, y0, s10);
   tiled_sum(x0, y0, s00);
   const float area = width * width;
-  for (int k = 0; k < kFeatures; ++k) out[k] = (s11[k] - s01[k] - s10[k] + s00[k]) / area;
+  for (int k = 0; k < kFeatures; ++k)
+    out[k] = (s11[k] - s01[k] - s10[k] + s00[k]) / area;
 }
 
 }  // namespace psrig::cloth

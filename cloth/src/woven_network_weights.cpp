@@ -230,8 +230,8 @@ Result<WovenNetworkWeights> read_woven_network(const std::filesystem::path& file
   if (!bytes) {
     return std::unexpected(bytes.error());
   }
-  const bool featured = std::string_view(bytes->data(), bytes->size())
-                            .starts_with(featured_network_magic);
+  const bool featured =
+      std::string_view(bytes->data(), bytes->size()).starts_with(featured_network_magic);
   binary::Reader in(file, *bytes);
   if (auto ok = in.expect_magic(featured ? featured_network_magic : network_magic); !ok) {
     return std::unexpected(ok.error());

@@ -63,7 +63,8 @@ std::array<double, kCount> direct_mean(const WovenMaterialSample& material, floa
         sum[static_cast<std::size_t>(k)] += overlap * features.table()[3 * kCount + k];
     }
   }
-  for (double& s : sum) s /= width * width;
+  for (double& s : sum)
+    s /= width * width;
   return sum;
 }
 
@@ -132,8 +133,7 @@ TEST(WovenFootprintFeatures, TellWarpFromWeftAsTheSurfaceDoes) {
         for (int row = 0; row < t; ++row) {
           for (int column = 0; column < t; ++column) {
             const YarnType yarn =
-                surface
-                    ->point({(column + 0.5F) / t * repeat.x(), (row + 0.5F) / t * repeat.y()})
+                surface->point({(column + 0.5F) / t * repeat.x(), (row + 0.5F) / t * repeat.y()})
                     .yarn;
             std::array<float, kCount> f{};
             features.mean((column + 0.5F) / t, (row + 0.5F) / t, 1.0F / t, f);

@@ -115,8 +115,7 @@ WovenCanvas* woven_canvas(int storage, DecoderSizes sizes = {}) {
     if (!target || !pass) return made;
     made->target = std::move(*target);
     made->pass = std::move(*pass);
-    made->pass->set_material(
-        *network.prepare(test::analytic_woven_material(2, 32, 0.4F, 1.0F)));
+    made->pass->set_material(*network.prepare(test::analytic_woven_material(2, 32, 0.4F, 1.0F)));
     cv::Mat footprints(kWovenFrame, CV_32FC3), incoming(kWovenFrame, CV_32FC3),
         outgoing(kWovenFrame, CV_32FC3);
     cv::randu(footprints, 0.0F, 1.0F);
@@ -137,10 +136,10 @@ WovenCanvas* woven_canvas(int storage, DecoderSizes sizes = {}) {
 }
 
 void BM_WovenDecoderGlsl(benchmark::State& state) {
-  WovenCanvas* canvas = woven_canvas(
-      static_cast<int>(state.range(0)),
-      {static_cast<int>(state.range(1)), static_cast<int>(state.range(2)),
-       static_cast<int>(state.range(3)), static_cast<int>(state.range(4))});
+  WovenCanvas* canvas =
+      woven_canvas(static_cast<int>(state.range(0)),
+                   {static_cast<int>(state.range(1)), static_cast<int>(state.range(2)),
+                    static_cast<int>(state.range(3)), static_cast<int>(state.range(4))});
   if (!canvas->pass) {
     state.SkipWithError("no EGL context or the pass did not build");
     return;

@@ -26,14 +26,17 @@ std::string command_line(int argc, char** argv) {
 
 int main(int argc, char** argv) {
   using namespace psrig;
-  CLI::App app("Trains the neural woven BSDF on a data set; writes its weights (psrig-woven-net/1, or /2 with footprint features)",
-               "psrig-train-woven");
+  CLI::App app(
+      "Trains the neural woven BSDF on a data set; writes its weights (psrig-woven-net/1, or /2 "
+      "with footprint features)",
+      "psrig-train-woven");
   std::filesystem::path dataset_file, weights_file;
   train_woven::TrainingOptions options;
   app.add_option("DATASET", dataset_file, "the data set (psrig-woven-dataset/1)")
       ->required()
       ->check(CLI::ExistingFile);
-  app.add_option("-o,--out", weights_file, "the weights to write (psrig-woven-net/1 or /2)")->required();
+  app.add_option("-o,--out", weights_file, "the weights to write (psrig-woven-net/1 or /2)")
+      ->required();
   app.add_option("--steps", options.steps, "training steps (batches)")
       ->capture_default_str()
       ->check(CLI::PositiveNumber);

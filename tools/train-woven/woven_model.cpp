@@ -105,9 +105,9 @@ QueryTensors query_tensors(const cloth::WovenDataset& dataset,
                            const cloth::WovenNetworkShape& shape) {
   const auto count = static_cast<std::int64_t>(dataset.queries.size());
   const int inputs = cloth::decoder_footprint_inputs(shape);
-  QueryTensors out{torch::empty({count, inputs}), torch::empty({count, cloth::woven_angular_inputs}),
-                   torch::empty({count, cloth::woven_outputs}),
-                   torch::empty({count}, torch::kInt64)};
+  QueryTensors out{
+      torch::empty({count, inputs}), torch::empty({count, cloth::woven_angular_inputs}),
+      torch::empty({count, cloth::woven_outputs}), torch::empty({count}, torch::kInt64)};
   std::vector<cloth::WovenFootprintFeatures> features(dataset.materials.size());
   if (shape.footprint_features > 0) {
     for (std::size_t m = 0; m < features.size(); ++m)

@@ -66,7 +66,8 @@ TEST_P(TorchAgainstCpu, EncoderAndDecoderMatch) {
 
 INSTANTIATE_TEST_SUITE_P(TextureSizes, TorchAgainstCpu,
                          testing::Combine(testing::Values(32, 30, 24, 7),
-                                          testing::Values(0, cloth::woven_footprint_feature_count)));
+                                          testing::Values(0,
+                                                          cloth::woven_footprint_feature_count)));
 
 TEST(WovenLoss, WeighsSpecularAndDiffuseAsEquationEleven) {
   const torch::Tensor predicted = torch::zeros({2, 4});

@@ -1,8 +1,9 @@
 #pragma once
 // The neural woven BSDF's weights (chen2024 4.2, sized for a CPU): the
-// file `psrig-woven-net/1` (or /2, with footprint features) the trainer (tools/train-woven) writes and the
-// runtime (woven_network.h, the preview's GLSL decoder) reads, without
-// libtorch. Layout in src/woven_network_weights.cpp.
+// file `psrig-woven-net/1` (or /2, with footprint features) the trainer
+// (tools/train-woven) writes and the runtime (woven_network.h, the
+// preview's GLSL decoder) reads, without libtorch. Layout in
+// src/woven_network_weights.cpp.
 //
 // The network, its layers named as in the file:
 //   encoder  textures (6 x T x T: normal xyz, orientation xyz)
