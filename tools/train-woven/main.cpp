@@ -80,6 +80,11 @@ int main(int argc, char** argv) {
                  "the footprint's features beside its one-blob: 0 (the paper's decoder) or 12 "
                  "(the material's textures averaged over it, cloth/woven_footprint_features.h)")
       ->capture_default_str();
+  app.add_option("--consistency", options.consistency,
+                 "weight of the term holding a footprint's answer to its four quarters' mean "
+                 "(0: the paper's loss alone)")
+      ->capture_default_str()
+      ->check(CLI::NonNegativeNumber);
   app.add_option("--latent", options.shape.latent_size, "the material latent's size")
       ->capture_default_str();
   app.add_option("--encoder-width", options.shape.encoder_width, "the encoder MLP's width")

@@ -16,6 +16,8 @@ constexpr std::int64_t evaluation_queries = 8192;
 // The data set as tensors, once: every material's encoder inputs and every
 // query's decoder inputs, with each material's query rows.
 struct TrainingData {
+  const cloth::WovenDataset* dataset = nullptr;
+  std::vector<cloth::WovenFootprintFeatures> features;  // a material's, for the quarters
   std::vector<torch::Tensor> textures, parameters;
   QueryTensors queries;
   std::vector<std::vector<std::int64_t>> rows_of_material;
@@ -25,9 +27,13 @@ struct TrainingData {
 TrainingData training_data(const cloth::WovenDataset& dataset,
                            const cloth::WovenNetworkShape& shape) {
   TrainingData data;
+  data.dataset = &dataset;
   for (const cloth::WovenMaterialSample& material : dataset.materials) {
     data.textures.push_back(material_textures(material));
     data.parameters.push_back(material_parameters(material));
+    data.features.emplace_back(shape.footprint_features > 0
+                                   ? cloth::WovenFootprintFeatures(material)
+                                   : cloth::WovenFootprintFeatures());
   }
   data.queries = query_tensors(dataset, shape);
   data.rows_of_material.resize(dataset.materials.size());
@@ -40,9 +46,8 @@ TrainingData training_data(const cloth::WovenDataset& dataset,
   return data;
 }
 
-// The decoder's predictions for the query rows `rows`, encoding each
-// material they touch once.
-torch::Tensor predict(WovenModel& model, const TrainingData& data, const torch::Tensor& rows) {
+// The latents of the query rows `rows`, encoding each material they touch once.
+torch::Tensor row_latents(WovenModel& model, const TrainingData& data, const torch::Tensor& rows) {
   const torch::Tensor materials = data.queries.materials.index_select(0, rows);
   const auto [unique, inverse] =
       torch::_unique(materials, /*sorted=*/true, /*return_inverse=*/true);
@@ -52,9 +57,52 @@ torch::Tensor predict(WovenModel& model, const TrainingData& data, const torch::
     latents.push_back(model->encoder(data.textures[static_cast<std::size_t>(ids[i])],
                                      data.parameters[static_cast<std::size_t>(ids[i])]));
   }
-  const torch::Tensor latent = torch::cat(latents, 0).index_select(0, inverse);
-  return model->decoder(latent, data.queries.footprints.index_select(0, rows),
+  return torch::cat(latents, 0).index_select(0, inverse);
+}
+
+// The decoder's predictions for the query rows `rows`.
+torch::Tensor predict(WovenModel& model, const TrainingData& data, const torch::Tensor& rows) {
+  return model->decoder(row_latents(model, data, rows),
+                        data.queries.footprints.index_select(0, rows),
                         data.queries.angular.index_select(0, rows));
+}
+
+// The components (C, and S with g inverted) from the network's outputs.
+torch::Tensor components_of(const torch::Tensor& outputs) {
+  const torch::Tensor diffuse = outputs.slice(1, 0, 2);
+  const torch::Tensor specular =
+      torch::clamp_min((torch::exp(outputs.slice(1, 2, 4)) - 1) / cloth::woven_specular_k, 0);
+  return torch::cat({diffuse, specular}, 1);
+}
+
+// TrainingOptions::consistency's term for the rows: eq. 11's form between
+// the rows' outputs and the mean of their quarters' (each half the size,
+// about the rows' centre moved a quarter of the size each way), g applied.
+torch::Tensor consistency_loss(WovenModel& model, const TrainingData& data,
+                               const torch::Tensor& rows, const torch::Tensor& outputs) {
+  const cloth::WovenNetworkShape& shape = model->shape;
+  const int inputs = cloth::decoder_footprint_inputs(shape);
+  const std::int64_t count = rows.numel();
+  torch::Tensor quarters = torch::empty({count * 4, inputs});
+  float* out = quarters.data_ptr<float>();
+  const std::int64_t* row = rows.data_ptr<std::int64_t>();
+  for (std::int64_t r = 0; r < count; ++r) {
+    const cloth::WovenQuery& q = data.dataset->queries[static_cast<std::size_t>(row[r])];
+    for (int k = 0; k < 4; ++k) {
+      const float du = (k % 2 == 0 ? -0.25F : 0.25F) * q.size;
+      const float dv = (k / 2 == 0 ? -0.25F : 0.25F) * q.size;
+      cloth::woven_footprint_inputs(
+          shape, data.features[q.material], q.u + du, q.v + dv, q.size / 2,
+          std::span(out + (r * 4 + k) * inputs, static_cast<std::size_t>(inputs)));
+    }
+  }
+  const torch::Tensor latents = row_latents(model, data, rows).repeat_interleave(4, 0);
+  const torch::Tensor angular = data.queries.angular.index_select(0, rows).repeat_interleave(4, 0);
+  const torch::Tensor mean =
+      components_of(model->decoder(latents, quarters, angular)).view({count, 4, 4}).mean(1);
+  const torch::Tensor target = torch::cat(
+      {mean.slice(1, 0, 2), torch::log(cloth::woven_specular_k * mean.slice(1, 2, 4) + 1)}, 1);
+  return woven_loss(outputs, target);
 }
 
 // A fixed spread of up to evaluation_queries rows.
@@ -242,8 +290,11 @@ Result<TrainingResult> train(const cloth::WovenDataset& dataset, const TrainingO
     }
     const torch::Tensor rows = batch_rows(data, options, step);
     optimizer.zero_grad();
-    const torch::Tensor loss =
-        woven_loss(predict(model, data, rows), data.queries.targets.index_select(0, rows));
+    const torch::Tensor outputs = predict(model, data, rows);
+    torch::Tensor loss = woven_loss(outputs, data.queries.targets.index_select(0, rows));
+    if (options.consistency > 0) {
+      loss = loss + options.consistency * consistency_loss(model, data, rows, outputs);
+    }
     loss.backward();
     optimizer.step();
     running = 0.98 * running + 0.02 * loss.item<double>();

@@ -31,6 +31,12 @@ struct TrainingOptions {
   std::int64_t checkpoint_every = 500;
   bool resume = false;   // continue from `checkpoint` if it exists
   bool progress = true;  // the bar on stderr
+  // The weight of the consistency term (0: none, the paper's loss alone): a
+  // footprint's answer held to the mean of its four quarters' (in C and in
+  // S, before g), as the box-filtered aggregate nearly is. A decoder that
+  // keeps it gives a frame whose mean does not move with the pixel grid's
+  // phase over the pattern (the far level's dolly).
+  double consistency = 0;
 };
 
 struct TrainingResult {
