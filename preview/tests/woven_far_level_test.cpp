@@ -327,6 +327,10 @@ TEST_P(WovenFarCaseTest, GpuFarViewIsTheCpuNeuralRender) {
 // parameters, with 16 one-blob bins and fusion 48 (config/woven/README.md)
 // lowered the RMSE to 16.6 and 13.8, 26.9 and 22.5, 28.9 and 28.6 but
 // broke the dolly and the twill's hand-over below, so it is not shipped.
+// Networks that also take the footprint's features
+// (cloth/woven_footprint_features.h) lowered it further, to 11.6 and 10.4,
+// 20.2 and 25.8, 21.1 and 31.9 (8 bins), but stepped 1.044x in the dolly
+// where the far level is alone: not shipped either (config/woven/README.md).
 TEST_P(WovenFarCaseTest, DISABLED_NeuralFarViewIsTheFabricModelFiltered) {
   const WovenCase& param = GetParam();
   const auto weave = load_shipped_weave(param.weave, param.threads);
