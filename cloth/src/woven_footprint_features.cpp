@@ -1,6 +1,7 @@
 #include "psrig/cloth/woven_footprint_features.h"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 
 namespace psrig::cloth {

@@ -48,6 +48,37 @@ TEST(WovenNetworkWeights, RoundTripsAndStaysSmall) {
   EXPECT_EQ(read->ang_out.inputs, written.shape.angular_width);
 }
 
+// A network that takes the footprint's features is written as /2, with
+// the count, and read back whole; a /1 file stays as it was.
+TEST(WovenNetworkWeights, ANetworkWithFootprintFeaturesRoundTripsAsVersionTwo) {
+  test::TempDir dir;
+  WovenNetworkShape shape;
+  shape.footprint_features = woven_footprint_feature_count;
+  auto written = random_woven_network(shape, 5);
+  ASSERT_TRUE(written);
+  ASSERT_TRUE(write_woven_network(dir / "net.wnn", *written));
+  ASSERT_TRUE(write_woven_network(dir / "plain.wnn", seeded_weights()));
+  auto magic = [&](const char* name) {
+    std::ifstream in(dir / name, std::ios::binary);
+    std::string line;
+    std::getline(in, line);
+    return line;
+  };
+  EXPECT_EQ(magic("net.wnn"), "psrig-woven-net/2");
+  EXPECT_EQ(magic("plain.wnn"), "psrig-woven-net/1");
+  auto read = read_woven_network(dir / "net.wnn");
+  ASSERT_TRUE(read) << read.error().describe();
+  EXPECT_EQ(read->shape, shape);
+  EXPECT_EQ(read->fuse1.inputs, shape.latent_size + 3 * shape.blob_bins + 12);
+  EXPECT_EQ(read->fuse1.weight, written->fuse1.weight);
+
+  shape.footprint_features = 8;  // not the features' count
+  auto refused = random_woven_network(shape, 5);
+  ASSERT_FALSE(refused);
+  EXPECT_NE(refused.error().describe().find("8 footprint features, not 0 or 12"), std::string::npos)
+      << refused.error().describe();
+}
+
 TEST(WovenNetworkWeights, RefusesDamagedAndForeignFiles) {
   test::TempDir dir;
   ASSERT_TRUE(write_woven_network(dir / "net.wnn", seeded_weights()));

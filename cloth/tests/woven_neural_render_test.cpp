@@ -142,11 +142,10 @@ TEST(WovenNeuralRender, MseAgainstTheGroundTruthBelowOneSampleAndEqualTime) {
     const double neural_seconds = seconds_to([&] {
       auto sample = generate_woven_material(c.weave, parameters, 64);
       ASSERT_TRUE(sample);
-      auto latent = network->encode(*sample);
-      ASSERT_TRUE(latent);
-      const WovenDecoderMaterial material = network->prepare(std::move(*latent), *sample);
-      neural = render_woven_neural(*network, material, surface->repeat_size(), colours, view, light,
-                                   width, height);
+      auto material = network->prepare(*sample);
+      ASSERT_TRUE(material);
+      neural = render_woven_neural(*network, *material, surface->repeat_size(), colours, view,
+                                   light, width, height);
     });
     WovenImage one;
     const double one_seconds = seconds_to([&] {

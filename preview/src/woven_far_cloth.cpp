@@ -121,9 +121,9 @@ Status WovenFarCloth::set_material(const WovenFarMaterial& material) {
     auto sample =
         cloth::generate_woven_material(material.weave, material.parameters, kEncoderTexels);
     if (!sample) return std::unexpected(sample.error());
-    auto latent = network_->encode(*sample);
-    if (!latent) return std::unexpected(latent.error());
-    gl_->decoder->set_material(network_->prepare(std::move(*latent), *sample));
+    auto prepared = network_->prepare(*sample);
+    if (!prepared) return std::unexpected(prepared.error());
+    gl_->decoder->set_material(*prepared);
     ++encodes_;
   }
   material_ = material;

@@ -278,9 +278,9 @@ TEST_P(WovenFarCaseTest, GpuFarViewIsTheCpuNeuralRender) {
   auto sample =
       cloth::generate_woven_material(weave->material.weave, weave->material.parameters, 64);
   ASSERT_TRUE(sample);
-  auto latent = network->encode(*sample);
-  ASSERT_TRUE(latent);
-  const cloth::WovenDecoderMaterial material = network->prepare(std::move(*latent), *sample);
+  auto prepared = network->prepare(*sample);
+  ASSERT_TRUE(prepared);
+  const cloth::WovenDecoderMaterial& material = *prepared;
   const Eigen::Vector2f repeat(static_cast<float>(weave->material.weave.warps),
                                static_cast<float>(weave->material.weave.wefts));
   for (const WovenNamedView& named : kWovenViews) {

@@ -142,12 +142,12 @@ int main(int argc, char** argv) {
     });
     for (std::size_t n = 0; n < networks.size(); ++n) {
       const cloth::WovenNetwork& network = networks[n];
-      auto latent = network.encode(*sample);
-      if (!latent) {
-        std::fprintf(stderr, "psrig-woven-probe: error: %s\n", latent.error().describe().c_str());
-        return exit_code(latent.error());
+      auto prepared = network.prepare(*sample);
+      if (!prepared) {
+        std::fprintf(stderr, "psrig-woven-probe: error: %s\n", prepared.error().describe().c_str());
+        return exit_code(prepared.error());
       }
-      const cloth::WovenDecoderMaterial material = network.prepare(std::move(*latent), *sample);
+      const cloth::WovenDecoderMaterial& material = *prepared;
       std::printf("%s (alpha %.2f beta %.2f)  %s  (f = sum of the four components; over %d x %d centres)\n",
                   weave->name.c_str(), parameters.alpha, parameters.beta, weights_files[n].c_str(), grid, grid);
       std::printf("  size  eye      mean net/truth  spatial std truth  net   ratio  corr  rmse/std\n");

@@ -101,18 +101,24 @@ torch::Tensor material_parameters(const cloth::WovenMaterialSample& material) {
   return torch::tensor({material.roughness, material.height_scale}, torch::kFloat32).unsqueeze(0);
 }
 
+std::vector<cloth::WovenFootprintFeatures> footprint_feature_tables(
+    const cloth::WovenDataset& dataset, const cloth::WovenNetworkShape& shape) {
+  std::vector<cloth::WovenFootprintFeatures> tables(dataset.materials.size());
+  if (shape.footprint_features > 0) {
+    for (std::size_t m = 0; m < tables.size(); ++m)
+      tables[m] = cloth::WovenFootprintFeatures(dataset.materials[m]);
+  }
+  return tables;
+}
+
 QueryTensors query_tensors(const cloth::WovenDataset& dataset,
-                           const cloth::WovenNetworkShape& shape) {
+                           const cloth::WovenNetworkShape& shape,
+                           const std::vector<cloth::WovenFootprintFeatures>& features) {
   const auto count = static_cast<std::int64_t>(dataset.queries.size());
   const int inputs = cloth::decoder_footprint_inputs(shape);
   QueryTensors out{
       torch::empty({count, inputs}), torch::empty({count, cloth::woven_angular_inputs}),
       torch::empty({count, cloth::woven_outputs}), torch::empty({count}, torch::kInt64)};
-  std::vector<cloth::WovenFootprintFeatures> features(dataset.materials.size());
-  if (shape.footprint_features > 0) {
-    for (std::size_t m = 0; m < features.size(); ++m)
-      features[m] = cloth::WovenFootprintFeatures(dataset.materials[m]);
-  }
   float* footprints = out.footprints.data_ptr<float>();
   float* angular = out.angular.data_ptr<float>();
   float* targets = out.targets.data_ptr<float>();

@@ -7,6 +7,7 @@
 #include <torch/torch.h>
 
 #include "psrig/cloth/woven_dataset.h"
+#include "psrig/cloth/woven_footprint_features.h"
 #include "psrig/cloth/woven_network_weights.h"
 
 namespace psrig::train_woven {
@@ -56,16 +57,23 @@ TORCH_MODULE(WovenModel);
 torch::Tensor material_textures(const cloth::WovenMaterialSample& material);
 torch::Tensor material_parameters(const cloth::WovenMaterialSample& material);
 
+// Each material's footprint features' table where `shape` takes them
+// (empty tables where it does not).
+std::vector<cloth::WovenFootprintFeatures> footprint_feature_tables(
+    const cloth::WovenDataset& dataset, const cloth::WovenNetworkShape& shape);
+
 // The decoder's inputs and the targets of every query, computed once:
-// footprints [Q, cloth::decoder_footprint_inputs] (one-blob and features,
-// cloth::woven_footprint_inputs, as the runtime computes them), directions
+// footprints [Q, cloth::decoder_footprint_inputs] (one-blob and features
+// from `features`, footprint_feature_tables', by
+// cloth::woven_footprint_inputs as the runtime computes them), directions
 // [Q, 5], targets [Q, 4] with the specular ones through g.
 struct QueryTensors {
   torch::Tensor footprints, angular, targets;
   torch::Tensor materials;  // [Q] int64
 };
 QueryTensors query_tensors(const cloth::WovenDataset& dataset,
-                           const cloth::WovenNetworkShape& shape);
+                           const cloth::WovenNetworkShape& shape,
+                           const std::vector<cloth::WovenFootprintFeatures>& features);
 
 // Eq. 11: lambda_S (MSE of g(S_warp)) + lambda_S (MSE of g(S_weft)) +
 // lambda_C (MSE of C_warp) + lambda_C (MSE of C_weft).

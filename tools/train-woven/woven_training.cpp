@@ -31,11 +31,9 @@ TrainingData training_data(const cloth::WovenDataset& dataset,
   for (const cloth::WovenMaterialSample& material : dataset.materials) {
     data.textures.push_back(material_textures(material));
     data.parameters.push_back(material_parameters(material));
-    data.features.emplace_back(shape.footprint_features > 0
-                                   ? cloth::WovenFootprintFeatures(material)
-                                   : cloth::WovenFootprintFeatures());
   }
-  data.queries = query_tensors(dataset, shape);
+  data.features = footprint_feature_tables(dataset, shape);
+  data.queries = query_tensors(dataset, shape, data.features);
   data.rows_of_material.resize(dataset.materials.size());
   for (std::size_t q = 0; q < dataset.queries.size(); ++q) {
     data.rows_of_material[dataset.queries[q].material].push_back(static_cast<std::int64_t>(q));
@@ -60,10 +58,10 @@ torch::Tensor row_latents(WovenModel& model, const TrainingData& data, const tor
   return torch::cat(latents, 0).index_select(0, inverse);
 }
 
-// The decoder's predictions for the query rows `rows`.
-torch::Tensor predict(WovenModel& model, const TrainingData& data, const torch::Tensor& rows) {
-  return model->decoder(row_latents(model, data, rows),
-                        data.queries.footprints.index_select(0, rows),
+// The decoder's predictions for the query rows `rows`, given their latents.
+torch::Tensor predict(WovenModel& model, const TrainingData& data, const torch::Tensor& rows,
+                      const torch::Tensor& latents) {
+  return model->decoder(latents, data.queries.footprints.index_select(0, rows),
                         data.queries.angular.index_select(0, rows));
 }
 
@@ -75,11 +73,13 @@ torch::Tensor components_of(const torch::Tensor& outputs) {
   return torch::cat({diffuse, specular}, 1);
 }
 
-// TrainingOptions::consistency's term for the rows: eq. 11's form between
-// the rows' outputs and the mean of their quarters' (each half the size,
-// about the rows' centre moved a quarter of the size each way), g applied.
+// TrainingOptions::consistency's term for the rows (their latents and
+// outputs given): eq. 11's form between the rows' outputs and the mean of
+// their quarters' (each half the size, about the rows' centre moved a
+// quarter of the size each way), g applied.
 torch::Tensor consistency_loss(WovenModel& model, const TrainingData& data,
-                               const torch::Tensor& rows, const torch::Tensor& outputs) {
+                               const torch::Tensor& rows, const torch::Tensor& latents_of_rows,
+                               const torch::Tensor& outputs) {
   const cloth::WovenNetworkShape& shape = model->shape;
   const int inputs = cloth::decoder_footprint_inputs(shape);
   const std::int64_t count = rows.numel();
@@ -96,7 +96,7 @@ torch::Tensor consistency_loss(WovenModel& model, const TrainingData& data,
           std::span(out + (r * 4 + k) * inputs, static_cast<std::size_t>(inputs)));
     }
   }
-  const torch::Tensor latents = row_latents(model, data, rows).repeat_interleave(4, 0);
+  const torch::Tensor latents = latents_of_rows.repeat_interleave(4, 0);
   const torch::Tensor angular = data.queries.angular.index_select(0, rows).repeat_interleave(4, 0);
   const torch::Tensor mean =
       components_of(model->decoder(latents, quarters, angular)).view({count, 4, 4}).mean(1);
@@ -119,8 +119,8 @@ double evaluate(WovenModel& model, const TrainingData& data, const torch::Tensor
   const std::int64_t chunk = 2048;
   for (std::int64_t start = 0; start < rows.numel(); start += chunk) {
     const torch::Tensor part = rows.slice(0, start, std::min(rows.numel(), start + chunk));
-    total += woven_loss(predict(model, data, part), data.queries.targets.index_select(0, part))
-                 .item<double>() *
+    const torch::Tensor outputs = predict(model, data, part, row_latents(model, data, part));
+    total += woven_loss(outputs, data.queries.targets.index_select(0, part)).item<double>() *
              static_cast<double>(part.numel());
   }
   return total / static_cast<double>(std::max<std::int64_t>(rows.numel(), 1));
@@ -290,10 +290,12 @@ Result<TrainingResult> train(const cloth::WovenDataset& dataset, const TrainingO
     }
     const torch::Tensor rows = batch_rows(data, options, step);
     optimizer.zero_grad();
-    const torch::Tensor outputs = predict(model, data, rows);
+    // Encoded once a step, for the rows and (the consistency term) their quarters.
+    const torch::Tensor latents = row_latents(model, data, rows);
+    const torch::Tensor outputs = predict(model, data, rows, latents);
     torch::Tensor loss = woven_loss(outputs, data.queries.targets.index_select(0, rows));
     if (options.consistency > 0) {
-      loss = loss + options.consistency * consistency_loss(model, data, rows, outputs);
+      loss = loss + options.consistency * consistency_loss(model, data, rows, latents, outputs);
     }
     loss.backward();
     optimizer.step();

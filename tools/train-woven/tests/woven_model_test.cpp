@@ -33,7 +33,8 @@ TEST_P(TorchAgainstCpu, EncoderAndDecoderMatch) {
 
   cloth::WovenDataset dataset = test::analytic_woven_dataset(3, 40, texture_size, 9);
   torch::NoGradGuard no_grad;
-  const QueryTensors queries = query_tensors(dataset, model->shape);
+  const QueryTensors queries =
+      query_tensors(dataset, model->shape, footprint_feature_tables(dataset, model->shape));
   for (std::size_t m = 0; m < dataset.materials.size(); ++m) {
     const cloth::WovenMaterialSample& material = dataset.materials[m];
     const torch::Tensor latent =

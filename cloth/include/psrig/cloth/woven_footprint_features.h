@@ -17,7 +17,6 @@
 // constant field is bilinear), the repeat tiling beyond its edges. The
 // GLSL decoder reads the same table (woven_decoder.frag).
 
-#include <array>
 #include <span>
 #include <vector>
 
