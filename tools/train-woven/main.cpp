@@ -85,6 +85,10 @@ int main(int argc, char** argv) {
                  "(0: the paper's loss alone)")
       ->capture_default_str()
       ->check(CLI::NonNegativeNumber);
+  app.add_option("--diffuse-weight", options.diffuse_loss_weight,
+                 "eq. 11's lambda_C in training (the reported losses keep the paper's 0.1)")
+      ->capture_default_str()
+      ->check(CLI::PositiveNumber);
   app.add_option("--latent", options.shape.latent_size, "the material latent's size")
       ->capture_default_str();
   app.add_option("--encoder-width", options.shape.encoder_width, "the encoder MLP's width")

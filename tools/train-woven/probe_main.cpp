@@ -1,6 +1,7 @@
 // psrig-woven-probe: how a trained neural woven BSDF (psrig-woven-net/1)
 // answers against fresh Monte-Carlo aggregates, by footprint size: on a
-// grid of footprint centres, for fixed direction pairs, the sum of the four
+// grid of footprint centres, for a light and eyes given (the far-view
+// test's by default), the sum of the four
 // components (f with every k = 1) of the decoder against the aggregate's:
 // their means, their spatial standard deviations (the pattern's contrast),
 // correlation and RMSE. For each .weave file given, at the far level's
@@ -8,10 +9,12 @@
 // woven_far_material), or a data set's materials at their own. Links
 // psrig_cloth only; tools/train-woven/README.md says how.
 
+#include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <algorithm>
 #include <iterator>
+#include <numbers>
+#include <sstream>
 
 #include <CLI/CLI.hpp>
 
@@ -28,12 +31,26 @@ namespace {
 
 using namespace psrig;
 
-// Footprint widths (repeats) and fixed direction pairs: the light at 45
-// degrees (the far-view test's), the eye head on and obliquely.
-constexpr float kSizes[] = {0.1F, 0.2F, 0.3F, 0.45F, 0.7F, 1.5F};
-const std::vector<Eigen::Vector3f> kIncoming = {Eigen::Vector3f(0.5F, 0.5F, 0.7071F)};
-const std::vector<Eigen::Vector3f> kOutgoing = {Eigen::Vector3f(0, 0, 1),
-                                                Eigen::Vector3f(0.35F, -0.45F, 0.8216F)};
+// A direction (unit, +z the cloth's front) from its tilt off the normal
+// and its azimuth from the weft (x), in degrees.
+Eigen::Vector3f direction(float tilt_deg, float azimuth_deg) {
+  const float t = tilt_deg * std::numbers::pi_v<float> / 180;
+  const float a = azimuth_deg * std::numbers::pi_v<float> / 180;
+  return {std::sin(t) * std::cos(a), std::sin(t) * std::sin(a), std::cos(t)};
+}
+
+// "TILT,AZIMUTH" in degrees, tilt below 90.
+bool parse_direction(const std::string& text, Eigen::Vector3f& out) {
+  float tilt = 0, azimuth = 0;
+  char comma = 0;
+  std::istringstream in(text);
+  if (!(in >> tilt >> comma >> azimuth) || comma != ',' || !(in >> std::ws).eof() ||
+      !(tilt >= 0 && tilt < 90)) {
+    return false;
+  }
+  out = direction(tilt, azimuth);
+  return true;
+}
 
 double f_of(const cloth::WovenComponents& c) { return c.c_warp + c.c_weft + c.s_warp + c.s_weft; }
 
@@ -48,6 +65,16 @@ int main(int argc, char** argv) {
   app.add_option("--weights", weights_files, "psrig-woven-net/1 files")->required();
   app.add_option("--centre-grid", grid)->capture_default_str();
   app.add_option("--samples", samples)->capture_default_str();
+  // The defaults: the far-view test's light (45 degrees), the eye head on
+  // and obliquely; footprints 0.1 to 1.5 repeats wide.
+  std::vector<float> sizes = {0.1F, 0.2F, 0.3F, 0.45F, 0.7F, 1.5F};
+  std::string light_text = "45,45";
+  std::vector<std::string> eye_texts = {"0,0", "34.75,-52.1"};
+  app.add_option("--sizes", sizes, "footprint widths in repeats")->capture_default_str();
+  app.add_option("--light", light_text,
+                 "the light's TILT,AZIMUTH in degrees (azimuth from the weft)")
+      ->capture_default_str();
+  app.add_option("--eye", eye_texts, "each eye's TILT,AZIMUTH in degrees")->capture_default_str();
   std::filesystem::path dataset_file;
   std::vector<int> dataset_materials;
   app.add_option("--dataset", dataset_file,
@@ -56,6 +83,21 @@ int main(int argc, char** argv) {
   app.add_option("--material", dataset_materials, "material indices of --dataset");
   CLI11_PARSE(app, argc, argv);
   set_thread_count(0);
+  std::vector<Eigen::Vector3f> incoming(1), outgoing(eye_texts.size());
+  bool directions_ok = parse_direction(light_text, incoming[0]);
+  for (std::size_t e = 0; e < eye_texts.size(); ++e)
+    directions_ok = directions_ok && parse_direction(eye_texts[e], outgoing[e]);
+  if (!directions_ok || sizes.empty() ||
+      !std::all_of(sizes.begin(), sizes.end(), [](float s) { return s > 0 && s <= 10; })) {
+    std::fprintf(stderr,
+                 "psrig-woven-probe: error: --light and --eye take TILT,AZIMUTH in degrees "
+                 "(tilt 0 to 90), --sizes widths in (0, 10] repeats\n");
+    return 2;
+  }
+  // An eye's label: "head-on", or its tilt and azimuth.
+  const auto eye_label = [&](std::size_t e) {
+    return std::abs(outgoing[e].z() - 1) < 1e-6F ? std::string("head-on") : "eye " + eye_texts[e];
+  };
 
   std::vector<cloth::WovenNetwork> networks;
   for (const auto& file : weights_files) {
@@ -109,7 +151,7 @@ int main(int argc, char** argv) {
                   record.roughness, record.height_scale);
     }
   }
-  const int pairs = static_cast<int>(kIncoming.size() * kOutgoing.size());
+  const int pairs = static_cast<int>(incoming.size() * outgoing.size());
   for (const auto& [weave_matrix, parameters] : cases) {
     const cloth::WeaveMatrix* weave = &weave_matrix;
     const cloth::WovenShading shading{parameters.alpha, parameters.alpha,
@@ -124,18 +166,20 @@ int main(int argc, char** argv) {
         return exit_code(made.error());
       }
     // truth[size][centre][pair]
-    const int sizes = static_cast<int>(std::size(kSizes)), centres = grid * grid;
-    std::vector<cloth::WovenComponents> truth(static_cast<std::size_t>(sizes * centres * pairs));
-    parallel_chunks(sizes * centres, 1, [&](int begin, int end) {
+    const int size_count = static_cast<int>(sizes.size()), centres = grid * grid;
+    std::vector<cloth::WovenComponents> truth(
+        static_cast<std::size_t>(size_count * centres * pairs));
+    parallel_chunks(size_count * centres, 1, [&](int begin, int end) {
       for (int index = begin; index < end; ++index) {
         const int s = index / centres, c = index % centres;
         const float u = (static_cast<float>(c % grid) + 0.5F) / static_cast<float>(grid);
         const float v = (static_cast<float>(c / grid) + 0.5F) / static_cast<float>(grid);
         const auto points = cloth::sample_footprint(
-            *surface, cloth::footprint_in_repeats(*surface, u, v, kSizes[s]), samples,
-            static_cast<std::uint64_t>(index) + 1);
+            *surface,
+            cloth::footprint_in_repeats(*surface, u, v, sizes[static_cast<std::size_t>(s)]),
+            samples, static_cast<std::uint64_t>(index) + 1);
         const auto answers =
-            cloth::aggregate_direction_pairs(*surface, points, kIncoming, kOutgoing, shading);
+            cloth::aggregate_direction_pairs(*surface, points, incoming, outgoing, shading);
         std::copy(answers.begin(), answers.end(),
                   truth.begin() + static_cast<std::ptrdiff_t>(index) * pairs);
       }
@@ -150,16 +194,21 @@ int main(int argc, char** argv) {
       const cloth::WovenDecoderMaterial& material = *prepared;
       std::printf("%s (alpha %.2f beta %.2f)  %s  (f = sum of the four components; over %d x %d centres)\n",
                   weave->name.c_str(), parameters.alpha, parameters.beta, weights_files[n].c_str(), grid, grid);
-      std::printf("  size  eye      mean net/truth  spatial std truth  net   ratio  corr  rmse/std\n");
-      for (int s = 0; s < sizes; ++s)
+      std::printf(
+          "  size  eye               mean net/truth  spatial std truth  net   ratio  corr  "
+          "rmse/std\n");
+      for (int s = 0; s < size_count; ++s)
         for (int p = 0; p < pairs; ++p) {
           std::vector<double> t, g;
           for (int c = 0; c < centres; ++c) {
             const float u = (static_cast<float>(c % grid) + 0.5F) / static_cast<float>(grid);
             const float v = (static_cast<float>(c / grid) + 0.5F) / static_cast<float>(grid);
-            const auto& wi = kIncoming[static_cast<std::size_t>(p) / kOutgoing.size()];
-            const auto& wo = kOutgoing[static_cast<std::size_t>(p) % kOutgoing.size()];
-            cloth::WovenLookup lookup{u, v, kSizes[s], {wi.x(), wi.y(), wi.z()},
+            const auto& wi = incoming[static_cast<std::size_t>(p) / outgoing.size()];
+            const auto& wo = outgoing[static_cast<std::size_t>(p) % outgoing.size()];
+            cloth::WovenLookup lookup{u,
+                                      v,
+                                      sizes[static_cast<std::size_t>(s)],
+                                      {wi.x(), wi.y(), wi.z()},
                                       {wo.x(), wo.y(), wo.z()}};
             g.push_back(f_of(network.decode(material, lookup)));
             t.push_back(f_of(truth[static_cast<std::size_t>((s * centres + c) * pairs + p)]));
@@ -180,9 +229,10 @@ int main(int argc, char** argv) {
             se += (t[c] - g[c]) * (t[c] - g[c]);
           }
           const double st = std::sqrt(vt / m), sn = std::sqrt(vn / m);
-          std::printf("  %4.2f  %-7s  %14.3f  %17.4f  %6.4f  %5.2f  %4.2f  %5.2f\n", kSizes[s],
-                      p % 2 == 0 ? "head-on" : "oblique", mn / mt, st, sn,
-                      sn / std::max(st, 1e-9), cv / std::sqrt(std::max(vt * vn, 1e-18)),
+          std::printf("  %4.2f  %-16s  %14.3f  %17.4f  %6.4f  %5.2f  %4.2f  %5.2f\n",
+                      sizes[static_cast<std::size_t>(s)],
+                      eye_label(static_cast<std::size_t>(p) % outgoing.size()).c_str(), mn / mt, st,
+                      sn, sn / std::max(st, 1e-9), cv / std::sqrt(std::max(vt * vn, 1e-18)),
                       std::sqrt(se / m) / std::max(st, 1e-9));
         }
     }

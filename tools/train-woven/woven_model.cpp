@@ -139,9 +139,10 @@ QueryTensors query_tensors(const cloth::WovenDataset& dataset,
   return out;
 }
 
-torch::Tensor woven_loss(const torch::Tensor& predicted, const torch::Tensor& targets) {
+torch::Tensor woven_loss(const torch::Tensor& predicted, const torch::Tensor& targets,
+                         double diffuse) {
   const torch::Tensor per_component = (predicted - targets).square().mean(0);  // [4]
-  return diffuse_weight * (per_component[0] + per_component[1]) +
+  return diffuse * (per_component[0] + per_component[1]) +
          specular_weight * (per_component[2] + per_component[3]);
 }
 

@@ -76,10 +76,12 @@ QueryTensors query_tensors(const cloth::WovenDataset& dataset,
                            const std::vector<cloth::WovenFootprintFeatures>& features);
 
 // Eq. 11: lambda_S (MSE of g(S_warp)) + lambda_S (MSE of g(S_weft)) +
-// lambda_C (MSE of C_warp) + lambda_C (MSE of C_weft).
+// lambda_C (MSE of C_warp) + lambda_C (MSE of C_weft); lambda_C may be
+// given (TrainingOptions::diffuse_loss_weight).
 inline constexpr double specular_weight = 0.4;  // lambda_S
 inline constexpr double diffuse_weight = 0.1;   // lambda_C
-torch::Tensor woven_loss(const torch::Tensor& predicted, const torch::Tensor& targets);
+torch::Tensor woven_loss(const torch::Tensor& predicted, const torch::Tensor& targets,
+                         double diffuse = diffuse_weight);
 
 // The trained layers as the runtime reads them.
 cloth::WovenNetworkWeights to_weights(WovenModel& model);

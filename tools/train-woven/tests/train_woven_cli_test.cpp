@@ -63,7 +63,7 @@ TEST(WovenProbeCli, ProbesTheShippedWeightsAndNamesAMissingFile) {
   ASSERT_EQ(run.exit_code, 0) << run.err;
   EXPECT_TRUE(contains(run.out, "plain weave")) << run.out;
   EXPECT_TRUE(contains(run.out, "0.10  head-on")) << run.out;
-  EXPECT_TRUE(contains(run.out, "1.50  oblique")) << run.out;
+  EXPECT_TRUE(contains(run.out, "1.50  eye 34.75,-52.1")) << run.out;
   test::TempDir dir;
   const std::string absent = (dir / "absent.wnn").string();
   const test::ProgramRun missing =

@@ -75,6 +75,8 @@ TEST(WovenLoss, WeighsSpecularAndDiffuseAsEquationEleven) {
   const torch::Tensor targets = torch::tensor({{1.0F, 0.0F, 0.0F, 0.0F}, {1.0F, 0.0F, 2.0F, 0.0F}});
   // diffuse: 0.1 * mean(1, 1); specular: 0.4 * mean(0, 4)
   EXPECT_NEAR(woven_loss(predicted, targets).item<double>(), 0.1 * 1.0 + 0.4 * 2.0, 1e-6);
+  // --diffuse-weight 4: lambda_C alone changes
+  EXPECT_NEAR(woven_loss(predicted, targets, 4.0).item<double>(), 4.0 * 1.0 + 0.4 * 2.0, 1e-6);
 }
 
 }  // namespace

@@ -6,6 +6,7 @@
 #include "woven_training.h"
 
 #include <chrono>
+#include <cmath>
 #include <fstream>
 
 #include <gtest/gtest.h>
@@ -92,7 +93,7 @@ double quarter_inconsistency(const cloth::WovenNetworkWeights& weights,
 // with the footprint's features: the consistency term leaves the loss
 // halving and brings a footprint's answer nearer its quarters' mean than
 // the same run without it.
-TEST(WovenTraining, TheConsistencyTermHoldsAFootprintToItsQuarters) {
+Result<cloth::WovenDataset> small_twill_and_satin() {
   cloth::WovenDatasetOptions small;
   small.texture_size = 32;
   small.shapes_per_pattern = 1;
@@ -102,8 +103,12 @@ TEST(WovenTraining, TheConsistencyTermHoldsAFootprintToItsQuarters) {
   small.large_sizes = 1;
   small.direction_grid = 2;
   small.samples = 256;
-  auto dataset =
-      cloth::generate_woven_dataset({cloth::twill_weave(2, 2), cloth::satin_weave(5, 2)}, small, 3);
+  return cloth::generate_woven_dataset({cloth::twill_weave(2, 2), cloth::satin_weave(5, 2)}, small,
+                                       3);
+}
+
+TEST(WovenTraining, TheConsistencyTermHoldsAFootprintToItsQuarters) {
+  auto dataset = small_twill_and_satin();
   ASSERT_TRUE(dataset) << dataset.error().describe();
   TrainingOptions options = short_run(400);
   options.shape.footprint_features = cloth::woven_footprint_feature_count;
@@ -119,6 +124,48 @@ TEST(WovenTraining, TheConsistencyTermHoldsAFootprintToItsQuarters) {
       "(loss %.4f and %.4f)\n",
       without, with, plain->final_loss, held->final_loss);
   EXPECT_LT(with, 0.8 * without);
+}
+
+// The diffuse components' error (C_warp and C_weft) over the data set's
+// first queries, relative to their mean.
+double diffuse_error(const cloth::WovenNetworkWeights& weights,
+                     const cloth::WovenDataset& dataset) {
+  auto network = cloth::WovenNetwork::from_weights(weights);
+  EXPECT_TRUE(network);
+  if (!network) return 1e9;
+  std::vector<cloth::WovenDecoderMaterial> materials;
+  for (const cloth::WovenMaterialSample& material : dataset.materials)
+    materials.push_back(*network->prepare(material));
+  double squared = 0, total = 0;
+  const std::size_t count = std::min<std::size_t>(dataset.queries.size(), 2000);
+  for (std::size_t i = 0; i < count; ++i) {
+    const cloth::WovenQuery& q = dataset.queries[i];
+    const cloth::WovenComponents c =
+        network->decode(materials[q.material], {q.u, q.v, q.size, q.wi, q.wo});
+    squared += std::pow(c.c_warp - q.c_warp, 2) + std::pow(c.c_weft - q.c_weft, 2);
+    total += q.c_warp + q.c_weft;
+  }
+  return std::sqrt(squared / (2.0 * static_cast<double>(count))) /
+         std::max(total / (2.0 * static_cast<double>(count)), 1e-9);
+}
+
+// With the paper's lambda_C the diffuse components, most of a woven's
+// colour, weigh little in the loss; a larger one fits them closer.
+TEST(WovenTraining, ALargerDiffuseWeightFitsTheDiffuseComponentsCloser) {
+  auto dataset = small_twill_and_satin();
+  ASSERT_TRUE(dataset) << dataset.error().describe();
+  TrainingOptions options = short_run(800);
+  auto paper = train_woven_network(*dataset, options, "test");
+  options.diffuse_loss_weight = 4;
+  auto weighted = train_woven_network(*dataset, options, "test");
+  ASSERT_TRUE(paper && weighted);
+  const double before = diffuse_error(paper->weights, *dataset);
+  const double after = diffuse_error(weighted->weights, *dataset);
+  std::printf(
+      "the diffuse components' RMS error over their mean: %.4f with lambda_C 0.1, %.4f "
+      "with 4\n",
+      before, after);
+  EXPECT_LT(after, 0.8 * before);
 }
 
 TEST(WovenTraining, AResumedRunEndsWhereAnUnbrokenOneDoes) {
