@@ -313,28 +313,15 @@ TEST_P(WovenFarCaseTest, GpuFarViewIsTheCpuNeuralRender) {
 // Disabled until the network meets it (run it with
 // --gtest_also_run_disabled_tests; it prints each case, and
 // PSRIG_WOVEN_FAR_DIR=dir writes neural | reference there). With the
-// shipped weights (28 materials, 40 K steps) the mean colour is within 3 %
-// head on (plain 0.993x, twill 0.984x) but not for satin head on (0.959x)
-// nor obliquely (plain 0.850x, twill 0.945x, satin 0.877x), and the RMSE is
-// 17.8 and 17.1 (plain), 36.1 and 33.4 (twill), 33.5 and 35.1 (satin): at
-// 3 to 5 pixels a repeat the reference shows the twill's diagonal and the
-// satin's floats in full contrast, the decoder about half of it (its
-// answer for a footprint a quarter of a repeat wide is smoother than the
-// aggregate it learnt), so every pixel of the pattern is off.
-// psrig-woven-probe measures it: at footprints 0.1 to 0.45 repeats wide
-// the decoder's pattern is nearly uncorrelated with the aggregate's. A
-// retrain on more small footprints, the 2/2 twill and the far level's own
-// parameters, with 16 one-blob bins and fusion 48 (config/woven/README.md)
-// lowered the RMSE to 16.6 and 13.8, 26.9 and 22.5, 28.9 and 28.6 but
-// broke the dolly and the twill's hand-over below, so it is not shipped.
-// Networks that also take the footprint's features
-// (cloth/woven_footprint_features.h) lowered it further, to 11.6 and 10.4,
-// 20.2 and 25.8, 21.1 and 31.9 (8 bins), but stepped 1.044x in the dolly
-// where the far level is alone; with a term holding a footprint to its
-// quarters' mean the dolly held (0.983x) and the RMSE was 11.3 to 30.6, but
-// the mean drifted with the footprint's size (plain 0.933x head on) and the
-// MSE against the ground truth rose 2 to 3.5 times: not shipped either
-// (config/woven/README.md).
+// shipped weights (the footprint's features, the consistency term and a
+// raised diffuse weight; config/woven/README.md) the mean colour is within
+// 3 % obliquely for the plain and the twill, 3-9 % bright in the four
+// other cases, and the RMSE is 10.4
+// and 8.3 (plain), 15.1 and 22.1 (twill), 15.0 and 36.5 (satin): the
+// twill's diagonal is there at nearly the reference's contrast, the
+// satin's interlacings obliquely a sparser lattice than the reference's.
+// The first weights (no features) were at 17.1 to 36.1, their answer for
+// a footprint a quarter of a repeat wide smoother than the aggregate.
 TEST_P(WovenFarCaseTest, DISABLED_NeuralFarViewIsTheFabricModelFiltered) {
   const WovenCase& param = GetParam();
   const auto weave = load_shipped_weave(param.weave, param.threads);
@@ -430,9 +417,9 @@ TEST_P(WovenFarCaseTest, NearAndNeuralLevelsAgreeWhereTheyMeet) {
 // 2 % from one frame to the next (issue 30).
 // The twill only: each frame decodes every cloth pixel (on llvmpipe about
 // 10 us each, up to 2.8 s a frame where the yarns are still wide), 30 s a
-// weave. The twill steps most (0.981x; plain 1.018x, satin 0.983x when all
-// three ran; with 32 threads a side the twill stepped 0.973x, see
-// preview/README.md).
+// weave. The twill steps most (0.982x with the shipped weights; with the
+// first ones 0.981x, plain 1.018x, satin 0.983x when all three ran; with
+// 32 threads a side their twill stepped 0.973x, see preview/README.md).
 TEST_F(WovenFarLevelTest, DollyThroughTheHandOverChangesTheMeanColourSmoothly) {
   const WovenCase param{"twill-2x2", 200};
   const auto weave = load_shipped_weave(param.weave, 64);

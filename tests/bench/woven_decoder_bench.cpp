@@ -9,8 +9,9 @@
 //     the default) or a uniform block (1), the fusion layers F wide, the
 //     angular decoder's A, B one-blob bins an input (the defaults 32, 32,
 //     8; 16, 16, 8 a narrower network; 32, 32, 16 and 48, 32, 16 finer
-//     footprint encodings), N the footprint's features (0, or 12:
-//     cloth/woven_footprint_features.h, read from the material's table);
+//     footprint encodings; 32, 64, 8 a wider angular decoder), N the
+//     footprint's features (0, or 12: cloth/woven_footprint_features.h,
+//     read from the material's table);
 //   BM_WovenClearFrame: the same target cleared and finished, the floor.
 
 #include <GLES3/gl3.h>
@@ -163,6 +164,7 @@ BENCHMARK(BM_WovenDecoderGlsl)
     ->Args({0, 48, 32, 16, 0})
     ->Args({0, 32, 32, 8, 12})
     ->Args({0, 32, 32, 16, 12})
+    ->Args({0, 32, 64, 8, 12})
     ->Unit(benchmark::kMillisecond)
     ->UseRealTime();
 

@@ -1,4 +1,4 @@
-// psrig-woven-probe: how a trained neural woven BSDF (psrig-woven-net/1)
+// psrig-woven-probe: how a trained neural woven BSDF (psrig-woven-net/1 or /2)
 // answers against fresh Monte-Carlo aggregates, by footprint size: on a
 // grid of footprint centres, for a light and eyes given (the far-view
 // test's by default), the sum of the four

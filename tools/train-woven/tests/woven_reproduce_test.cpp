@@ -2,11 +2,13 @@
 // can run again. Retraining them takes minutes, more than a test may, so
 // this checks the chain that makes them instead, bit for bit against a
 // small committed fixture (woven_reproduce_fixture.txt): the generator's
-// data set (chen2024's seven training weaves, a small grid) from seed 1,
-// then the trainer's first 40 steps from seed 1 on one thread, give the
-// same losses and the same weights (an FNV-1a hash of every float) as
-// when the fixture was written. The full retrain's command is in
-// config/woven/README.md.
+// data set (chen2024's seven training weaves and the shipped 2/2 twill,
+// with a material each at the far level's parameters, a small grid) from
+// seed 1, then the trainer's first 40 steps from seed 1 on one thread
+// with the shipped run's network and loss (footprint features, 8 bins,
+// the consistency term, lambda_C 4), give the same losses and the same
+// weights (an FNV-1a hash of every float) as when the fixture was
+// written. The full retrain's commands are in config/woven/README.md.
 //
 // PSRIG_WRITE_REPRODUCE_FIXTURE=1 rewrites the fixture (after a deliberate
 // change to the generator or the trainer; say why in the commit).
@@ -19,8 +21,10 @@
 
 #include <gtest/gtest.h>
 
+#include "psrig/cloth/weave_matrix.h"
 #include "psrig/cloth/weave_rules.h"
 #include "psrig/cloth/woven_dataset_generator.h"
+#include "psrig/cloth/woven_footprint_features.h"
 #include "psrig/cloth/woven_network_weights.h"
 #include "woven_training.h"
 
@@ -72,9 +76,19 @@ TEST(WovenReproduce, TheGeneratorAndTheFirstStepsGiveTheCommittedFixtureBitForBi
   small.centre_grid = 2;
   small.direction_grid = 2;
   small.samples = 256;
-  auto dataset = cloth::generate_woven_dataset(cloth::chen2024_training_weaves(), small, 1);
+  small.default_appearance = true;
+  std::vector<cloth::WeaveMatrix> weaves = cloth::chen2024_training_weaves();
+  auto twill = cloth::load_weave_matrix(PSRIG_SOURCE_DIR "/config/patterns/twill-2x2.weave");
+  ASSERT_TRUE(twill) << twill.error().describe();
+  weaves.push_back(*twill);
+  auto dataset = cloth::generate_woven_dataset(weaves, small, 1);
   ASSERT_TRUE(dataset) << dataset.error().describe();
   TrainingOptions options;  // the shipped run's, but for the steps
+  options.shape.blob_bins = 8;
+  options.shape.fusion_width = 32;
+  options.shape.footprint_features = cloth::woven_footprint_feature_count;
+  options.consistency = 1;
+  options.diffuse_loss_weight = 4;
   options.steps = 40;
   options.seed = 1;
   options.threads = 1;
