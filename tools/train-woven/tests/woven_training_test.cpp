@@ -8,6 +8,7 @@
 #include <chrono>
 #include <cmath>
 #include <fstream>
+#include <optional>
 
 #include <gtest/gtest.h>
 
@@ -61,20 +62,38 @@ TEST(WovenTraining, AFewHundredStepsHalveTheLoss) {
   EXPECT_EQ(network->weights().command, "test");
 }
 
+// The runtime's network from trained weights, with the data set's
+// materials prepared (the decoder's inputs per material).
+struct NetworkWithMaterials {
+  cloth::WovenNetwork network;
+  std::vector<cloth::WovenDecoderMaterial> materials;
+};
+std::optional<NetworkWithMaterials> network_with_materials(
+    const cloth::WovenNetworkWeights& weights, const cloth::WovenDataset& dataset) {
+  auto network = cloth::WovenNetwork::from_weights(weights);
+  EXPECT_TRUE(network);
+  if (!network) return std::nullopt;
+  NetworkWithMaterials prepared{std::move(*network), {}};
+  for (const cloth::WovenMaterialSample& material : dataset.materials) {
+    auto decoder_material = prepared.network.prepare(material);
+    EXPECT_TRUE(decoder_material);
+    if (!decoder_material) return std::nullopt;
+    prepared.materials.push_back(std::move(*decoder_material));
+  }
+  return prepared;
+}
+
 // How far the network's answer for a footprint is from the mean of its
 // four quarters' (the sum of the four components), over the data set's
 // first queries, relative to the answers' mean.
 double quarter_inconsistency(const cloth::WovenNetworkWeights& weights,
                              const cloth::WovenDataset& dataset) {
-  auto network = cloth::WovenNetwork::from_weights(weights);
-  EXPECT_TRUE(network);
-  if (!network) return 1e9;
-  std::vector<cloth::WovenDecoderMaterial> materials;
-  for (const cloth::WovenMaterialSample& material : dataset.materials)
-    materials.push_back(*network->prepare(material));
+  auto prepared = network_with_materials(weights, dataset);
+  if (!prepared) return 1e9;
+  const auto& [network, materials] = *prepared;
   auto f = [&](const cloth::WovenQuery& q, float du, float dv, float size) {
     const cloth::WovenComponents c =
-        network->decode(materials[q.material], {q.u + du, q.v + dv, size, q.wi, q.wo});
+        network.decode(materials[q.material], {q.u + du, q.v + dv, size, q.wi, q.wo});
     return static_cast<double>(c.c_warp + c.c_weft + c.s_warp + c.s_weft);
   };
   double gap = 0, total = 0;
@@ -130,18 +149,15 @@ TEST(WovenTraining, TheConsistencyTermHoldsAFootprintToItsQuarters) {
 // first queries, relative to their mean.
 double diffuse_error(const cloth::WovenNetworkWeights& weights,
                      const cloth::WovenDataset& dataset) {
-  auto network = cloth::WovenNetwork::from_weights(weights);
-  EXPECT_TRUE(network);
-  if (!network) return 1e9;
-  std::vector<cloth::WovenDecoderMaterial> materials;
-  for (const cloth::WovenMaterialSample& material : dataset.materials)
-    materials.push_back(*network->prepare(material));
+  auto prepared = network_with_materials(weights, dataset);
+  if (!prepared) return 1e9;
+  const auto& [network, materials] = *prepared;
   double squared = 0, total = 0;
   const std::size_t count = std::min<std::size_t>(dataset.queries.size(), 2000);
   for (std::size_t i = 0; i < count; ++i) {
     const cloth::WovenQuery& q = dataset.queries[i];
     const cloth::WovenComponents c =
-        network->decode(materials[q.material], {q.u, q.v, q.size, q.wi, q.wo});
+        network.decode(materials[q.material], {q.u, q.v, q.size, q.wi, q.wo});
     squared += std::pow(c.c_warp - q.c_warp, 2) + std::pow(c.c_weft - q.c_weft, 2);
     total += q.c_warp + q.c_weft;
   }
