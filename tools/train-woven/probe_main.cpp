@@ -62,7 +62,7 @@ int main(int argc, char** argv) {
   std::vector<std::filesystem::path> weights_files, weave_files;
   int grid = 12, samples = 4096;
   app.add_option("weaves", weave_files, ".weave files")->required();
-  app.add_option("--weights", weights_files, "psrig-woven-net/1 files")->required();
+  app.add_option("--weights", weights_files, "psrig-woven-net/1 or /2 files")->required();
   app.add_option("--centre-grid", grid)->capture_default_str();
   app.add_option("--samples", samples)->capture_default_str();
   // The defaults: the far-view test's light (45 degrees), the eye head on

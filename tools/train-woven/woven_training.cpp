@@ -296,8 +296,10 @@ Result<TrainingResult> train(const cloth::WovenDataset& dataset, const TrainingO
     const double diffuse = options.diffuse_loss_weight;
     torch::Tensor loss = woven_loss(outputs, data.queries.targets.index_select(0, rows), diffuse);
     if (options.consistency > 0) {
-      // On a quarter of the rows (random already): the term's expectation
-      // at a third of its cost.
+      // On the batch's first quarter of rows, a quarter of the term's cost.
+      // batch_rows draws a material's rows together, so that is one of the
+      // step's materials: every material over the steps, the same
+      // expectation, more variance (the shipped weights were trained so).
       const std::int64_t held = std::max<std::int64_t>(1, rows.numel() / 4);
       loss = loss + options.consistency * consistency_loss(model, data, rows.slice(0, 0, held),
                                                            latents.slice(0, 0, held),

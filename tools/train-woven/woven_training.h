@@ -35,8 +35,8 @@ struct TrainingOptions {
   // footprint's answer held to the mean of its four quarters' (in C and in
   // S, before g), as the box-filtered aggregate nearly is. A decoder that
   // keeps it gives a frame whose mean does not move with the pixel grid's
-  // phase over the pattern (the far level's dolly). Taken on a quarter of
-  // each batch's rows.
+  // phase over the pattern (the far level's dolly). Taken on the first
+  // quarter of each batch's rows (one of its materials).
   double consistency = 0;
   // Eq. 11's lambda_C in training (the evaluation losses keep the paper's
   // 0.1). With the paper's, a C 30 % off weighs some 30 times less than S
